@@ -1,0 +1,5 @@
+import sys
+
+from pftrack.cli import main
+
+sys.exit(main())

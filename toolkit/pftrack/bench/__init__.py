@@ -1,0 +1,1 @@
+"""Benchmarks: each module here is a ``pftrack bench`` sub-command (see :mod:`pftrack.cli.bench`)."""

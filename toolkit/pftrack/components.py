@@ -1,0 +1,398 @@
+"""Component contracts: one abstract base per plugin kind.
+
+Every detector, likelihood, motion model, associator and scene that pftrack runs, built-in or
+third-party, subclasses one of the bases here. The conventions follow scikit-learn:
+
+* ``__init__`` only stores its keyword arguments as attributes of the same name (no logic, no I/O);
+* parameters round-trip through :meth:`Component.get_params` / :meth:`Component.to_config`;
+* learned or per-frame state lives in attributes whose names end with ``_``;
+* randomness only through a ``numpy.random.Generator`` that is passed in, never the global one;
+* the methods called per frame are vectorised over particles: arrays in, arrays out.
+
+Exchange types (:class:`Frame`, :class:`Detections`, :class:`Target`, :class:`Assignment`) carry
+their coordinate frame and unit in their field names (``boxes_xywh_px``, ``points_world_m``).
+"""
+
+from __future__ import annotations
+
+import copy
+import inspect
+from abc import ABC, abstractmethod
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+__all__ = [
+    "Component",
+    "Detector",
+    "Likelihood",
+    "MotionModel",
+    "Associator",
+    "Scene",
+    "Frame",
+    "Detections",
+    "Target",
+    "Assignment",
+    "KINDS",
+]
+
+
+# --------------------------------------------------------------------------------------------
+# Exchange types
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class Frame:
+    """One video frame.
+
+    Attributes
+    ----------
+    index : int
+        Frame number as the ground truth counts it (MOTChallenge: 1-based).
+    image : ndarray, shape (H, W, 3), uint8
+        The picture, BGR channel order (OpenCV's).
+    time_s : float
+        Time stamp in seconds from the start of the sequence.
+    """
+
+    index: int
+    image: np.ndarray
+    time_s: float = 0.0
+
+    @property
+    def size_wh(self) -> tuple[int, int]:
+        """Image size as (width, height) in pixels."""
+        return int(self.image.shape[1]), int(self.image.shape[0])
+
+
+@dataclass
+class Detections:
+    """Detections in one frame.
+
+    Attributes
+    ----------
+    boxes_xywh_px : ndarray, shape (K, 4), float64
+        Boxes as (left, top, width, height) in image pixels.
+    scores : ndarray, shape (K,), float64
+        Detector confidence; for an SVM the signed distance to the decision boundary, c(det).
+    points_world_m : ndarray, shape (K, 3), float64, optional
+        Ground position of each detection in world metres, when a camera is known.
+    """
+
+    boxes_xywh_px: np.ndarray
+    scores: np.ndarray
+    points_world_m: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        self.boxes_xywh_px = np.asarray(self.boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
+        self.scores = np.asarray(self.scores, dtype=np.float64).reshape(-1)
+        if len(self.scores) != len(self.boxes_xywh_px):
+            raise ValueError(
+                f"Detections: {len(self.boxes_xywh_px)} boxes but {len(self.scores)} scores"
+            )
+        if self.points_world_m is not None:
+            self.points_world_m = np.asarray(self.points_world_m, dtype=np.float64).reshape(-1, 3)
+
+    def __len__(self) -> int:
+        return len(self.scores)
+
+    @classmethod
+    def empty(cls) -> "Detections":
+        return cls(np.zeros((0, 4)), np.zeros(0))
+
+
+@dataclass
+class Target:
+    """What the tracker knows of one target; handed to likelihoods, motion models and associators.
+
+    Attributes
+    ----------
+    id : int
+        Track id (positive).
+    state : ndarray, shape (D,)
+        Current estimate in the motion model's state space (weighted mean of the particles).
+    box_xywh_px : ndarray, shape (4,)
+        Current estimate as an image box (left, top, width, height), pixels.
+    particles : ndarray, shape (N, D)
+        The current particle states (after the last predict, before resampling).
+    particle_boxes_xywh_px : ndarray, shape (N, 4)
+        The particles as image boxes, same order.
+    extent : ndarray, shape (D,)
+        2 * sqrt(weighted variance) per state axis (seed 003 eq. 10).
+    frames_tracked : int
+        Consecutive frames with support (detection or likelihood above threshold); seed 001 scales
+        its velocity and acceleration noise by its inverse.
+    size_m : float
+        Typical physical size of the target (metres) or image size (pixels) for image-plane state;
+        seed 001 scales its position noise by it.
+    age : int
+        Frames since birth.
+    misses : int
+        Consecutive frames without support.
+    """
+
+    id: int
+    state: np.ndarray
+    box_xywh_px: np.ndarray
+    particles: np.ndarray | None = None
+    particle_boxes_xywh_px: np.ndarray | None = None
+    extent: np.ndarray | None = None
+    frames_tracked: int = 0
+    size_m: float = 1.0
+    age: int = 0
+    misses: int = 0
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class Assignment:
+    """Result of detection-to-track association.
+
+    Attributes
+    ----------
+    matches : ndarray, shape (M, 2), int
+        Rows of (track index, detection index), indices into the sequences given to the associator.
+    unmatched_tracks : ndarray, shape (T - M,), int
+    unmatched_detections : ndarray, shape (K - M,), int
+    """
+
+    matches: np.ndarray
+    unmatched_tracks: np.ndarray
+    unmatched_detections: np.ndarray
+
+    @classmethod
+    def from_matches(cls, matches: Sequence[tuple[int, int]] | np.ndarray, n_tracks: int,
+                     n_detections: int) -> "Assignment":
+        m = np.asarray(matches, dtype=np.intp).reshape(-1, 2)
+        ut = np.setdiff1d(np.arange(n_tracks), m[:, 0]).astype(np.intp)
+        ud = np.setdiff1d(np.arange(n_detections), m[:, 1]).astype(np.intp)
+        return cls(m, ut, ud)
+
+
+# --------------------------------------------------------------------------------------------
+# Component base
+# --------------------------------------------------------------------------------------------
+
+
+class Component(ABC):
+    """Base of every plugin component.
+
+    Subclasses declare their parameters as keyword arguments of ``__init__`` and store each one,
+    unchanged, as an attribute of the same name. ``kind`` names the plugin kind; ``name`` is filled
+    in by the registry with the name the component was registered under.
+    """
+
+    kind: ClassVar[str] = "component"
+    name: ClassVar[str | None] = None
+
+    @classmethod
+    def _param_names(cls) -> list[str]:
+        sig = inspect.signature(cls.__init__)
+        names = []
+        for p in sig.parameters.values():
+            if p.name == "self":
+                continue
+            if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+                raise TypeError(
+                    f"{cls.__name__}.__init__ must declare explicit keyword parameters, "
+                    f"not *{p.name}"
+                )
+            names.append(p.name)
+        return names
+
+    def get_params(self) -> dict[str, Any]:
+        """Parameters as given to ``__init__`` (scikit-learn convention)."""
+        out = {}
+        for n in self._param_names():
+            if not hasattr(self, n):
+                raise AttributeError(
+                    f"{type(self).__name__}: parameter {n!r} is not stored as an attribute "
+                    "of the same name in __init__"
+                )
+            out[n] = getattr(self, n)
+        return out
+
+    def set_params(self, **params: Any) -> "Component":
+        valid = set(self._param_names())
+        for k, v in params.items():
+            if k not in valid:
+                raise ValueError(
+                    f"{type(self).__name__}: unknown parameter {k!r}; valid: {sorted(valid)}"
+                )
+            setattr(self, k, v)
+        return self
+
+    def to_config(self) -> dict[str, Any]:
+        """``{"type": registered name, "params": {...}}``; the inverse is ``Host.build``."""
+        return {"type": self.name or type(self).__name__, "params": _plain(self.get_params())}
+
+    def clone(self) -> "Component":
+        """A fresh, unfitted copy with the same parameters."""
+        return type(self)(**copy.deepcopy(self.get_params()))
+
+    def __repr__(self) -> str:
+        args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
+        return f"{type(self).__name__}({args})"
+
+
+def _plain(obj: Any) -> Any:
+    """Make parameters YAML/JSON friendly (tuples -> lists, numpy scalars -> Python)."""
+    if isinstance(obj, dict):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj
+
+
+class MotionModel(Component):
+    """State transition of a particle filter, vectorised over particles.
+
+    ``state_dim`` is the length D of a state vector; ``position_dims`` lists which of its entries
+    are the position (whose weighted mean is the estimate).
+    """
+
+    kind: ClassVar[str] = "motion"
+
+    @property
+    @abstractmethod
+    def state_dim(self) -> int:
+        """D, the length of a state vector."""
+
+    @property
+    def position_dims(self) -> tuple[int, ...]:
+        return (0, 1)
+
+    @abstractmethod
+    def predict(self, states: np.ndarray, dt: float, rng: np.random.Generator,
+                target: Target | None = None) -> np.ndarray:
+        """Propagate particles one step.
+
+        Parameters
+        ----------
+        states : ndarray, shape (N, D), float64
+        dt : float
+            Time step in the model's time unit (frames for image-plane models, seconds for
+            world models).
+        rng : numpy.random.Generator
+        target : Target, optional
+            The target these particles belong to; adaptive models read ``size_m`` and
+            ``frames_tracked`` from it.
+
+        Returns
+        -------
+        ndarray, shape (N, D), float64
+            New states (a new array; the input is not modified).
+        """
+
+    @abstractmethod
+    def init_states(self, position: np.ndarray, n: int, rng: np.random.Generator,
+                    spread: float | np.ndarray = 1.0) -> np.ndarray:
+        """``n`` particles around ``position`` (shape (len(position_dims),)): Gaussian with
+        standard deviation ``spread`` on position, zero derivatives. Returns (n, D) float64."""
+
+
+class Likelihood(Component):
+    """Observation likelihood: maps N particle boxes of one target to N log-weights.
+
+    Life cycle, driven by the tracker:
+
+    1. :meth:`init_target` once when a target is born (build its template, seed 000 eq. 5);
+    2. :meth:`begin_frame` once per frame with every live target (per-frame, per-target passes:
+       background histogram, integral images, detections);
+    3. :meth:`log_likelihood` once per target per frame, vectorised over that target's particles.
+
+    Log-weights may be ``-inf`` (impossible) but never NaN.
+    """
+
+    kind: ClassVar[str] = "likelihood"
+
+    def init_target(self, frame: Frame, target: Target) -> None:
+        """Called when ``target`` is born in ``frame``; default: nothing."""
+
+    def end_target(self, target: Target) -> None:
+        """Called when ``target`` dies; release its per-target state. Default: nothing."""
+
+    def begin_frame(self, frame: Frame, targets: Sequence[Target],
+                    detections: Detections | None = None) -> None:
+        """Per-frame preparation with all live targets; default: nothing."""
+
+    @abstractmethod
+    def log_likelihood(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
+        """Log-likelihood of each particle of ``target``.
+
+        Parameters
+        ----------
+        boxes_xywh_px : ndarray, shape (N, 4), float64
+            Each particle as an image box (left, top, width, height) in pixels. Boxes may reach
+            outside the image; a likelihood handles that (clips) rather than failing.
+        target : Target
+
+        Returns
+        -------
+        ndarray, shape (N,), float64
+            Log-likelihoods (up to an additive constant per target and frame).
+        """
+
+
+class Detector(Component):
+    """Finds objects in a frame."""
+
+    kind: ClassVar[str] = "detector"
+
+    def fit(self, frames: Sequence[Frame] | Iterator[Frame], boxes_by_frame: dict[int, np.ndarray],
+            rng: np.random.Generator | None = None) -> "Detector":
+        """Learn from frames with ground-truth boxes (``{frame index: (K, 4) xywh px}``).
+        Default: nothing to learn."""
+        return self
+
+    @abstractmethod
+    def detect(self, frame: Frame) -> Detections:
+        """Detections in ``frame``: boxes in pixels with scores."""
+
+
+class Associator(Component):
+    """Detection-to-track association."""
+
+    kind: ClassVar[str] = "associator"
+
+    @abstractmethod
+    def associate(self, targets: Sequence[Target], detections: Detections) -> Assignment:
+        """Match live targets to detections; each used at most once."""
+
+
+class Scene(Component):
+    """A source of frames, optionally with ground truth and a camera (a video, a synthetic scene).
+
+    ``frames`` streams: it must not hold the whole video in memory.
+    """
+
+    kind: ClassVar[str] = "scene"
+
+    @abstractmethod
+    def frames(self) -> Iterator[Frame]:
+        """Yield the frames in order."""
+
+    def ground_truth(self) -> np.ndarray | None:
+        """MOTChallenge rows ``(frame, id, left, top, width, height, conf, x, y, z)`` as an
+        (M, 10) float64 array, or None if the scene has none."""
+        return None
+
+    @property
+    def fps(self) -> float:
+        return 25.0
+
+
+KINDS: dict[str, type[Component]] = {
+    "detector": Detector,
+    "likelihood": Likelihood,
+    "motion": MotionModel,
+    "associator": Associator,
+    "scene": Scene,
+}
