@@ -1,0 +1,29 @@
+"""Where the shared real data lives (PETS 2009 S2.L1, the chessboard set).
+
+The project never ships that data; it is read by path: ``$PFTRACK_DATA`` when set, otherwise
+``../shared/data`` beside the repository checkout.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+
+
+def data_dir() -> Path:
+    """The shared data folder (not checked for existence)."""
+    env = os.environ.get("PFTRACK_DATA")
+    return Path(env) if env else (REPO_ROOT.parent / "shared" / "data")
+
+
+def data_path(*parts: str) -> Path:
+    """A file under :func:`data_dir`; raises FileNotFoundError naming it and the variable."""
+    p = data_dir().joinpath(*parts)
+    if not p.exists():
+        raise FileNotFoundError(
+            f"{p} not found: set PFTRACK_DATA to the folder holding pets09/ and chessboard/ "
+            "(default: ../shared/data beside the repository)"
+        )
+    return p
