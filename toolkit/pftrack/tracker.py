@@ -1,0 +1,420 @@
+"""The multi-target tracker: one particle filter per target, driven frame by frame.
+
+Data flow per frame (top to bottom)::
+
+    frame -> [detector] -> detections
+          -> motion.predict (per target)            particles (N, D) in the motion model's space
+          -> observation.to_boxes                   particle boxes (N, 4) xywh px
+          -> [associator] detections <-> targets    ``target.extra["detection"]``
+          -> likelihood.begin_frame(all targets) -> likelihood.log_likelihood (per target)
+          -> normalise, estimate (weighted mean), extent, resample on ESS
+          -> death (misses, leaving the valid region) and birth (unmatched confident detections)
+          -> list[TrackRecord]
+
+The tracker streams: it keeps only the live targets, so memory does not grow with video length.
+All randomness comes from one ``numpy.random.Generator``; the same seed gives bit-identical tracks.
+"""
+
+from __future__ import annotations
+
+import logging
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from pftrack.components import Associator, Detections, Detector, Frame, Likelihood, MotionModel, Target
+from pftrack.filter import (
+    effective_sample_size,
+    normalize_log_weights,
+    resample,
+    weighted_extent,
+    weighted_mean,
+)
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "ObservationModel",
+    "ImageBoxObservation",
+    "TrackRecord",
+    "MultiTargetTracker",
+    "records_to_mot",
+]
+
+
+class ObservationModel(ABC):
+    """Maps particle states to image boxes, and a detection box back to a position.
+
+    The tracker is state-space agnostic: an image-plane model reads the box centre from the
+    state, a world model projects a foot and a head point through a camera.
+    """
+
+    @abstractmethod
+    def to_boxes(self, states: np.ndarray, target: Target | None = None) -> np.ndarray:
+        """States (N, D) -> boxes (N, 4) as (left, top, width, height) in pixels.
+
+        ``target`` lets a model keep per-target parameters (a box size) in ``target.extra``.
+        """
+
+    def init_target(self, target: Target, box_xywh_px: np.ndarray | None) -> None:
+        """Called when a target is born, with the box it was started from (if any)."""
+
+    @abstractmethod
+    def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:
+        """A box (4,) -> the position (P,) in state space that would produce it (for births)."""
+
+    def world_position(self, state: np.ndarray) -> np.ndarray | None:
+        """Ground position (x, y, z) in world metres of a state (D,), or None when the model
+        has no world frame (image-plane tracking)."""
+        return None
+
+    def in_view(self, states: np.ndarray, image_size_wh: tuple[int, int],
+                target: Target | None = None) -> np.ndarray:
+        """Boolean (N,): the state's box overlaps the image. Override for volumes/fields."""
+        b = self.to_boxes(states, target)
+        w, h = image_size_wh
+        return (b[:, 0] < w) & (b[:, 1] < h) & (b[:, 0] + b[:, 2] > 0) & (b[:, 1] + b[:, 3] > 0)
+
+
+class ImageBoxObservation(ObservationModel):
+    """Image-plane state: dims 0 and 1 are the box centre in pixels; the box has a fixed size
+    (seed 000 uses 30 x 30 px).
+
+    With ``size_from_box=True`` each target keeps the size of the box it was started from
+    (``target.extra["box_wh_px"]``), e.g. each person's ground-truth size at initialisation.
+    """
+
+    def __init__(self, width_px: float = 30.0, height_px: float = 30.0,
+                 size_from_box: bool = False) -> None:
+        if width_px <= 0 or height_px <= 0:
+            raise ValueError(f"ImageBoxObservation: box size must be positive, got "
+                             f"{width_px} x {height_px}")
+        self.width_px = float(width_px)
+        self.height_px = float(height_px)
+        self.size_from_box = bool(size_from_box)
+
+    def init_target(self, target: Target, box_xywh_px: np.ndarray | None) -> None:
+        if self.size_from_box and box_xywh_px is not None:
+            target.extra["box_wh_px"] = (float(box_xywh_px[2]), float(box_xywh_px[3]))
+
+    def to_boxes(self, states: np.ndarray, target: Target | None = None) -> np.ndarray:
+        s = np.asarray(states, dtype=np.float64)
+        w, h = self.width_px, self.height_px
+        if target is not None and "box_wh_px" in target.extra:
+            w, h = target.extra["box_wh_px"]
+        out = np.empty((len(s), 4))
+        out[:, 0] = s[:, 0] - 0.5 * w
+        out[:, 1] = s[:, 1] - 0.5 * h
+        out[:, 2] = w
+        out[:, 3] = h
+        return out
+
+    def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:
+        b = np.asarray(box_xywh_px, dtype=np.float64)
+        return np.array([b[0] + 0.5 * b[2], b[1] + 0.5 * b[3]])
+
+
+@dataclass
+class TrackRecord:
+    """One target's estimate in one frame.
+
+    ``box_xywh_px`` is the image box of the estimate; ``position`` its position in state space
+    (pixels for image-plane models, world metres for ground-plane ones); ``world_m`` the ground
+    position (x, y, z) in metres when the observation model knows one, else None.
+    """
+
+    frame: int
+    id: int
+    box_xywh_px: np.ndarray
+    state: np.ndarray
+    position: np.ndarray
+    extent: np.ndarray
+    confidence: float
+    world_m: np.ndarray | None = None
+
+
+def records_to_mot(records: Iterable[TrackRecord]) -> np.ndarray:
+    """MOTChallenge rows (M, 10): frame, id, left, top, width, height, conf, x, y, z
+    (world columns -1 when unknown)."""
+    rows = []
+    for r in records:
+        w = r.world_m if r.world_m is not None else (-1.0, -1.0, -1.0)
+        rows.append([r.frame, r.id, *r.box_xywh_px, r.confidence, *w])
+    return np.asarray(rows, dtype=np.float64).reshape(-1, 10)
+
+
+@dataclass
+class _Filter:
+    target: Target
+    particles: np.ndarray
+    weights: np.ndarray
+    anchor: np.ndarray  # position to re-spread around when every weight vanishes
+
+
+class MultiTargetTracker:
+    """One particle filter per target, with optional detection-driven birth and death.
+
+    Parameters
+    ----------
+    motion : MotionModel
+    likelihood : Likelihood
+        One likelihood (combine several with a composite likelihood plugin).
+    observation : ObservationModel
+    n_particles : int
+        Particles per target.
+    resampling : {"systematic", "stratified", "residual", "multinomial"}
+    ess_threshold : float
+        Resample when ESS < ess_threshold * n_particles (1.0: every frame, as the papers do).
+    dt : float
+        Time step per frame in the motion model's unit (1 frame, or 1/fps seconds).
+    init_spread : float or array
+        Std of the initial particle spread around a new target's position (seed 000 eq. 6: 1 px).
+    recover_spread : float or array, optional
+        Std used to re-spread the particles around the last estimate when every weight is zero or
+        non-finite (defaults to ``5 * init_spread``).
+    detector, associator : optional
+        When given, detections are computed each frame and matched to targets; the match is put
+        in ``target.extra["detection"] = {"box_xywh_px", "score", "index"}`` for likelihoods.
+    birth_min_score : float, optional
+        Unmatched detections at least this confident start new targets (no births when None).
+    max_misses : int, optional
+        A target dies after this many consecutive frames without support.
+    min_log_likelihood : float, optional
+        A frame supports a target when it has a matched detection or its best particle's
+        log-likelihood is at least this; with no detector and no threshold every frame supports.
+    kill_out_of_view : bool
+        A target dies when its estimate's box leaves the image.
+    valid_region : callable, optional
+        ``f(positions (N, P)) -> bool (N,)``; particles outside get likelihood zero (seed 003:
+        particles leaving the volume) and a target whose estimate leaves it dies.
+    target_size : float
+        Default ``Target.size_m`` for new targets (adaptive motion noise).
+    rng : numpy.random.Generator
+        The only source of randomness.
+    """
+
+    def __init__(self, motion: MotionModel, likelihood: Likelihood, observation: ObservationModel,
+                 *, n_particles: int = 500, resampling: str = "systematic",
+                 ess_threshold: float = 1.0, dt: float = 1.0,
+                 init_spread: float | np.ndarray = 1.0,
+                 recover_spread: float | np.ndarray | None = None,
+                 detector: Detector | None = None, associator: Associator | None = None,
+                 birth_min_score: float | None = None, max_misses: int | None = None,
+                 min_log_likelihood: float | None = None, kill_out_of_view: bool = True,
+                 valid_region: Callable[[np.ndarray], np.ndarray] | None = None,
+                 target_size: float = 1.0, rng: np.random.Generator | None = None) -> None:
+        if n_particles < 1:
+            raise ValueError(f"n_particles must be >= 1, got {n_particles}")
+        if not 0.0 <= ess_threshold <= 1.0:
+            raise ValueError(f"ess_threshold must be in [0, 1], got {ess_threshold}")
+        if rng is None:
+            raise ValueError("MultiTargetTracker needs rng=np.random.default_rng(seed): "
+                             "pftrack never uses global random state")
+        resample(np.ones(1), rng=np.random.default_rng(0), scheme=resampling)  # validates name
+        self.motion = motion
+        self.likelihood = likelihood
+        self.observation = observation
+        self.n_particles = int(n_particles)
+        self.resampling = resampling
+        self.ess_threshold = float(ess_threshold)
+        self.dt = float(dt)
+        self.init_spread = init_spread
+        self.recover_spread = (np.asarray(init_spread, dtype=np.float64) * 5.0
+                               if recover_spread is None else recover_spread)
+        self.detector = detector
+        self.associator = associator
+        self.birth_min_score = birth_min_score
+        self.max_misses = max_misses
+        self.min_log_likelihood = min_log_likelihood
+        self.kill_out_of_view = kill_out_of_view
+        self.valid_region = valid_region
+        self.target_size = float(target_size)
+        self.rng = rng
+        self._filters: dict[int, _Filter] = {}
+        self._next_id = 1
+        self.recoveries = 0  # frames in which some target lost every weight and was re-spread
+        self.last_detections: Detections | None = None
+
+    # -- targets ------------------------------------------------------------------------------
+
+    @property
+    def targets(self) -> list[Target]:
+        """Live targets, in id order."""
+        return [f.target for f in self._filters.values()]
+
+    def add_target(self, frame: Frame, position: np.ndarray | None = None, *,
+                   box_xywh_px: np.ndarray | None = None, target_id: int | None = None,
+                   size: float | None = None) -> Target:
+        """Start a target at ``position`` (state-space position) or from an image box.
+
+        Its particles are drawn around the position (``init_spread``), its likelihood template
+        is built from ``frame`` (``likelihood.init_target``).
+        """
+        if position is None:
+            if box_xywh_px is None:
+                raise ValueError("add_target needs a position or a box_xywh_px")
+            position = self.observation.position_from_box(np.asarray(box_xywh_px, float))
+        position = np.asarray(position, dtype=np.float64)
+        if target_id is None:
+            target_id = self._next_id
+        if target_id in self._filters:
+            raise ValueError(f"target id {target_id} is already live")
+        self._next_id = max(self._next_id, int(target_id) + 1)
+        particles = self.motion.init_states(position, self.n_particles, self.rng,
+                                            spread=self.init_spread)
+        weights = np.full(self.n_particles, 1.0 / self.n_particles)
+        state = weighted_mean(particles, weights)
+        state[list(self.motion.position_dims)] = position  # the given position, not its sample mean
+        target = Target(id=int(target_id), state=state, box_xywh_px=np.zeros(4),
+                        particles=particles, extent=weighted_extent(particles, weights, state),
+                        size_m=self.target_size if size is None else float(size))
+        self.observation.init_target(target, box_xywh_px)
+        target.box_xywh_px = self.observation.to_boxes(state[None], target)[0]
+        target.particle_boxes_xywh_px = self.observation.to_boxes(particles, target)
+        self._filters[target.id] = _Filter(target, particles, weights, position.copy())
+        self.likelihood.init_target(frame, target)
+        return target
+
+    def remove_target(self, target_id: int) -> None:
+        f = self._filters.pop(target_id, None)
+        if f is not None:
+            self.likelihood.end_target(f.target)
+
+    # -- one frame ----------------------------------------------------------------------------
+
+    def step(self, frame: Frame, detections: Detections | None = None) -> list[TrackRecord]:
+        """Advance every live target by one frame and return their estimates.
+
+        ``detections`` overrides the tracker's own detector for this frame.
+        """
+        pos_dims = list(self.motion.position_dims)
+        filters = list(self._filters.values())
+        # 1. predict
+        for f in filters:
+            f.particles = self.motion.predict(f.particles, self.dt, self.rng, target=f.target)
+            t = f.target
+            t.particles = f.particles
+            t.particle_boxes_xywh_px = self.observation.to_boxes(f.particles, t)
+            t.age += 1
+            t.extra.pop("detection", None)
+        # 2. detect and associate
+        if detections is None and self.detector is not None:
+            detections = self.detector.detect(frame)
+        self.last_detections = detections
+        unmatched_dets = np.arange(len(detections)) if detections is not None else np.zeros(0, int)
+        if detections is not None and self.associator is not None and filters:
+            targets = [f.target for f in filters]
+            a = self.associator.associate(targets, detections)
+            for ti, di in a.matches:
+                targets[ti].extra["detection"] = {
+                    "box_xywh_px": detections.boxes_xywh_px[di],
+                    "score": float(detections.scores[di]),
+                    "index": int(di),
+                }
+            unmatched_dets = a.unmatched_detections
+        # 3. weight
+        targets = [f.target for f in filters]
+        self.likelihood.begin_frame(frame, targets, detections)
+        records = []
+        dead = []
+        recovered = False
+        for f in filters:
+            t = f.target
+            logl = np.asarray(self.likelihood.log_likelihood(t.particle_boxes_xywh_px, t),
+                              dtype=np.float64)
+            if logl.shape != (len(f.particles),):
+                raise ValueError(f"likelihood {type(self.likelihood).__name__} returned shape "
+                                 f"{logl.shape}, expected ({len(f.particles)},)")
+            if self.valid_region is not None:
+                logl = np.where(self.valid_region(f.particles[:, pos_dims]), logl, -np.inf)
+            w, ok = normalize_log_weights(np.log(f.weights) + logl)
+            if not ok:
+                # nothing explains the observation: re-spread around the last estimate
+                recovered = True
+                f.particles = self.motion.init_states(f.anchor, self.n_particles, self.rng,
+                                                      spread=self.recover_spread)
+                w = np.full(self.n_particles, 1.0 / self.n_particles)
+            best = float(np.max(logl)) if len(logl) and ok else -np.inf
+            state = weighted_mean(f.particles, w)
+            t.state = state
+            t.extent = weighted_extent(f.particles, w, state)
+            t.box_xywh_px = self.observation.to_boxes(state[None], t)[0]
+            supported = ok and (
+                "detection" in t.extra
+                or (self.min_log_likelihood is not None and best >= self.min_log_likelihood)
+                or (self.detector is None and self.min_log_likelihood is None))
+            t.frames_tracked = t.frames_tracked + 1 if supported else 0
+            t.misses = 0 if supported else t.misses + 1
+            f.anchor = state[pos_dims].copy()
+            # 4. resample
+            if effective_sample_size(w) < self.ess_threshold * self.n_particles + 1e-9:
+                idx = resample(w, self.rng, self.resampling)
+                f.particles = f.particles[idx]
+                w = np.full(self.n_particles, 1.0 / self.n_particles)
+            f.weights = w
+            t.particles = f.particles
+            # 5. death
+            gone = self.max_misses is not None and t.misses > self.max_misses
+            if self.kill_out_of_view and not self.observation.in_view(state[None], frame.size_wh,
+                                                                        t)[0]:
+                gone = True
+            if self.valid_region is not None and not self.valid_region(state[None, pos_dims])[0]:
+                gone = True
+            if gone:
+                dead.append(t.id)
+                continue
+            records.append(self._record(frame, t, best))
+        if recovered:
+            self.recoveries += 1
+            log.info("frame %d: every particle weight of a target vanished; re-spread around "
+                     "its last estimate", frame.index)
+        for tid in dead:
+            self.remove_target(tid)
+        # 6. birth
+        if (detections is not None and self.birth_min_score is not None
+                and len(unmatched_dets)):
+            for di in unmatched_dets:
+                if detections.scores[di] >= self.birth_min_score:
+                    box = detections.boxes_xywh_px[di]
+                    t = self.add_target(frame, box_xywh_px=box)
+                    t.frames_tracked = 1
+                    records.append(self._record(frame, t, 0.0))
+        return records
+
+    def _record(self, frame: Frame, t: Target, best_logl: float) -> TrackRecord:
+        world = self.observation.world_position(t.state)
+        pos = t.state[list(self.motion.position_dims)]
+        return TrackRecord(
+            frame=frame.index, id=t.id, box_xywh_px=t.box_xywh_px.copy(), state=t.state.copy(),
+            position=pos.copy(), extent=t.extent.copy(),
+            confidence=float(1.0 / (1.0 + np.exp(-best_logl))) if np.isfinite(best_logl) else 0.0,
+            world_m=None if world is None else np.asarray(world, dtype=np.float64),
+        )
+
+    def run(self, frames: Iterable[Frame],
+            initial: Callable[[Frame, "MultiTargetTracker"], None] | None = None,
+            ) -> Iterator[list[TrackRecord]]:
+        """Stream ``frames`` through :meth:`step`, yielding each frame's records.
+
+        ``initial(frame, tracker)`` is called before each step (add targets from ground truth
+        or a list of boxes, for example).
+        """
+        for frame in frames:
+            if initial is not None:
+                initial(frame, self)
+            yield self.step(frame)
+
+
+def boxes_initialiser(boxes_by_frame: dict[int, Sequence[tuple[int, np.ndarray]]],
+                      ) -> Callable[[Frame, MultiTargetTracker], None]:
+    """An ``initial`` callback for :meth:`MultiTargetTracker.run`: at frame index k, start
+    targets ``(id, box_xywh_px)`` from ``boxes_by_frame[k]`` (e.g. each ground-truth id's
+    first box)."""
+
+    def initial(frame: Frame, tracker: MultiTargetTracker) -> None:
+        for tid, box in boxes_by_frame.get(frame.index, ()):
+            tracker.add_target(frame, box_xywh_px=np.asarray(box, float), target_id=int(tid))
+
+    return initial
