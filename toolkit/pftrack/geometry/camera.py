@@ -1,0 +1,600 @@
+"""Calibrated cameras: world points (metres) to image pixels and back.
+
+A :class:`Camera` is a pinhole camera with a lens-distortion model:
+
+* world frame: right-handed, metres; for the scenes pftrack ships, z is up and the ground is z = 0;
+* camera frame: OpenCV's (x right, y down, z forward along the optical axis), metres;
+  ``X_cam = R @ X_world + t_m``;
+* normalised image coordinates: ``(X_cam / Z_cam, Y_cam / Z_cam)``; the distortion model maps the
+  ideal (undistorted) normalised point to the distorted one that the lens forms;
+* pixels: ``u = fx * x_d + skew * y_d + cx``, ``v = fy * y_d + cy`` with OpenCV's convention that
+  the centre of the top-left pixel is (0, 0).
+
+Lens models (all vectorised, all acting on normalised coordinates):
+
+* :class:`NoDistortion` -- an ideal pinhole;
+* :class:`OpenCVDistortion` -- OpenCV's polynomial model (k1, k2, p1, p2, k3[, k4, k5, k6]),
+  which gives the distorted point as a function of the undistorted one (inverse: iterative,
+  :func:`cv2.undistortPointsIter`);
+* :class:`TsaiDistortion` -- R. Y. Tsai's (1986/87) radial model, which gives the *undistorted*
+  point as a function of the distorted one, ``X_u = X_d (1 + kappa1 r_d^2)`` (inverse: a cubic,
+  solved by vectorised Newton iterations). Tsai writes it on the sensor plane in millimetres with
+  kappa1 in mm^-2; on normalised coordinates the same model has ``kappa1_norm = kappa1 * f_mm^2``
+  (see :meth:`Camera.from_tsai`, which also builds R from Tsai's rx, ry, rz).
+
+Points behind the camera project to NaN, and so do pixels whose ray misses a plane, so a caller
+never receives a plausible-looking but wrong pixel; use :meth:`Camera.in_front` and
+:meth:`Camera.in_image` to select.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from typing import Any, ClassVar
+
+import numpy as np
+
+__all__ = [
+    "Camera",
+    "LensDistortion",
+    "NoDistortion",
+    "OpenCVDistortion",
+    "TsaiDistortion",
+    "distortion_from_dict",
+    "tsai_rotation",
+    "tsai_angles",
+    "look_at_rotation",
+]
+
+
+def _as_points(points: Any, dim: int, name: str) -> np.ndarray:
+    arr = np.asarray(points, dtype=np.float64)
+    if arr.ndim == 1 and arr.shape[0] == dim:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != dim:
+        raise ValueError(f"{name}: expected an array of shape (N, {dim}), got {arr.shape}")
+    return arr
+
+
+# --------------------------------------------------------------------------------------------
+# Rotations
+# --------------------------------------------------------------------------------------------
+
+
+def tsai_rotation(rx: float, ry: float, rz: float) -> np.ndarray:
+    """Rotation matrix from Tsai's angles (radians), as in Tsai's own C code (Willson's).
+
+    ``R = Rz(rz) @ Ry(ry) @ Rx(rx)``; it maps world to camera coordinates.
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+    """
+    sa, ca = math.sin(rx), math.cos(rx)
+    sb, cb = math.sin(ry), math.cos(ry)
+    sg, cg = math.sin(rz), math.cos(rz)
+    return np.array(
+        [
+            [cb * cg, cg * sa * sb - ca * sg, sg * sa + ca * cg * sb],
+            [cb * sg, sa * sb * sg + ca * cg, ca * sb * sg - cg * sa],
+            [-sb, cb * sa, ca * cb],
+        ]
+    )
+
+
+def tsai_angles(R: np.ndarray) -> tuple[float, float, float]:
+    """Inverse of :func:`tsai_rotation`: (rx, ry, rz) in radians with ry in [-pi/2, pi/2]."""
+    R = np.asarray(R, dtype=np.float64)
+    ry = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
+    rz = math.atan2(R[1, 0], R[0, 0])
+    rx = math.atan2(R[2, 1], R[2, 2])
+    return rx, ry, rz
+
+
+def look_at_rotation(eye: Sequence[float], target: Sequence[float],
+                     up: Sequence[float] = (0.0, 0.0, 1.0)) -> np.ndarray:
+    """World-to-camera rotation of a camera at ``eye`` looking at ``target`` (OpenCV frame).
+
+    The camera's y axis points down along ``-up`` projected on the image plane, so the horizon
+    is level.
+    """
+    eye = np.asarray(eye, dtype=np.float64)
+    z = np.asarray(target, dtype=np.float64) - eye
+    if np.linalg.norm(z) == 0:
+        raise ValueError("look_at_rotation: eye and target coincide")
+    z /= np.linalg.norm(z)
+    x = np.cross(z, np.asarray(up, dtype=np.float64))
+    if np.linalg.norm(x) < 1e-12:
+        raise ValueError("look_at_rotation: viewing direction is parallel to up")
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    return np.stack([x, y, z])
+
+
+# --------------------------------------------------------------------------------------------
+# Lens distortion models (normalised image coordinates)
+# --------------------------------------------------------------------------------------------
+
+
+class LensDistortion(ABC):
+    """A lens model acting on normalised image coordinates (dimensionless, shape (N, 2))."""
+
+    model: ClassVar[str] = ""
+
+    @abstractmethod
+    def distort(self, xy_u: np.ndarray) -> np.ndarray:
+        """Ideal (undistorted) normalised points (N, 2) -> distorted normalised points (N, 2)."""
+
+    @abstractmethod
+    def undistort(self, xy_d: np.ndarray) -> np.ndarray:
+        """Distorted normalised points (N, 2) -> ideal normalised points (N, 2)."""
+
+    @abstractmethod
+    def params(self) -> dict[str, float]:
+        """The coefficients by name (dimensionless, on normalised coordinates)."""
+
+    @property
+    def is_identity(self) -> bool:
+        return all(v == 0.0 for v in self.params().values())
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"model": self.model, **{k: float(v) for k, v in self.params().items()}}
+
+    def __eq__(self, other: object) -> bool:
+        return (isinstance(other, LensDistortion) and self.model == other.model
+                and self.params() == other.params())
+
+    def __repr__(self) -> str:
+        args = ", ".join(f"{k}={v:.6g}" for k, v in self.params().items())
+        return f"{type(self).__name__}({args})"
+
+
+class NoDistortion(LensDistortion):
+    """An ideal pinhole: no distortion."""
+
+    model = "none"
+
+    def distort(self, xy_u: np.ndarray) -> np.ndarray:
+        return np.array(xy_u, dtype=np.float64, copy=True)
+
+    def undistort(self, xy_d: np.ndarray) -> np.ndarray:
+        return np.array(xy_d, dtype=np.float64, copy=True)
+
+    def params(self) -> dict[str, float]:
+        return {}
+
+
+class OpenCVDistortion(LensDistortion):
+    """OpenCV's lens model: radial k1, k2, k3 (and rational k4, k5, k6), tangential p1, p2.
+
+    ``x_d = x (1 + k1 r^2 + k2 r^4 + k3 r^6) / (1 + k4 r^2 + k5 r^4 + k6 r^6)
+    + 2 p1 x y + p2 (r^2 + 2 x^2)`` and likewise for y, with (x, y) the undistorted normalised
+    point. Coefficient order is OpenCV's ``distCoeffs``.
+    """
+
+    model = "opencv"
+    names = ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")
+
+    def __init__(self, k1: float = 0.0, k2: float = 0.0, p1: float = 0.0, p2: float = 0.0,
+                 k3: float = 0.0, k4: float = 0.0, k5: float = 0.0, k6: float = 0.0):
+        self.k1, self.k2, self.p1, self.p2 = float(k1), float(k2), float(p1), float(p2)
+        self.k3, self.k4, self.k5, self.k6 = float(k3), float(k4), float(k5), float(k6)
+
+    @classmethod
+    def from_coeffs(cls, coeffs: Sequence[float]) -> OpenCVDistortion:
+        """From OpenCV's ``distCoeffs`` (4, 5 or 8 numbers)."""
+        c = np.asarray(coeffs, dtype=np.float64).ravel()
+        if c.size not in (4, 5, 8):
+            raise ValueError(f"OpenCV distortion: expected 4, 5 or 8 coefficients, got {c.size} "
+                             "(thin-prism and tilted models are not supported)")
+        return cls(*c.tolist())
+
+    @property
+    def coeffs(self) -> np.ndarray:
+        """OpenCV ``distCoeffs``: 5 numbers, or 8 when the rational terms are used."""
+        full = np.array([getattr(self, n) for n in self.names])
+        return full if np.any(full[5:] != 0) else full[:5]
+
+    def params(self) -> dict[str, float]:
+        return {n: getattr(self, n) for n in self.names[: self.coeffs.size]}
+
+    def distort(self, xy_u: np.ndarray) -> np.ndarray:
+        xy = np.asarray(xy_u, dtype=np.float64)
+        x, y = xy[:, 0], xy[:, 1]
+        r2 = x * x + y * y
+        radial = (1 + r2 * (self.k1 + r2 * (self.k2 + r2 * self.k3))) / (
+            1 + r2 * (self.k4 + r2 * (self.k5 + r2 * self.k6)))
+        xd = x * radial + 2 * self.p1 * x * y + self.p2 * (r2 + 2 * x * x)
+        yd = y * radial + self.p1 * (r2 + 2 * y * y) + 2 * self.p2 * x * y
+        return np.stack([xd, yd], axis=1)
+
+    def undistort(self, xy_d: np.ndarray) -> np.ndarray:
+        import cv2
+
+        xy = np.asarray(xy_d, dtype=np.float64)
+        if xy.shape[0] == 0 or self.is_identity:
+            return xy.copy()
+        out = np.full_like(xy, np.nan)
+        ok = np.all(np.isfinite(xy), axis=1)
+        if ok.any():
+            crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-15)
+            und = cv2.undistortPointsIter(xy[ok].reshape(-1, 1, 2), np.eye(3), self.coeffs,
+                                          None, None, crit)
+            out[ok] = und.reshape(-1, 2)
+        return out
+
+
+class TsaiDistortion(LensDistortion):
+    """Tsai's one-coefficient radial model on normalised coordinates.
+
+    ``x_u = x_d (1 + kappa1 r_d^2)``, ``r_d^2 = x_d^2 + y_d^2``: the undistorted point is a
+    closed-form function of the distorted one; the forward direction solves
+    ``kappa1 r_d^3 + r_d - r_u = 0`` (smallest positive root) by Newton's method, vectorised.
+    Tsai's kappa1 on the sensor in mm^-2 equals ``kappa1 / f_mm**2`` of this one.
+    """
+
+    model = "tsai"
+
+    def __init__(self, kappa1: float = 0.0):
+        self.kappa1 = float(kappa1)
+
+    def params(self) -> dict[str, float]:
+        return {"kappa1": self.kappa1}
+
+    def undistort(self, xy_d: np.ndarray) -> np.ndarray:
+        xy = np.asarray(xy_d, dtype=np.float64)
+        r2 = np.sum(xy * xy, axis=1, keepdims=True)
+        return xy * (1.0 + self.kappa1 * r2)
+
+    def distort(self, xy_u: np.ndarray) -> np.ndarray:
+        xy = np.asarray(xy_u, dtype=np.float64)
+        k = self.kappa1
+        if k == 0.0 or xy.shape[0] == 0:
+            return xy.copy()
+        ru = np.hypot(xy[:, 0], xy[:, 1])
+        rd = ru.copy()
+        # Newton on f(r) = k r^3 + r - ru from r = ru: monotone convergence for k > 0; for k < 0
+        # it climbs to the smaller root, which exists only if ru <= 2 / (3 sqrt(-3k)).
+        for _ in range(60):
+            f = k * rd**3 + rd - ru
+            step = f / (3 * k * rd * rd + 1)
+            rd = rd - step
+            if np.all(np.abs(step[np.isfinite(step)]) <= 1e-15 * (1 + ru[np.isfinite(step)])):
+                break
+        bad = ~np.isfinite(rd) | (np.abs(k * rd**3 + rd - ru) > 1e-9 * (1 + ru))
+        if k < 0:
+            bad |= 3 * k * rd * rd + 1 <= 0  # beyond the fold: not the physical root
+        scale = np.where(ru > 0, rd / np.where(ru > 0, ru, 1.0), 1.0)
+        scale[bad] = np.nan
+        return xy * scale[:, None]
+
+
+def distortion_from_dict(d: dict[str, Any] | None) -> LensDistortion:
+    """Build a lens model from ``{"model": "opencv"|"tsai"|"none", <coefficients>}``."""
+    if not d:
+        return NoDistortion()
+    d = dict(d)
+    model = str(d.pop("model", "none")).lower()
+    try:
+        if model in ("none", "pinhole"):
+            return NoDistortion()
+        if model == "opencv":
+            return OpenCVDistortion(**{k: float(v) for k, v in d.items()})
+        if model == "tsai":
+            return TsaiDistortion(**{k: float(v) for k, v in d.items()})
+    except TypeError as exc:
+        raise ValueError(f"distortion model {model!r}: bad coefficients {sorted(d)}: {exc}") from exc
+    raise ValueError(f"unknown distortion model {model!r} (known: none, opencv, tsai)")
+
+
+# --------------------------------------------------------------------------------------------
+# Camera
+# --------------------------------------------------------------------------------------------
+
+
+class Camera:
+    """A calibrated camera: intrinsics K, extrinsics (R, t) in metres, a lens model.
+
+    Parameters
+    ----------
+    K : array_like, shape (3, 3)
+        Intrinsic matrix in pixels: ``[[fx, skew, cx], [0, fy, cy], [0, 0, 1]]``.
+    R : array_like, shape (3, 3)
+        Rotation from world to camera frame (OpenCV camera frame: x right, y down, z forward).
+    t_m : array_like, shape (3,)
+        Translation in metres: ``X_cam = R @ X_world + t_m``.
+    image_size : (int, int)
+        Image (width, height) in pixels.
+    distortion : LensDistortion, optional
+        Lens model on normalised coordinates; default none.
+    name : str
+        A label (file stem, scene name).
+    metadata : dict, optional
+        Extra facts a file format holds that do not change the projection (Tsai's sensor
+        geometry ``tsai_sensor``: dpx, dpy, dx, dy in mm, ncx, nfx; where it came from).
+    """
+
+    def __init__(self, K: Any, R: Any, t_m: Any, image_size: Sequence[int],
+                 distortion: LensDistortion | None = None, name: str = "",
+                 metadata: dict[str, Any] | None = None):
+        K = np.array(K, dtype=np.float64)
+        R = np.array(R, dtype=np.float64)
+        t = np.array(t_m, dtype=np.float64).reshape(-1)
+        if K.shape != (3, 3) or K[1, 0] != 0 or K[2, 0] != 0 or K[2, 1] != 0 or K[2, 2] != 1:
+            raise ValueError(f"Camera {name!r}: K must be [[fx, s, cx], [0, fy, cy], [0, 0, 1]], "
+                             f"got {K.tolist()}")
+        if not (K[0, 0] > 0 and K[1, 1] > 0):
+            raise ValueError(f"Camera {name!r}: focal lengths must be positive, got "
+                             f"fx={K[0, 0]}, fy={K[1, 1]}")
+        if R.shape != (3, 3) or not np.allclose(R @ R.T, np.eye(3), atol=1e-6) \
+                or np.linalg.det(R) < 0:
+            raise ValueError(f"Camera {name!r}: R must be a rotation matrix, got {R.tolist()}")
+        if t.shape != (3,) or not np.all(np.isfinite(t)):
+            raise ValueError(f"Camera {name!r}: t_m must be 3 finite numbers, got {t_m!r}")
+        w, h = (int(v) for v in image_size)
+        if w <= 0 or h <= 0:
+            raise ValueError(f"Camera {name!r}: image_size must be (width, height) > 0, "
+                             f"got {image_size!r}")
+        self.K = K
+        self.R = R
+        self.t_m = t
+        self.image_size = (w, h)
+        self.distortion = distortion if distortion is not None else NoDistortion()
+        self.name = name
+        self.metadata = dict(metadata or {})
+
+    # ---- constructors -------------------------------------------------------------------
+
+    @classmethod
+    def from_pinhole(cls, fx: float, fy: float, cx: float, cy: float, R: Any, t_m: Any,
+                     image_size: Sequence[int], distortion: LensDistortion | None = None,
+                     skew: float = 0.0, **kw: Any) -> Camera:
+        """From focal lengths and principal point in pixels."""
+        K = np.array([[fx, skew, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+        return cls(K, R, t_m, image_size, distortion, **kw)
+
+    @classmethod
+    def look_at(cls, eye_m: Sequence[float], target_m: Sequence[float], image_size: Sequence[int],
+                fx: float, fy: float | None = None, cx: float | None = None,
+                cy: float | None = None, up: Sequence[float] = (0.0, 0.0, 1.0),
+                distortion: LensDistortion | None = None, **kw: Any) -> Camera:
+        """A camera at ``eye_m`` (metres) whose optical axis passes through ``target_m``.
+
+        The principal point defaults to the image centre ``((w - 1) / 2, (h - 1) / 2)``.
+        """
+        w, h = image_size
+        R = look_at_rotation(eye_m, target_m, up)
+        t = -R @ np.asarray(eye_m, dtype=np.float64)
+        return cls.from_pinhole(fx, fx if fy is None else fy,
+                                (w - 1) / 2 if cx is None else cx,
+                                (h - 1) / 2 if cy is None else cy, R, t, image_size,
+                                distortion, **kw)
+
+    @classmethod
+    def from_tsai(cls, *, focal_mm: float, kappa1_per_mm2: float, sx: float, dpx_mm: float,
+                  dpy_mm: float, cx_px: float, cy_px: float, rx: float, ry: float, rz: float,
+                  t_mm: Sequence[float], image_size: Sequence[int], name: str = "",
+                  sensor: dict[str, float] | None = None) -> Camera:
+        """From Tsai's parameters (lengths in millimetres, angles in radians).
+
+        Tsai's model: ``X_cam = R(rx, ry, rz) X_world + T``; ``X_u = f X_cam / Z_cam`` on the
+        sensor (mm); ``X_u = X_d (1 + kappa1 r_d^2)``; pixel ``x = sx X_d / dpx + cx``,
+        ``y = Y_d / dpy + cy``. Hence ``fx = sx f / dpx``, ``fy = f / dpy`` and, on normalised
+        coordinates, ``kappa1_norm = kappa1 f^2``. ``sensor`` (dpx, dpy, dx, dy, ncx, nfx) is kept
+        in ``metadata["tsai_sensor"]`` so the file can be written back as it was.
+        """
+        fx = sx * focal_mm / dpx_mm
+        fy = focal_mm / dpy_mm
+        R = tsai_rotation(rx, ry, rz)
+        t = np.asarray(t_mm, dtype=np.float64) / 1000.0
+        meta = {"tsai_sensor": {"dpx": float(dpx_mm), "dpy": float(dpy_mm), **(sensor or {})}}
+        return cls.from_pinhole(fx, fy, cx_px, cy_px, R, t, image_size,
+                                TsaiDistortion(kappa1_per_mm2 * focal_mm**2), name=name,
+                                metadata=meta)
+
+    def tsai_parameters(self) -> dict[str, Any]:
+        """Tsai's parameters of this camera (mm, radians), the inverse of :meth:`from_tsai`.
+
+        The sensor pitch (dpx, dpy) does not change the projection; it is taken from
+        ``metadata["tsai_sensor"]`` or, when absent, set to 0.01 mm with ncx = nfx = width.
+
+        Raises
+        ------
+        ValueError
+            If the lens is not Tsai's or none, or K has a skew (Tsai's model holds neither).
+        """
+        if not isinstance(self.distortion, (TsaiDistortion, NoDistortion)):
+            raise ValueError(f"camera {self.name!r}: Tsai's model cannot hold a "
+                             f"{self.distortion.model} lens; convert it first "
+                             "(pftrack.geometry.formats.convert_camera)")
+        if self.K[0, 1] != 0:
+            raise ValueError(f"camera {self.name!r}: Tsai's model cannot hold a skew "
+                             f"({self.K[0, 1]})")
+        sensor = dict(self.metadata.get("tsai_sensor") or {})
+        dpy = float(sensor.get("dpy", 0.01))
+        dpx = float(sensor.get("dpx", dpy))
+        focal = self.fy * dpy
+        sx = self.fx * dpx / focal
+        kappa = getattr(self.distortion, "kappa1", 0.0) / focal**2
+        rx, ry, rz = tsai_angles(self.R)
+        w, _ = self.image_size
+        return {
+            "focal_mm": focal, "kappa1_per_mm2": kappa, "sx": sx, "cx_px": self.cx,
+            "cy_px": self.cy, "rx": rx, "ry": ry, "rz": rz, "t_mm": (self.t_m * 1000.0).tolist(),
+            "dpx_mm": dpx, "dpy_mm": dpy, "dx_mm": float(sensor.get("dx", dpx)),
+            "dy_mm": float(sensor.get("dy", dpy)), "ncx": float(sensor.get("ncx", w)),
+            "nfx": float(sensor.get("nfx", w)),
+        }
+
+    # ---- plain properties ---------------------------------------------------------------
+
+    @property
+    def fx(self) -> float:
+        return float(self.K[0, 0])
+
+    @property
+    def fy(self) -> float:
+        return float(self.K[1, 1])
+
+    @property
+    def cx(self) -> float:
+        return float(self.K[0, 2])
+
+    @property
+    def cy(self) -> float:
+        return float(self.K[1, 2])
+
+    @property
+    def width(self) -> int:
+        return self.image_size[0]
+
+    @property
+    def height(self) -> int:
+        return self.image_size[1]
+
+    @property
+    def center_m(self) -> np.ndarray:
+        """Camera (projection centre) position in the world, metres, shape (3,)."""
+        return -self.R.T @ self.t_m
+
+    @property
+    def optical_axis(self) -> np.ndarray:
+        """Unit viewing direction in the world frame, shape (3,)."""
+        return self.R[2].copy()
+
+    @property
+    def rvec(self) -> np.ndarray:
+        """Rodrigues rotation vector of R (OpenCV's rvec), shape (3,)."""
+        import cv2
+
+        return cv2.Rodrigues(self.R)[0].ravel()
+
+    def copy(self) -> Camera:
+        return copy.deepcopy(self)
+
+    def with_distortion(self, distortion: LensDistortion, K: Any = None) -> Camera:
+        """A copy with another lens model (and optionally another K)."""
+        return Camera(self.K if K is None else K, self.R, self.t_m, self.image_size,
+                      distortion, name=self.name, metadata=copy.deepcopy(self.metadata))
+
+    def __repr__(self) -> str:
+        c = self.center_m
+        return (f"Camera({self.name!r}, {self.width}x{self.height}, fx={self.fx:.2f}, "
+                f"fy={self.fy:.2f}, c=({self.cx:.1f}, {self.cy:.1f}), {self.distortion!r}, "
+                f"centre_m=({c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f}))")
+
+    def __eq__(self, other: object) -> bool:
+        return (isinstance(other, Camera) and np.array_equal(self.K, other.K)
+                and np.array_equal(self.R, other.R) and np.array_equal(self.t_m, other.t_m)
+                and self.image_size == other.image_size and self.distortion == other.distortion)
+
+    # ---- forward: world -> pixels -------------------------------------------------------
+
+    def world_to_camera(self, points_world_m: Any) -> np.ndarray:
+        """World points (N, 3) m -> camera-frame points (N, 3) m."""
+        p = _as_points(points_world_m, 3, "points_world_m")
+        return p @ self.R.T + self.t_m
+
+    def depth(self, points_world_m: Any) -> np.ndarray:
+        """Depth along the optical axis (camera z), metres, shape (N,); negative = behind."""
+        p = _as_points(points_world_m, 3, "points_world_m")
+        return p @ self.R[2] + self.t_m[2]
+
+    def in_front(self, points_world_m: Any, min_depth_m: float = 1e-6) -> np.ndarray:
+        """Boolean (N,): the point lies in front of the camera (depth > ``min_depth_m``)."""
+        return self.depth(points_world_m) > min_depth_m
+
+    def normalized_to_pixels(self, xy_u: np.ndarray) -> np.ndarray:
+        """Ideal normalised coordinates (N, 2) -> pixels (N, 2), applying the lens."""
+        xd = self.distortion.distort(xy_u)
+        u = self.K[0, 0] * xd[:, 0] + self.K[0, 1] * xd[:, 1] + self.K[0, 2]
+        v = self.K[1, 1] * xd[:, 1] + self.K[1, 2]
+        return np.stack([u, v], axis=1)
+
+    def pixels_to_normalized(self, pixels: Any) -> np.ndarray:
+        """Pixels (N, 2) -> ideal (undistorted) normalised coordinates (N, 2)."""
+        px = _as_points(pixels, 2, "pixels")
+        yd = (px[:, 1] - self.K[1, 2]) / self.K[1, 1]
+        xd = (px[:, 0] - self.K[0, 2] - self.K[0, 1] * yd) / self.K[0, 0]
+        return self.distortion.undistort(np.stack([xd, yd], axis=1))
+
+    def project(self, points_world_m: Any) -> np.ndarray:
+        """World points (N, 3) in metres -> pixel coordinates (N, 2).
+
+        Rows for points at or behind the camera's centre plane are NaN.
+        """
+        pc = self.world_to_camera(points_world_m)
+        z = pc[:, 2]
+        front = z > 1e-9
+        zs = np.where(front, z, 1.0)
+        xy = pc[:, :2] / zs[:, None]
+        px = self.normalized_to_pixels(xy)
+        px[~front] = np.nan
+        return px
+
+    def in_image(self, pixels: Any, margin_px: float = 0.0) -> np.ndarray:
+        """Boolean (N,): pixel lies inside the image (pixel centres 0..w-1, 0..h-1), with a margin
+        (positive: that far inside; negative: allows that much outside). NaN -> False."""
+        px = _as_points(pixels, 2, "pixels")
+        w, h = self.image_size
+        lo = -0.5 + margin_px
+        return ((px[:, 0] >= lo) & (px[:, 0] <= w - 0.5 - margin_px)
+                & (px[:, 1] >= lo) & (px[:, 1] <= h - 0.5 - margin_px))
+
+    def visible(self, points_world_m: Any, margin_px: float = 0.0) -> np.ndarray:
+        """Boolean (N,): in front of the camera and projecting inside the image."""
+        return self.in_image(self.project(points_world_m), margin_px)
+
+    # ---- inverse: pixels -> rays / planes -----------------------------------------------
+
+    def rays(self, pixels: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Viewing rays of pixels.
+
+        Returns
+        -------
+        origins : ndarray, shape (N, 3)
+            The camera centre in world metres (the same row repeated).
+        directions : ndarray, shape (N, 3)
+            Unit directions in the world frame, pointing away from the camera into the scene.
+        """
+        xy = self.pixels_to_normalized(pixels)
+        dc = np.concatenate([xy, np.ones((xy.shape[0], 1))], axis=1)
+        dw = dc @ self.R  # R.T @ d for each row
+        dw /= np.linalg.norm(dw, axis=1, keepdims=True)
+        origins = np.broadcast_to(self.center_m, dw.shape).copy()
+        return origins, dw
+
+    def image_to_plane(self, pixels: Any,
+                       plane: tuple[Sequence[float], float] = ((0.0, 0.0, 1.0), 0.0)) -> np.ndarray:
+        """Back-project pixels onto the world plane ``{X : n . X = d}``.
+
+        Parameters
+        ----------
+        pixels : array_like, shape (N, 2)
+        plane : (normal (3,), d)
+            Plane normal (any length) and offset in metres; default the ground z = 0.
+
+        Returns
+        -------
+        ndarray, shape (N, 3)
+            World points in metres; NaN where the ray is parallel to the plane or meets it
+            behind the camera.
+        """
+        n = np.asarray(plane[0], dtype=np.float64).reshape(3)
+        norm = np.linalg.norm(n)
+        if norm == 0:
+            raise ValueError("image_to_plane: plane normal is zero")
+        n, d = n / norm, float(plane[1]) / norm
+        o, dirs = self.rays(pixels)
+        denom = dirs @ n
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = (d - o @ n) / denom
+        s[~(np.abs(denom) > 1e-12) | ~(s > 0)] = np.nan
+        return o + s[:, None] * dirs
+
+    def image_to_ground(self, pixels: Any, z_m: float = 0.0) -> np.ndarray:
+        """Back-project pixels onto the horizontal plane z = ``z_m`` (metres), shape (N, 3)."""
+        return self.image_to_plane(pixels, ((0.0, 0.0, 1.0), z_m))
