@@ -268,7 +268,9 @@ def camera_to_dict(camera: Camera) -> dict[str, Any]:
         "t_m": _floats(camera.t_m),
         "distortion": camera.distortion.to_dict(),
     }
-    meta = {k: v for k, v in camera.metadata.items() if k != "source"}
+    meta = {k: v for k, v in camera.metadata.items() if k not in ("source", "notes")}
+    if camera.metadata.get("notes"):
+        d["notes"] = str(camera.metadata["notes"])
     if meta:
         d["metadata"] = json.loads(json.dumps(meta, default=float))
     return d
@@ -317,6 +319,8 @@ def camera_from_dict(d: dict[str, Any], where: str = "camera") -> Camera:
         raise ValueError(f"{where}: no 'image_size' [width, height]")
     name = str(d.get("name") or Path(where).stem)
     meta = dict(d.get("metadata") or {})
+    if d.get("notes"):
+        meta["notes"] = str(d["notes"])
     if "tsai" in d:
         if any(k in d for k in ("K", "R", "t_m", "distortion")):
             raise ValueError(f"{where}: give either a 'tsai' block or K/R/t_m/distortion")
