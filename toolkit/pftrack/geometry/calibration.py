@@ -52,6 +52,8 @@ __all__ = [
     "rotation_angle_deg",
     "soccer_pitch_keypoints",
     "read_correspondences",
+    "read_mot_world",
+    "check_against_mot",
 ]
 
 
@@ -548,6 +550,73 @@ def calibrate_points(points_world_m: Any, pixels: Any, image_size: Sequence[int]
     rms = float(np.sqrt(np.mean(np.sum(res**2, axis=1))))
     cam.metadata["calibration"] = {"method": desc, "points": int(len(X)), "rms_px": rms}
     return CalibrationResult(cam, rms, res, desc, notes=notes)
+
+
+# --------------------------------------------------------------------------------------------
+# Checking a camera against ground truth with world positions
+# --------------------------------------------------------------------------------------------
+
+
+def read_mot_world(path: str | os.PathLike[str], flagged_only: bool = False
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Foot points and world positions from a MOTChallenge file with world columns.
+
+    Rows: ``frame, id, left, top, width, height, flag, x, y, z`` (pixels, metres). Rows whose
+    world columns are all -1 (MOTChallenge's "unknown") are skipped.
+
+    Returns
+    -------
+    foot_px : ndarray, shape (N, 2)
+        Bottom centre of each box, ``(left + width / 2, top + height)``.
+    world_m : ndarray, shape (N, 3)
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise FileNotFoundError(f"ground-truth file {p} not found")
+    try:
+        a = np.loadtxt(p, delimiter=",", ndmin=2)
+    except ValueError as exc:
+        raise ValueError(f"{p}: not a numeric MOTChallenge CSV: {exc}") from None
+    if a.shape[1] < 10:
+        raise ValueError(f"{p}: needs 10 columns (frame,id,left,top,width,height,flag,x,y,z) "
+                         f"with world positions; has {a.shape[1]}")
+    keep = ~np.all(a[:, 7:10] == -1, axis=1) & np.all(np.isfinite(a[:, 7:10]), axis=1)
+    if flagged_only:
+        keep &= a[:, 6] != 0
+    a = a[keep]
+    if len(a) == 0:
+        raise ValueError(f"{p}: no rows with world positions")
+    foot = np.stack([a[:, 2] + a[:, 4] / 2, a[:, 3] + a[:, 5]], axis=1)
+    return foot, a[:, 7:10].copy()
+
+
+def check_against_mot(camera: Camera, gt_path: str | os.PathLike[str],
+                      flagged_only: bool = False) -> dict[str, Any]:
+    """Compare a camera with a ground truth's world positions (metres, on z = 0).
+
+    Projects the world positions and measures the pixel distance to the boxes' foot points;
+    back-projects the foot points onto z = 0 and measures the ground distance (metres) to the
+    world positions. Returns the JSON-ready figures (``points``, ``median_px``, ``p90_px``,
+    ``max_px``, ``backprojection_median_m``, ``backprojection_p90_m``, ...).
+    """
+    foot, world = read_mot_world(gt_path, flagged_only)
+    e_px = np.linalg.norm(camera.project(world) - foot, axis=1)
+    back = camera.image_to_ground(foot, 0.0)
+    e_m = np.linalg.norm(back[:, :2] - world[:, :2], axis=1)
+    n_bad = int(np.sum(~np.isfinite(e_px)) + np.sum(~np.isfinite(e_m)))
+    e_px, e_m = e_px[np.isfinite(e_px)], e_m[np.isfinite(e_m)]
+    if len(e_px) == 0:
+        raise ValueError(f"{gt_path}: no world position projects in front of camera "
+                         f"{camera.name!r}")
+    return {
+        "points": int(len(foot)),
+        "median_px": float(np.median(e_px)), "p90_px": float(np.percentile(e_px, 90)),
+        "max_px": float(e_px.max()), "mean_px": float(e_px.mean()),
+        "backprojection_median_m": float(np.median(e_m)) if len(e_m) else math.nan,
+        "backprojection_p90_m": float(np.percentile(e_m, 90)) if len(e_m) else math.nan,
+        "backprojection_max_m": float(e_m.max()) if len(e_m) else math.nan,
+        "not_projectable": n_bad,
+    }
 
 
 # --------------------------------------------------------------------------------------------

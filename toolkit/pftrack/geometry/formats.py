@@ -143,11 +143,27 @@ def _normalized_pairs(camera: Camera, step_px: float) -> tuple[np.ndarray, np.nd
     return d, camera.distortion.undistort(d)
 
 
-def _fit_opencv(camera: Camera, step_px: float) -> OpenCVDistortion:
-    """Least-squares (k1, k2, p1, p2, k3), same K, in pixel units (the model is linear in them)."""
+def _fit_opencv(camera: Camera, step_px: float, rational: bool = False) -> OpenCVDistortion:
+    """Least-squares OpenCV lens with the same K.
+
+    Standard model: (k1, k2, p1, p2, k3), linear in the coefficients, solved in pixel units.
+    Rational model (``rational=True``): (k1, k2, k3) / (k4, k5, k6), no tangential terms, solved
+    linearly on the cross-multiplied (algebraic) form ``d (1 + k4 r^2 + ...) = u (1 + k1 r^2 +
+    ...)``, scaled to pixels.
+    """
     d, u = _normalized_pairs(camera, step_px)
     x, y = u[:, 0], u[:, 1]
     r2 = x * x + y * y
+    if rational:
+        cols = []
+        for c in (0, 1):
+            uc, dc = u[:, c], d[:, c]
+            cols.append(np.stack([uc * r2, uc * r2**2, uc * r2**3,
+                                  -dc * r2, -dc * r2**2, -dc * r2**3], axis=1))
+        A = np.concatenate([cols[0] * camera.fx, cols[1] * camera.fy])
+        b = np.concatenate([(d[:, 0] - x) * camera.fx, (d[:, 1] - y) * camera.fy])
+        k, *_ = np.linalg.lstsq(A, b, rcond=None)
+        return OpenCVDistortion(k[0], k[1], 0.0, 0.0, k[2], k[3], k[4], k[5])
     ax = np.stack([x * r2, x * r2**2, 2 * x * y, r2 + 2 * x * x, x * r2**3], axis=1)
     ay = np.stack([y * r2, y * r2**2, r2 + 2 * y * y, 2 * x * y, y * r2**3], axis=1)
     A = np.concatenate([ax * camera.fx, ay * camera.fy])
@@ -179,7 +195,8 @@ def _fit_pinhole(camera: Camera, step_px: float) -> np.ndarray:
 
 
 def convert_camera(camera: Camera, target: str, fit_step_px: float = 16.0,
-                   check_step_px: float = 4.0) -> tuple[Camera, ConversionReport]:
+                   check_step_px: float = 4.0, opencv_model: str = "auto",
+                   rational_above_px: float = 0.05) -> tuple[Camera, ConversionReport]:
     """The camera as ``target`` (a format name, or a lens model ``none``/``opencv``/``tsai``)
     can hold it, and a report of what changed.
 
@@ -187,6 +204,11 @@ def convert_camera(camera: Camera, target: str, fit_step_px: float = 16.0,
     (``fit_step_px``): Tsai -> OpenCV fits (k1, k2, p1, p2, k3) with K unchanged; OpenCV -> Tsai
     fits kappa1; any -> pinhole (Open3D, model ``none``) fits fx, fy, cx, cy (and skew if any).
     The residual is measured on a finer grid (``check_step_px``), see :class:`ConversionReport`.
+
+    ``opencv_model``: ``"standard"`` (5 coefficients), ``"rational"`` (8, OpenCV's
+    ``CALIB_RATIONAL_MODEL``) or ``"auto"``: the standard fit unless its residual exceeds
+    ``rational_above_px`` and the rational one does better (a strong Tsai lens, such as seed 001's
+    kappa1 = 0.36, leaves ~16 px with 5 coefficients and ~0.001 px with 8).
 
     Raises
     ------
@@ -209,10 +231,24 @@ def convert_camera(camera: Camera, target: str, fit_step_px: float = 16.0,
                                          (OpenCVDistortion() if "opencv" in holds
                                           else TsaiDistortion()))
         elif "opencv" in holds:
-            lens = _fit_opencv(camera, fit_step_px)
+            if opencv_model not in ("auto", "standard", "rational"):
+                raise ValueError(f"opencv_model must be auto, standard or rational, got "
+                                 f"{opencv_model!r}")
+            lens = _fit_opencv(camera, fit_step_px, rational=opencv_model == "rational")
             out = camera.with_distortion(lens)
+            if opencv_model == "auto":
+                res_std = projection_residual(camera, out, check_step_px)[0]
+                if res_std > rational_above_px:
+                    lens_r = _fit_opencv(camera, fit_step_px, rational=True)
+                    out_r = camera.with_distortion(lens_r)
+                    res_r = projection_residual(camera, out_r, check_step_px)[0]
+                    if res_r < res_std:
+                        report.lost.append(f"the 5-coefficient OpenCV fit leaves {res_std:.3f} px;"
+                                           " using OpenCV's rational model (8 coefficients)")
+                        lens, out = lens_r, out_r
+            names = "(k1, k2, p1, p2, k3" + (", k4, k5, k6)" if lens.coeffs.size == 8 else ")")
             report.lost.append(f"{target} cannot hold Tsai's radial model: refitted as OpenCV "
-                               f"(k1, k2, p1, p2, k3) = {lens.coeffs.round(8).tolist()}")
+                               f"{names} = {lens.coeffs.round(8).tolist()}")
             report.fitted = lens.to_dict()
         elif "tsai" in holds:
             lens = _fit_tsai(camera, fit_step_px)
