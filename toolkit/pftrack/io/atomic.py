@@ -23,9 +23,11 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
                                dir=path.parent)
     os.close(fd)
     tmp_path = Path(tmp)
+    # start from no file at all, so that a writer that silently writes nothing is caught
+    tmp_path.unlink()
     try:
         yield tmp_path
-        if not tmp_path.exists() or tmp_path.stat().st_size == 0:
+        if not tmp_path.exists():
             raise OSError(f"nothing was written for {path}")
         os.replace(tmp_path, path)
     finally:
