@@ -126,3 +126,12 @@ def test_seqinfo_reads_motchallenge_file_and_rejects_bad_ones(tmp_path):
         read_seqinfo(p)
     with pytest.raises(FileNotFoundError, match="missing.ini"):
         read_seqinfo(tmp_path / "missing.ini")
+
+
+def test_empty_tracks_round_trip_as_an_empty_file(tmp_path):
+    from pftrack.io.mot import read_mot, write_mot
+
+    p = tmp_path / "tracks.txt"
+    write_mot(p, np.zeros((0, 10)))
+    assert p.exists() and p.stat().st_size == 0
+    assert read_mot(p).shape == (0, 10)

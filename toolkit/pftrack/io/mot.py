@@ -196,10 +196,8 @@ def write_mot(path: str | os.PathLike[str], rows: np.ndarray) -> Path:
     arr = validate_mot_rows(rows, name=str(path))
     buf = io.StringIO()
     np.savetxt(buf, arr, fmt=["%d", "%d"] + ["%.10g"] * 8, delimiter=",")
-    text = buf.getvalue()
-    if not text:
-        raise ValueError(f"{path}: refusing to write an empty MOT file (no rows)")
-    return atomic_write_text(path, text)
+    # no rows -> an empty file: a tracker that found nothing still leaves its (empty) output
+    return atomic_write_text(path, buf.getvalue())
 
 
 @dataclass(frozen=True)
