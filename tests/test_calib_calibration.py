@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from pftrack.data import REPO_ROOT, data_dir
 from pftrack.geometry.calibration import (
     calibrate_chessboard,
@@ -156,7 +155,7 @@ def test_points_coplanar_off_the_ground_plane():
 
 
 def test_points_input_errors(tmp_path):
-    cam, X, x = _soccer_truth()
+    _, X, x = _soccer_truth()
     with pytest.raises(ValueError, match="same N"):
         calibrate_points(X, x[:-1], (1280, 720))
     with pytest.raises(ValueError, match=">= 6"):

@@ -6,7 +6,6 @@ import json
 
 import numpy as np
 import pytest
-
 from pftrack.cli import main
 from pftrack.data import REPO_ROOT, data_dir, data_path
 from pftrack.geometry.calibration import rotation_angle_deg, soccer_pitch_keypoints

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from pftrack.data import REPO_ROOT, data_path
 from pftrack.geometry.calibration import check_against_mot, read_mot_world
 from pftrack.geometry.camera import Camera, NoDistortion, OpenCVDistortion, TsaiDistortion
@@ -66,7 +65,7 @@ def test_pets_camera_lands_on_ground_truth_foot_points(pets):
 def test_pets_round_trip_through_every_format(tmp_path, pets, pets_points, fmt):
     # done-when 2: exact formats change no projection by more than 1e-6 px; the others by no
     # more than the residual the conversion reports.
-    foot, world = pets_points
+    _, world = pets_points
     path = tmp_path / SUFFIX[fmt]
     if fmt in ("opencv", "open3d"):
         with pytest.raises(ValueError, match="cannot hold"):
@@ -112,7 +111,7 @@ def test_conversion_residuals_are_what_we_measured(pets):
 
 def test_strong_tsai_lens_goes_rational_in_opencv():
     cam = load_camera(CALIB / "soccer_seed001.yaml")
-    std, rep_std = convert_camera(cam, "opencv", opencv_model="standard")
+    _, rep_std = convert_camera(cam, "opencv", opencv_model="standard")
     auto, rep = convert_camera(cam, "opencv")
     assert rep_std.residual_max_px > 5.0  # 5 coefficients cannot follow kappa1 = 0.36
     assert auto.distortion.coeffs.size == 8 and rep.residual_max_px < 0.01

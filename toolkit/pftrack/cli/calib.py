@@ -168,10 +168,10 @@ def _points(args: argparse.Namespace) -> int:
          "dv_px": float(res.residuals_px[i, 1]), "error_px": float(err[i])}
         for i in range(len(X))]
     out["saved"] = _save(res.camera, args.out, args.format)
-    lines = [f"{res.method}: {len(X)} points, rms {res.rms_px:.4f} px, "
-             f"max {err.max():.4f} px",
-             f"  fx {res.camera.fx:.3f} fy {res.camera.fy:.3f} cx {res.camera.cx:.3f} "
-             f"cy {res.camera.cy:.3f} lens {res.camera.distortion!r}",
+    lines = [(f"{res.method}: {len(X)} points, rms {res.rms_px:.4f} px, "
+              f"max {err.max():.4f} px"),
+             (f"  fx {res.camera.fx:.3f} fy {res.camera.fy:.3f} cx {res.camera.cx:.3f} "
+              f"cy {res.camera.cy:.3f} lens {res.camera.distortion!r}"),
              f"  camera centre (m) {res.camera.center_m.round(3).tolist()}",
              "     i         X         Y         Z         u         v   error_px"]
     lines += [f"  {i:4d} {X[i, 0]:9.3f} {X[i, 1]:9.3f} {X[i, 2]:9.3f} {x[i, 0]:9.2f} "

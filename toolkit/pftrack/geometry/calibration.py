@@ -45,15 +45,15 @@ __all__ = [
     "CalibrationResult",
     "calibrate_chessboard",
     "calibrate_points",
-    "find_chessboard",
+    "check_against_mot",
     "dlt",
+    "find_chessboard",
     "is_coplanar",
+    "read_correspondences",
+    "read_mot_world",
     "reprojection_errors",
     "rotation_angle_deg",
     "soccer_pitch_keypoints",
-    "read_correspondences",
-    "read_mot_world",
-    "check_against_mot",
 ]
 
 
@@ -97,7 +97,7 @@ class CalibrationResult:
         dist = lens.coeffs.tolist() if isinstance(lens, OpenCVDistortion) else \
             [v for v in lens.params().values()]
         return {
-            "method": self.method, "points": int(len(e)), "rms_px": float(self.rms_px),
+            "method": self.method, "points": len(e), "rms_px": float(self.rms_px),
             "median_px": float(np.median(e)) if len(e) else math.nan,
             "max_px": float(e.max()) if len(e) else math.nan,
             "fx": self.camera.fx, "fy": self.camera.fy, "cx": self.camera.cx,
@@ -548,7 +548,7 @@ def calibrate_points(points_world_m: Any, pixels: Any, image_size: Sequence[int]
             notes.append("held fixed: " + ", ".join(fixed))
     res = reprojection_errors(cam, X, x)
     rms = float(np.sqrt(np.mean(np.sum(res**2, axis=1))))
-    cam.metadata["calibration"] = {"method": desc, "points": int(len(X)), "rms_px": rms}
+    cam.metadata["calibration"] = {"method": desc, "points": len(X), "rms_px": rms}
     return CalibrationResult(cam, rms, res, desc, notes=notes)
 
 
@@ -609,7 +609,7 @@ def check_against_mot(camera: Camera, gt_path: str | os.PathLike[str],
         raise ValueError(f"{gt_path}: no world position projects in front of camera "
                          f"{camera.name!r}")
     return {
-        "points": int(len(foot)),
+        "points": len(foot),
         "median_px": float(np.median(e_px)), "p90_px": float(np.percentile(e_px, 90)),
         "max_px": float(e_px.max()), "mean_px": float(e_px.mean()),
         "backprojection_median_m": float(np.median(e_m)) if len(e_m) else math.nan,

@@ -44,9 +44,9 @@ __all__ = [
     "OpenCVDistortion",
     "TsaiDistortion",
     "distortion_from_dict",
-    "tsai_rotation",
-    "tsai_angles",
     "look_at_rotation",
+    "tsai_angles",
+    "tsai_rotation",
 ]
 
 
@@ -407,9 +407,10 @@ class Camera:
             If the lens is not Tsai's or none, or K has a skew (Tsai's model holds neither).
         """
         if not isinstance(self.distortion, (TsaiDistortion, NoDistortion)):
-            raise ValueError(f"camera {self.name!r}: Tsai's model cannot hold a "
-                             f"{self.distortion.model} lens; convert it first "
-                             "(pftrack.geometry.formats.convert_camera)")
+            # ValueError, not TypeError: the CLI reports ValueErrors as one-line user errors
+            raise ValueError(  # noqa: TRY004
+                f"camera {self.name!r}: Tsai's model cannot hold a {self.distortion.model} lens;"
+                " convert it first (pftrack.geometry.formats.convert_camera)")
         if self.K[0, 1] != 0:
             raise ValueError(f"camera {self.name!r}: Tsai's model cannot hold a skew "
                              f"({self.K[0, 1]})")

@@ -45,7 +45,6 @@ import numpy as np
 
 from pftrack.geometry.camera import (
     Camera,
-    LensDistortion,
     NoDistortion,
     OpenCVDistortion,
     TsaiDistortion,
@@ -55,13 +54,13 @@ from pftrack.geometry.camera import (
 __all__ = [
     "FORMATS",
     "ConversionReport",
-    "load_camera",
-    "save_camera",
-    "convert_camera",
-    "camera_to_dict",
     "camera_from_dict",
+    "camera_to_dict",
+    "convert_camera",
     "guess_format",
+    "load_camera",
     "pixel_grid",
+    "save_camera",
 ]
 
 FORMATS = ("pftrack", "tsai", "opencv", "open3d")
@@ -327,7 +326,7 @@ def _tsai_block(block: dict[str, Any], image_size: Any, name: str, where: str) -
             t_mm = np.asarray(b.pop("t_mm"), dtype=np.float64)
         dpx = float(b.pop("dpx_mm"))
         dpy = float(b.pop("dpy_mm", dpx))
-        sensor = {k[:-3] if k.endswith("_mm") else k: float(b.pop(k))
+        sensor = {k.removesuffix("_mm"): float(b.pop(k))
                   for k in ("dx_mm", "dy_mm", "ncx", "nfx") if k in b}
         cam = Camera.from_tsai(
             focal_mm=float(b.pop("focal_mm")), kappa1_per_mm2=float(b.pop("kappa1_per_mm2", 0)),
@@ -344,7 +343,7 @@ def _tsai_block(block: dict[str, Any], image_size: Any, name: str, where: str) -
 def camera_from_dict(d: dict[str, Any], where: str = "camera") -> Camera:
     """Inverse of :func:`camera_to_dict`; also accepts a ``tsai:`` block instead of K/R/t."""
     if not isinstance(d, dict):
-        raise ValueError(f"{where}: expected a mapping, got {type(d).__name__}")
+        raise ValueError(f"{where}: expected a mapping, got {type(d).__name__}")  # noqa: TRY004  # noqa: TRY004
     if d.get("format", _NATIVE_TAG) != _NATIVE_TAG:
         raise ValueError(f"{where}: format is {d.get('format')!r}, expected {_NATIVE_TAG!r}")
     known = {"format", "version", "name", "image_size", "K", "R", "t_m", "distortion",
@@ -601,7 +600,7 @@ def guess_format(path: str | os.PathLike[str], for_writing: bool = False) -> str
         head = p.read_bytes()[:4096].decode("utf-8", errors="replace").lstrip()
         if head.startswith("%YAML:1.") or "!!opencv-matrix" in head or "<opencv_storage>" in head:
             return "opencv"
-        if head.startswith("<?xml") or head.startswith("<Camera"):
+        if head.startswith(("<?xml", "<Camera")):
             return "tsai"
         if head.startswith("{"):
             return "open3d"
