@@ -1,6 +1,21 @@
 """Built-in plugin ``basic``: motion models, a Gaussian likelihood, generic associators and a
 background-subtraction detector. Registered through the ``pftrack`` entry-point group exactly as a
-third-party plugin is."""
+third-party plugin is.
+
+Components (registered name -> class):
+
+* motion: ``random-walk`` :class:`~pftrack_basic.motion.RandomWalkMotion`,
+  ``constant-velocity-2d`` / ``constant-velocity-3d``
+  :class:`~pftrack_basic.motion.ConstantVelocity2DMotion` / ``...3DMotion``,
+  ``constant-acceleration`` :class:`~pftrack_basic.motion.ConstantAccelerationMotion`;
+* likelihood: ``gaussian`` :class:`~pftrack_basic.gaussian.GaussianLikelihood`;
+* associator: ``hungarian-iou`` :class:`~pftrack_basic.association.HungarianIoUAssociator`,
+  ``greedy-iou`` :class:`~pftrack_basic.association.GreedyIoUAssociator`;
+* detector: ``mog2`` :class:`~pftrack_basic.background.BackgroundSubtractionDetector`.
+
+Only this module is imported when the host loads the plugin; the component modules are light
+(numpy only; scipy and OpenCV are imported inside the methods that need them).
+"""
 
 from __future__ import annotations
 
@@ -11,19 +26,36 @@ __version__ = "0.1.0"
 
 @hookimpl
 def pftrack_register_motion_models(register):
-    pass
+    from pftrack_basic.motion import (
+        ConstantAccelerationMotion,
+        ConstantVelocity2DMotion,
+        ConstantVelocity3DMotion,
+        RandomWalkMotion,
+    )
+
+    register("random-walk", RandomWalkMotion)
+    register("constant-velocity-2d", ConstantVelocity2DMotion)
+    register("constant-velocity-3d", ConstantVelocity3DMotion)
+    register("constant-acceleration", ConstantAccelerationMotion)
 
 
 @hookimpl
 def pftrack_register_likelihoods(register):
-    pass
+    from pftrack_basic.gaussian import GaussianLikelihood
+
+    register("gaussian", GaussianLikelihood)
 
 
 @hookimpl
 def pftrack_register_associators(register):
-    pass
+    from pftrack_basic.association import GreedyIoUAssociator, HungarianIoUAssociator
+
+    register("hungarian-iou", HungarianIoUAssociator)
+    register("greedy-iou", GreedyIoUAssociator)
 
 
 @hookimpl
 def pftrack_register_detectors(register):
-    pass
+    from pftrack_basic.background import BackgroundSubtractionDetector
+
+    register("mog2", BackgroundSubtractionDetector)

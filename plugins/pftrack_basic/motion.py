@@ -1,0 +1,304 @@
+"""Kinematic motion models: random walk, constant velocity (2-D, 3-D) and adaptive constant
+acceleration, vectorised over particles.
+
+Each model maps particle states ``(N, D)`` to new states ``(N, D)`` given a time step ``dt`` and a
+``numpy.random.Generator``; none touches global random state or modifies its input.
+
+Noise is given per unit of ``dt`` and scaled by ``sqrt(dt)`` (a Wiener process), so ``dt = 1``
+(one frame) draws exactly the stated standard deviation.
+
+Models
+------
+:class:`RandomWalkMotion` (``random-walk``)
+    Seed 000: the box centre ``(x, y)`` in pixels moves by Gaussian noise only.
+:class:`ConstantVelocity2DMotion`, :class:`ConstantVelocity3DMotion`
+(``constant-velocity-2d``, ``constant-velocity-3d``)
+    Seed 003 eq. 5-7: ``x_t = F x_{t-1} + W`` with the velocity taken as the displacement just made
+    (eq. 7), state ``(x, y[, z], vx, vy[, vz])``.
+:class:`ConstantAccelerationMotion` (``constant-acceleration``)
+    Seed 001 eq. 1-2: state ``[p_x, p_y, v_x, v_y, a_x, a_y]``, ``x_t = C x_{t-dt} + noise`` with
+    adaptive noise: the position noise grows with the target's size, the velocity and acceleration
+    noise *variances* are inversely proportional to the number of consecutive tracked frames.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pftrack.components import MotionModel, Target
+
+__all__ = [
+    "RandomWalkMotion",
+    "ConstantVelocity2DMotion",
+    "ConstantVelocity3DMotion",
+    "ConstantAccelerationMotion",
+]
+
+
+def _check_states(model: MotionModel, states: np.ndarray) -> np.ndarray:
+    s = np.asarray(states, dtype=np.float64)
+    d = model.state_dim
+    if s.ndim != 2 or s.shape[1] != d:
+        raise ValueError(f"{type(model).__name__}.predict: states must have shape (N, {d}), "
+                         f"got {s.shape}")
+    return s
+
+
+def _check_dt(model: MotionModel, dt: float) -> float:
+    dt = float(dt)
+    if not np.isfinite(dt) or dt < 0:
+        raise ValueError(f"{type(model).__name__}.predict: dt must be finite and >= 0, got {dt}")
+    return dt
+
+
+def _axis_std(model: MotionModel, param: str, n_axes: int) -> np.ndarray:
+    """A noise parameter (float, or one value per axis) as an (n_axes,) array, validated."""
+    raw = getattr(model, param)
+    try:
+        std = np.broadcast_to(np.asarray(raw, dtype=np.float64), (n_axes,)).copy()
+    except ValueError:
+        raise ValueError(f"{type(model).__name__}: {param} must be a number or {n_axes} numbers, "
+                         f"got {raw!r}") from None
+    if not np.all(np.isfinite(std)) or np.any(std < 0):
+        raise ValueError(f"{type(model).__name__}: {param} must be finite and >= 0, got {raw!r}")
+    return std
+
+
+def _init_states(model: MotionModel, position: np.ndarray, n: int, rng: np.random.Generator,
+                 spread: float | np.ndarray) -> np.ndarray:
+    """``n`` states: Gaussian around ``position`` on the position dims, zero elsewhere.
+
+    ``spread`` is a standard deviation: a number, one per position axis (P,), or one per state
+    axis (D,) to spread the derivatives too.
+    """
+    d = model.state_dim
+    pos_dims = list(model.position_dims)
+    p = np.asarray(position, dtype=np.float64).reshape(-1)
+    if p.shape != (len(pos_dims),):
+        raise ValueError(f"{type(model).__name__}.init_states: position must have "
+                         f"{len(pos_dims)} values, got shape {np.shape(position)}")
+    n = int(n)
+    if n < 0:
+        raise ValueError(f"{type(model).__name__}.init_states: n must be >= 0, got {n}")
+    sp = np.asarray(spread, dtype=np.float64).reshape(-1)
+    scale = np.zeros(d)
+    if sp.size == d and d != len(pos_dims):
+        scale[:] = sp
+    elif sp.size in (1, len(pos_dims)):
+        scale[pos_dims] = sp
+    else:
+        raise ValueError(f"{type(model).__name__}.init_states: spread must be a number, "
+                         f"{len(pos_dims)} or {d} numbers, got shape {np.shape(spread)}")
+    if not np.all(np.isfinite(scale)) or np.any(scale < 0):
+        raise ValueError(f"{type(model).__name__}.init_states: spread must be finite and >= 0, "
+                         f"got {spread!r}")
+    out = rng.standard_normal((n, d))
+    out *= scale
+    out[:, pos_dims] += p
+    return out
+
+
+class RandomWalkMotion(MotionModel):
+    """Gaussian random walk of the box centre in the image plane (seed 000).
+
+    State ``(x, y)``: box centre in pixels. Each step adds independent ``N(0, sigma_px^2 dt)``
+    noise to each coordinate; ``dt`` is in frames.
+
+    Parameters
+    ----------
+    sigma_px : float or (2,) floats
+        Noise standard deviation per frame, pixels (per axis when two values).
+    """
+
+    def __init__(self, sigma_px: float | tuple[float, float] = 3.0) -> None:
+        self.sigma_px = sigma_px
+
+    @property
+    def state_dim(self) -> int:
+        return 2
+
+    def predict(self, states: np.ndarray, dt: float, rng: np.random.Generator,
+                target: Target | None = None) -> np.ndarray:
+        s = _check_states(self, states)
+        dt = _check_dt(self, dt)
+        std = _axis_std(self, "sigma_px", 2) * np.sqrt(dt)
+        out = rng.standard_normal(s.shape)
+        out *= std
+        out += s
+        return out
+
+    def init_states(self, position: np.ndarray, n: int, rng: np.random.Generator,
+                    spread: float | np.ndarray = 1.0) -> np.ndarray:
+        return _init_states(self, position, n, rng, spread)
+
+
+class _ConstantVelocityMotion(MotionModel):
+    """Constant velocity in ``_ndim`` dimensions (seed 003 eq. 5-7).
+
+    State ``(x, y[, z], vx, vy[, vz])``: positions, then velocities in position units per unit of
+    ``dt``. Per step::
+
+        p_t = p_{t-1} + v_{t-1} dt + N(0, position_noise^2 dt)        (eq. 5-6, F with dt)
+        v_t = (p_t - p_{t-1}) / dt + N(0, velocity_noise^2 dt)        (eq. 7 when
+                                                                       velocity_from_displacement)
+
+    With ``velocity_from_displacement=False`` the velocity is carried over instead,
+    ``v_t = v_{t-1} + N(0, velocity_noise^2 dt)`` (the textbook nearly-constant-velocity model).
+
+    Parameters
+    ----------
+    position_noise : float or sequence of float
+        Position noise standard deviation per unit of ``dt`` (per axis when a sequence), in the
+        position unit (pixels or metres).
+    velocity_noise : float or sequence of float
+        Extra velocity noise standard deviation per unit of ``dt``; 0 follows the paper exactly.
+    velocity_from_displacement : bool
+        Seed 003 eq. 7: the new velocity is the displacement just made.
+    """
+
+    _ndim: int = 2
+
+    def __init__(self, position_noise: float | tuple[float, ...] = 1.0,
+                 velocity_noise: float | tuple[float, ...] = 0.0,
+                 velocity_from_displacement: bool = True) -> None:
+        self.position_noise = position_noise
+        self.velocity_noise = velocity_noise
+        self.velocity_from_displacement = velocity_from_displacement
+
+    @property
+    def state_dim(self) -> int:
+        return 2 * self._ndim
+
+    @property
+    def position_dims(self) -> tuple[int, ...]:
+        return tuple(range(self._ndim))
+
+    def predict(self, states: np.ndarray, dt: float, rng: np.random.Generator,
+                target: Target | None = None) -> np.ndarray:
+        s = _check_states(self, states)
+        dt = _check_dt(self, dt)
+        k = self._ndim
+        sq = np.sqrt(dt)
+        std = np.concatenate([_axis_std(self, "position_noise", k),
+                              _axis_std(self, "velocity_noise", k)]) * sq
+        out = rng.standard_normal(s.shape)
+        out *= std
+        pos_noise = out[:, :k]
+        if self.velocity_from_displacement and dt > 0:
+            # displacement = v dt + position noise; the new velocity is displacement / dt
+            out[:, k:] += s[:, k:] + pos_noise / dt
+        else:
+            out[:, k:] += s[:, k:]
+        pos_noise += s[:, :k]
+        pos_noise += s[:, k:] * dt
+        return out
+
+    def init_states(self, position: np.ndarray, n: int, rng: np.random.Generator,
+                    spread: float | np.ndarray = 1.0) -> np.ndarray:
+        return _init_states(self, position, n, rng, spread)
+
+
+class ConstantVelocity2DMotion(_ConstantVelocityMotion):
+    __doc__ = (_ConstantVelocityMotion.__doc__ or "").replace(
+        "in ``_ndim`` dimensions", "in 2-D, state (x, y, vx, vy)")
+    _ndim = 2
+
+
+class ConstantVelocity3DMotion(_ConstantVelocityMotion):
+    __doc__ = (_ConstantVelocityMotion.__doc__ or "").replace(
+        "in ``_ndim`` dimensions", "in 3-D, state (x, y, z, vx, vy, vz)")
+    _ndim = 3
+
+
+class ConstantAccelerationMotion(MotionModel):
+    """Constant acceleration with adaptive noise (seed 001 eq. 1-2).
+
+    State ``x = [p_x, p_y, v_x, v_y, a_x, a_y]`` (eq. 1): position, velocity and acceleration on
+    the ground plane (world metres and seconds for seed 001, or pixels and frames in the image).
+    Transition over ``dt`` (the paper's alpha), eq. 2::
+
+        x_t = C x_{t-dt} + Upsilon,
+        C = [[I, dt I, dt^2/2 I], [0, I, dt I], [0, 0, I]]
+
+    with zero-mean Gaussian noise ``Upsilon = (eps_p, eps_v, eps_a)`` independent per axis. The
+    paper: "the position noise variance sigma_p^2 changes with the size of the target; the velocity
+    and acceleration noise variances sigma_v^2, sigma_a^2 are inversely proportional to the number
+    of consecutive successfully tracked frames", so particles converge the longer a target is
+    tracked. Here, with ``s = target.size_m`` and ``n = max(target.frames_tracked, 1)`` (capped at
+    ``max_frames_tracked`` when given)::
+
+        sigma_p = position_noise * s          (std proportional to the size)
+        sigma_v = velocity_noise / sqrt(n)    (variance proportional to 1 / n)
+        sigma_a = acceleration_noise / sqrt(n)
+
+    each per unit of ``dt`` and scaled by ``sqrt(dt)``. Without a target, ``s = 1`` and ``n = 1``.
+
+    Parameters
+    ----------
+    position_noise : float
+        Position noise std per unit of target size (per unit of ``dt``).
+    velocity_noise : float
+        Velocity noise std for a target tracked for one frame (per unit of ``dt``).
+    acceleration_noise : float
+        Acceleration noise std for a target tracked for one frame (per unit of ``dt``).
+    max_frames_tracked : int, optional
+        Cap on ``n`` so the derivative noise never falls below ``noise / sqrt(cap)``; None (the
+        paper) lets it shrink without bound.
+    """
+
+    def __init__(self, position_noise: float = 0.1, velocity_noise: float = 0.5,
+                 acceleration_noise: float = 0.5, max_frames_tracked: int | None = None) -> None:
+        self.position_noise = position_noise
+        self.velocity_noise = velocity_noise
+        self.acceleration_noise = acceleration_noise
+        self.max_frames_tracked = max_frames_tracked
+
+    @property
+    def state_dim(self) -> int:
+        return 6
+
+    def noise_std(self, dt: float = 1.0, target: Target | None = None) -> np.ndarray:
+        """Noise standard deviations (6,) for one step of ``dt`` given ``target``."""
+        dt = _check_dt(self, dt)
+        size = 1.0 if target is None else float(target.size_m)
+        n = 1 if target is None else max(int(target.frames_tracked), 1)
+        if self.max_frames_tracked is not None:
+            if int(self.max_frames_tracked) < 1:
+                raise ValueError(f"ConstantAccelerationMotion: max_frames_tracked must be >= 1, "
+                                 f"got {self.max_frames_tracked!r}")
+            n = min(n, int(self.max_frames_tracked))
+        if not np.isfinite(size) or size < 0:
+            raise ValueError(f"ConstantAccelerationMotion: target {getattr(target, 'id', '?')} "
+                             f"has size_m={size}; it must be finite and >= 0")
+        p = _axis_std(self, "position_noise", 2) * size
+        v = _axis_std(self, "velocity_noise", 2) / np.sqrt(n)
+        a = _axis_std(self, "acceleration_noise", 2) / np.sqrt(n)
+        return np.concatenate([p, v, a]) * np.sqrt(dt)
+
+    @staticmethod
+    def transition_matrix(dt: float) -> np.ndarray:
+        """C of eq. 2 for a step ``dt``, shape (6, 6)."""
+        i = np.eye(2)
+        z = np.zeros((2, 2))
+        return np.block([[i, dt * i, 0.5 * dt * dt * i], [z, i, dt * i], [z, z, i]])
+
+    def predict(self, states: np.ndarray, dt: float, rng: np.random.Generator,
+                target: Target | None = None) -> np.ndarray:
+        s = _check_states(self, states)
+        std = self.noise_std(dt, target)
+        dt = float(dt)
+        out = rng.standard_normal(s.shape)
+        out *= std
+        # C x written out: cheaper than a (N, 6) @ (6, 6) product and exact in the same way
+        p, v, a = s[:, 0:2], s[:, 2:4], s[:, 4:6]
+        out[:, 0:2] += p
+        out[:, 0:2] += v * dt
+        out[:, 0:2] += a * (0.5 * dt * dt)
+        out[:, 2:4] += v
+        out[:, 2:4] += a * dt
+        out[:, 4:6] += a
+        return out
+
+    def init_states(self, position: np.ndarray, n: int, rng: np.random.Generator,
+                    spread: float | np.ndarray = 1.0) -> np.ndarray:
+        return _init_states(self, position, n, rng, spread)
