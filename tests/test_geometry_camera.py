@@ -195,3 +195,17 @@ def test_vectorised_over_many_points():
     ok = cam.in_image(px)
     back = cam.image_to_ground(px[ok])
     assert np.abs(back - pts[ok]).max() < 1e-6
+
+
+def test_polynomial_lens_does_not_fold_far_points_into_the_image():
+    # k1 < 0: r (1 + k1 r^2) peaks at r = 1 / sqrt(-3 k1); beyond it the polynomial folds back
+    # and a point far off axis would land near the image centre. It must come out as NaN.
+    lens = OpenCVDistortion(k1=-0.05)
+    assert lens.max_radius == pytest.approx(1 / math.sqrt(0.15), abs=2e-3)
+    cam = Camera.look_at([0.0, 0.0, 20.0], [0.0, 150.0, 0.0], (768, 576), fx=600.0,
+                         distortion=lens)
+    # 4.47 rad off axis (77 deg): the polynomial maps it to ~0, the image centre
+    side = cam.center_m + 100.0 * (cam.optical_axis + 4.47 * cam.R[0])
+    px = cam.project(side[None])
+    assert np.isnan(px).all() and not cam.visible(side[None]).any()
+    assert OpenCVDistortion(k1=0.1, k2=0.01).max_radius == math.inf

@@ -209,7 +209,31 @@ class OpenCVDistortion(LensDistortion):
             1 + r2 * (self.k4 + r2 * (self.k5 + r2 * self.k6)))
         xd = x * radial + 2 * self.p1 * x * y + self.p2 * (r2 + 2 * x * x)
         yd = y * radial + self.p1 * (r2 + 2 * y * y) + 2 * self.p2 * x * y
-        return np.stack([xd, yd], axis=1)
+        out = np.stack([xd, yd], axis=1)
+        out[r2 > self.max_radius**2] = np.nan
+        return out
+
+    @property
+    def max_radius(self) -> float:
+        """Undistorted normalised radius up to which the radial map r -> r * radial(r) rises.
+
+        Beyond it a polynomial lens folds back (with k1 < 0, points far outside the field of
+        view would land inside the image), so :meth:`distort` returns NaN there. Searched up to
+        r = 20 (87 degrees off axis); ``inf`` when the map rises all the way.
+        """
+        key = tuple(self.params().values())
+        cached = getattr(self, "_max_radius_cache", None)
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        r = np.linspace(0.0, 20.0, 20001)
+        r2 = r * r
+        num = 1 + r2 * (self.k1 + r2 * (self.k2 + r2 * self.k3))
+        den = 1 + r2 * (self.k4 + r2 * (self.k5 + r2 * self.k6))
+        rd = r * num / den
+        bad = (np.diff(rd) <= 0) | (den[1:] <= 0) | (num[1:] <= 0)
+        limit = float(r[np.argmax(bad)]) if bad.any() else math.inf
+        self._max_radius_cache = (key, limit)
+        return limit
 
     def undistort(self, xy_d: np.ndarray) -> np.ndarray:
         import cv2
