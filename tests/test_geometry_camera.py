@@ -209,3 +209,13 @@ def test_polynomial_lens_does_not_fold_far_points_into_the_image():
     px = cam.project(side[None])
     assert np.isnan(px).all() and not cam.visible(side[None]).any()
     assert OpenCVDistortion(k1=0.1, k2=0.01).max_radius == math.inf
+
+
+def test_resized_camera_sees_the_same_scene_scaled():
+    cam = _camera(TsaiDistortion(0.1))
+    big = cam.resized((1600, 1200))
+    assert big.image_size == (1600, 1200)
+    pts = _ground_grid(cam)
+    np.testing.assert_allclose(big.project(pts), (cam.project(pts) + 0.5) * 2.0 - 0.5,
+                               atol=1e-9)
+    np.testing.assert_allclose(big.center_m, cam.center_m)

@@ -500,6 +500,24 @@ class Camera:
     def copy(self) -> Camera:
         return copy.deepcopy(self)
 
+    def resized(self, image_size: Sequence[int]) -> Camera:
+        """The same camera (same field of view, pose and lens) imaging at another resolution.
+
+        K is scaled per axis about the image's outer edge, so that a point seen at pixel
+        ``(u, v)`` is seen at ``((u + 0.5) * sx - 0.5, (v + 0.5) * sy - 0.5)`` with
+        ``sx = new_w / w``, ``sy = new_h / h`` (OpenCV's pixel-centre convention).
+        """
+        w, h = self.image_size
+        nw, nh = (int(v) for v in image_size)
+        sx, sy = nw / w, nh / h
+        K = self.K.copy()
+        K[0, :2] *= sx
+        K[1, 1] *= sy
+        K[0, 2] = (self.K[0, 2] + 0.5) * sx - 0.5
+        K[1, 2] = (self.K[1, 2] + 0.5) * sy - 0.5
+        return Camera(K, self.R, self.t_m, (nw, nh), copy.deepcopy(self.distortion),
+                      name=self.name, metadata=copy.deepcopy(self.metadata))
+
     def with_distortion(self, distortion: LensDistortion, K: Any = None) -> Camera:
         """A copy with another lens model (and optionally another K)."""
         return Camera(self.K if K is None else K, self.R, self.t_m, self.image_size,
