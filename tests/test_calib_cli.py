@@ -81,7 +81,7 @@ def test_points_cli_round_trip(capsys, tmp_path):
     assert r["points"] == 35 and len(r["residuals"]) == 35
     errs = np.array([p["error_px"] for p in r["residuals"]])
     assert np.sqrt(np.mean(errs**2)) == pytest.approx(r["rms_px"], rel=1e-9)
-    assert 0.4 < r["rms_px"] < 0.8 and r["max_px"] < 2.0
+    assert 0.4 < r["rms_px"] < 0.85 and r["max_px"] < 2.0  # measured 0.766 / 1.715 px
     got = load_camera(out)
     assert np.linalg.norm(got.center_m - truth.center_m) < 0.5
     assert rotation_angle_deg(got.R, truth.R) < 0.2
