@@ -1,0 +1,780 @@
+"""The conformance checks behind :func:`pftrack.testing.check_component`.
+
+Every check exercises the component through its public contract (see :mod:`pftrack.components`)
+on a small seeded synthetic scene, or on the context its ``_conformance_example()`` returns. A run
+of the component's *workflow* (all the calls a tracker would make, for its kind) gives a dict of
+output arrays; the checks compare such runs: twice with one seed, with two seeds, after
+``clone()``, after a pickle round trip, after rebuilding from ``to_config()``.
+"""
+
+from __future__ import annotations
+
+import copy
+import itertools
+import json
+import pickle
+import random
+import traceback
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from pftrack.components import (
+    Assignment,
+    Associator,
+    Component,
+    Detections,
+    Detector,
+    Frame,
+    Likelihood,
+    MotionModel,
+    Scene,
+    Target,
+    _plain,
+)
+from pftrack.testing.synthetic import SyntheticScene, synthetic_scene, target_from_box
+
+__all__ = ["CheckResult", "ConformanceExample", "check_component", "assert_conforms",
+           "CHECKS"]
+
+PASS, FAIL, SKIP = "pass", "fail", "skip"
+
+
+@dataclass
+class CheckResult:
+    """Outcome of one check.
+
+    Attributes
+    ----------
+    check : str
+        Name of the check (one of :data:`CHECKS`).
+    status : {"pass", "fail", "skip"}
+    message : str
+        Why it failed or was skipped; empty when it passed.
+    component : str
+        ``ClassName`` (``registered-name``) of the component checked.
+    """
+
+    check: str
+    status: str
+    message: str = ""
+    component: str = ""
+
+    @property
+    def passed(self) -> bool:
+        return self.status != FAIL
+
+    def __str__(self) -> str:
+        tail = f": {self.message}" if self.message else ""
+        return f"[{self.status}] {self.component} {self.check}{tail}"
+
+
+@dataclass
+class ConformanceExample:
+    """What a component's ``_conformance_example()`` classmethod may return.
+
+    Only ``component`` is required; every other field left as None is filled from the kit's
+    synthetic scene (:func:`pftrack.testing.synthetic.synthetic_scene`).
+
+    Attributes
+    ----------
+    component : Component
+        A configured, fresh instance (not yet fitted or fed frames). The hook is called again for
+        every run, so it must return a new instance each time.
+    frames : list of Frame, optional
+        At least 3 frames (likelihoods and detectors, scenes ignore it).
+    targets : list of Target, optional
+        Targets for likelihoods (the first is scored) and associators (at least one).
+    detections : Detections, optional
+        Detections of ``frames[1]`` for likelihoods and associators.
+    boxes_xywh_px : ndarray (N, 4), optional
+        Particle boxes a likelihood scores; the kit appends boxes partly and wholly outside the
+        image.
+    states : ndarray (N, D), optional
+        Particle states a motion model propagates.
+    position : ndarray (P,), optional
+        Where a motion model's ``init_states`` centres its particles.
+    dt : float
+        Time step for ``predict``.
+    fit_boxes : dict of int -> (K, 4) ndarray, optional
+        Ground truth for ``Detector.fit`` by frame index (a detector that learns).
+    size_m : float
+        ``Target.size_m`` of the target handed to ``MotionModel.predict``.
+    """
+
+    component: Component
+    frames: list[Frame] | None = None
+    targets: list[Target] | None = None
+    detections: Detections | None = None
+    boxes_xywh_px: np.ndarray | None = None
+    states: np.ndarray | None = None
+    position: np.ndarray | None = None
+    dt: float = 1.0
+    fit_boxes: dict[int, np.ndarray] | None = None
+    size_m: float = 1.7
+
+
+CHECKS = (
+    "construct",
+    "init_stores_params",
+    "config_round_trip",
+    "clone",
+    "shapes_dtypes",
+    "empty_input",
+    "inputs_unchanged",
+    "finite_output",
+    "deterministic_same_seed",
+    "different_seeds_differ",
+    "pickle_round_trip",
+    "no_global_random_state",
+)
+
+
+# --------------------------------------------------------------------------------------------
+# Building examples
+# --------------------------------------------------------------------------------------------
+
+
+class _Problem(Exception):
+    """Raised inside a workflow when a contract is broken; ``category`` names the check."""
+
+    def __init__(self, category: str, message: str) -> None:
+        super().__init__(message)
+        self.category = category
+        self.message = message
+
+
+def _describe_exc(exc: BaseException) -> str:
+    tb = traceback.extract_tb(exc.__traceback__)
+    where = f" (at {tb[-1].filename}:{tb[-1].lineno})" if tb else ""
+    return f"{type(exc).__name__}: {exc}{where}"
+
+
+def _make_factory(obj: type[Component] | Component) -> Callable[[], ConformanceExample]:
+    """A function returning a fresh :class:`ConformanceExample` each call."""
+    if isinstance(obj, Component):
+        cls: type[Component] = type(obj)
+        template = obj
+        hook = getattr(cls, "_conformance_example", None)
+
+        def fresh_component() -> Component:
+            try:
+                return copy.deepcopy(template)
+            except Exception:  # noqa: BLE001 - unpicklable native state: fall back on params
+                return template.clone()
+
+        def factory() -> ConformanceExample:
+            ex = _normalise_example(hook(), cls) if hook is not None else ConformanceExample(
+                fresh_component())
+            ex.component = fresh_component()
+            return ex
+
+        return factory
+    if not (isinstance(obj, type) and issubclass(obj, Component)):
+        raise TypeError(f"check_component needs a Component subclass or instance, got {obj!r}")
+    cls = obj
+    hook = getattr(cls, "_conformance_example", None)
+    if hook is not None:
+        return lambda: _normalise_example(hook(), cls)
+    return lambda: ConformanceExample(cls())
+
+
+def _normalise_example(value: Any, cls: type) -> ConformanceExample:
+    if isinstance(value, ConformanceExample):
+        ex = value
+    elif isinstance(value, Component):
+        ex = ConformanceExample(value)
+    elif isinstance(value, tuple) and len(value) == 2 and isinstance(value[1], dict):
+        ex = ConformanceExample(value[0], **value[1])
+    else:
+        raise TypeError(f"{cls.__name__}._conformance_example() must return a component, a "
+                        f"ConformanceExample or (component, dict of context); got {value!r}")
+    if not isinstance(ex.component, cls):
+        raise TypeError(f"{cls.__name__}._conformance_example() returned a "
+                        f"{type(ex.component).__name__}, not a {cls.__name__}")
+    return ex
+
+
+# --------------------------------------------------------------------------------------------
+# Per-kind workflows: run the component as a tracker would, validate, collect outputs
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class _Run:
+    outputs: dict[str, Any] = field(default_factory=dict)
+    problems: list[_Problem] = field(default_factory=list)
+    rng_used: bool = False
+    error: str | None = None  # an exception that stopped the workflow
+
+    def need(self, cond: bool, category: str, message: str) -> None:
+        if not cond:
+            self.problems.append(_Problem(category, message))
+
+
+def _float_array(run: _Run, value: Any, shape: tuple[int, ...], what: str,
+                 category: str = "shapes_dtypes") -> np.ndarray:
+    if not isinstance(value, np.ndarray):
+        run.need(False, category, f"{what} returned {type(value).__name__}, expected an ndarray")
+        value = np.asarray(value)
+    run.need(value.shape == shape, category, f"{what} returned shape {value.shape}, "
+                                             f"expected {shape}")
+    run.need(value.dtype == np.float64, category, f"{what} returned dtype {value.dtype}, "
+                                                  f"expected float64")
+    return value
+
+
+def _scene(ex: ConformanceExample) -> SyntheticScene:
+    return synthetic_scene(seed=0)
+
+
+def _motion_workflow(ex: ConformanceExample, rng: np.random.Generator, run: _Run) -> None:
+    m = ex.component
+    assert isinstance(m, MotionModel)
+    d = m.state_dim
+    run.need(isinstance(d, (int, np.integer)) and d >= 1, "shapes_dtypes",
+             f"state_dim must be a positive int, got {d!r}")
+    d = int(d)
+    pos_dims = tuple(m.position_dims)
+    run.need(len(pos_dims) >= 1 and len(set(pos_dims)) == len(pos_dims)
+             and all(isinstance(i, (int, np.integer)) and 0 <= i < d for i in pos_dims),
+             "shapes_dtypes", f"position_dims {pos_dims!r} must be distinct ints in [0, {d})")
+    p = len(pos_dims)
+    position = (np.arange(1.0, p + 1.0) * 10.0 if ex.position is None
+                else np.asarray(ex.position, dtype=np.float64))
+    kit_rng = np.random.default_rng(20240607)  # inputs do not depend on the seed under test
+    if ex.states is None:
+        states = m.init_states(position, 64, kit_rng, spread=2.0)
+        states = states + kit_rng.normal(0.0, 0.5, states.shape)
+    else:
+        states = np.array(ex.states, dtype=np.float64)
+    n = len(states)
+    target = Target(id=1, state=states.mean(axis=0), box_xywh_px=np.array([10.0, 10.0, 20, 40]),
+                    particles=states.copy(), extent=np.ones(d), frames_tracked=5,
+                    size_m=float(ex.size_m), age=5)
+
+    before = rng.bit_generator.state
+    init = m.init_states(position, 200, rng, spread=1.0)
+    _float_array(run, init, (200, d), "init_states(position, 200, rng)")
+    if init.shape == (200, d):
+        run.need(bool(np.all(np.isfinite(init))), "finite_output",
+                 "init_states returned non-finite values")
+        dev = np.abs(init[:, list(pos_dims)].mean(axis=0) - position)
+        run.need(bool(np.all(dev < 1.0)), "shapes_dtypes",
+                 f"init_states(position={position.tolist()}, spread=1) has position mean "
+                 f"{init[:, list(pos_dims)].mean(axis=0).round(3).tolist()}: the particles "
+                 "are not centred on the position")
+    run.outputs["init_states"] = init
+    init0 = m.init_states(position, 0, rng, spread=1.0)
+    _float_array(run, init0, (0, d), "init_states(position, 0, rng)", "empty_input")
+
+    for label, dt, tgt in (("predict", ex.dt, None), ("predict_target", ex.dt, target),
+                           ("predict_half_dt", 0.5 * ex.dt, target)):
+        inp = states.copy()
+        out = m.predict(inp, dt, rng, target=tgt)
+        _float_array(run, out, (n, d), f"{label.replace('_', ' ')}: predict((N={n}, {d}))")
+        run.need(np.array_equal(inp, states), "inputs_unchanged",
+                 "predict modified its input states in place")
+        if isinstance(out, np.ndarray):
+            run.need(not np.shares_memory(out, inp), "inputs_unchanged",
+                     "predict returned (a view of) its input instead of a new array")
+            run.need(bool(np.all(np.isfinite(out))), "finite_output",
+                     f"predict returned non-finite states ({label})")
+        run.outputs[label] = out
+    out0 = m.predict(np.zeros((0, d)), ex.dt, rng, target=target)
+    _float_array(run, out0, (0, d), "predict on zero particles", "empty_input")
+    run.rng_used = rng.bit_generator.state != before
+
+
+def _likelihood_workflow(ex: ConformanceExample, rng: np.random.Generator, run: _Run) -> None:
+    lik = ex.component
+    assert isinstance(lik, Likelihood)
+    sc = _scene(ex)
+    frames = ex.frames if ex.frames is not None else sc.frames
+    if len(frames) < 3:
+        raise ValueError("the conformance example needs at least 3 frames")
+    targets = ex.targets if ex.targets is not None else sc.targets(frames[0].index)
+    detections = (ex.detections if ex.detections is not None
+                  else sc.detections(frames[1].index) if ex.frames is None else None)
+    w, h = frames[0].size_wh
+    kit_rng = np.random.default_rng(20240607)
+    t0 = targets[0]
+    b0 = np.asarray(t0.box_xywh_px, dtype=np.float64)
+    if ex.boxes_xywh_px is None:
+        centres = b0[:2] + 0.5 * b0[2:] + kit_rng.normal(0.0, 6.0, (48, 2))
+        inside = np.column_stack([centres - 0.5 * b0[2:], np.tile(b0[2:], (48, 1))])
+    else:
+        inside = np.asarray(ex.boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
+    bw, bh = b0[2], b0[3]
+    edge = np.array([
+        [-0.5 * bw, -0.5 * bh, bw, bh],            # over the top-left corner
+        [w - 0.5 * bw, h - 0.5 * bh, bw, bh],      # over the bottom-right corner
+        [-0.5 * bw, 0.5 * h, bw, bh],              # over the left edge
+        [0.3 * w, h - 0.3 * bh, bw, bh],           # over the bottom edge
+        [w + 40.0, h + 40.0, bw, bh],              # wholly outside
+        [-3.0 * bw, 0.2 * h, bw, bh],              # wholly outside, left
+        [-5.0, -5.0, w + 10.0, h + 10.0],          # larger than the image
+        [0.5 * w, 0.5 * h, 1.0, 1.0],              # one pixel
+    ])
+    boxes = np.vstack([inside, edge])
+    n_in = len(inside)
+
+    for t in targets:
+        lik.init_target(frames[0], t)
+    for k, (frame, dets) in enumerate(((frames[1], detections), (frames[2], None))):
+        for t in targets:
+            tb = np.asarray(t.box_xywh_px, dtype=np.float64)
+            shift = np.array([tb[0] - b0[0], tb[1] - b0[1], 0.0, 0.0])
+            t.particle_boxes_xywh_px = boxes + shift if t is not t0 else boxes
+            t.particles = t.particle_boxes_xywh_px[:, :2] + 0.5 * t.particle_boxes_xywh_px[:, 2:]
+        lik.begin_frame(frame, targets, dets)
+        for j, t in enumerate(targets[:2]):
+            inp = t.particle_boxes_xywh_px.copy()
+            ll = lik.log_likelihood(inp, t)
+            tag = f"frame {frame.index} target {t.id}"
+            _float_array(run, ll, (len(boxes),), f"log_likelihood(({len(boxes)}, 4)) [{tag}]")
+            run.need(np.array_equal(inp, t.particle_boxes_xywh_px), "inputs_unchanged",
+                     "log_likelihood modified the boxes it was given")
+            if isinstance(ll, np.ndarray) and ll.shape == (len(boxes),):
+                run.need(not np.any(np.isnan(ll)), "finite_output",
+                         f"log_likelihood returned NaN for particle rows "
+                         f"{np.flatnonzero(np.isnan(ll)).tolist()} [{tag}] (rows >= {n_in} are "
+                         "boxes partly or wholly outside the image)")
+                run.need(not np.any(np.isposinf(ll)), "finite_output",
+                         f"log_likelihood returned +inf [{tag}]")
+            run.outputs[f"log_likelihood_{k}_{j}"] = ll
+        ll0 = lik.log_likelihood(np.zeros((0, 4)), t0)
+        _float_array(run, ll0, (0,), "log_likelihood on zero particles", "empty_input")
+    for t in targets:
+        lik.end_target(t)
+    # the same likelihood must accept a frame with no live target
+    lik.begin_frame(frames[2], [], Detections.empty())
+
+
+def _detector_workflow(ex: ConformanceExample, rng: np.random.Generator, run: _Run) -> None:
+    det = ex.component
+    assert isinstance(det, Detector)
+    sc = _scene(ex)
+    frames = ex.frames if ex.frames is not None else sc.frames
+    fit_boxes = ex.fit_boxes if ex.fit_boxes is not None else (
+        sc.boxes_by_frame if ex.frames is None else {})
+    before = rng.bit_generator.state
+    if type(det).fit is not Detector.fit:
+        ret = det.fit(list(frames), fit_boxes, rng=rng)
+        run.need(ret is det, "shapes_dtypes", "fit must return self")
+    blank = Frame(frames[-1].index + 1, np.zeros_like(frames[-1].image), frames[-1].time_s + 0.04)
+    for k, frame in enumerate([*frames, blank]):
+        d = det.detect(frame)
+        tag = f"detect(frame {frame.index})" + (" on a blank frame" if frame is blank else "")
+        if not isinstance(d, Detections):
+            run.need(False, "shapes_dtypes", f"{tag} returned {type(d).__name__}, "
+                                             "expected Detections")
+            continue
+        kk = len(d.scores)
+        _float_array(run, d.boxes_xywh_px, (kk, 4), f"{tag}: boxes_xywh_px")
+        _float_array(run, d.scores, (kk,), f"{tag}: scores")
+        if d.points_world_m is not None:
+            _float_array(run, d.points_world_m, (kk, 3), f"{tag}: points_world_m")
+        run.need(bool(np.all(np.isfinite(d.boxes_xywh_px))) and bool(np.all(np.isfinite(d.scores))),
+                 "finite_output", f"{tag} returned non-finite boxes or scores")
+        run.need(bool(np.all(d.boxes_xywh_px[:, 2:] >= 0)), "shapes_dtypes",
+                 f"{tag} returned boxes with negative width or height")
+        run.outputs[f"boxes_{k}"] = d.boxes_xywh_px
+        run.outputs[f"scores_{k}"] = d.scores
+    run.rng_used = rng.bit_generator.state != before
+
+
+def _check_assignment(run: _Run, a: Any, n_t: int, n_d: int, tag: str, category: str) -> None:
+    if not isinstance(a, Assignment):
+        run.need(False, category, f"{tag} returned {type(a).__name__}, expected Assignment")
+        return
+    m = np.asarray(a.matches)
+    run.need(m.ndim == 2 and m.shape[1] == 2, category,
+             f"{tag}: matches has shape {m.shape}, expected (M, 2)")
+    run.need(np.issubdtype(m.dtype, np.integer), category,
+             f"{tag}: matches dtype {m.dtype}, expected an integer dtype")
+    if m.ndim != 2 or m.shape[1] != 2:
+        return
+    ti, di = m[:, 0], m[:, 1]
+    run.need(bool(np.all((ti >= 0) & (ti < n_t))) and bool(np.all((di >= 0) & (di < n_d))),
+             category, f"{tag}: match indices out of range ({n_t} targets, {n_d} detections): "
+                       f"{m.tolist()}")
+    run.need(len(np.unique(ti)) == len(ti) and len(np.unique(di)) == len(di), category,
+             f"{tag}: a target or a detection is used more than once: {m.tolist()}")
+    ut = np.sort(np.asarray(a.unmatched_tracks).reshape(-1))
+    ud = np.sort(np.asarray(a.unmatched_detections).reshape(-1))
+    run.need(np.array_equal(ut, np.setdiff1d(np.arange(n_t), ti)), category,
+             f"{tag}: unmatched_tracks {ut.tolist()} is not the complement of the matches")
+    run.need(np.array_equal(ud, np.setdiff1d(np.arange(n_d), di)), category,
+             f"{tag}: unmatched_detections {ud.tolist()} is not the complement of the matches")
+
+
+def _associator_workflow(ex: ConformanceExample, rng: np.random.Generator, run: _Run) -> None:
+    asc = ex.component
+    assert isinstance(asc, Associator)
+    sc = _scene(ex)
+    f0 = sc.frames[0].index
+    if ex.targets is not None:
+        targets = ex.targets
+    else:  # the objects' boxes one frame earlier, slightly off, as a tracker's estimates
+        targets = [target_from_box(b + np.array([1.0, -1.0, 0.0, 0.0]), i + 1, detection_index=None)
+                   for i, b in enumerate(sc.boxes_by_frame[f0])]
+        for t in targets:
+            t.extra.clear()
+    dets = ex.detections if ex.detections is not None else sc.detections(f0 + 1)
+    saved = (dets.boxes_xywh_px.copy(), dets.scores.copy(),
+             [np.array(t.box_xywh_px, copy=True) for t in targets])
+    a = asc.associate(targets, dets)
+    _check_assignment(run, a, len(targets), len(dets), "associate(targets, detections)",
+                      "shapes_dtypes")
+    run.need(np.array_equal(saved[0], dets.boxes_xywh_px) and np.array_equal(saved[1], dets.scores)
+             and all(np.array_equal(s, t.box_xywh_px) for s, t in zip(saved[2], targets)),
+             "inputs_unchanged", "associate modified the detections or the targets' boxes")
+    if isinstance(a, Assignment):
+        run.outputs["matches"] = np.asarray(a.matches)
+    for tag, tt, dd in (("associate([], detections)", [], dets),
+                        ("associate(targets, no detections)", targets, Detections.empty()),
+                        ("associate([], no detections)", [], Detections.empty())):
+        _check_assignment(run, asc.associate(tt, dd), len(tt), len(dd), tag, "empty_input")
+    # one target, one detection: a shape-only check that a plain 1x1 problem works
+    one = asc.associate(targets[:1], Detections(dets.boxes_xywh_px[:1], dets.scores[:1]))
+    _check_assignment(run, one, 1, 1, "associate(1 target, 1 detection)", "shapes_dtypes")
+
+
+def _scene_workflow(ex: ConformanceExample, rng: np.random.Generator, run: _Run) -> None:
+    s = ex.component
+    assert isinstance(s, Scene)
+    fps = float(s.fps)
+    run.need(np.isfinite(fps) and fps > 0, "shapes_dtypes", f"fps must be > 0, got {fps}")
+    frames = list(itertools.islice(s.frames(), 2))
+    run.need(len(frames) >= 1, "shapes_dtypes", "frames() yielded no frame")
+    for k, f in enumerate(frames):
+        if not isinstance(f, Frame):
+            run.need(False, "shapes_dtypes", f"frames() yielded {type(f).__name__}, not Frame")
+            continue
+        img = np.asarray(f.image)
+        run.need(img.dtype == np.uint8 and img.ndim == 3 and img.shape[2] == 3, "shapes_dtypes",
+                 f"frame {f.index}: image must be (H, W, 3) uint8, got {img.shape} {img.dtype}")
+        run.outputs[f"image_{k}"] = img
+    gt = s.ground_truth()
+    if gt is not None:
+        _float_array(run, gt, (len(gt), 10), "ground_truth()")
+        run.outputs["ground_truth"] = gt
+
+
+_WORKFLOWS: dict[str, Callable[[ConformanceExample, np.random.Generator, _Run], None]] = {
+    "motion": _motion_workflow,
+    "likelihood": _likelihood_workflow,
+    "detector": _detector_workflow,
+    "associator": _associator_workflow,
+    "scene": _scene_workflow,
+}
+
+
+def _execute(factory: Callable[[], ConformanceExample], seed: int,
+             component: Component | None = None) -> _Run:
+    """One workflow run on a fresh example (or on ``component`` with the example's context)."""
+    run = _Run()
+    try:
+        ex = factory()
+        if component is not None:
+            ex.component = component
+        _WORKFLOWS[ex.component.kind](ex, np.random.default_rng(seed), run)
+    except Exception as exc:  # noqa: BLE001 - reported as a failed check, not a crash
+        run.error = _describe_exc(exc)
+    return run
+
+
+# --------------------------------------------------------------------------------------------
+# Comparisons
+# --------------------------------------------------------------------------------------------
+
+
+def _equal(a: Any, b: Any) -> bool:
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        a, b = np.asarray(a), np.asarray(b)
+        if a.shape != b.shape or a.dtype != b.dtype:
+            return False
+        if a.dtype.kind in "fc":
+            return bool(np.array_equal(a, b, equal_nan=True))
+        return bool(np.array_equal(a, b))
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_equal(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(_equal(x, y) for x, y in zip(a, b))
+    try:
+        return bool(a == b)
+    except Exception:  # noqa: BLE001
+        return False
+
+
+def _diff_keys(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
+    return sorted(k for k in a.keys() | b.keys() if k not in a or k not in b
+                  or not _equal(a[k], b[k]))
+
+
+def _global_state() -> tuple[Any, Any]:
+    return np.random.get_state(legacy=False), random.getstate()
+
+
+def _same_global_state(a: tuple[Any, Any], b: tuple[Any, Any]) -> tuple[bool, bool]:
+    return _equal(a[0], b[0]), a[1] == b[1]
+
+
+# --------------------------------------------------------------------------------------------
+# The checks
+# --------------------------------------------------------------------------------------------
+
+
+def _label(obj: type[Component] | Component) -> str:
+    cls = obj if isinstance(obj, type) else type(obj)
+    name = getattr(cls, "name", None)
+    return f"{cls.__name__} ({name})" if name else cls.__name__
+
+
+def check_component(obj: type[Component] | Component, *, rng_seed: int = 0,
+                    host: Any = None) -> list[CheckResult]:
+    """Run every conformance check on a component class or instance.
+
+    Parameters
+    ----------
+    obj : Component subclass or instance
+        A class is instantiated with its defaults, or through its ``_conformance_example()``
+        classmethod when it has one (see :mod:`pftrack.testing`). An instance is deep-copied for
+        each run, so a fitted instance is checked as it is.
+    rng_seed : int
+        Seed of the ``numpy.random.Generator`` handed to the component; ``rng_seed + 1`` is the
+        "different seed".
+    host : pftrack.host.Host, optional
+        When given and the class is registered there, the config round trip rebuilds the
+        component with ``host.build(kind, config)``, as a pipeline file would.
+
+    Returns
+    -------
+    list of CheckResult
+        One per name in :data:`CHECKS`, in that order.
+    """
+    label = _label(obj)
+    results: list[CheckResult] = []
+
+    def add(check: str, status: str, message: str = "") -> None:
+        results.append(CheckResult(check, status, message, label))
+
+    # -- construct ----------------------------------------------------------------------------
+    try:
+        factory = _make_factory(obj)
+        ex = factory()
+        comp = ex.component
+        if comp.kind not in _WORKFLOWS:
+            raise TypeError(f"kind {comp.kind!r} has no conformance workflow; kinds: "
+                            f"{sorted(_WORKFLOWS)}")
+        add("construct", PASS)
+    except Exception as exc:  # noqa: BLE001
+        hint = ("" if hasattr(obj, "_conformance_example") else
+                "; if it needs set-up, give the class a _conformance_example() classmethod "
+                "(see pftrack.testing)")
+        add("construct", FAIL, f"could not build an example: {_describe_exc(exc)}{hint}")
+        for name in CHECKS[1:]:
+            add(name, SKIP, "no example could be built")
+        return results
+    cls = type(comp)
+
+    # -- __init__ stores parameters only ------------------------------------------------------
+    msgs = []
+    try:
+        names = cls._param_names()
+        params = comp.get_params()
+        sentinels = {n: _Sentinel(n) for n in names}
+        try:
+            probe = cls(**sentinels)
+        except Exception as exc:  # noqa: BLE001
+            probe = None
+            msgs.append(f"__init__ does logic on its parameters (it failed on placeholder "
+                        f"values: {type(exc).__name__}: {exc}); it must only store them")
+        if probe is not None:
+            for n in names:
+                if getattr(probe, n, None) is not sentinels[n]:
+                    msgs.append(f"parameter {n!r} is not stored unchanged as attribute {n!r}")
+            extra = [k for k in vars(probe) if k not in sentinels and not
+                     (k.startswith("_") and not k.endswith("_"))]
+            if extra:
+                msgs.append(f"__init__ sets attributes that are not parameters: {sorted(extra)} "
+                            "(per-frame or learned state belongs in attributes ending with '_' "
+                            "set outside __init__)")
+        rebuilt = cls(**params)
+        if not _equal(_plain(rebuilt.get_params()), _plain(params)):
+            msgs.append("cls(**get_params()) has different parameters")
+    except Exception as exc:  # noqa: BLE001
+        msgs.append(_describe_exc(exc))
+    add("init_stores_params", FAIL if msgs else PASS, "; ".join(msgs))
+
+    # reference runs (used by several checks)
+    ref = _execute(factory, rng_seed)
+    ref_error = f"the workflow raised {ref.error}" if ref.error else ""
+
+    # -- config round trip --------------------------------------------------------------------
+    msgs = []
+    try:
+        cfg = comp.to_config()
+        text = json.dumps(cfg)
+        cfg2 = json.loads(text)
+        if set(cfg2) != {"type", "params"}:
+            msgs.append(f"to_config() keys {sorted(cfg2)}, expected ['params', 'type']")
+        if cls.name is not None and cfg2.get("type") != cls.name:
+            msgs.append(f"to_config()['type'] is {cfg2.get('type')!r}, registered as "
+                        f"{cls.name!r}")
+        if host is not None and cls.name is not None and cls.name in host.names(comp.kind) \
+                and host.get(comp.kind, cls.name) is cls:
+            rebuilt = host.build(comp.kind, cfg2)
+        else:
+            rebuilt = cls(**cfg2["params"])
+        if not _equal(_plain(rebuilt.get_params()), _plain(comp.get_params())):
+            msgs.append("the rebuilt component has different parameters")
+        elif ref.error is None:
+            again = _execute(factory, rng_seed, component=rebuilt)
+            if again.error:
+                msgs.append(f"the component rebuilt from JSON config failed: {again.error}")
+            elif _diff_keys(ref.outputs, again.outputs):
+                msgs.append(f"the component rebuilt from its JSON config gives different outputs: "
+                            f"{_diff_keys(ref.outputs, again.outputs)}")
+    except Exception as exc:  # noqa: BLE001
+        msgs.append(f"to_config -> JSON -> rebuild failed: {_describe_exc(exc)}")
+    add("config_round_trip", FAIL if msgs else PASS, "; ".join(msgs))
+
+    # -- clone --------------------------------------------------------------------------------
+    msgs = []
+    try:
+        fresh = factory().component
+        c = fresh.clone()
+        if c is fresh or type(c) is not cls:
+            msgs.append("clone() must return a new instance of the same class")
+        if not _equal(_plain(c.get_params()), _plain(fresh.get_params())):
+            msgs.append("clone() has different parameters")
+        state = [k for k in vars(c) if k.endswith("_") and not k.startswith("__")]
+        if state:
+            msgs.append(f"clone() carries state attributes {state}")
+        if ref.error is None and not isinstance(obj, Component):
+            again = _execute(factory, rng_seed, component=c)
+            if again.error:
+                msgs.append(f"the clone failed: {again.error}")
+            elif _diff_keys(ref.outputs, again.outputs):
+                msgs.append(f"the clone gives different outputs: "
+                            f"{_diff_keys(ref.outputs, again.outputs)}")
+    except Exception as exc:  # noqa: BLE001
+        msgs.append(_describe_exc(exc))
+    add("clone", FAIL if msgs else PASS, "; ".join(msgs))
+
+    # -- contract checks from the reference run -----------------------------------------------
+    for check in ("shapes_dtypes", "empty_input", "inputs_unchanged", "finite_output"):
+        probs = [p.message for p in ref.problems if p.category == check]
+        if ref.error and not probs:
+            add(check, FAIL, ref_error)
+        else:
+            add(check, FAIL if probs else PASS, "; ".join(probs))
+
+    # -- seeding ------------------------------------------------------------------------------
+    if ref.error:
+        add("deterministic_same_seed", SKIP, ref_error)
+        add("different_seeds_differ", SKIP, ref_error)
+    else:
+        same = _execute(factory, rng_seed)
+        if same.error:
+            add("deterministic_same_seed", FAIL, f"second run raised {same.error}")
+        else:
+            diff = _diff_keys(ref.outputs, same.outputs)
+            add("deterministic_same_seed", FAIL if diff else PASS,
+                f"two runs with seed {rng_seed} differ in {diff} (hidden randomness: use only "
+                "the Generator passed in)" if diff else "")
+        if not ref.rng_used:
+            add("different_seeds_differ", SKIP, "deterministic: draws nothing from the rng")
+        else:
+            other = _execute(factory, rng_seed + 1)
+            if other.error:
+                add("different_seeds_differ", FAIL, f"run with seed {rng_seed + 1} raised "
+                                                    f"{other.error}")
+            else:
+                changed = [k for k in ref.outputs if k in other.outputs
+                           and not _equal(ref.outputs[k], other.outputs[k])]
+                add("different_seeds_differ", PASS if changed else FAIL,
+                    "" if changed else "draws from the Generator but its outputs do not depend "
+                                       "on the seed")
+
+    # -- pickling -----------------------------------------------------------------------------
+    msgs = []
+    try:
+        fresh = factory().component
+        copy_ = pickle.loads(pickle.dumps(fresh))
+        if type(copy_) is not cls or not _equal(_plain(copy_.get_params()),
+                                                _plain(fresh.get_params())):
+            msgs.append("the unpickled component differs in class or parameters")
+        elif ref.error is None:
+            again = _execute(factory, rng_seed, component=copy_)
+            if again.error:
+                msgs.append(f"the unpickled component failed: {again.error}")
+            elif _diff_keys(ref.outputs, again.outputs):
+                msgs.append(f"the unpickled component gives different outputs: "
+                            f"{_diff_keys(ref.outputs, again.outputs)}")
+        used = factory().component
+        _WORKFLOWS[cls.kind](_with(factory(), used), np.random.default_rng(rng_seed), _Run())
+        pickle.loads(pickle.dumps(used))  # mid-stream state must pickle too (worker processes)
+    except Exception as exc:  # noqa: BLE001
+        msgs.append(f"pickle round trip failed: {_describe_exc(exc)}")
+    add("pickle_round_trip", FAIL if msgs else PASS, "; ".join(msgs))
+
+    # -- global random state ------------------------------------------------------------------
+    saved = _global_state()
+    try:
+        np.random.seed(987654321)
+        random.seed(987654321)
+        before = _global_state()
+        run = _execute(factory, rng_seed)
+        np_same, py_same = _same_global_state(before, _global_state())
+    finally:
+        np.random.set_state(saved[0])
+        random.setstate(saved[1])
+    bad = [n for n, ok in (("numpy.random (global)", np_same), ("random", py_same)) if not ok]
+    if bad:
+        add("no_global_random_state", FAIL, f"the component changed the global state of "
+                                            f"{' and '.join(bad)}: draw from the Generator "
+                                            "passed in instead")
+    elif run.error:
+        add("no_global_random_state", SKIP, f"the workflow raised {run.error}")
+    else:
+        add("no_global_random_state", PASS)
+    return results
+
+
+def _with(ex: ConformanceExample, component: Component) -> ConformanceExample:
+    ex.component = component
+    return ex
+
+
+class _Sentinel:
+    """A placeholder parameter value: __init__ must store it without looking at it."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def __repr__(self) -> str:
+        return f"<param {self.name}>"
+
+
+def assert_conforms(obj: type[Component] | Component, *, rng_seed: int = 0,
+                    host: Any = None, skip: Sequence[str] = ()) -> list[CheckResult]:
+    """Like :func:`check_component`, raising ``AssertionError`` listing every failed check.
+
+    ``skip`` names checks to leave out (say why in your test).
+    """
+    unknown = set(skip) - set(CHECKS)
+    if unknown:
+        raise ValueError(f"assert_conforms: unknown checks in skip: {sorted(unknown)}; "
+                         f"checks: {list(CHECKS)}")
+    results = check_component(obj, rng_seed=rng_seed, host=host)
+    failed = [r for r in results if r.status == FAIL and r.check not in skip]
+    if failed:
+        lines = "\n  ".join(str(r) for r in failed)
+        raise AssertionError(f"{_label(obj)} does not conform to the pftrack component "
+                             f"contract:\n  {lines}")
+    return results
