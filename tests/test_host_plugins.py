@@ -1,0 +1,126 @@
+"""A third-party plugin installed as an ordinary distribution (tests/sample_plugin) is found through
+the ``pftrack`` entry-point group, listed by ``pftrack plugins``, builds and runs, and is blocked by
+``PFTRACK_DISABLE_PLUGINS`` / ``PFTRACK_DISABLE_PLUGIN_AUTOLOAD`` while the built-ins still load."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SAMPLE = Path(__file__).parent / "sample_plugin"
+
+
+@pytest.fixture(scope="module")
+def sample_site(tmp_path_factory) -> Path:
+    """tests/sample_plugin pip-installed (no deps, no build isolation) into a temporary folder."""
+    tmp = tmp_path_factory.mktemp("sample_plugin")
+    src = tmp / "src"
+    # build from a copy: the build writes egg-info next to the sources
+    shutil.copytree(SAMPLE, src, ignore=shutil.ignore_patterns("*.egg-info", "build",
+                                                               "__pycache__"))
+    site = tmp / "site"
+    proc = subprocess.run(
+        [sys.executable, "-m", "pip", "install", "--no-deps", "--no-build-isolation",
+         "--no-index", "--quiet", "--target", str(site), str(src)],
+        capture_output=True, text=True)
+    assert proc.returncode == 0, (
+        "pip could not build tests/sample_plugin; with setuptools < 70.1 the 'wheel' package "
+        f"must be installed in the test environment.\n{proc.stdout[-2000:]}{proc.stderr[-2000:]}")
+    assert (site / "pftrack_sample" / "__init__.py").is_file()
+    return site
+
+
+def _run(site: Path | None, args: list[str], **env_extra: str) -> subprocess.CompletedProcess:
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("PFTRACK_DISABLE_PLUGINS", "PFTRACK_DISABLE_PLUGIN_AUTOLOAD")}
+    if site is not None:
+        env["PYTHONPATH"] = os.pathsep.join([str(site), env.get("PYTHONPATH", "")]).rstrip(
+            os.pathsep)
+    env.update(env_extra)
+    proc = subprocess.run([sys.executable, *args], capture_output=True, text=True, env=env,
+                          timeout=120)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    return proc
+
+
+def _listing(site: Path | None, **env) -> dict[str, dict]:
+    out = _run(site, ["-m", "pftrack", "plugins", "--json"], **env).stdout
+    return {p["name"]: p for p in json.loads(out)["plugins"]}
+
+
+def test_installed_plugin_is_listed_as_third_party(sample_site):
+    plugins = _listing(sample_site)
+    s = plugins["sample"]
+    assert s["builtin"] is False
+    assert s["version"] == "0.3.1"
+    assert "pftrack-sample" in s["source"]
+    assert s["components"] == {"motion": ["sample-drift"], "likelihood": ["sample-box-area"]}
+    assert s["hooks"] == ["pftrack_register_likelihoods", "pftrack_register_motion_models"]
+    assert "error" not in s
+    assert all(plugins[n]["builtin"] for n in ("basic", "colour", "world"))
+    # third-party plugins are listed after the built-ins
+    assert list(plugins).index("sample") > list(plugins).index("world")
+    text = _run(sample_site, ["-m", "pftrack", "plugins"]).stdout
+    assert "sample 0.3.1 (third-party" in text and "sample-drift" in text
+
+
+_RUN_SAMPLE = r"""
+import json
+import numpy as np
+from pftrack.host import get_host
+from pftrack.testing import check_component
+from pftrack.tracker import ImageBoxObservation, MultiTargetTracker
+from pftrack.components import Frame
+
+h = get_host()
+m = h.build("motion", {"type": "sample-drift", "params": {"velocity_px": [2.0, -1.0],
+                                                          "sigma_px": 0.0}})
+s = np.array([[10.0, 20.0], [0.0, 0.0]])
+moved = m.predict(s, 0.5, np.random.default_rng(0))
+lik = h.build("likelihood", {"type": "sample-box-area", "params": {"area_px": 400.0}})
+ll = lik.log_likelihood(np.array([[0, 0, 20, 20], [0, 0, 30, 20.0]]), None)
+tr = MultiTargetTracker(h.build("motion", "sample-drift"), lik, ImageBoxObservation(20, 20),
+                        n_particles=50, rng=np.random.default_rng(1), kill_out_of_view=False)
+img = np.zeros((100, 100, 3), np.uint8)
+tr.add_target(Frame(1, img), np.array([50.0, 50.0]))
+recs = [tr.step(Frame(k, img)) for k in range(2, 6)]
+fails = [str(r) for cls in (type(m), type(lik)) for r in check_component(cls, host=h)
+         if r.status == "fail"]
+print(json.dumps({"moved": moved.tolist(), "ll": ll.tolist(), "n_records": sum(map(len, recs)),
+                  "x_last": float(recs[-1][0].position[0]), "config": m.to_config(),
+                  "fails": fails}))
+"""
+
+
+def test_installed_plugin_builds_runs_and_conforms(sample_site):
+    r = json.loads(_run(sample_site, ["-c", _RUN_SAMPLE]).stdout)
+    assert r["moved"] == [[11.0, 19.5], [1.0, -0.5]]  # + velocity * dt, no noise
+    assert r["ll"] == [0.0, -2.0]  # -((600 - 400) / 100)^2 / 2
+    assert r["n_records"] == 4
+    assert 50.0 + 4 * 1.0 - 3.0 < r["x_last"] < 50.0 + 4 * 1.0 + 3.0  # drifts 1 px per frame
+    assert r["config"] == {"type": "sample-drift",
+                           "params": {"velocity_px": [2.0, -1.0], "sigma_px": 0.0}}
+    assert r["fails"] == []
+
+
+def test_disable_plugins_env_blocks_it(sample_site):
+    plugins = _listing(sample_site, PFTRACK_DISABLE_PLUGINS="sample")
+    assert "sample" not in plugins
+    assert {"basic", "colour", "world"} <= set(plugins)
+
+
+def test_disable_autoload_blocks_third_party_but_loads_builtins(sample_site):
+    plugins = _listing(sample_site, PFTRACK_DISABLE_PLUGIN_AUTOLOAD="1")
+    assert "sample" not in plugins
+    assert {"basic", "colour", "world"} <= set(plugins)
+    assert "random-walk" in plugins["basic"]["components"]["motion"]
+
+
+def test_not_installed_means_not_listed():
+    assert "sample" not in _listing(None)
