@@ -72,54 +72,97 @@ def effective_sample_size(weights: np.ndarray) -> np.ndarray | float:
 
 
 def _cumsum_normalised(weights: np.ndarray) -> np.ndarray:
-    c = np.cumsum(weights)
-    c /= c[-1]
+    w = np.asarray(weights, dtype=np.float64).reshape(-1)
+    if len(w) == 0:
+        raise ValueError("resampling needs at least one weight, got an empty array")
+    c = np.cumsum(w)
+    total = c[-1]
+    if not (np.isfinite(total) and total > 0) or w.min() < 0:
+        raise ValueError(f"resampling weights must be non-negative with a positive finite sum "
+                         f"(got sum {total}, min {w.min()}); normalise them with "
+                         "normalize_log_weights first")
+    c *= 1.0 / total
     c[-1] = 1.0  # guard the last bin against round-off
     return c
 
 
+def _indices_from_cumulative(cum: np.ndarray, n: int) -> np.ndarray:
+    """Sorted indices (n,) from cumulative copy counts ``cum`` (non-decreasing, last == n):
+    particle i is copied ``cum[i] - cum[i-1]`` times. O(N): index j is ``#{i : cum[i] <= j}``."""
+    return np.cumsum(np.bincount(cum, minlength=n + 1)[:n])
+
+
 def multinomial_resample(weights: np.ndarray, rng: np.random.Generator,
                          n: int | None = None) -> np.ndarray:
-    """Independent draws from the categorical distribution ``weights``."""
-    n = len(weights) if n is None else n
+    """Independent draws from the categorical distribution ``weights``.
+
+    The ``n`` uniforms are drawn directly in sorted order (normalised cumulative sums of
+    exponentials are uniform order statistics), so the look-up walks the CDF once; the indices
+    come out sorted.
+    """
+    n = len(weights) if n is None else int(n)
     c = _cumsum_normalised(weights)
-    return np.searchsorted(c, rng.random(n), side="right").astype(np.intp)
+    s = np.cumsum(rng.standard_exponential(n + 1))
+    u = s[:-1]
+    u *= 1.0 / s[-1]
+    return np.searchsorted(c, u, side="right").astype(np.intp, copy=False)
 
 
 def systematic_resample(weights: np.ndarray, rng: np.random.Generator,
                         n: int | None = None) -> np.ndarray:
-    """One uniform offset, ``n`` evenly spaced pointers (lowest variance of the four, O(N))."""
-    n = len(weights) if n is None else n
+    """One uniform offset ``u``, ``n`` evenly spaced pointers ``(u + j) / n`` (lowest variance of
+    the four, O(N)).
+
+    Particle i (CDF bin ``[c_{i-1}, c_i)``) receives the pointers with ``j < n c_i - u``, so its
+    cumulative count is ``ceil(n c_i - u)``: no search, one pass.
+    """
+    n = len(weights) if n is None else int(n)
     c = _cumsum_normalised(weights)
-    u = (rng.random() + np.arange(n)) / n
-    return np.searchsorted(c, u, side="right").astype(np.intp)
+    u = rng.random()
+    c *= n
+    c -= u
+    np.ceil(c, out=c)
+    cum = c.astype(np.intp)
+    np.clip(cum, 0, n, out=cum)
+    return _indices_from_cumulative(cum, n)
 
 
 def stratified_resample(weights: np.ndarray, rng: np.random.Generator,
                         n: int | None = None) -> np.ndarray:
-    """One uniform draw in each of ``n`` equal strata."""
-    n = len(weights) if n is None else n
+    """One uniform draw in each of ``n`` equal strata: pointers ``(j + u_j) / n``.
+
+    O(N): below ``c_i`` lie every pointer of the ``m = floor(n c_i)`` strata wholly below it,
+    plus pointer m when ``u_m < n c_i - m``.
+    """
+    n = len(weights) if n is None else int(n)
     c = _cumsum_normalised(weights)
-    u = (rng.random(n) + np.arange(n)) / n
-    return np.searchsorted(c, u, side="right").astype(np.intp)
+    u = rng.random(n)
+    x = c * n
+    m = np.floor(x)
+    cum = m.astype(np.intp)
+    np.clip(cum, 0, n, out=cum)
+    inside = cum < n
+    mi = cum[inside]
+    cum[inside] += u[mi] < (x[inside] - mi)
+    return _indices_from_cumulative(cum, n)
 
 
 def residual_resample(weights: np.ndarray, rng: np.random.Generator,
                       n: int | None = None) -> np.ndarray:
     """Deterministic copies ``floor(n w_i)``, the remainder drawn multinomially from the
-    residual weights."""
+    residual weights. Indices come out sorted."""
     w = np.asarray(weights, dtype=np.float64)
-    n = len(w) if n is None else n
-    counts = np.floor(n * w).astype(np.intp)
-    idx = np.repeat(np.arange(len(w), dtype=np.intp), counts)
-    rest = n - len(idx)
+    n = len(w) if n is None else int(n)
+    c = _cumsum_normalised(w)  # validates
+    nw = np.diff(c, prepend=0.0) * n
+    counts = np.floor(nw).astype(np.intp)
+    rest = n - int(counts.sum())
     if rest > 0:
-        resid = n * w - counts
-        total = resid.sum()
-        if total <= 0:
+        resid = nw - counts
+        if not resid.sum() > 0:
             resid = np.full(len(w), 1.0 / len(w))
-        idx = np.concatenate([idx, multinomial_resample(resid, rng, rest)])
-    return idx
+        counts += np.bincount(multinomial_resample(resid, rng, rest), minlength=len(w))
+    return _indices_from_cumulative(np.cumsum(counts), n)
 
 
 RESAMPLERS: dict[str, Callable[..., np.ndarray]] = {
