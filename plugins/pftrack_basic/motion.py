@@ -23,9 +23,14 @@ Models
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from pftrack.components import MotionModel, Target
+
+# below this many particles a (N, D) @ (D, D) product beats column-wise updates
+_SMALL_N = 4096
 
 __all__ = [
     "RandomWalkMotion",
@@ -54,6 +59,11 @@ def _check_dt(model: MotionModel, dt: float) -> float:
 def _axis_std(model: MotionModel, param: str, n_axes: int) -> np.ndarray:
     """A noise parameter (float, or one value per axis) as an (n_axes,) array, validated."""
     raw = getattr(model, param)
+    if isinstance(raw, (int, float)) and not isinstance(raw, bool):
+        if not (math.isfinite(raw) and raw >= 0):  # fast path: called every predict
+            raise ValueError(f"{type(model).__name__}: {param} must be finite and >= 0, "
+                             f"got {raw!r}")
+        return np.full(n_axes, float(raw))
     try:
         std = np.broadcast_to(np.asarray(raw, dtype=np.float64), (n_axes,)).copy()
     except ValueError:
@@ -183,14 +193,16 @@ class _ConstantVelocityMotion(MotionModel):
                               _axis_std(self, "velocity_noise", k)]) * sq
         out = rng.standard_normal(s.shape)
         out *= std
-        pos_noise = out[:, :k]
-        if self.velocity_from_displacement and dt > 0:
-            # displacement = v dt + position noise; the new velocity is displacement / dt
-            out[:, k:] += s[:, k:] + pos_noise / dt
-        else:
-            out[:, k:] += s[:, k:]
-        pos_noise += s[:, :k]
-        pos_noise += s[:, k:] * dt
+        # column by column on transposed views: each update is one strided 1-D loop, far
+        # cheaper than (N, 2) slices whose inner dimension is 2
+        o, x = out.T, s.T
+        for i in range(k):
+            if self.velocity_from_displacement and dt > 0:
+                # displacement = v dt + position noise; the new velocity is displacement / dt
+                o[k + i] += o[i] / dt
+            o[k + i] += x[k + i]
+            o[i] += x[i]
+            o[i] += dt * x[k + i]
         return out
 
     def init_states(self, position: np.ndarray, n: int, rng: np.random.Generator,
@@ -270,17 +282,20 @@ class ConstantAccelerationMotion(MotionModel):
         if not np.isfinite(size) or size < 0:
             raise ValueError(f"ConstantAccelerationMotion: target {getattr(target, 'id', '?')} "
                              f"has size_m={size}; it must be finite and >= 0")
-        p = _axis_std(self, "position_noise", 2) * size
-        v = _axis_std(self, "velocity_noise", 2) / np.sqrt(n)
-        a = _axis_std(self, "acceleration_noise", 2) / np.sqrt(n)
-        return np.concatenate([p, v, a]) * np.sqrt(dt)
+        std = np.empty(6)
+        std[0:2] = _axis_std(self, "position_noise", 2) * (size * math.sqrt(dt))
+        root = math.sqrt(dt / n)
+        std[2:4] = _axis_std(self, "velocity_noise", 2) * root
+        std[4:6] = _axis_std(self, "acceleration_noise", 2) * root
+        return std
 
     @staticmethod
     def transition_matrix(dt: float) -> np.ndarray:
         """C of eq. 2 for a step ``dt``, shape (6, 6)."""
-        i = np.eye(2)
-        z = np.zeros((2, 2))
-        return np.block([[i, dt * i, 0.5 * dt * dt * i], [z, i, dt * i], [z, z, i]])
+        c = np.eye(6)
+        c[0, 2] = c[1, 3] = c[2, 4] = c[3, 5] = dt
+        c[0, 4] = c[1, 5] = 0.5 * dt * dt
+        return c
 
     def predict(self, states: np.ndarray, dt: float, rng: np.random.Generator,
                 target: Target | None = None) -> np.ndarray:
@@ -289,14 +304,22 @@ class ConstantAccelerationMotion(MotionModel):
         dt = float(dt)
         out = rng.standard_normal(s.shape)
         out *= std
-        # C x written out: cheaper than a (N, 6) @ (6, 6) product and exact in the same way
-        p, v, a = s[:, 0:2], s[:, 2:4], s[:, 4:6]
-        out[:, 0:2] += p
-        out[:, 0:2] += v * dt
-        out[:, 0:2] += a * (0.5 * dt * dt)
-        out[:, 2:4] += v
-        out[:, 2:4] += a * dt
-        out[:, 4:6] += a
+        if len(s) <= _SMALL_N:
+            # one small matrix product: cheapest in per-call overhead
+            out += s @ self.transition_matrix(dt).T
+            return out
+        # large N: C x written out column by column on transposed views (one strided 1-D loop
+        # per term) - no multi-threaded BLAS call, whose threads stall on a busy machine, and no
+        # (N, 2) slices, whose inner loop has length 2
+        o, x = out.T, s.T
+        half = 0.5 * dt * dt
+        for i in range(2):
+            o[i] += x[i]
+            o[i] += dt * x[2 + i]
+            o[i] += half * x[4 + i]
+            o[2 + i] += x[2 + i]
+            o[2 + i] += dt * x[4 + i]
+            o[4 + i] += x[4 + i]
         return out
 
     def init_states(self, position: np.ndarray, n: int, rng: np.random.Generator,

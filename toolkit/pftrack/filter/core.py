@@ -45,6 +45,14 @@ def normalize_log_weights(log_weights: np.ndarray) -> tuple[np.ndarray, bool]:
         the particles) — the returned uniform row keeps NaN from propagating meanwhile.
     """
     lw = np.asarray(log_weights, dtype=np.float64)
+    if lw.ndim == 1 and lw.size:
+        # fast path (every frame, every target): a finite maximum means no NaN (max would be
+        # NaN) and no +inf; the operations are those of the general path, so are the results
+        m = lw.max()
+        if np.isfinite(m):
+            w = np.exp(lw - m)
+            w /= w.sum()
+            return w, True
     lw = np.where(np.isnan(lw), -np.inf, lw)
     m = np.max(lw, axis=-1, keepdims=True)
     finite = np.isfinite(m)
