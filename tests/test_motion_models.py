@@ -43,6 +43,8 @@ def test_constant_velocity_without_noise_is_F_of_eq6(cls, k):
     f = np.eye(2 * k)
     f[:k, k:] = np.eye(k)  # eq. 6: position += velocity
     assert np.allclose(out, s @ f.T, atol=1e-12)
+    big = rng.normal(0, 5, (20_000, 2 * k))
+    assert np.allclose(cls(position_noise=0.0).predict(big, 1.0, rng), big @ f.T, atol=1e-12)
     out = cls(position_noise=0.0).predict(s, 0.5, rng)
     assert np.allclose(out[:, :k], s[:, :k] + 0.5 * s[:, k:])
     assert np.allclose(out[:, k:], s[:, k:])
@@ -68,8 +70,10 @@ def test_constant_acceleration_without_noise_is_C_of_eq2():
     rng = np.random.default_rng(3)
     s = rng.normal(0, 2, (40, 6))
     m = ConstantAccelerationMotion(position_noise=0.0, velocity_noise=0.0, acceleration_noise=0.0)
+    big = rng.normal(0, 2, (20_000, 6))  # large N runs a blocked, column-wise path
     for dt in (1.0, 0.04, 2.5):
         assert np.allclose(m.predict(s, dt, rng), s @ m.transition_matrix(dt).T, atol=1e-12)
+        assert np.allclose(m.predict(big, dt, rng), big @ m.transition_matrix(dt).T, atol=1e-12)
     c = m.transition_matrix(0.5)
     assert c[0, 2] == 0.5 and c[0, 4] == 0.125 and c[2, 4] == 0.5 and c[4, 4] == 1.0
     # ten steps of constant acceleration: p = p0 + v0 t + a t^2 / 2

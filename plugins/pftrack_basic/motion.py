@@ -24,13 +24,16 @@ Models
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
 from pftrack.components import MotionModel, Target
 
-# below this many particles a (N, D) @ (D, D) product beats column-wise updates
+# below this many particles a (N, D) @ (D, D) product beats column-wise updates; above, the
+# updates run on blocks of this many rows so that a block stays in cache
 _SMALL_N = 4096
+_BLOCK_ROWS = 4096
 
 __all__ = [
     "RandomWalkMotion",
@@ -72,6 +75,25 @@ def _axis_std(model: MotionModel, param: str, n_axes: int) -> np.ndarray:
     if not np.all(np.isfinite(std)) or np.any(std < 0):
         raise ValueError(f"{type(model).__name__}: {param} must be finite and >= 0, got {raw!r}")
     return std
+
+
+def _noisy_update(states: np.ndarray, std: np.ndarray, rng: np.random.Generator,
+                  update: Callable[[np.ndarray, np.ndarray], None]) -> np.ndarray:
+    """``out = noise * std`` then ``update(out.T, states.T)`` adds the deterministic part.
+
+    Runs block by block over rows (the Generator fills the blocks in order, so the numbers are
+    those of one ``standard_normal((N, D))`` call): each block's columns are updated while in
+    cache. ``update`` works on transposed views, one strided 1-D loop per term, which avoids
+    both multi-threaded BLAS (whose threads stall on a busy machine) and (N, 2) slices (whose
+    inner loop has length 2).
+    """
+    out = np.empty(states.shape)
+    for a in range(0, len(states), _BLOCK_ROWS):
+        o = out[a:a + _BLOCK_ROWS]
+        rng.standard_normal(out=o)
+        o *= std
+        update(o.T, states[a:a + _BLOCK_ROWS].T)
+    return out
 
 
 def _init_states(model: MotionModel, position: np.ndarray, n: int, rng: np.random.Generator,
@@ -191,19 +213,18 @@ class _ConstantVelocityMotion(MotionModel):
         sq = np.sqrt(dt)
         std = np.concatenate([_axis_std(self, "position_noise", k),
                               _axis_std(self, "velocity_noise", k)]) * sq
-        out = rng.standard_normal(s.shape)
-        out *= std
-        # column by column on transposed views: each update is one strided 1-D loop, far
-        # cheaper than (N, 2) slices whose inner dimension is 2
-        o, x = out.T, s.T
-        for i in range(k):
-            if self.velocity_from_displacement and dt > 0:
-                # displacement = v dt + position noise; the new velocity is displacement / dt
-                o[k + i] += o[i] / dt
-            o[k + i] += x[k + i]
-            o[i] += x[i]
-            o[i] += dt * x[k + i]
-        return out
+        from_displacement = bool(self.velocity_from_displacement) and dt > 0
+
+        def update(o: np.ndarray, x: np.ndarray) -> None:  # o, x: (D, rows) views
+            for i in range(k):
+                if from_displacement:
+                    # displacement = v dt + position noise; the new velocity is displacement / dt
+                    o[k + i] += o[i] / dt
+                o[k + i] += x[k + i]
+                o[i] += x[i]
+                o[i] += dt * x[k + i]
+
+        return _noisy_update(s, std, rng, update)
 
     def init_states(self, position: np.ndarray, n: int, rng: np.random.Generator,
                     spread: float | np.ndarray = 1.0) -> np.ndarray:
@@ -302,25 +323,24 @@ class ConstantAccelerationMotion(MotionModel):
         s = _check_states(self, states)
         std = self.noise_std(dt, target)
         dt = float(dt)
-        out = rng.standard_normal(s.shape)
-        out *= std
         if len(s) <= _SMALL_N:
             # one small matrix product: cheapest in per-call overhead
+            out = rng.standard_normal(s.shape)
+            out *= std
             out += s @ self.transition_matrix(dt).T
             return out
-        # large N: C x written out column by column on transposed views (one strided 1-D loop
-        # per term) - no multi-threaded BLAS call, whose threads stall on a busy machine, and no
-        # (N, 2) slices, whose inner loop has length 2
-        o, x = out.T, s.T
         half = 0.5 * dt * dt
-        for i in range(2):
-            o[i] += x[i]
-            o[i] += dt * x[2 + i]
-            o[i] += half * x[4 + i]
-            o[2 + i] += x[2 + i]
-            o[2 + i] += dt * x[4 + i]
-            o[4 + i] += x[4 + i]
-        return out
+
+        def update(o: np.ndarray, x: np.ndarray) -> None:  # C x, written out per column
+            for i in range(2):
+                o[i] += x[i]
+                o[i] += dt * x[2 + i]
+                o[i] += half * x[4 + i]
+                o[2 + i] += x[2 + i]
+                o[2 + i] += dt * x[4 + i]
+                o[4 + i] += x[4 + i]
+
+        return _noisy_update(s, std, rng, update)
 
     def init_states(self, position: np.ndarray, n: int, rng: np.random.Generator,
                     spread: float | np.ndarray = 1.0) -> np.ndarray:
