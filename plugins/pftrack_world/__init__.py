@@ -1,5 +1,25 @@
 """Built-in plugin ``world`` (seed 001): ground-plane tracking with an SVM detector, score-based
-association and detection/EMD/NCC likelihoods; the ``soccer`` scene."""
+association and detection/EMD/NCC likelihoods; the ``soccer`` scene and the ``pets09-ground``
+preset.
+
+Components (registered name -> class):
+
+* detector: ``svm`` :class:`~pftrack_world.detector.SVMDetector` (linear SVM on HOG or grey
+  levels, sliding windows over camera-chosen scales, score c(det));
+* associator: ``greedy-score`` :class:`~pftrack_world.association.GreedyScoreAssociator`
+  (eq. 3-4, greedy as the paper), ``hungarian-score``
+  :class:`~pftrack_world.association.HungarianScoreAssociator` (same scores, optimal);
+* likelihood: ``detection`` (eq. 6), ``emd`` (eq. 7), ``ncc`` (eq. 8), ``composite`` (eq. 5, 9:
+  any likelihood plugins weighted by numbers, beta or 1 - beta);
+* scene: ``soccer`` :class:`~pftrack_world.soccer.SoccerScene`;
+* preset: ``pets09-ground`` (``pftrack/presets/pets09-ground.yaml``).
+
+The ground-plane observation model (particles -> image boxes through the camera) is core:
+:class:`pftrack.observation_world.CameraBoxObservation`.
+
+Registered through the ``pftrack`` entry-point group exactly as a third-party plugin is; the
+component modules are imported only when the host calls these hooks.
+"""
 
 from __future__ import annotations
 
@@ -9,5 +29,45 @@ __version__ = "0.1.0"
 
 
 @hookimpl
+def pftrack_register_detectors(register):
+    from pftrack_world.detector import SVMDetector
+
+    register("svm", SVMDetector)
+
+
+@hookimpl
+def pftrack_register_associators(register):
+    from pftrack_world.association import GreedyScoreAssociator, HungarianScoreAssociator
+
+    register("greedy-score", GreedyScoreAssociator)
+    register("hungarian-score", HungarianScoreAssociator)
+
+
+@hookimpl
 def pftrack_register_likelihoods(register):
-    pass
+    from pftrack_world.likelihoods import (
+        CompositeLikelihood,
+        DetectionLikelihood,
+        EMDLikelihood,
+        NCCLikelihood,
+    )
+
+    register("detection", DetectionLikelihood)
+    register("emd", EMDLikelihood)
+    register("ncc", NCCLikelihood)
+    register("composite", CompositeLikelihood)
+
+
+@hookimpl
+def pftrack_register_scenes(register):
+    from pftrack_world.soccer import SoccerScene
+
+    register("soccer", SoccerScene)
+
+
+@hookimpl
+def pftrack_register_presets(register):
+    from importlib import resources
+
+    presets = resources.files("pftrack") / "presets"
+    register("pets09-ground", str(presets / "pets09-ground.yaml"))

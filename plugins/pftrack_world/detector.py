@@ -1,0 +1,770 @@
+"""Sliding-window linear-SVM person detector (seed 001 sec. 2), multi-scale, scored by c(det).
+
+Pipeline per frame (grey image)::
+
+    scale plan (from the camera: expected person height at each image row, or a plain pyramid)
+    -> per scale: crop the band of rows where people of that size can stand, resize by 1/f
+    -> dense linear SVM over every window (HOG: cv2.HOGDescriptor.detect with our own weights;
+       grey levels: one cv2.filter2D correlation with the weight template)
+    -> boxes in image pixels, score c(det) = (w . x + b) / ||w|| (signed distance to the
+       decision boundary in feature space) -> non-maximum suppression.
+
+Window geometry: the detector window is ``window_wh`` pixels (default 32 x 64); a person's box
+occupies ``box_in_window`` = (left, top, width, height) of it (learned from the training boxes:
+the height is ``occupancy`` of the window height, the width the median aspect ratio). A window
+found at scale ``f`` (original pixels per window pixel) at (x, y) reports the person box
+``(x + f * left, y + f * top, f * width, f * height)``.
+
+Models are stored as ``.npz`` (``allow_pickle=False``) holding the weight vector, the bias and a
+JSON string of parameters; :func:`load_model` validates them and names the file on error.
+
+Training (:func:`train_svm_model`): positives are the ground-truth boxes (visibility flag 1)
+mapped into the window and their horizontal mirror images; negatives are random windows whose
+person box has IoU < ``neg_iou`` with every ground-truth box (any flag), drawn with a seeded
+``numpy.random.Generator``; one optional round of hard-negative mining adds the detector's own
+false positives on the training frames.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pftrack.components import Detections, Detector, Frame
+
+__all__ = [
+    "SVMModel",
+    "SVMDetector",
+    "load_model",
+    "save_model",
+    "train_svm_model",
+    "ScaleBand",
+    "scale_plan",
+    "box_iou_matrix",
+    "nms",
+]
+
+MODEL_FORMAT = "pftrack-svm-detector"
+MODEL_VERSION = 1
+FEATURES = ("hog", "grey")
+
+
+# --------------------------------------------------------------------------------------------
+# Model file
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class SVMModel:
+    """A trained linear SVM window classifier.
+
+    Attributes
+    ----------
+    weights : ndarray, shape (F,), float32
+        Unit-norm weight vector (so ``weights . x + bias`` is the signed distance c(det)).
+    bias : float
+        Bias after the same normalisation.
+    feature : {"hog", "grey"}
+        ``hog``: OpenCV HOG (cells 8 px, blocks 16 px, stride 8 px, 9 bins) of the grey window;
+        ``grey``: the grey window's pixel values / 255 (the paper's feature), row-major.
+    window_wh : (int, int)
+        Window size in pixels (width, height).
+    box_in_window : (float, float, float, float)
+        The person box inside the window (left, top, width, height), window pixels.
+    info : dict
+        Training record (frames, counts, training accuracy...). Informative only.
+    """
+
+    weights: np.ndarray
+    bias: float
+    feature: str = "hog"
+    window_wh: tuple[int, int] = (32, 64)
+    box_in_window: tuple[float, float, float, float] = (6.9, 6.4, 18.2, 51.2)
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_features(self) -> int:
+        return int(self.weights.size)
+
+    def params(self) -> dict[str, Any]:
+        return {
+            "format": MODEL_FORMAT,
+            "version": MODEL_VERSION,
+            "feature": self.feature,
+            "window_wh": [int(v) for v in self.window_wh],
+            "box_in_window": [float(v) for v in self.box_in_window],
+            "bias": float(self.bias),
+            "info": self.info,
+        }
+
+
+def _hog(window_wh: Sequence[int]):
+    import cv2
+
+    return cv2.HOGDescriptor((int(window_wh[0]), int(window_wh[1])), (16, 16), (8, 8), (8, 8), 9)
+
+
+def n_features_for(feature: str, window_wh: Sequence[int]) -> int:
+    """Length of the feature vector of one window."""
+    if feature == "hog":
+        return int(_hog(window_wh).getDescriptorSize())
+    if feature == "grey":
+        return int(window_wh[0]) * int(window_wh[1])
+    raise ValueError(f"unknown detector feature {feature!r}; known: {', '.join(FEATURES)}")
+
+
+def save_model(model: SVMModel, path: str | os.PathLike[str]) -> Path:
+    """Write ``model`` to ``path`` (``.npz``, no pickle) atomically."""
+    from pftrack.io.atomic import atomic_path
+
+    path = Path(path)
+    if path.suffix != ".npz":
+        raise ValueError(f"detector model {path}: the file name must end in .npz")
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, weights=np.asarray(model.weights, dtype=np.float32),
+                     params=np.array(json.dumps(model.params())))
+    return path
+
+
+def load_model(path: str | os.PathLike[str]) -> SVMModel:
+    """Read and validate a model written by :func:`save_model`.
+
+    Raises
+    ------
+    FileNotFoundError
+        The file does not exist.
+    ValueError
+        The file is not a pftrack detector model, or its weights do not fit its parameters
+        (the message names the file and what is wrong).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"detector model {path} not found")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            if "weights" not in z.files or "params" not in z.files:
+                raise ValueError(f"detector model {path}: expected arrays 'weights' and 'params', "
+                                 f"found {sorted(z.files)}")
+            weights = np.asarray(z["weights"], dtype=np.float32).ravel()
+            params = json.loads(str(z["params"]))
+    except ValueError as exc:
+        if str(path) in str(exc):
+            raise
+        raise ValueError(f"detector model {path}: not a readable .npz model ({exc})") from None
+    except (OSError, EOFError) as exc:
+        raise ValueError(f"detector model {path}: not a readable .npz model ({exc})") from None
+    if params.get("format") != MODEL_FORMAT:
+        raise ValueError(f"detector model {path}: format {params.get('format')!r}, expected "
+                         f"{MODEL_FORMAT!r}")
+    if int(params.get("version", -1)) > MODEL_VERSION:
+        raise ValueError(f"detector model {path}: version {params.get('version')} is newer than "
+                         f"this pftrack reads ({MODEL_VERSION})")
+    feature = params.get("feature")
+    if feature not in FEATURES:
+        raise ValueError(f"detector model {path}: unknown feature {feature!r}")
+    window = tuple(int(v) for v in params.get("window_wh", ()))
+    if len(window) != 2 or min(window) <= 0 or (feature == "hog" and (
+            window[0] % 8 or window[1] % 8 or window[0] < 16 or window[1] < 16)):
+        raise ValueError(f"detector model {path}: bad window_wh {params.get('window_wh')}")
+    biw = tuple(float(v) for v in params.get("box_in_window", ()))
+    if len(biw) != 4 or biw[2] <= 0 or biw[3] <= 0:
+        raise ValueError(f"detector model {path}: bad box_in_window {params.get('box_in_window')}")
+    expected = n_features_for(feature, window)
+    if weights.size != expected or not np.all(np.isfinite(weights)):
+        raise ValueError(f"detector model {path}: {weights.size} weights (finite: "
+                         f"{bool(np.all(np.isfinite(weights)))}), expected {expected} finite "
+                         f"values for {feature} features of a {window[0]}x{window[1]} window")
+    bias = float(params.get("bias", np.nan))
+    if not np.isfinite(bias):
+        raise ValueError(f"detector model {path}: bias is missing or not finite")
+    return SVMModel(weights, bias, feature, window, biw, dict(params.get("info", {})))
+
+
+# --------------------------------------------------------------------------------------------
+# Boxes
+# --------------------------------------------------------------------------------------------
+
+
+def box_iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """IoU of every box of ``a`` (A, 4) with every box of ``b`` (B, 4), xywh px -> (A, B)."""
+    a = np.asarray(a, dtype=np.float64).reshape(-1, 4)
+    b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
+    x0 = np.maximum(a[:, None, 0], b[None, :, 0])
+    y0 = np.maximum(a[:, None, 1], b[None, :, 1])
+    x1 = np.minimum(a[:, None, 0] + a[:, None, 2], b[None, :, 0] + b[None, :, 2])
+    y1 = np.minimum(a[:, None, 1] + a[:, None, 3], b[None, :, 1] + b[None, :, 3])
+    inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
+    union = (a[:, 2] * a[:, 3])[:, None] + (b[:, 2] * b[:, 3])[None, :] - inter
+    return np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0)
+
+
+def nms(boxes_xywh_px: np.ndarray, scores: np.ndarray, iou_threshold: float) -> np.ndarray:
+    """Greedy non-maximum suppression; indices of the kept boxes, best score first."""
+    boxes = np.asarray(boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
+    scores = np.asarray(scores, dtype=np.float64).reshape(-1)
+    if len(boxes) == 0:
+        return np.zeros(0, dtype=np.intp)
+    import cv2
+
+    # NMSBoxes wants non-negative scores; a shift keeps their order
+    shifted = scores - scores.min()
+    idx = cv2.dnn.NMSBoxes(boxes.tolist(), shifted.tolist(), 0.0, float(iou_threshold))
+    idx = np.asarray(idx, dtype=np.intp).reshape(-1)
+    return idx[np.argsort(-scores[idx], kind="stable")]
+
+
+# --------------------------------------------------------------------------------------------
+# Scale plan
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class ScaleBand:
+    """One scale of the search: windows of ``f`` original pixels per window pixel whose top row
+    lies in ``[top_min, top_max]`` (original pixels)."""
+
+    f: float
+    top_min: int
+    top_max: int
+
+
+def expected_heights_px(camera: Any, height_m: float, image_size_wh: tuple[int, int],
+                        step_px: int = 16) -> tuple[np.ndarray, np.ndarray]:
+    """Expected person height (px) for a foot at each pixel of a grid (world frame z up, ground
+    z = 0). Returns (foot pixels (M, 2), heights (M,)); NaN above the horizon."""
+    w, h = image_size_wh
+    us, vs = np.meshgrid(np.arange(0, w, step_px, dtype=np.float64),
+                         np.arange(0, h, step_px, dtype=np.float64))
+    px = np.stack([us.ravel(), vs.ravel()], axis=1)
+    ground = camera.image_to_ground(px)
+    head = ground.copy()
+    head[:, 2] = height_m
+    hp = camera.project(head)
+    heights = np.where(np.isfinite(hp[:, 1]), px[:, 1] - hp[:, 1], np.nan)
+    heights[~(heights > 0)] = np.nan
+    return px, heights
+
+
+def scale_plan(box_height_win: float, window_h: int, foot_offset_win: float,
+               image_size_wh: tuple[int, int], *, scale_step: float = 1.15,
+               min_height_px: float = 40.0, max_height_px: float = 400.0,
+               camera: Any = None, height_m: float = 1.75, tolerance: float = 1.25,
+               ) -> list[ScaleBand]:
+    """The scales to search and, with a camera, the band of window tops at each scale.
+
+    Parameters
+    ----------
+    box_height_win : float
+        Height of the person box inside the window (window pixels).
+    window_h : int
+        Window height (window pixels).
+    foot_offset_win : float
+        Row of the person's foot inside the window (window pixels from its top).
+    image_size_wh : (int, int)
+    scale_step : float
+        Ratio between consecutive scales.
+    min_height_px, max_height_px : float
+        Person heights (image pixels) searched without a camera; with one, the camera's range
+        is clipped to them.
+    camera : pftrack.geometry.camera.Camera, optional
+        Gives the expected person height at each foot row, so that each scale only scans the
+        rows where a person of that size can stand (a strong speed-up).
+    height_m : float
+        Person height for the camera's expectation, metres.
+    tolerance : float
+        A foot row is searched at scale f when the expected height is within a factor
+        ``tolerance * sqrt(scale_step)`` of the scale's box height.
+    """
+    if scale_step <= 1.0:
+        raise ValueError(f"scale_step must be > 1, got {scale_step}")
+    w, h = image_size_wh
+    lo, hi = float(min_height_px), float(max_height_px)
+    feet = heights = None
+    if camera is not None:
+        feet, heights = expected_heights_px(camera, height_m, image_size_wh)
+        ok = np.isfinite(heights)
+        if not np.any(ok):
+            raise ValueError("scale_plan: no image row sees the ground through this camera")
+        lo = max(lo, float(np.nanmin(heights)) / tolerance)
+        hi = min(hi, float(np.nanmax(heights)) * tolerance)
+    if hi < lo:
+        raise ValueError(f"scale_plan: empty height range [{lo:.0f}, {hi:.0f}] px")
+    n = int(np.floor(np.log(hi / lo) / np.log(scale_step))) + 1
+    bands = []
+    slack = tolerance * np.sqrt(scale_step)
+    for k in range(n):
+        box_h = lo * scale_step ** k
+        f = box_h / box_height_win
+        if camera is None:
+            bands.append(ScaleBand(f, 0, int(h - window_h * f)))
+            continue
+        sel = (heights >= box_h / slack) & (heights <= box_h * slack)
+        if not np.any(sel):
+            continue
+        vmin, vmax = float(feet[sel, 1].min()) - 16, float(feet[sel, 1].max()) + 16
+        top_min = int(np.floor(vmin - foot_offset_win * f))
+        top_max = int(np.ceil(vmax - foot_offset_win * f))
+        top_min, top_max = max(top_min, int(-0.3 * window_h * f)), min(top_max, h - 1)
+        if top_max < top_min:
+            continue
+        bands.append(ScaleBand(f, top_min, top_max))
+    return bands
+
+
+# --------------------------------------------------------------------------------------------
+# Features of single windows (training)
+# --------------------------------------------------------------------------------------------
+
+
+def _window_rect(person_boxes: np.ndarray, box_in_window: Sequence[float],
+                 window_wh: Sequence[int]) -> np.ndarray:
+    """Window rectangles (x, y, w, h) in image px whose person box is ``person_boxes``."""
+    b = np.asarray(person_boxes, dtype=np.float64).reshape(-1, 4)
+    bl, bt, bw, bh = box_in_window
+    f = b[:, 3] / bh
+    x = b[:, 0] + 0.5 * b[:, 2] - f * (bl + 0.5 * bw)
+    y = b[:, 1] - f * bt
+    return np.stack([x, y, f * window_wh[0], f * window_wh[1]], axis=1)
+
+
+def crop_windows(grey: np.ndarray, windows_xywh: np.ndarray,
+                 window_wh: Sequence[int]) -> np.ndarray:
+    """Crops of ``grey`` at the given rectangles resized to ``window_wh`` (area averaging),
+    borders replicated. Returns (K, H, W) uint8. A loop over windows: training only."""
+    import cv2
+
+    W, H = int(window_wh[0]), int(window_wh[1])
+    out = np.empty((len(windows_xywh), H, W), dtype=np.uint8)
+    ih, iw = grey.shape[:2]
+    for i, (x, y, w, h) in enumerate(np.asarray(windows_xywh, dtype=np.float64)):
+        x0, y0 = int(round(x)), int(round(y))
+        x1, y1 = int(round(x + w)), int(round(y + h))
+        x1, y1 = max(x1, x0 + 1), max(y1, y0 + 1)
+        pad = (max(0, -y0), max(0, y1 - ih), max(0, -x0), max(0, x1 - iw))
+        crop = grey[max(y0, 0):min(y1, ih), max(x0, 0):min(x1, iw)]
+        if crop.size == 0:
+            crop = np.zeros((1, 1), np.uint8)
+            pad = (0, y1 - y0 - 1, 0, x1 - x0 - 1)
+        if any(pad):
+            crop = cv2.copyMakeBorder(crop, *pad, cv2.BORDER_REPLICATE)
+        interp = cv2.INTER_AREA if crop.shape[0] > H else cv2.INTER_LINEAR
+        out[i] = cv2.resize(crop, (W, H), interpolation=interp)
+    return out
+
+
+def window_features(crops: np.ndarray, feature: str) -> np.ndarray:
+    """Features (K, F) float32 of window crops (K, H, W) uint8."""
+    crops = np.asarray(crops, dtype=np.uint8)
+    if feature == "grey":
+        return crops.reshape(len(crops), -1).astype(np.float32) / 255.0
+    if feature == "hog":
+        hog = _hog((crops.shape[2], crops.shape[1]))
+        if len(crops) == 0:
+            return np.zeros((0, hog.getDescriptorSize()), np.float32)
+        return np.stack([hog.compute(c).ravel() for c in crops]).astype(np.float32)
+    raise ValueError(f"unknown detector feature {feature!r}; known: {', '.join(FEATURES)}")
+
+
+# --------------------------------------------------------------------------------------------
+# Dense scoring
+# --------------------------------------------------------------------------------------------
+
+
+def _dense_windows(model: SVMModel, grey: np.ndarray, bands: Sequence[ScaleBand],
+                   threshold: float, hog: Any = None) -> tuple[np.ndarray, np.ndarray]:
+    """Every window scoring at least ``threshold`` over the scale bands.
+
+    Returns (person boxes (K, 4) xywh px, scores (K,))."""
+    import cv2
+
+    W, H = model.window_wh
+    bl, bt, bw, bh = model.box_in_window
+    ih, iw = grey.shape[:2]
+    boxes, scores = [], []
+    kernel = None
+    if model.feature == "grey":
+        kernel = (model.weights.reshape(H, W) / 255.0).astype(np.float32)
+    for band in bands:
+        f = band.f
+        y0 = max(band.top_min, 0)
+        y1 = min(int(np.ceil(band.top_max + H * f)) + 1, ih)
+        if y1 - y0 < H * f * 0.999:
+            continue
+        strip = grey[y0:y1]
+        sw, sh = int(round(iw / f)), int(round((y1 - y0) / f))
+        if sw < W or sh < H:
+            continue
+        interp = cv2.INTER_AREA if f > 1 else cv2.INTER_LINEAR
+        small = cv2.resize(strip, (sw, sh), interpolation=interp)
+        fx, fy = iw / sw, (y1 - y0) / sh  # exact scale of this resize
+        if model.feature == "hog":
+            loc, wt = hog.detect(small, hitThreshold=float(threshold), winStride=(8, 8),
+                                 padding=(0, 0))
+            loc = np.asarray(loc, dtype=np.float64).reshape(-1, 2)
+            wt = np.asarray(wt, dtype=np.float64).reshape(-1)
+        else:
+            resp = cv2.filter2D(small.astype(np.float32), cv2.CV_32F, kernel, anchor=(0, 0),
+                                borderType=cv2.BORDER_CONSTANT)
+            resp = resp[: sh - H + 1, : sw - W + 1] + np.float32(model.bias)
+            # keep 3x3 local maxima only: dense windows one pixel apart add nothing after NMS
+            peak = resp >= cv2.dilate(resp, np.ones((3, 3), np.uint8))
+            yy, xx = np.nonzero(peak & (resp >= threshold))
+            loc = np.stack([xx, yy], axis=1).astype(np.float64)
+            wt = resp[yy, xx].astype(np.float64)
+        if len(wt) == 0:
+            continue
+        b = np.empty((len(wt), 4))
+        b[:, 0] = (loc[:, 0] + bl) * fx
+        b[:, 1] = y0 + (loc[:, 1] + bt) * fy
+        b[:, 2] = bw * fx
+        b[:, 3] = bh * fy
+        boxes.append(b)
+        scores.append(wt)
+    if not boxes:
+        return np.zeros((0, 4)), np.zeros(0)
+    return np.concatenate(boxes), np.concatenate(scores)
+
+
+# --------------------------------------------------------------------------------------------
+# The detector component
+# --------------------------------------------------------------------------------------------
+
+
+class SVMDetector(Detector):
+    """Linear SVM sliding-window person detector (seed 001 sec. 2), multi-scale, with NMS.
+
+    Parameters
+    ----------
+    model : str, optional
+        Path of a ``.npz`` model written by ``pftrack detector train`` (:func:`save_model`).
+        Not needed when the detector is fitted in the same process (:meth:`fit`).
+    camera : str or Camera, optional
+        A calibrated camera (path or object). With it, each scale only scans the image rows
+        where a person of that size can stand, and detections carry their ground point
+        (``points_world_m``, the foot point back-projected to z = 0).
+    height_m : float
+        Person height used with the camera, metres.
+    threshold : float
+        Minimum score c(det) (signed distance to the SVM boundary) of a reported window.
+    nms_iou : float
+        Windows overlapping a better one by more than this IoU are suppressed.
+    scale_step : float
+        Ratio between consecutive search scales.
+    min_height_px, max_height_px : float
+        Person heights searched (image pixels); with a camera they clip its expected range.
+    feature : {"hog", "grey"}
+        Feature used by :meth:`fit` (a loaded model carries its own).
+    window_wh : (int, int)
+        Window size used by :meth:`fit` (pixels).
+    occupancy : float
+        Fraction of the window height a training box fills (:meth:`fit`).
+    C : float
+        LinearSVC regularisation (:meth:`fit`).
+    n_negatives : int
+        Random negative windows drawn by :meth:`fit`.
+    hard_negative_rounds : int
+        Rounds of hard-negative mining in :meth:`fit` (0 or 1 in practice).
+    neg_iou : float
+        A negative window's person box must have IoU below this with every ground-truth box.
+    max_hard_negatives : int
+        At most this many mined false positives are added per round (a random subset).
+
+    Attributes
+    ----------
+    model_ : SVMModel
+        The trained (or loaded) classifier.
+    camera_ : Camera or None
+    """
+
+    def __init__(self, model: str | None = None, camera: Any = None, height_m: float = 1.75,
+                 threshold: float = 0.0, nms_iou: float = 0.3, scale_step: float = 1.15,
+                 min_height_px: float = 40.0, max_height_px: float = 400.0,
+                 feature: str = "hog", window_wh: Sequence[int] = (32, 64),
+                 occupancy: float = 0.8, C: float = 0.01, n_negatives: int = 8000,
+                 hard_negative_rounds: int = 1, neg_iou: float = 0.3,
+                 max_hard_negatives: int = 20000) -> None:
+        self.model = model
+        self.camera = camera
+        self.height_m = height_m
+        self.threshold = threshold
+        self.nms_iou = nms_iou
+        self.scale_step = scale_step
+        self.min_height_px = min_height_px
+        self.max_height_px = max_height_px
+        self.feature = feature
+        self.window_wh = window_wh
+        self.occupancy = occupancy
+        self.C = C
+        self.n_negatives = n_negatives
+        self.hard_negative_rounds = hard_negative_rounds
+        self.neg_iou = neg_iou
+        self.max_hard_negatives = max_hard_negatives
+
+    # -- set-up -------------------------------------------------------------------------------
+
+    def _camera(self) -> Any:
+        if not hasattr(self, "camera_"):
+            cam = self.camera
+            if isinstance(cam, (str, os.PathLike)):
+                from pftrack.geometry.formats import load_camera
+
+                cam = load_camera(cam)
+            self.camera_ = cam
+        return self.camera_
+
+    def _model(self) -> SVMModel:
+        if not hasattr(self, "model_"):
+            if self.model is None:
+                raise ValueError("SVMDetector: no model; pass model=PATH (from `pftrack detector "
+                                 "train`) or call fit() first")
+            self.model_ = load_model(self.model)
+        return self.model_
+
+    def set_model(self, model: SVMModel) -> "SVMDetector":
+        """Use an in-memory model (what :meth:`fit` does)."""
+        self.model_ = model
+        for attr in ("hog_", "plan_", "plan_size_"):
+            self.__dict__.pop(attr, None)
+        return self
+
+    def _prepare(self, image_size_wh: tuple[int, int]) -> None:
+        m = self._model()
+        if getattr(self, "plan_size_", None) != image_size_wh:
+            bl, bt, bw, bh = m.box_in_window
+            self.plan_ = scale_plan(bh, m.window_wh[1], bt + bh, image_size_wh,
+                                    scale_step=self.scale_step, min_height_px=self.min_height_px,
+                                    max_height_px=self.max_height_px, camera=self._camera(),
+                                    height_m=self.height_m)
+            self.plan_size_ = image_size_wh
+        if m.feature == "hog" and not hasattr(self, "hog_"):
+            hog = _hog(m.window_wh)
+            hog.setSVMDetector(np.r_[m.weights, np.float32(m.bias)].astype(np.float32))
+            self.hog_ = hog
+
+    def __getstate__(self) -> dict[str, Any]:
+        # cv2.HOGDescriptor does not pickle; it is rebuilt from the model on first use
+        d = dict(self.__dict__)
+        d.pop("hog_", None)
+        return d
+
+    @classmethod
+    def _conformance_example(cls):
+        """For :mod:`pftrack.testing`: a small model trained once on the kit's synthetic scene
+        (cached under the temporary folder), scales for its 20-45 px objects, no camera."""
+        import tempfile
+
+        from pftrack.testing import ConformanceExample, synthetic_scene
+
+        path = Path(tempfile.gettempdir()) / f"pftrack-conformance-svm-v{MODEL_VERSION}.npz"
+        if not path.is_file():
+            sc = synthetic_scene(seed=1, n_frames=8)
+            model = train_svm_model(sc.frames, sc.boxes_by_frame, np.random.default_rng(0),
+                                    window_wh=(16, 32), n_negatives=400, C=0.01,
+                                    hard_negative_rounds=0)
+            save_model(model, path)
+        det = cls(model=str(path), threshold=-0.5, min_height_px=20.0, max_height_px=60.0)
+        sc = synthetic_scene(seed=0, n_frames=4)
+        return ConformanceExample(det, frames=sc.frames, fit_boxes={})
+
+    # -- detection ----------------------------------------------------------------------------
+
+    def score_windows(self, grey: np.ndarray, threshold: float | None = None,
+                      ) -> tuple[np.ndarray, np.ndarray]:
+        """Every window above ``threshold`` (default: the detector's) before NMS.
+
+        Parameters
+        ----------
+        grey : ndarray, shape (H, W), uint8
+
+        Returns
+        -------
+        boxes_xywh_px : ndarray, shape (K, 4)
+        scores : ndarray, shape (K,)
+        """
+        self._prepare((grey.shape[1], grey.shape[0]))
+        thr = self.threshold if threshold is None else threshold
+        return _dense_windows(self._model(), grey, self.plan_, thr, getattr(self, "hog_", None))
+
+    def detect(self, frame: Frame) -> Detections:
+        """Detections in ``frame``: person boxes (xywh px), scores c(det), ground points (m)."""
+        import cv2
+
+        img = frame.image
+        grey = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+        boxes, scores = self.score_windows(grey)
+        keep = nms(boxes, scores, self.nms_iou)
+        boxes, scores = boxes[keep], scores[keep]
+        points = None
+        cam = self._camera()
+        if cam is not None:
+            feet = np.stack([boxes[:, 0] + 0.5 * boxes[:, 2], boxes[:, 1] + boxes[:, 3]], axis=1)
+            points = cam.image_to_ground(feet) if len(feet) else np.zeros((0, 3))
+        return Detections(boxes, scores, points)
+
+    # -- training -----------------------------------------------------------------------------
+
+    def fit(self, frames: Iterable[Frame] | Iterator[Frame], boxes_by_frame: dict[int, np.ndarray],
+            rng: np.random.Generator | None = None,
+            ignore_by_frame: dict[int, np.ndarray] | None = None) -> "SVMDetector":
+        """Train on ``frames`` with their ground-truth person boxes.
+
+        Parameters
+        ----------
+        frames : iterable of Frame
+            Streamed once; every 4th frame with boxes is kept (grey) for hard-negative mining.
+        boxes_by_frame : dict {frame index: (K, 4) xywh px}
+            Fully visible people (positives). With no box at all, a detector that already has
+            a model (``model`` path or a previous fit) keeps it; otherwise ValueError.
+        rng : numpy.random.Generator
+            Draws the negative windows. Required.
+        ignore_by_frame : dict {frame index: (K, 4)}, optional
+            Partly hidden people: neither positives nor negatives.
+        """
+        if not any(len(np.asarray(b).reshape(-1, 4)) for b in boxes_by_frame.values()):
+            if self.model is not None or hasattr(self, "model_"):
+                return self  # nothing to learn from: the loaded model stays
+            raise ValueError("SVMDetector.fit: no ground-truth boxes to learn from")
+        if rng is None:
+            raise ValueError("SVMDetector.fit needs rng=np.random.default_rng(seed)")
+        model = train_svm_model(frames, boxes_by_frame, rng, ignore_by_frame=ignore_by_frame,
+                                feature=self.feature, window_wh=tuple(self.window_wh),
+                                occupancy=self.occupancy, C=self.C, n_negatives=self.n_negatives,
+                                hard_negative_rounds=self.hard_negative_rounds,
+                                neg_iou=self.neg_iou, max_hard=self.max_hard_negatives,
+                                detector=self)
+        self.set_model(model)
+        return self
+
+
+def _grey(image: np.ndarray) -> np.ndarray:
+    import cv2
+
+    return image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+
+
+def _random_negatives(grey: np.ndarray, avoid: np.ndarray, n: int, heights: np.ndarray,
+                      aspect: float, neg_iou: float, rng: np.random.Generator) -> np.ndarray:
+    """Up to ``n`` random person-shaped boxes with IoU < neg_iou against ``avoid``."""
+    ih, iw = grey.shape[:2]
+    m = 4 * n + 8
+    h = rng.choice(heights, size=m) * rng.uniform(0.7, 1.4, size=m)
+    w = h * aspect
+    x = rng.uniform(-0.1, 1.0, size=m) * (iw - w * 0.9)
+    y = rng.uniform(-0.1, 1.0, size=m) * (ih - h * 0.9)
+    cand = np.stack([x, y, w, h], axis=1)
+    if len(avoid):
+        cand = cand[box_iou_matrix(cand, avoid).max(axis=1) < neg_iou]
+    return cand[:n]
+
+
+def train_svm_model(frames: Iterable[Frame], boxes_by_frame: dict[int, np.ndarray],
+                    rng: np.random.Generator, *, ignore_by_frame: dict[int, np.ndarray] | None = None,
+                    feature: str = "hog", window_wh: tuple[int, int] = (32, 64),
+                    occupancy: float = 0.8, C: float = 0.01, n_negatives: int = 8000,
+                    hard_negative_rounds: int = 1, neg_iou: float = 0.3, max_hard: int = 20000,
+                    detector: SVMDetector | None = None, progress: bool = False) -> SVMModel:
+    """Train a linear SVM window classifier from frames and ground-truth boxes.
+
+    See the module docstring for the sampling; the returned weights are scaled to unit norm so
+    the detector's scores are distances to the decision boundary. ``detector`` (its scale and
+    NMS settings) is used for hard-negative mining; a default :class:`SVMDetector` otherwise.
+    """
+    from sklearn.svm import LinearSVC
+
+    if feature not in FEATURES:
+        raise ValueError(f"unknown detector feature {feature!r}; known: {', '.join(FEATURES)}")
+    if not 0 < occupancy <= 1:
+        raise ValueError(f"occupancy must be in (0, 1], got {occupancy}")
+    ignore_by_frame = ignore_by_frame or {}
+    W, H = int(window_wh[0]), int(window_wh[1])
+    all_boxes = [np.asarray(b, float).reshape(-1, 4) for b in boxes_by_frame.values()]
+    all_boxes = [b for b in all_boxes if len(b)]
+    if not all_boxes:
+        raise ValueError("train_svm_model: no ground-truth boxes to learn from")
+    stacked = np.concatenate(all_boxes)
+    aspect = float(np.median(stacked[:, 2] / stacked[:, 3]))
+    bh = occupancy * H
+    bw = aspect * bh
+    box_in_window = ((W - bw) / 2.0, (H - bh) / 2.0, bw, bh)
+    heights = stacked[:, 3]
+    n_frames_with_boxes = sum(1 for b in all_boxes)
+    per_frame_neg = max(1, int(np.ceil(n_negatives / max(n_frames_with_boxes, 1))))
+
+    pos_crops, neg_crops, kept = [], [], []
+    n_seen = 0
+    it = frames
+    if progress:
+        from tqdm.auto import tqdm
+
+        it = tqdm(frames, desc="detector: sampling", unit="frame")
+    for frame in it:
+        boxes = np.asarray(boxes_by_frame.get(frame.index, np.zeros((0, 4))), float).reshape(-1, 4)
+        if len(boxes) == 0:
+            continue
+        grey = _grey(frame.image)
+        ign = np.asarray(ignore_by_frame.get(frame.index, np.zeros((0, 4))), float).reshape(-1, 4)
+        pos_crops.append(crop_windows(grey, _window_rect(boxes, box_in_window, (W, H)), (W, H)))
+        negs = _random_negatives(grey, np.concatenate([boxes, ign]), per_frame_neg, heights,
+                                 aspect, neg_iou, rng)
+        neg_crops.append(crop_windows(grey, _window_rect(negs, box_in_window, (W, H)), (W, H)))
+        if n_seen % 4 == 0:
+            kept.append((grey, np.concatenate([boxes, ign])))
+        n_seen += 1
+    if not pos_crops:
+        raise ValueError("train_svm_model: none of the frames has ground-truth boxes")
+    pos = np.concatenate(pos_crops)
+    pos = np.concatenate([pos, pos[:, :, ::-1]])  # mirror images
+    neg = np.concatenate(neg_crops)
+    Xp, Xn = window_features(pos, feature), window_features(neg, feature)
+
+    def train(xp: np.ndarray, xn: np.ndarray) -> tuple[np.ndarray, float, float]:
+        X = np.concatenate([xp, xn])
+        y = np.r_[np.ones(len(xp)), -np.ones(len(xn))]
+        clf = LinearSVC(C=C, loss="hinge", dual=True, max_iter=20000, random_state=0)
+        clf.fit(X, y)
+        w = clf.coef_.ravel().astype(np.float64)
+        b = float(clf.intercept_[0])
+        norm = float(np.linalg.norm(w))
+        acc = float(np.mean(np.sign(X @ w + b) == y))
+        return (w / norm).astype(np.float32), b / norm, acc
+
+    w, b, acc = train(Xp, Xn)
+    info: dict[str, Any] = {"n_positive": int(len(Xp)), "n_random_negative": int(len(Xn)),
+                            "n_frames": int(n_seen), "C": C, "aspect": aspect,
+                            "occupancy": occupancy, "train_accuracy": acc}
+    model = SVMModel(w, b, feature, (W, H), box_in_window, info)
+    hard_total = 0
+    for _ in range(int(hard_negative_rounds)):
+        det = (detector.clone() if detector is not None else SVMDetector())
+        det.set_model(model)
+        hard = []
+        for grey, avoid in kept:
+            boxes, scores = det.score_windows(grey, threshold=-0.1)
+            if len(boxes) == 0:
+                continue
+            keep = nms(boxes, scores, 0.5)
+            boxes = boxes[keep]
+            if len(avoid):
+                boxes = boxes[box_iou_matrix(boxes, avoid).max(axis=1) < neg_iou]
+            if len(boxes):
+                hard.append(crop_windows(grey, _window_rect(boxes, box_in_window, (W, H)),
+                                         (W, H)))
+        if not hard:
+            break
+        hard_crops = np.concatenate(hard)
+        if len(hard_crops) > max_hard:
+            hard_crops = hard_crops[rng.choice(len(hard_crops), max_hard, replace=False)]
+        hard_total += len(hard_crops)
+        Xn = np.concatenate([Xn, window_features(hard_crops, feature)])
+        w, b, acc = train(Xp, Xn)
+        model = SVMModel(w, b, feature, (W, H), box_in_window, info)
+    info["n_hard_negative"] = int(hard_total)
+    info["train_accuracy"] = acc
+    return model
