@@ -28,7 +28,7 @@ def sample_site(tmp_path_factory) -> Path:
     proc = subprocess.run(
         [sys.executable, "-m", "pip", "install", "--no-deps", "--no-build-isolation",
          "--no-index", "--quiet", "--target", str(site), str(src)],
-        capture_output=True, text=True)
+        capture_output=True, text=True, check=False)
     assert proc.returncode == 0, (
         "pip could not build tests/sample_plugin; with setuptools < 70.1 the 'wheel' package "
         f"must be installed in the test environment.\n{proc.stdout[-2000:]}{proc.stderr[-2000:]}")
@@ -44,7 +44,7 @@ def _run(site: Path | None, args: list[str], **env_extra: str) -> subprocess.Com
             os.pathsep)
     env.update(env_extra)
     proc = subprocess.run([sys.executable, *args], capture_output=True, text=True, env=env,
-                          timeout=120)
+                          timeout=120, check=False)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     return proc
 

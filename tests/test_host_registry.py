@@ -142,7 +142,7 @@ def test_hook_that_raises_warns_naming_the_plugin_and_others_still_load():
         h = _host(("boom", _Raises()), ("ok", _Plugin("walk", _Walk)))
     assert h.names("motion") == ["walk"]
     assert "model file missing" in h.plugins["boom"].error
-    assert "error" in [p for p in h.listing()["plugins"] if p["name"] == "boom"][0]
+    assert "error" in next(p for p in h.listing()["plugins"] if p["name"] == "boom")
 
 
 def test_plugin_that_fails_to_import_warns_and_the_builtins_still_load(monkeypatch):

@@ -15,7 +15,7 @@ import numpy as np
 
 from pftrack.components import Assignment, Associator, Detections, Target
 
-__all__ = ["box_iou", "centre_distance", "HungarianIoUAssociator", "GreedyIoUAssociator"]
+__all__ = ["GreedyIoUAssociator", "HungarianIoUAssociator", "box_iou", "centre_distance"]
 
 _METRICS = ("iou", "distance")
 

@@ -66,7 +66,7 @@ class BackgroundSubtractionDetector(Detector):
         self.morph_px = morph_px
         self.warmup_frames = warmup_frames
 
-    def reset(self) -> "BackgroundSubtractionDetector":
+    def reset(self) -> BackgroundSubtractionDetector:
         """Forget the background model (start of a new stream)."""
         for k in ("subtractor_", "frames_seen_", "image_shape_"):
             self.__dict__.pop(k, None)
@@ -118,7 +118,7 @@ class BackgroundSubtractionDetector(Detector):
         mask = self.foreground_mask(frame)
         if self.frames_seen_ <= int(self.warmup_frames):
             return Detections.empty()
-        n, _, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        _, _, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
         stats = stats[1:]  # label 0 is the background
         area = stats[:, cv2.CC_STAT_AREA].astype(np.float64)
         keep = area >= float(self.min_area_px)

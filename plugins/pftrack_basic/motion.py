@@ -36,10 +36,10 @@ _SMALL_N = 4096
 _BLOCK_ROWS = 4096
 
 __all__ = [
-    "RandomWalkMotion",
+    "ConstantAccelerationMotion",
     "ConstantVelocity2DMotion",
     "ConstantVelocity3DMotion",
-    "ConstantAccelerationMotion",
+    "RandomWalkMotion",
 ]
 
 

@@ -177,7 +177,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         if args.blas_threads < 1:
             raise ValueError(f"--blas-threads must be >= 1, got {args.blas_threads}")
         # load every BLAS first: a limit applies only to libraries already loaded
-        import scipy.linalg  # noqa: F401
+        import scipy.linalg
         import scipy.stats  # noqa: F401
 
         if not args.no_stonesoup:
@@ -214,7 +214,8 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
         step, start, weights = _pftrack_step(n, args.seed)
         w = weights()
         rs_rng = np.random.default_rng(args.seed + 1)
-        res_s, _ = _median_time(lambda _: systematic_resample(w, rs_rng), max(reps, 5))
+        res_s, _ = _median_time(lambda _, w=w, r=rs_rng: systematic_resample(w, r),
+                                max(reps, 5))
         row: dict[str, Any] = {"particles": n}
         if not use_ss:
             step_s, _ = _median_time(step, reps, start)

@@ -36,8 +36,13 @@ from pftrack.components import (
 )
 from pftrack.testing.synthetic import SyntheticScene, synthetic_scene, target_from_box
 
-__all__ = ["CheckResult", "ConformanceExample", "check_component", "assert_conforms",
-           "CHECKS"]
+__all__ = [
+    "CHECKS",
+    "CheckResult",
+    "ConformanceExample",
+    "assert_conforms",
+    "check_component",
+]
 
 PASS, FAIL, SKIP = "pass", "fail", "skip"
 

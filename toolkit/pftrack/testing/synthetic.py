@@ -46,7 +46,7 @@ class SyntheticScene:
         b = self.boxes_by_frame[frame_index]
         scores = [0.9, 0.8, 0.7][: len(b)]
         if extra_box:
-            w, h = self.size_wh
+            w = self.size_wh[0]
             b = np.vstack([b, [w - 22.0, 2.0, 20.0, 20.0]])
             scores = scores + [0.2]
         return Detections(b.copy(), np.asarray(scores, dtype=np.float64))
