@@ -144,14 +144,14 @@ def stratified_resample(weights: np.ndarray, rng: np.random.Generator,
     """
     n = len(weights) if n is None else int(n)
     c = _cumsum_normalised(weights)
-    u = rng.random(n)
-    x = c * n
-    m = np.floor(x)
-    cum = m.astype(np.intp)
+    u = np.empty(n + 1)
+    rng.random(out=u[:n])
+    u[n] = np.inf  # sentinel: no pointer beyond the last stratum
+    c *= n
+    cum = c.astype(np.intp)  # floor: c >= 0
     np.clip(cum, 0, n, out=cum)
-    inside = cum < n
-    mi = cum[inside]
-    cum[inside] += u[mi] < (x[inside] - mi)
+    c -= cum
+    cum += u[cum] < c
     return _indices_from_cumulative(cum, n)
 
 
