@@ -197,7 +197,10 @@ def weighted_mean(states: np.ndarray, weights: np.ndarray) -> np.ndarray:
 
     ``states`` (N, D), ``weights`` (N,) normalised -> (D,).
     """
-    return np.asarray(weights, dtype=np.float64) @ np.asarray(states, dtype=np.float64)
+    # einsum, not BLAS gemv: OpenBLAS threads stall on a loaded machine (16 ms instead of 0.3 ms
+    # at 100k particles) and a (D,) reduction gains nothing from them
+    return np.einsum("n,nd->d", np.asarray(weights, dtype=np.float64),
+                     np.asarray(states, dtype=np.float64))
 
 
 def weighted_variance(states: np.ndarray, weights: np.ndarray,
@@ -205,7 +208,7 @@ def weighted_variance(states: np.ndarray, weights: np.ndarray,
     """Weighted variance per state axis, (N, D) and (N,) -> (D,)."""
     mean = weighted_mean(states, weights) if mean is None else mean
     d = states - mean
-    return np.asarray(weights) @ (d * d)
+    return np.einsum("n,nd->d", np.asarray(weights, dtype=np.float64), d * d)
 
 
 def weighted_extent(states: np.ndarray, weights: np.ndarray,
