@@ -5,14 +5,15 @@ preset.
 Components (registered name -> class):
 
 * detector: ``svm`` :class:`~pftrack_world.detector.SVMDetector` (linear SVM on HOG or grey
-  levels, sliding windows over camera-chosen scales, score c(det));
+  levels, sliding windows over camera-chosen scales, score c(det)); ``pitch-blob``
+  :class:`~pftrack_world.soccer.PitchBlobDetector` (foreground blobs on the pitch);
 * associator: ``greedy-score`` :class:`~pftrack_world.association.GreedyScoreAssociator`
   (eq. 3-4, greedy as the paper), ``hungarian-score``
   :class:`~pftrack_world.association.HungarianScoreAssociator` (same scores, optimal);
 * likelihood: ``detection`` (eq. 6), ``emd`` (eq. 7), ``ncc`` (eq. 8), ``composite`` (eq. 5, 9:
   any likelihood plugins weighted by numbers, beta or 1 - beta);
 * scene: ``soccer`` :class:`~pftrack_world.soccer.SoccerScene`;
-* preset: ``pets09-ground`` (``pftrack/presets/pets09-ground.yaml``).
+* preset: ``pets09-ground`` and ``soccer-ground`` (``pftrack/presets/*.yaml``).
 
 The ground-plane observation model (particles -> image boxes through the camera) is core:
 :class:`pftrack.observation_world.CameraBoxObservation`.
@@ -30,9 +31,11 @@ __version__ = "0.1.0"
 
 @hookimpl
 def pftrack_register_detectors(register):
+    from pftrack_world import soccer
     from pftrack_world.detector import SVMDetector
 
     register("svm", SVMDetector)
+    register("pitch-blob", soccer.PitchBlobDetector)
 
 
 @hookimpl
@@ -71,3 +74,6 @@ def pftrack_register_presets(register):
 
     presets = resources.files("pftrack") / "presets"
     register("pets09-ground", str(presets / "pets09-ground.yaml"))
+    soccer = presets / "soccer-ground.yaml"
+    if soccer.is_file():  # shipped by the soccer work; absent from partial checkouts
+        register("soccer-ground", str(soccer))

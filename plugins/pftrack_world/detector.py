@@ -144,9 +144,14 @@ def load_model(path: str | os.PathLike[str]) -> SVMModel:
         The file is not a pftrack detector model, or its weights do not fit its parameters
         (the message names the file and what is wrong).
     """
+    import zipfile
+
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"detector model {path} not found")
+    if not zipfile.is_zipfile(path):
+        raise ValueError(f"detector model {path}: not an .npz file (expected the zip archive "
+                         "`pftrack detector train` writes)")
     try:
         with np.load(path, allow_pickle=False) as z:
             if "weights" not in z.files or "params" not in z.files:
@@ -203,6 +208,23 @@ def box_iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
     union = (a[:, 2] * a[:, 3])[:, None] + (b[:, 2] * b[:, 3])[None, :] - inter
     return np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0)
+
+
+def merge_clusters(boxes_xywh_px: np.ndarray, scores: np.ndarray, keep: np.ndarray,
+                   iou_min: float = 0.5, tau: float = 0.1) -> np.ndarray:
+    """Refine each kept box by the score-weighted mean of the windows around it.
+
+    Windows lie on a grid (the HOG stride, 8 px at each scale); averaging each kept box with the
+    windows that overlap it by at least ``iou_min``, weighted by ``exp((c - c_best) / tau)``,
+    places it between grid positions. Returns the refined boxes (len(keep), 4).
+    """
+    boxes = np.asarray(boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
+    if len(keep) == 0:
+        return np.zeros((0, 4))
+    iou = box_iou_matrix(boxes[keep], boxes)  # (M, K)
+    w = np.where(iou >= iou_min, np.exp((scores[None, :] - scores[keep][:, None]) / tau), 0.0)
+    w[np.arange(len(keep)), keep] = 1.0
+    return (w @ boxes) / w.sum(axis=1, keepdims=True)
 
 
 def nms(boxes_xywh_px: np.ndarray, scores: np.ndarray, iou_threshold: float) -> np.ndarray:
@@ -455,6 +477,12 @@ class SVMDetector(Detector):
         Minimum score c(det) (signed distance to the SVM boundary) of a reported window.
     nms_iou : float
         Windows overlapping a better one by more than this IoU are suppressed.
+    merge_tau : float or None
+        Each kept window is refined to the score-weighted mean of the windows overlapping it
+        (IoU >= 0.5), weights ``exp((c - c_best) / merge_tau)`` (:func:`merge_clusters`), which
+        places detections between the 8 px grid positions; None keeps the grid window. Needs
+        windows below ``threshold`` too, so the windows are scored down to ``threshold - 3
+        merge_tau``.
     scale_step : float
         Ratio between consecutive search scales.
     min_height_px, max_height_px : float
@@ -484,7 +512,8 @@ class SVMDetector(Detector):
     """
 
     def __init__(self, model: str | None = None, camera: Any = None, height_m: float = 1.75,
-                 threshold: float = 0.0, nms_iou: float = 0.3, scale_step: float = 1.15,
+                 threshold: float = 0.0, nms_iou: float = 0.3, merge_tau: float | None = 0.1,
+                 scale_step: float = 1.15,
                  min_height_px: float = 40.0, max_height_px: float = 400.0,
                  feature: str = "hog", window_wh: Sequence[int] = (32, 64),
                  occupancy: float = 0.8, C: float = 0.01, n_negatives: int = 8000,
@@ -495,6 +524,7 @@ class SVMDetector(Detector):
         self.height_m = height_m
         self.threshold = threshold
         self.nms_iou = nms_iou
+        self.merge_tau = merge_tau
         self.scale_step = scale_step
         self.min_height_px = min_height_px
         self.max_height_px = max_height_px
@@ -598,9 +628,16 @@ class SVMDetector(Detector):
 
         img = frame.image
         grey = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
-        boxes, scores = self.score_windows(grey)
+        tau = self.merge_tau
+        low = self.threshold - (3.0 * float(tau) if tau is not None else 0.0)
+        boxes, scores = self.score_windows(grey, threshold=low)
         keep = nms(boxes, scores, self.nms_iou)
-        boxes, scores = boxes[keep], scores[keep]
+        keep = keep[scores[keep] >= self.threshold]
+        if self.merge_tau is not None and len(keep):
+            boxes = merge_clusters(boxes, scores, keep, tau=float(self.merge_tau))
+        else:
+            boxes = boxes[keep]
+        scores = scores[keep]
         points = None
         cam = self._camera()
         if cam is not None:
