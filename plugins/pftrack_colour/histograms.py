@@ -398,13 +398,40 @@ class ParticleRegion:
         """The region's pixels, (rows, cols, 3) uint8 (a view of the frame)."""
         return self.image[self.y0:self.y1, self.x0:self.x1]
 
-    def box_sums(self, values: np.ndarray) -> np.ndarray:
+    def part_rows(self, part: tuple[int, int] | None = None) -> np.ndarray:
+        """(4, N) float64 rows x0, y0, x1, y1 of each box's part, unclipped.
+
+        ``part=(k, P)``: the k-th of P horizontal stripes of the integer box, rows
+        ``y0 + (k h) // P`` to ``y0 + ((k + 1) h) // P`` (None: the whole box).
+        """
+        r = self._rows()
+        if part is None:
+            return r
+        k, p = part
+        h = r[3] - r[1]
+        out = r.copy()
+        out[1] = r[1] + (k * h) // p
+        out[3] = r[1] + ((k + 1) * h) // p
+        return out
+
+    def part_pixels(self, part: tuple[int, int] | None = None) -> np.ndarray:
+        """Each box part's pixel count inside the image, (N,) float64."""
+        if part is None:
+            return self.n_pixels
+        w, h = self._size_wh
+        c = np.minimum(np.maximum(self.part_rows(part), 0.0),
+                       np.array([[w], [h], [w], [h]], dtype=np.float64))
+        return (c[2] - c[0]) * (c[3] - c[1])
+
+    def box_sums(self, values: np.ndarray, part: tuple[int, int] | None = None) -> np.ndarray:
         """Sum of ``values`` over each box's in-image pixels, O(1) per box (integral image).
 
         Parameters
         ----------
         values : ndarray, shape (rows, cols), float
             One value per pixel of the region.
+        part : (k, P), optional
+            Sum over the k-th of P horizontal stripes of each box (see :meth:`part_rows`).
 
         Returns
         -------
@@ -417,35 +444,45 @@ class ParticleRegion:
         if self.fixed_size is not None:
             px0, py0, px1, py1 = self._pad
             w, h = self._size_wh
+            bw, bh = self.fixed_size
+            oy, sh = 0, bh
+            if part is not None:
+                k, p = part
+                oy = (k * bh) // p
+                sh = ((k + 1) * bh) // p - oy
+                if sh <= 0:
+                    return np.zeros(self._n)
             if not self.all_inside:
                 if (px1 - px0) * (py1 - py0) > self._MAX_PAD_FACTOR * w * h:
-                    return self._corner_sums(v)
+                    return self._corner_sums(v, part)
                 # pixels outside the image are zero: the sums are those of the clipped boxes
                 padded = np.zeros((py1 - py0, px1 - px0), dtype=np.float32)
                 padded[self.y0 - py0:self.y1 - py0, self.x0 - px0:self.x1 - px0] = v
                 v = padded
-            bw, bh = self.fixed_size
             ii = cv2.integral(v, sdepth=cv2.CV_64F)
-            # sums of every bw x bh window, indexed by its top-left corner in the padded region
-            win = ii[bh:, bw:] - ii[:-bh, bw:] - ii[bh:, :-bw] + ii[:-bh, :-bw]
-            idx = ((self._xy[1] - py0) * win.shape[1] + (self._xy[0] - px0)).astype(np.intp)
+            # sums of every bw x sh window, indexed by its top-left corner in the padded region
+            win = ii[sh:, bw:] - ii[:-sh, bw:] - ii[sh:, :-bw] + ii[:-sh, :-bw]
+            idx = ((self._xy[1] + (oy - py0)) * win.shape[1]
+                   + (self._xy[0] - px0)).astype(np.intp)
             return win.ravel()[idx]
-        return self._corner_sums(v)
+        return self._corner_sums(v, part)
 
-    def _corner_sums(self, v: np.ndarray) -> np.ndarray:
+    def _corner_sums(self, v: np.ndarray, part: tuple[int, int] | None = None) -> np.ndarray:
         rows, cols = self.shape
         ii = cv2.integral(np.ascontiguousarray(v), sdepth=cv2.CV_64F).ravel()
         stride = cols + 1
-        # clipped boxes lie in the region; empty ones (wholly outside) may not: pin them
-        c = self._clipped_rows() - np.array([[self.x0], [self.y0], [self.x0], [self.y0]],
+        # clip to the region (which holds every box's in-image pixels); empty boxes give 0
+        c = self.part_rows(part) - np.array([[self.x0], [self.y0], [self.x0], [self.y0]],
                                             dtype=np.float64)
-        c = np.where(self.inside[None, :], c, 0.0)
         c = np.minimum(np.maximum(c, 0.0), np.array([[cols], [rows], [cols], [rows]], float))
+        c[2] = np.maximum(c[2], c[0])
+        c[3] = np.maximum(c[3], c[1])
         # corners (bottom-right, top-right, bottom-left, top-left) -> flat integral indices
         idx = (c[_ROWS] * stride + c[_COLS]).astype(np.intp)
         return _CORNER_SIGNS @ ii[idx]
 
-    def box_histograms(self, bin_image: np.ndarray, n_bins: int) -> np.ndarray:
+    def box_histograms(self, bin_image: np.ndarray, n_bins: int,
+                       part: tuple[int, int] | None = None) -> np.ndarray:
         """Bin counts of every box's in-image pixels: the paper's per-sample histogram (eq. 7).
 
         Each box's pixel indices are gathered from the region's bin image (one fancy index of
@@ -458,6 +495,8 @@ class ParticleRegion:
         bin_image : ndarray, shape (rows, cols), int
             Bin indices of the region's pixels; values ``>= n_bins`` are counted in no bin.
         n_bins : int
+        part : (k, P), optional
+            Count the k-th of P horizontal stripes of each box (see :meth:`part_rows`).
 
         Returns
         -------
@@ -470,10 +509,12 @@ class ParticleRegion:
             return np.zeros((0, n_bins))
         if rows == 0 or cols == 0:
             return np.zeros((n, n_bins))
-        r = self._rows().astype(np.int64)
+        r = self.part_rows(part).astype(np.int64)
         widths = r[2] - r[0]
         heights = r[3] - r[1]
         bw, bh = int(widths.max()), int(heights.max())
+        if bw <= 0 or bh <= 0:
+            return np.zeros((n, n_bins))
         # pad the region by the largest box so every box that reaches into the image lies
         # wholly inside the padded array; the padding holds the sentinel bin
         px0, py0 = self.x0 - bw, self.y0 - bh
@@ -481,7 +522,8 @@ class ParticleRegion:
         prows = (self.y1 - py0) + bh
         padded = np.full((prows, pcols), out_bin, dtype=np.int32)
         padded[bh:bh + rows, bw:bw + cols] = np.minimum(bin_image, out_bin)
-        # boxes wholly outside the image are moved into the padded array (and masked below)
+        # boxes wholly outside the padded array are moved into it (they read only sentinels:
+        # such a box has no pixel in the region, hence none in the image)
         ox = np.minimum(np.maximum(r[0], px0), px0 + pcols - bw) - px0
         oy = np.minimum(np.maximum(r[1], py0), py0 + prows - bh) - py0
         ys, xs = np.mgrid[0:bh, 0:bw]
@@ -491,8 +533,9 @@ class ParticleRegion:
             ok = ((xs.ravel()[None, :] < widths[:, None])
                   & (ys.ravel()[None, :] < heights[:, None]))
             vals = np.where(ok, vals, out_bin)
-        if not self.all_inside:
-            vals = np.where(self.inside[:, None], vals, out_bin)
+        moved = (ox != r[0] - px0) | (oy != r[1] - py0)
+        if moved.any():
+            vals = np.where(moved[:, None], out_bin, vals)
         keys = (np.arange(n, dtype=np.int64) * (n_bins + 1))[:, None] + vals
         counts = np.bincount(keys.ravel(), minlength=n * (n_bins + 1))
         return counts.reshape(n, n_bins + 1)[:, :n_bins].astype(np.float64)

@@ -4,36 +4,50 @@ particle-filter tracking).
 Four likelihoods, all built on a per-target template colour histogram ``q`` taken from the
 target's initial box (eq. 5; RGB 8 x 8 x 8 by default):
 
-====================================  ==========================  ==================================
-registered name                       class                       equations, cost per particle
-====================================  ==========================  ==================================
-``bhattacharyya``                     BhattacharyyaLikelihood     eq. 7-9: sample histogram, O(w h)
-``bhattacharyya-bg``                  BhattacharyyaBackground...  eq. 23: + background, O(w h)
-``cross-entropy``                     CrossEntropyLikelihood      eq. 13-19: O(1) (integral image)
-``cross-entropy-bg``                  CrossEntropyBackground...   eq. 20-22, 24: O(1)
-====================================  ==========================  ==================================
+=====================  ======================================  ===================================
+registered name        class                                   equations; cost per particle
+=====================  ======================================  ===================================
+``bhattacharyya``      :class:`BhattacharyyaLikelihood`        eq. 7-9; a histogram, O(w h)
+``bhattacharyya-bg``   :class:`BhattacharyyaBackgroundLikeli`  eq. 23; two histograms, O(w h)
+                       ``hood``
+``cross-entropy``      :class:`CrossEntropyLikelihood`         eq. 13-19; O(1)
+``cross-entropy-bg``   :class:`CrossEntropyBackgroundLikeli`   eq. 20-22, 24; O(1)
+                       ``hood``
+=====================  ======================================  ===================================
 
-The Bhattacharyya baselines build each sample's histogram as the paper does (gather the box's bin
-indices, count them: :meth:`ParticleRegion.box_histograms`), vectorised over particles.
+The Bhattacharyya baselines build each sample's histogram as the paper does (gather the box's
+bin indices and count them, :meth:`~pftrack_colour.histograms.ParticleRegion.box_histograms`),
+vectorised over particles.
 
 The cross-entropy likelihoods never build a sample histogram. With ``λ = n`` (the box's pixel
 count) eq. 18 says ``log P = Σ_{x in box} log q(bin(x))`` and eq. 21 ``log L = Σ_{x in box}
-log(q / h_back)(bin(x)) + const``. Once per frame and target we map the pixels of the region that
-the target's particles cover to that per-pixel value and take one integral image of it; then each
-particle costs four look-ups, so 5,000 particles cost little more than 500.
+log(q / h_back)(bin(x)) + const``. Once per frame and target the pixels of the region the
+target's particles cover are mapped to that per-pixel value and one integral image is taken;
+then each particle costs one look-up (four for boxes of different sizes), so 5,000 particles
+cost little more than 500.
 
-Boxes that leave the image are clipped: a box's log-likelihood is ``λ`` times the mean per-pixel
-term over its in-image pixels (for the Bhattacharyya ones: its histogram is normalised by its
-in-image pixel count). A box wholly outside the image has log-likelihood ``-inf``.
+Clipping: a box that leaves the image is clipped. A cross-entropy box's log-likelihood is ``λ``
+times the mean per-pixel term over its in-image pixels; a Bhattacharyya sample histogram is
+normalised by its in-image pixel count. A box wholly outside the image has log-likelihood
+``-inf``.
 
 Histogram floor: every histogram (template, background) is smoothed as
-``(p + eps) / (1 + m eps)`` (:func:`~pftrack_colour.histograms.normalise_histogram`, ``eps = 1e-4``
-by default), so log-probabilities of colours never seen are finite.
+``(p + eps) / (1 + m eps)`` (:func:`~pftrack_colour.histograms.normalise_histogram`; ``eps = 1e-4``
+by default), so the logarithm of a colour never seen is finite (about -9.2).
 
-The background histogram ``h_back`` (eq. 15, 20) is taken every frame in :meth:`begin_frame` from
-every pixel outside all targets' current colour boxes (their last estimates). It is estimated on a
-grid of every ``background_stride``-th pixel in each direction (default 2: a quarter of the
-pixels; on the ``walkers`` frames its L1 distance to the full histogram is about 1%).
+Background (eq. 15, 20): every frame, :meth:`~ColourLikelihood.begin_frame` takes the histogram
+of every pixel outside all targets' current colour boxes (their last estimates), on a grid of
+every ``background_stride``-th pixel in each direction (default 2: a quarter of the pixels).
+
+Beyond the paper (all optional, off by default except where said):
+
+* ``parts``: the box is cut into ``parts`` horizontal stripes, each with its own template (a
+  person's shirt and trousers); the log-likelihood sums over the stripes. Still O(1) per
+  particle and stripe.
+* ``region``: the colour model reads only a sub-box (fractions of the box), e.g. a torso.
+* ``update_rate``: template update ``q <- (1 - a) q + a p(estimate)`` (the paper keeps q fixed).
+* ``overlap`` (``cross-entropy-bg``): how pixels inside another target's box count (joint
+  weighting, see :class:`CrossEntropyBackgroundLikelihood`).
 """
 
 from __future__ import annotations
@@ -64,6 +78,21 @@ __all__ = [
 
 _OVERLAP_MODES = ("mixture", "product", "independent")
 
+_COMMON_PARAMS = """bins : int or (int, int, int)
+        Bins per channel (8: 8 x 8 x 8 = 512 bins, the paper).
+    colour_space : {"rgb", "hsv", "lab", "ycrcb", "bgr"}
+        Colour space of the histograms ("rgb": the paper).
+    eps : float
+        Histogram floor (see the module docstring).
+    region : (fx0, fy0, fx1, fy1) or None
+        Part of each box the colour model reads, as fractions of its width and height (e.g.
+        ``(0.15, 0.1, 0.85, 0.9)``); None: the whole box.
+    parts : int
+        Horizontal stripes of the colour box, each with its own template (1: the paper).
+    update_rate : float
+        Template update ``q <- (1 - a) q + a p(estimate)`` once per frame, from the previous
+        frame at the target's last estimate; 0 (the paper): never."""
+
 
 class ColourLikelihood(Likelihood):
     """Shared machinery: binning, templates, per-frame background; not registered itself.
@@ -74,9 +103,11 @@ class ColourLikelihood(Likelihood):
     Attributes
     ----------
     binner_ : ColourBins
-        Pixel -> bin map built from ``bins`` and ``colour_space`` on first use.
-    templates_ : dict[int, ndarray (m,)]
-        Each live target's template histogram q (floored, sums to 1).
+        Pixel -> bin map, built from ``bins`` and ``colour_space`` on first use.
+    templates_ : dict[int, ndarray (parts, m)]
+        Each live target's template histograms q, one per stripe (floored, each sums to 1).
+    target_rects_ : dict[int, ndarray (4,)]
+        Each live target's colour box this frame (its last estimate), integer x0, y0, x1, y1.
     background_ : ndarray (m,)
         This frame's background histogram (background likelihoods only).
     image_ : ndarray (H, W, 3) uint8
@@ -84,12 +115,13 @@ class ColourLikelihood(Likelihood):
     """
 
     uses_background = False
+    needs_own_counts = False
 
     # -- set-up -------------------------------------------------------------------------------
 
     def _check_params(self) -> None:
         name = type(self).__name__
-        region = getattr(self, "region", None)
+        region = self.region
         if region is not None:
             r = tuple(float(v) for v in region)
             if len(r) != 4 or not (0 <= r[0] < r[2] <= 1 and 0 <= r[1] < r[3] <= 1):
@@ -99,7 +131,9 @@ class ColourLikelihood(Likelihood):
             raise ValueError(f"{name}: eps must be > 0, got {self.eps!r}")
         if not 0.0 <= float(self.update_rate) <= 1.0:
             raise ValueError(f"{name}: update_rate must be in [0, 1], got {self.update_rate!r}")
-        lam = getattr(self, "lam", None)
+        if int(self.parts) != self.parts or self.parts < 1:
+            raise ValueError(f"{name}: parts must be a positive int, got {self.parts!r}")
+        lam = self.lam
         if lam is not None and not float(lam) > 0:
             raise ValueError(f"{name}: lam must be > 0 or None, got {lam!r}")
         stride = getattr(self, "background_stride", 1)
@@ -109,11 +143,13 @@ class ColourLikelihood(Likelihood):
     def _setup(self) -> ColourBins:
         """Validate the parameters and build the binner (again if they changed)."""
         key = (self.bins if np.isscalar(self.bins) else tuple(self.bins), self.colour_space,
-               self.region if self.region is None else tuple(self.region))
+               self.region if self.region is None else tuple(self.region), self.parts)
         if getattr(self, "binner_", None) is None or self._setup_key != key:
             self._check_params()
             self.binner_ = ColourBins(key[0], key[1])
             self._setup_key = key
+            self._parts = [None] if self.parts == 1 else [(k, int(self.parts))
+                                                          for k in range(int(self.parts))]
         if not hasattr(self, "templates_"):
             self.templates_: dict[int, np.ndarray] = {}
             self.target_rects_: dict[int, np.ndarray] = {}
@@ -125,14 +161,16 @@ class ColourLikelihood(Likelihood):
         return sub_boxes(boxes_xywh_px, self.region)
 
     def _box_counts(self, image: np.ndarray, box_xywh_px: np.ndarray) -> np.ndarray:
-        """Bin counts of the in-image pixels of one box's colour region, shape (m,)."""
+        """Bin counts of the in-image pixels of one box's colour stripes, (parts, m)."""
         region = ParticleRegion(image, self._colour_boxes(np.asarray(box_xywh_px, float)[None]))
+        m = self.binner_.n_bins
         if region.n_pixels[0] == 0:
-            return np.zeros(self.binner_.n_bins)
-        return self.binner_.histogram(region.pixels())
+            return np.zeros((len(self._parts), m))
+        bins = self.binner_(region.pixels())
+        return np.stack([region.box_histograms(bins, m, part)[0] for part in self._parts])
 
     def template(self, target_id: int) -> np.ndarray:
-        """Template histogram q of a live target, shape (m,)."""
+        """Template histograms of a live target, shape (parts, m)."""
         try:
             return self.templates_[target_id]
         except (KeyError, AttributeError):
@@ -142,7 +180,7 @@ class ColourLikelihood(Likelihood):
     # -- life cycle ---------------------------------------------------------------------------
 
     def init_target(self, frame: Frame, target: Target) -> None:
-        """Template from the target's box in its first frame (eq. 5)."""
+        """Template from the target's box in its first frame (eq. 5), one per stripe."""
         self._setup()
         counts = self._box_counts(frame.image, target.box_xywh_px)
         if counts.sum() == 0:
@@ -150,8 +188,7 @@ class ColourLikelihood(Likelihood):
                              f"{np.round(target.box_xywh_px, 1).tolist()} wholly outside the "
                              f"{frame.size_wh[0]}x{frame.size_wh[1]} image")
         self.templates_[target.id] = normalise_histogram(counts, self.eps)
-        if getattr(self, "image_", None) is not None:  # born mid-frame: ready it for weighting
-            self._prepare([target])
+        self.values_.pop(target.id, None)
 
     def end_target(self, target: Target) -> None:
         if hasattr(self, "templates_"):
@@ -176,22 +213,22 @@ class ColourLikelihood(Likelihood):
         self.image_ = frame.image
         if live:
             boxes = self._colour_boxes(np.array([t.box_xywh_px for t in live], dtype=float))
-            rects = integer_boxes(boxes)
-            self.target_rects_ = {t.id: r for t, r in zip(live, rects)}
+            self.target_rects_ = dict(zip((t.id for t in live), integer_boxes(boxes)))
         else:
             self.target_rects_ = {}
         if self.uses_background:
             self._background(frame.image)
-        self._prepare(live)
+        self.values_ = {t.id: self._value_table(t.id) for t in live}
         self.prev_image_ = frame.image if self.update_rate > 0 else None
 
-    def _prepare(self, targets: Sequence[Target]) -> None:
-        """Per-frame, per-target tables (after the background); default nothing."""
+    def _value_table(self, target_id: int) -> np.ndarray | None:
+        """Per-frame, per-target table (parts, m); default none."""
+        return None
 
     def _background(self, image: np.ndarray) -> None:
         """Background histogram from every ``background_stride``-th pixel outside all targets'
-        current colour boxes (eq. 15, 20); also, per target, the counts of its own box's grid
-        pixels that no other target covers (for the Bhattacharyya background term)."""
+        current colour boxes (eq. 15, 20); for the Bhattacharyya background term also, per
+        target, the counts of its own box's grid pixels that no other target covers."""
         s = int(self.background_stride)
         binner = self.binner_
         grid = binner(subsample(image, s))
@@ -203,13 +240,13 @@ class ColourLikelihood(Likelihood):
             gy0, gy1 = -(-max(int(r[1]), 0) // s), -(-max(int(r[3]), 0) // s)
             if gx1 > gx0 and gy1 > gy0:
                 slices[tid] = (slice(gy0, gy1), slice(gx0, gx1))
+        cover = None
         if slices:
             cover = np.zeros(grid.shape, dtype=np.uint8)
             for sl in slices.values():
                 cover[sl] += 1
             counts = np.bincount(grid[cover == 0], minlength=m).astype(np.float64)
         else:
-            cover = None
             counts = np.bincount(grid.ravel(), minlength=m).astype(np.float64)
         if counts.sum() == 0:  # targets cover the whole image: no background evidence
             counts = np.bincount(grid.ravel(), minlength=m).astype(np.float64)
@@ -222,25 +259,25 @@ class ColourLikelihood(Likelihood):
                 only = grid[sl][cover[sl] == 1]
                 self.own_counts_[tid] = np.bincount(only, minlength=m).astype(np.float64) * (s * s)
 
-    needs_own_counts = False
-
-    def _lam(self, region: ParticleRegion) -> np.ndarray | float:
-        if self.lam is None:  # eq. 18: λ ≈ n, the pixels of the (unclipped) box
-            return region.box_area
-        return float(self.lam)
-
     def _coverage(self, region: ParticleRegion, target_id: int,
-                  ) -> list[tuple[int, tuple[slice, slice]]]:
-        """Other targets' colour boxes as slices of ``region`` (those that intersect it)."""
+                  ) -> list[tuple[int, int, tuple[slice, slice]]]:
+        """Other targets' colour stripes that intersect ``region``: (id, stripe, slices)."""
         out = []
+        p = len(self._parts)
         for tid, r in self.target_rects_.items():
             if tid == target_id:
                 continue
             x0, x1 = max(int(r[0]), region.x0), min(int(r[2]), region.x1)
-            y0, y1 = max(int(r[1]), region.y0), min(int(r[3]), region.y1)
-            if x1 > x0 and y1 > y0:
-                out.append((tid, (slice(y0 - region.y0, y1 - region.y0),
-                                  slice(x0 - region.x0, x1 - region.x0))))
+            if x1 <= x0:
+                continue
+            h = int(r[3]) - int(r[1])
+            for k in range(p):
+                ry0 = int(r[1]) + (k * h) // p
+                ry1 = int(r[1]) + ((k + 1) * h) // p
+                y0, y1 = max(ry0, region.y0), min(ry1, region.y1)
+                if y1 > y0:
+                    out.append((tid, k, (slice(y0 - region.y0, y1 - region.y0),
+                                         slice(x0 - region.x0, x1 - region.x0))))
         return out
 
     # -- weighting ----------------------------------------------------------------------------
@@ -267,7 +304,7 @@ class ColourLikelihood(Likelihood):
         raise NotImplementedError
 
     def __getstate__(self) -> dict[str, Any]:
-        # per-frame images are not part of a pickled likelihood
+        # the frames being weighted are not part of a pickled likelihood
         d = dict(self.__dict__)
         for k in ("image_", "prev_image_"):
             if k in d:
@@ -275,47 +312,57 @@ class ColourLikelihood(Likelihood):
         return d
 
 
+def _bhattacharyya(counts: np.ndarray, n: np.ndarray, sqrt_q: np.ndarray) -> np.ndarray:
+    """sqrt(1 - Σ sqrt(q p)) for sample counts (N, m) normalised by n (N,)."""
+    bc = np.sqrt(counts / np.maximum(n, 1.0)[:, None]) @ sqrt_q
+    return np.sqrt(np.clip(1.0 - bc, 0.0, None))
+
+
+def _mean_over_parts(dist: list[np.ndarray], pixels: list[np.ndarray]) -> np.ndarray:
+    """Mean of per-stripe distances over the stripes that have in-image pixels."""
+    if len(dist) == 1:
+        return dist[0]
+    d = np.stack(dist)
+    has = np.stack(pixels) > 0
+    return (d * has).sum(axis=0) / np.maximum(has.sum(axis=0), 1)
+
+
 class BhattacharyyaLikelihood(ColourLikelihood):
     """Bhattacharyya-distance likelihood (eq. 7-9), the paper's baseline.
 
     ``log P = -λ B(q, p)``, ``B = sqrt(1 - Σ_i sqrt(q(i) p(i)))``, with ``p`` each sample's colour
-    histogram (eq. 7), built per particle (vectorised gather + bincount), normalised by the box's
-    in-image pixel count.
+    histogram (eq. 7) built per particle (vectorised gather and bincount) and normalised by its
+    in-image pixel count. With ``parts > 1``, B is the mean over the stripes.
 
     Parameters
     ----------
-    bins : int or (int, int, int)
-        Bins per channel (8: 512 bins).
-    colour_space : str
-        ``"rgb"`` (the paper), ``"hsv"``, ``"lab"``, ``"ycrcb"``, ``"bgr"``.
+    {common}
     lam : float
         λ of eq. 9 (dimensionless).
-    eps : float
-        Histogram floor (see the module docstring).
-    region : (fx0, fy0, fx1, fy1) or None
-        Part of each box the colour model reads, as fractions of its width and height.
-    update_rate : float
-        Template update ``q <- (1 - a) q + a p(estimate)`` each frame; 0 (default, as the paper):
-        never.
     """
 
     def __init__(self, bins: int | tuple[int, int, int] = 8, colour_space: str = "rgb",
                  lam: float = 20.0, eps: float = 1e-4,
-                 region: tuple[float, float, float, float] | None = None,
+                 region: tuple[float, float, float, float] | None = None, parts: int = 1,
                  update_rate: float = 0.0) -> None:
         self.bins = bins
         self.colour_space = colour_space
         self.lam = lam
         self.eps = eps
         self.region = region
+        self.parts = parts
         self.update_rate = update_rate
 
     def _log_likelihood(self, region, q, target_id):
         binner = self.binner_
-        counts = region.box_histograms(binner(region.pixels()), binner.n_bins)
-        n = np.maximum(region.n_pixels, 1.0)[:, None]
-        bc = np.sqrt(counts / n) @ np.sqrt(q)
-        return -float(self.lam) * np.sqrt(np.clip(1.0 - bc, 0.0, None))
+        bins = binner(region.pixels())
+        dist, pixels = [], []
+        for k, part in enumerate(self._parts):
+            counts = region.box_histograms(bins, binner.n_bins, part)
+            n = region.part_pixels(part)
+            dist.append(_bhattacharyya(counts, n, np.sqrt(q[k])))
+            pixels.append(n)
+        return -float(self.lam) * _mean_over_parts(dist, pixels)
 
 
 class BhattacharyyaBackgroundLikelihood(ColourLikelihood):
@@ -328,27 +375,28 @@ class BhattacharyyaBackgroundLikelihood(ColourLikelihood):
 
     Parameters
     ----------
-    bins, colour_space, lam, eps, region, update_rate
-        As :class:`BhattacharyyaLikelihood`.
+    {common}
+    lam : float
+        λ of eq. 23 (dimensionless).
     background_stride : int
         The background histogram reads every ``background_stride``-th pixel in each direction.
     """
 
     uses_background = True
+    needs_own_counts = True
 
     def __init__(self, bins: int | tuple[int, int, int] = 8, colour_space: str = "rgb",
                  lam: float = 20.0, eps: float = 1e-4,
-                 region: tuple[float, float, float, float] | None = None,
+                 region: tuple[float, float, float, float] | None = None, parts: int = 1,
                  update_rate: float = 0.0, background_stride: int = 2) -> None:
         self.bins = bins
         self.colour_space = colour_space
         self.lam = lam
         self.eps = eps
         self.region = region
+        self.parts = parts
         self.update_rate = update_rate
         self.background_stride = background_stride
-
-    needs_own_counts = True
 
     def _log_likelihood(self, region, q, target_id):
         binner = self.binner_
@@ -356,22 +404,23 @@ class BhattacharyyaBackgroundLikelihood(ColourLikelihood):
         bins = binner(region.pixels()).astype(np.int32)
         # pixels inside another target's box: bin + m (they belong to the sample's histogram
         # but not to the background it displaces)
-        for _, sl in self._coverage(region, target_id):
+        for _, _, sl in self._coverage(region, target_id):
             sub = bins[sl]
             bins[sl] = np.where(sub < m, sub + m, sub)
-        counts = region.box_histograms(bins, 2 * m)
-        free = counts[:, :m]
-        total = free + counts[:, m:]
-        n = np.maximum(region.n_pixels, 1.0)[:, None]
-        bc = np.sqrt(total / n) @ np.sqrt(q)
-        b_target = np.sqrt(np.clip(1.0 - bc, 0.0, None))
+        dist, pixels = [], []
+        free = 0.0
+        for k, part in enumerate(self._parts):
+            counts = region.box_histograms(bins, 2 * m, part)
+            n = region.part_pixels(part)
+            dist.append(_bhattacharyya(counts[:, :m] + counts[:, m:], n, np.sqrt(q[k])))
+            pixels.append(n)
+            free = free + counts[:, :m]
+        b_target = _mean_over_parts(dist, pixels)
         # background with the sample's box: everything outside the other targets' boxes ...
         g = self.background_counts_ + self.own_counts_.get(target_id, 0.0)
         back = np.clip(g[None, :] - free, 0.0, None)  # ... minus what the sample's box covers
-        s = back.sum(axis=1, keepdims=True)
-        p_back = back / np.maximum(s, 1.0)
-        bc_back = np.sqrt(p_back) @ np.sqrt(self.background_)
-        b_back = np.sqrt(np.clip(1.0 - bc_back, 0.0, None))
+        s = back.sum(axis=1)
+        b_back = _bhattacharyya(back, s, np.sqrt(self.background_))
         return -float(self.lam) * (b_target + b_back)
 
 
@@ -380,12 +429,12 @@ class CrossEntropyLikelihood(ColourLikelihood):
 
     ``log P = -λ H(p, q) = λ Σ_i p(i) log q(i)``; with ``λ = n`` (``lam=None``, the paper's
     choice) this is ``Σ_{x in box} log q(bin(x))`` (eq. 18), read from an integral image of
-    ``log q(bin(x))`` over the region the particles cover.
+    ``log q(bin(x))`` over the region the particles cover. With ``parts > 1`` each stripe's
+    pixels use their stripe's template.
 
     Parameters
     ----------
-    bins, colour_space, eps, region, update_rate
-        As :class:`BhattacharyyaLikelihood`.
+    {common}
     lam : float or None
         λ of eq. 13; None: the box's pixel count n (eq. 18).
     method : {"integral", "histogram"}
@@ -395,13 +444,14 @@ class CrossEntropyLikelihood(ColourLikelihood):
 
     def __init__(self, bins: int | tuple[int, int, int] = 8, colour_space: str = "rgb",
                  lam: float | None = None, eps: float = 1e-4,
-                 region: tuple[float, float, float, float] | None = None,
+                 region: tuple[float, float, float, float] | None = None, parts: int = 1,
                  update_rate: float = 0.0, method: str = "integral") -> None:
         self.bins = bins
         self.colour_space = colour_space
         self.lam = lam
         self.eps = eps
         self.region = region
+        self.parts = parts
         self.update_rate = update_rate
         self.method = method
 
@@ -411,57 +461,61 @@ class CrossEntropyLikelihood(ColourLikelihood):
             raise ValueError(f"{type(self).__name__}: method must be 'integral' or 'histogram', "
                              f"got {self.method!r}")
 
-    def _prepare(self, targets: Sequence[Target]) -> None:
-        for t in targets:
-            self.values_[t.id] = self._value_table(t.id)
-
     def _value_table(self, target_id: int) -> np.ndarray:
-        """Per-bin value whose sum over a box's pixels is the log-likelihood (λ = n), (m,)."""
+        """Per-bin value whose sum over a box's pixels is the log-likelihood (λ = n), one row
+        per stripe, float32."""
         return np.log(self.template(target_id)).astype(np.float32)
 
     def _log_likelihood(self, region, q, target_id):
         binner = self.binner_
         bins = binner(region.pixels())
         table = self.values_.get(target_id)
-        if table is None:
+        if table is None:  # a target born after begin_frame
             table = self.values_[target_id] = self._value_table(target_id)
+        sums = 0.0
         if self.method == "histogram":
-            sums = region.box_histograms(bins, binner.n_bins) @ table
+            for k, part in enumerate(self._parts):
+                sums = sums + region.box_histograms(bins, binner.n_bins, part) @ table[k]
         else:
-            sums = region.box_sums(self._value_image(region, bins, table, target_id))
+            for k, part in enumerate(self._parts):
+                sums = sums + region.box_sums(self._value_image(region, bins, table, k,
+                                                                target_id), part)
         if self.lam is None and region.all_inside:  # λ = n: the sum itself (eq. 18, 21)
             return sums
-        return self._lam(region) * sums / np.maximum(region.n_pixels, 1.0)
+        lam = region.box_area if self.lam is None else float(self.lam)
+        return lam * sums / np.maximum(region.n_pixels, 1.0)
 
     def _value_image(self, region: ParticleRegion, bins: np.ndarray, table: np.ndarray,
-                     target_id: int) -> np.ndarray:
-        """Per-pixel value of the region, (rows, cols) float32."""
-        return table[bins]
+                     part: int, target_id: int) -> np.ndarray:
+        """Per-pixel value of the region for stripe ``part``, (rows, cols) float32."""
+        return table[part][bins]
 
 
 class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
     """Cross entropy with background by the fast equivalent (eq. 20-22, 24), O(1) per particle.
 
     ``log L = λ / n Σ_{x in box} log(q / h_back)(bin(x)) + const`` (eq. 21 with λ = n): only the
-    pixels the particles cover are read, and through an integral image.
+    pixels the particles cover are read, through an integral image.
 
     Joint weighting (eq. 15): the background excludes all targets' current boxes. Pixels of a
     sample's box that lie inside another target's current box are not background whether or not
     the sample covers them; ``overlap`` says how they count:
 
     * ``"mixture"`` (default): such a pixel is explained by the mixture of the histograms of the
-      targets covering it; the sample adds its own: ``log((q + S) / (K + 1)) - log(S / K)`` with
-      ``S`` the sum of the ``K`` covering targets' histograms at the pixel's colour. An occluding
-      target's colours cost the sample little (``log 1/2``), its own colours seen in front of
-      another target still count for it.
+      targets covering it, and the sample adds its own: ``log((q + S) / (K + 1)) - log(S / K)``
+      with ``S`` the sum of the ``K`` covering targets' histograms at the pixel's colour. An
+      occluding target's colours cost the sample little (``log 1/2``); its own colours seen in
+      front of another target still count for it.
     * ``"product"``: eq. 15 read literally (the targets' histograms multiply): ``log q``.
     * ``"independent"``: eq. 22 per target, as if no other target existed: ``log(q / h_back)``.
 
     Parameters
     ----------
-    bins, colour_space, lam, eps, region, update_rate, method
-        As :class:`CrossEntropyLikelihood` (``method="histogram"`` needs
-        ``overlap="independent"``).
+    {common}
+    lam : float or None
+        λ of eq. 13; None: the box's pixel count n (eq. 18, 21).
+    method : {"integral", "histogram"}
+        As :class:`CrossEntropyLikelihood` (``"histogram"`` needs ``overlap="independent"``).
     background_stride : int
         The background histogram reads every ``background_stride``-th pixel in each direction.
     overlap : {"mixture", "product", "independent"}
@@ -471,7 +525,7 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
 
     def __init__(self, bins: int | tuple[int, int, int] = 8, colour_space: str = "rgb",
                  lam: float | None = None, eps: float = 1e-4,
-                 region: tuple[float, float, float, float] | None = None,
+                 region: tuple[float, float, float, float] | None = None, parts: int = 1,
                  update_rate: float = 0.0, method: str = "integral",
                  background_stride: int = 2, overlap: str = "mixture") -> None:
         self.bins = bins
@@ -479,6 +533,7 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
         self.lam = lam
         self.eps = eps
         self.region = region
+        self.parts = parts
         self.update_rate = update_rate
         self.method = method
         self.background_stride = background_stride
@@ -496,28 +551,44 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
     def _value_table(self, target_id: int) -> np.ndarray:
         return (np.log(self.template(target_id)) - self.log_background_).astype(np.float32)
 
-    def _value_image(self, region, bins, table, target_id):
-        values = table[bins]
+    def _log_likelihood(self, region, q, target_id):
+        self._cover_cache = None  # per call: the other targets' coverage of this region
+        return super()._log_likelihood(region, q, target_id)
+
+    def _value_image(self, region, bins, table, part, target_id):
+        values = table[part][bins]
         if self.overlap == "independent":
             return values
+        if self._cover_cache is None:
+            self._cover_cache = self._cover_sums(region, bins, target_id)
+        covered, s_cov, k_cov = self._cover_cache
+        if covered is None:
+            return values
+        qk = self.template(target_id)[part].astype(np.float32)
+        qv = qk[bins[covered]]
+        if self.overlap == "product":
+            values[covered] = np.log(qv)
+        else:  # mixture
+            values[covered] = np.log((qv + s_cov) / (k_cov + 1.0)) - np.log(s_cov / k_cov)
+        return values
+
+    def _cover_sums(self, region, bins, target_id):
+        """Pixels of the region inside other targets' boxes, with S (sum of their histograms at
+        each pixel's colour) and K (how many cover it)."""
         cover = self._coverage(region, target_id)
         if not cover:
-            return values
-        q = self.template(target_id)
-        if self.overlap == "product":
-            logq = np.log(q).astype(np.float32)
-            for _, sl in cover:
-                values[sl] = logq[bins[sl]]
-            return values
-        # mixture: S = sum of covering targets' histograms at each pixel's colour, K = count
+            return None, None, None
         rows, cols = region.shape
         s_sum = np.zeros((rows, cols), dtype=np.float32)
         k = np.zeros((rows, cols), dtype=np.float32)
-        for tid, sl in cover:
-            s_sum[sl] += self.template(tid).astype(np.float32)[bins[sl]]
+        for tid, part, sl in cover:
+            s_sum[sl] += self.template(tid)[part].astype(np.float32)[bins[sl]]
             k[sl] += 1.0
         covered = k > 0
-        qv = q.astype(np.float32)[bins[covered]]
-        sv, kv = s_sum[covered], k[covered]
-        values[covered] = np.log((qv + sv) / (kv + 1.0)) - np.log(sv / kv)
-        return values
+        return covered, s_sum[covered], k[covered]
+
+
+for _cls in (BhattacharyyaLikelihood, BhattacharyyaBackgroundLikelihood, CrossEntropyLikelihood,
+             CrossEntropyBackgroundLikelihood):
+    _cls.__doc__ = (_cls.__doc__ or "").replace("{common}", _COMMON_PARAMS)
+del _cls

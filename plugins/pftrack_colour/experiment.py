@@ -1,0 +1,473 @@
+"""Seed 000's experiments as library calls: track a scene from given boxes, score, tabulate.
+
+Used by ``pftrack bench seed000`` (the paper's Tables 1-4 on the ``walkers`` scene),
+``pftrack bench pets09-colour`` (every person of PETS 2009 S2.L1), ``pftrack demo`` and the
+notebook ``01_cross_entropy.ipynb``.
+
+Timing covers tracking only: frames are decoded or rendered before the clock starts (or outside
+the timed calls), and drawing happens afterwards.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from pftrack.components import Detections, Frame, Likelihood, Target
+from pftrack.host import Host, get_host
+from pftrack.tracker import ImageBoxObservation, MultiTargetTracker, TrackRecord, records_to_mot
+
+__all__ = [
+    "LIKELIHOODS",
+    "PAPER",
+    "TrackingRun",
+    "build_tracker",
+    "first_boxes",
+    "last_frames",
+    "track",
+    "track_boxes",
+    "centre_errors",
+    "cumulative_errors",
+    "walkers_tables",
+    "format_walkers_tables",
+]
+
+#: The four likelihoods of seed 000, baseline first.
+LIKELIHOODS = ("bhattacharyya", "bhattacharyya-bg", "cross-entropy", "cross-entropy-bg")
+
+#: The paper's Tables 1-4 (seconds for 180 frames and cumulative error in px; Bh = eq. 23,
+#: Cr = eq. 24, both with background; Core2 T5500 1.66 GHz, image I/O included).
+PAPER: dict[str, Any] = {
+    "seconds_180_frames": {
+        (100, 1): (15.0, 2.61), (100, 2): (29.1, 4.32), (100, 3): (64.8, 7.59),
+        (500, 1): (70.5, 6.89), (500, 2): (142.0, 12.6), (500, 3): (322.0, 23.8),
+    },
+    "cumulative_error_px": {  # (samples, targets) -> {name: (Bh, Cr)}
+        (100, 1): {"blue": (748, 554)},
+        (100, 2): {"blue": (760, 581), "red": (878, 344)},
+        (100, 3): {"blue": (732, 621), "red": (837, 354), "purple": (904, 546)},
+        (500, 1): {"blue": (725, 560)},
+        (500, 2): {"blue": (718, 562), "red": (813, 315)},
+        (500, 3): {"blue": (734, 557), "red": (842, 336), "purple": (890, 542)},
+    },
+}
+
+#: Random-walk noise per frame (px) used by the experiments; the walkers move 1-3 px a frame.
+DEFAULT_SIGMA_PX = 4.0
+
+
+class _TimedLikelihood(Likelihood):
+    """Forwards to ``inner`` and accumulates the seconds spent in it (for reporting the
+    likelihood's share of the tracking time)."""
+
+    def __init__(self, inner: Likelihood) -> None:
+        self.inner = inner
+
+    def _timed(self, fn: Callable[..., Any], *args: Any) -> Any:
+        t0 = time.perf_counter()
+        try:
+            return fn(*args)
+        finally:
+            self.seconds_ = getattr(self, "seconds_", 0.0) + time.perf_counter() - t0
+
+    def init_target(self, frame: Frame, target: Target) -> None:
+        self._timed(self.inner.init_target, frame, target)
+
+    def end_target(self, target: Target) -> None:
+        self._timed(self.inner.end_target, target)
+
+    def begin_frame(self, frame: Frame, targets: Sequence[Target],
+                    detections: Detections | None = None) -> None:
+        self._timed(self.inner.begin_frame, frame, targets, detections)
+
+    def log_likelihood(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
+        return self._timed(self.inner.log_likelihood, boxes_xywh_px, target)
+
+
+@dataclass
+class TrackingRun:
+    """What :func:`track` returns.
+
+    Attributes
+    ----------
+    rows : ndarray, shape (M, 10)
+        The tracks as MOTChallenge rows (frame, id, left, top, width, height, conf, -1, -1, -1).
+    seconds : float
+        Wall time spent tracking (starting targets, steps, ending targets); decoding, rendering
+        and drawing excluded.
+    likelihood_seconds : float
+        The part of ``seconds`` spent in the likelihood.
+    n_frames : int
+        Frames tracked.
+    n_updates : int
+        Person-updates: the number of (target, frame) estimates made.
+    snapshots : dict[int, dict[int, ndarray (N, D)]]
+        For the frames asked for, each live target's particles after the step.
+    recoveries : int
+        Frames in which some target lost every weight and was re-spread.
+    """
+
+    rows: np.ndarray
+    seconds: float
+    likelihood_seconds: float
+    n_frames: int
+    n_updates: int
+    snapshots: dict[int, dict[int, np.ndarray]] = field(default_factory=dict)
+    recoveries: int = 0
+
+    @property
+    def seconds_per_frame(self) -> float:
+        return self.seconds / max(self.n_frames, 1)
+
+    @property
+    def frames_per_second(self) -> float:
+        return self.n_frames / self.seconds if self.seconds > 0 else float("inf")
+
+    @property
+    def updates_per_second(self) -> float:
+        return self.n_updates / self.seconds if self.seconds > 0 else float("inf")
+
+
+def build_tracker(likelihood: Likelihood | str | dict[str, Any], *, n_particles: int = 500,
+                  sigma_px: float = DEFAULT_SIGMA_PX,
+                  box_size_px: tuple[float, float] | None = (30.0, 30.0), seed: int = 0,
+                  min_log_likelihood: float | None = None, max_misses: int | None = None,
+                  motion: str | dict[str, Any] | None = None,
+                  host: Host | None = None) -> MultiTargetTracker:
+    """Seed 000's tracker: random walk of the box centre, fixed-size boxes, resampling every
+    frame (systematic), initial spread N(0, 1) px (eq. 6), estimate = weighted mean (eq. 12).
+
+    Parameters
+    ----------
+    likelihood
+        A likelihood, or its registered name / config.
+    n_particles : int
+        Samples per target.
+    sigma_px : float
+        Random-walk noise per frame, px.
+    box_size_px : (w, h) or None
+        Box size for every target (the paper: 30 x 30); None: each target keeps the size of the
+        box it is started from.
+    seed : int
+        Seeds the tracker's ``numpy.random.Generator``.
+    min_log_likelihood, max_misses : optional
+        A target ends after more than ``max_misses`` consecutive frames whose best particle's
+        log-likelihood is below ``min_log_likelihood`` (for ``cross-entropy-bg``, 0 means "the
+        box looks no more like the target than like the background").
+    motion : str or dict, optional
+        Another motion model (registered name or config; its state must start with the box
+        centre in px); default: ``random-walk`` with ``sigma_px``.
+    """
+    host = host or get_host()
+    lik = host.build("likelihood", likelihood)
+    if motion is None:
+        motion = {"type": "random-walk", "params": {"sigma_px": sigma_px}}
+    motion = host.build("motion", motion)
+    if box_size_px is None:
+        obs = ImageBoxObservation(size_from_box=True)
+    else:
+        obs = ImageBoxObservation(float(box_size_px[0]), float(box_size_px[1]))
+    return MultiTargetTracker(motion, lik, obs, n_particles=n_particles, resampling="systematic",
+                              ess_threshold=1.0, init_spread=1.0,
+                              min_log_likelihood=min_log_likelihood, max_misses=max_misses,
+                              kill_out_of_view=True, rng=np.random.default_rng(seed))
+
+
+def first_boxes(gt_rows: np.ndarray, ids: Iterable[int] | None = None,
+                ) -> dict[int, list[tuple[int, np.ndarray]]]:
+    """Each ground-truth id's first box: ``{frame: [(id, box_xywh_px), ...]}``."""
+    gt = np.asarray(gt_rows, dtype=np.float64).reshape(-1, 10)
+    wanted = None if ids is None else {int(i) for i in ids}
+    out: dict[int, list[tuple[int, np.ndarray]]] = {}
+    order = np.lexsort((gt[:, 0], gt[:, 1]))
+    g = gt[order]
+    starts = np.flatnonzero(np.r_[True, g[1:, 1] != g[:-1, 1]])
+    for i in starts:
+        tid = int(g[i, 1])
+        if wanted is None or tid in wanted:
+            out.setdefault(int(g[i, 0]), []).append((tid, g[i, 2:6].copy()))
+    return out
+
+
+def last_frames(gt_rows: np.ndarray) -> dict[int, int]:
+    """Each ground-truth id's last frame."""
+    gt = np.asarray(gt_rows, dtype=np.float64).reshape(-1, 10)
+    out: dict[int, int] = {}
+    for f, tid in gt[:, :2].astype(int):
+        out[tid] = max(out.get(tid, f), f)
+    return out
+
+
+def track(frames: Iterable[Frame], likelihood: Likelihood | str | dict[str, Any],
+          starts: dict[int, list[tuple[int, np.ndarray]]], *,
+          ends: dict[int, int] | None = None, snapshot_frames: Iterable[int] = (),
+          scale_step: float | None = None, scale_limits: tuple[float, float] = (0.6, 1.6),
+          **tracker_kw: Any) -> TrackingRun:
+    """Track targets started from given boxes through ``frames``.
+
+    Parameters
+    ----------
+    frames : iterable of Frame
+        Already decoded / rendered frames (a list), or a stream: only the tracker's calls are
+        timed, so decoding is excluded either way.
+    likelihood
+        A likelihood or its registered name / config.
+    starts : {frame: [(id, box_xywh_px)]}
+        Targets to start, e.g. :func:`first_boxes` of the ground truth. With a fixed box size
+        the target is started at the box's centre.
+    ends : {id: frame}, optional
+        Frame after which a target is stopped (e.g. :func:`last_frames` of the ground truth).
+    snapshot_frames : iterable of int
+        Frames whose particles to keep (for drawing).
+    scale_step : float, optional
+        Adapt each target's box size (needs ``box_size_px=None``): after each step the
+        likelihood is evaluated at the estimate with the box scaled by ``1 - scale_step``, 1
+        and ``1 + scale_step`` (aspect kept) and the best size is kept for the next frame, within
+        ``scale_limits`` times the starting size. With cross entropy + background the summed
+        log-ratio grows with every target-like pixel a box takes in and falls with every
+        background-like one, so it peaks at the size that fits the target.
+    **tracker_kw
+        Passed to :func:`build_tracker`.
+
+    Returns
+    -------
+    TrackingRun
+    """
+    tracker = build_tracker(likelihood, **tracker_kw)
+    timed = _TimedLikelihood(tracker.likelihood)
+    tracker.likelihood = timed
+    snaps = set(int(f) for f in snapshot_frames)
+    ends = ends or {}
+    records: list[TrackRecord] = []
+    snapshots: dict[int, dict[int, np.ndarray]] = {}
+    seconds = 0.0
+    n_frames = 0
+    clock = time.perf_counter
+    for frame in frames:
+        t0 = clock()
+        for tid, box in starts.get(frame.index, ()):
+            tracker.add_target(frame, box_xywh_px=np.asarray(box, float), target_id=tid)
+        recs = tracker.step(frame)
+        if scale_step:
+            _adapt_scale(tracker, recs, float(scale_step), scale_limits)
+        for t in list(tracker.targets):
+            if ends.get(t.id, np.inf) <= frame.index:
+                tracker.remove_target(t.id)
+        seconds += clock() - t0
+        n_frames += 1
+        records.extend(recs)
+        if frame.index in snaps:
+            snapshots[frame.index] = {t.id: t.particles.copy() for t in tracker.targets}
+    return TrackingRun(rows=records_to_mot(records), seconds=seconds,
+                       likelihood_seconds=getattr(timed, "seconds_", 0.0), n_frames=n_frames,
+                       n_updates=len(records), snapshots=snapshots,
+                       recoveries=tracker.recoveries)
+
+
+def _held_estimates(track_rows: np.ndarray, tid: int, frames: np.ndarray,
+                    hold_last: bool) -> np.ndarray:
+    """Boxes (F, 4) of track ``tid`` at ``frames`` (NaN where none; with ``hold_last`` a frame
+    without a box takes the track's latest earlier box)."""
+    t = track_rows[track_rows[:, 1] == tid]
+    t = t[np.argsort(t[:, 0], kind="stable")]
+    out = np.full((len(frames), 4), np.nan)
+    if len(t) == 0:
+        return out
+    if hold_last:
+        k = np.searchsorted(t[:, 0], frames, side="right") - 1
+        ok = k >= 0
+        out[ok] = t[k[ok], 2:6]
+    else:
+        k = np.searchsorted(t[:, 0], frames)
+        k = np.minimum(k, len(t) - 1)
+        ok = t[k, 0] == frames
+        out[ok] = t[k[ok], 2:6]
+    return out
+
+
+def track_boxes(track_rows: np.ndarray, gt_rows: np.ndarray, ids: Iterable[int] | None = None,
+                hold_last: bool = False) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """Per ground-truth id, its ground-truth boxes and the same-id track's boxes in the same
+    frames: ``{id: (gt (F, 4), track (F, 4) with NaN rows where there is none)}``.
+
+    ``hold_last``: a frame where the track has no box (it ended early, or skipped it) uses the
+    track's latest earlier box, so a tracker that stops does not escape its error.
+    """
+    tr = np.asarray(track_rows, dtype=np.float64).reshape(-1, 10)
+    gt = np.asarray(gt_rows, dtype=np.float64).reshape(-1, 10)
+    wanted = np.unique(gt[:, 1]).astype(int) if ids is None else [int(i) for i in ids]
+    out = {}
+    for tid in wanted:
+        g = gt[gt[:, 1] == tid]
+        g = g[np.argsort(g[:, 0], kind="stable")]
+        out[int(tid)] = (g[:, 2:6].copy(), _held_estimates(tr, tid, g[:, 0], hold_last))
+    return out
+
+
+def _adapt_scale(tracker: MultiTargetTracker, records: list[TrackRecord], step: float,
+                 limits: tuple[float, float]) -> None:
+    """One step of scale search per target around its estimate (see :func:`track`)."""
+    by_id = {r.id: r for r in records}
+    factors = np.array([1.0 - step, 1.0, 1.0 + step])
+    for t in tracker.targets:
+        wh = t.extra.get("box_wh_px")
+        if wh is None or t.id not in by_id:
+            continue
+        w0, h0 = t.extra.setdefault("box_wh0_px", wh)
+        box = t.box_xywh_px
+        cx, cy = box[0] + box[2] / 2, box[1] + box[3] / 2
+        ws = np.clip(wh[0] * factors, limits[0] * w0, limits[1] * w0)
+        hs = ws * (wh[1] / wh[0])
+        cands = np.column_stack([cx - ws / 2, cy - hs / 2, ws, hs])
+        ll = tracker.likelihood.log_likelihood(cands, t)
+        k = int(np.argmax(ll))
+        if k != 1 and np.isfinite(ll[k]):
+            t.extra["box_wh_px"] = (float(ws[k]), float(hs[k]))
+            by_id[t.id].box_xywh_px = cands[k].copy()
+            t.box_xywh_px = cands[k].copy()
+
+
+def centre_errors(track_rows: np.ndarray, gt_rows: np.ndarray,
+                  ids: Iterable[int] | None = None, hold_last: bool = False,
+                  ) -> dict[int, np.ndarray]:
+    """Per ground-truth id, the centre distance (px) between the track of the same id and the
+    ground truth in each of that id's ground-truth frames, in frame order (NaN where the track
+    has no box; see :func:`track_boxes` for ``hold_last``)."""
+    out = {}
+    for tid, (g, e) in track_boxes(track_rows, gt_rows, ids, hold_last).items():
+        out[tid] = np.hypot(e[:, 0] + e[:, 2] / 2 - g[:, 0] - g[:, 2] / 2,
+                            e[:, 1] + e[:, 3] / 2 - g[:, 1] - g[:, 3] / 2)
+    return out
+
+
+def cumulative_errors(track_rows: np.ndarray, gt_rows: np.ndarray,
+                      names: dict[int, str], frames: Iterable[int] | None = None,
+                      ) -> dict[str, float]:
+    """Seed 000's accuracy: per target, the sum over frames of the centre distance (px).
+
+    ``names`` maps ids to the names to report (``{1: "blue", ...}``); only ids with a track are
+    reported. A target whose track ended early keeps its last estimate for the remaining frames.
+    ``frames`` restricts the sum to those frames (all by default).
+    """
+    gt = np.asarray(gt_rows, dtype=np.float64).reshape(-1, 10)
+    if frames is not None:
+        gt = gt[np.isin(gt[:, 0], np.fromiter(frames, dtype=float))]
+    tr = np.asarray(track_rows, dtype=np.float64).reshape(-1, 10)
+    present = set(np.unique(tr[:, 1]).astype(int))
+    errs = centre_errors(tr, gt, ids=[i for i in names if i in present], hold_last=True)
+    return {names[tid]: float(np.nansum(d)) for tid, d in errs.items()}
+
+
+def walkers_tables(likelihoods: Sequence[str] = LIKELIHOODS,
+                   samples: Sequence[int] = (100, 500, 5000),
+                   targets: Sequence[int] = (1, 2, 3), *, scene_seed: int = 0, seed: int = 0,
+                   sigma_px: float = DEFAULT_SIGMA_PX, n_frames: int = 180,
+                   slow_frames: int | None = None,
+                   slow: Sequence[str] = ("bhattacharyya", "bhattacharyya-bg"),
+                   progress: Callable[[str], None] | None = None,
+                   host: Host | None = None) -> dict[str, Any]:
+    """The paper's Tables 1-4 on the ``walkers`` scene.
+
+    Every likelihood tracks the first ``T`` people (blue, red, purple) with ``N`` samples, each
+    started from its first ground-truth box (30 x 30 px torso), through ``n_frames`` frames
+    rendered before the clock starts.
+
+    Parameters
+    ----------
+    slow_frames : int, optional
+        Track only this many frames with the ``slow`` likelihoods at N >= 5000 (their time per
+        frame is measured over those frames; their cumulative errors cover only them and the
+        rows say so in ``frames``).
+
+    Returns
+    -------
+    dict
+        ``{"rows": [{likelihood, samples, targets, frames, seconds_per_frame,
+        frames_per_second, likelihood_seconds_per_frame, cumulative_error_px: {name: px}}],
+        "ratios": [{samples, targets, pair, ratio}], "setup": {...}}``.
+    """
+    host = host or get_host()
+    scene = host.build("scene", {"type": "walkers",
+                                 "params": {"seed": scene_seed, "n_frames": n_frames}})
+    frames = list(scene.frames())  # rendered once, before any clock starts
+    gt = scene.ground_truth()
+    names = scene.target_names
+    rows = []
+    for n in samples:
+        for t_count in targets:
+            ids = list(range(1, t_count + 1))
+            starts = first_boxes(gt, ids)
+            for name in likelihoods:
+                use = frames
+                if slow_frames is not None and name in slow and n >= 5000:
+                    use = frames[:slow_frames]
+                run = track(use, name, starts, n_particles=n, sigma_px=sigma_px, seed=seed,
+                            host=host)
+                errs = cumulative_errors(run.rows, gt, {i: names[i] for i in ids},
+                                         frames=[f.index for f in use])
+                row = {
+                    "likelihood": name, "samples": n, "targets": t_count, "frames": len(use),
+                    "seconds_per_frame": run.seconds_per_frame,
+                    "frames_per_second": run.frames_per_second,
+                    "likelihood_seconds_per_frame": run.likelihood_seconds / max(len(use), 1),
+                    "cumulative_error_px": errs,
+                }
+                rows.append(row)
+                if progress is not None:
+                    progress(f"{name:>17s} N={n:<5d} T={t_count}: "
+                             f"{row['seconds_per_frame'] * 1e3:9.2f} ms/frame, errors "
+                             + ", ".join(f"{k} {v:.0f}" for k, v in errs.items()))
+    ratios = []
+    by = {(r["likelihood"], r["samples"], r["targets"]): r for r in rows}
+    for n in samples:
+        for t_count in targets:
+            for bh, cr in (("bhattacharyya", "cross-entropy"),
+                           ("bhattacharyya-bg", "cross-entropy-bg")):
+                a, b = by.get((bh, n, t_count)), by.get((cr, n, t_count))
+                if a and b:
+                    ratios.append({"samples": n, "targets": t_count, "pair": f"{bh} / {cr}",
+                                   "ratio": a["seconds_per_frame"] / b["seconds_per_frame"]})
+    return {
+        "rows": rows,
+        "ratios": ratios,
+        "setup": {
+            "scene": "walkers", "scene_seed": scene_seed, "tracker_seed": seed,
+            "frames": n_frames, "image_px": [scene.width, scene.height], "box_px": [30, 30],
+            "motion": f"random walk, sigma {sigma_px} px/frame", "resampling": "systematic, "
+            "every frame", "init_spread_px": 1.0,
+            "timing": "tracking only: frames rendered into a list before timing; drawing "
+                      "excluded; one thread (cv2.setNumThreads(1))",
+            "slow_frames": slow_frames,
+        },
+    }
+
+
+def format_walkers_tables(result: dict[str, Any]) -> str:
+    """Plain-text Tables 1-4 (time per frame, Bh / Cr ratio, cumulative errors)."""
+    rows = result["rows"]
+    lines = []
+    samples = sorted({r["samples"] for r in rows})
+    names = ["blue", "red", "purple"]
+    for n in samples:
+        sub = [r for r in rows if r["samples"] == n]
+        lines.append(f"N = {n} samples")
+        lines.append(f"  {'likelihood':<18s}{'T':>2s}{'frames':>7s}{'ms/frame':>11s}"
+                     f"{'frames/s':>10s}{'lik ms/f':>10s}  cumulative error px "
+                     "(blue, red, purple)")
+        for r in sorted(sub, key=lambda r: (r["targets"], LIKELIHOODS.index(r["likelihood"])
+                                            if r["likelihood"] in LIKELIHOODS else 9)):
+            e = r["cumulative_error_px"]
+            errs = "  ".join(f"{e[k]:7.0f}" if k in e else f"{'-':>7s}" for k in names)
+            lines.append(f"  {r['likelihood']:<18s}{r['targets']:>2d}{r['frames']:>7d}"
+                         f"{r['seconds_per_frame'] * 1e3:11.2f}{r['frames_per_second']:10.1f}"
+                         f"{r['likelihood_seconds_per_frame'] * 1e3:10.2f}  {errs}")
+        for q in result.get("ratios", []):
+            if q["samples"] == n:
+                lines.append(f"  T={q['targets']} {q['pair']}: {q['ratio']:.1f}x")
+        lines.append("")
+    lines.append("Timing: " + result.get("setup", {}).get("timing", ""))
+    return "\n".join(lines)
