@@ -105,8 +105,9 @@ class TrackingRun:
         Frames tracked.
     n_updates : int
         Person-updates: the number of (target, frame) estimates made.
-    snapshots : dict[int, dict[int, ndarray (N, D)]]
-        For the frames asked for, each live target's particles after the step.
+    snapshots : dict[int, dict[int, ndarray (N, 2)]]
+        For the frames asked for, each live target's samples as the likelihood weighted them
+        (box centres in px, after prediction, before resampling).
     recoveries : int
         Frames in which some target lost every weight and was re-spread.
     """
@@ -206,7 +207,7 @@ def track(frames: Iterable[Frame], likelihood: Likelihood | str | dict[str, Any]
           starts: dict[int, list[tuple[int, np.ndarray]]], *,
           ends: dict[int, int] | None = None, snapshot_frames: Iterable[int] = (),
           scale_step: float | None = None, scale_limits: tuple[float, float] = (0.6, 1.6),
-          **tracker_kw: Any) -> TrackingRun:
+          perspective: bool = False, **tracker_kw: Any) -> TrackingRun:
     """Track targets started from given boxes through ``frames``.
 
     Parameters
@@ -230,6 +231,11 @@ def track(frames: Iterable[Frame], likelihood: Likelihood | str | dict[str, Any]
         ``scale_limits`` times the starting size. With cross entropy + background the summed
         log-ratio grows with every target-like pixel a box takes in and falls with every
         background-like one, so it peaks at the size that fits the target.
+    perspective : bool
+        Adapt each target's box size to its image row (needs ``box_size_px=None``): people on
+        a flat ground seen by a fixed camera have an image height linear in their foot row,
+        ``h = a y_foot + b``; ``a, b`` are fitted (least squares) to the boxes the targets were
+        started from so far, and each target keeps its own ratio to the fit at its start.
     **tracker_kw
         Passed to :func:`build_tracker`.
 
@@ -241,7 +247,17 @@ def track(frames: Iterable[Frame], likelihood: Likelihood | str | dict[str, Any]
     timed = _TimedLikelihood(tracker.likelihood)
     tracker.likelihood = timed
     snaps = set(int(f) for f in snapshot_frames)
-    ends = ends or {}
+    with np.errstate(over="ignore"):  # the tracker's confidence exp(-logL) overflows harmlessly
+        return _track_loop(tracker, timed, frames, starts, ends or {}, snaps, scale_step,
+                           scale_limits, perspective)
+
+
+def _track_loop(tracker: MultiTargetTracker, timed: _TimedLikelihood, frames: Iterable[Frame],
+                starts: dict[int, list[tuple[int, np.ndarray]]], ends: dict[int, int],
+                snaps: set[int], scale_step: float | None, scale_limits: tuple[float, float],
+                perspective: bool) -> TrackingRun:
+    feet: list[tuple[float, float]] = []  # (foot row, height) of the start boxes so far
+    fit: tuple[float, float] | None = None
     records: list[TrackRecord] = []
     snapshots: dict[int, dict[int, np.ndarray]] = {}
     seconds = 0.0
@@ -250,10 +266,17 @@ def track(frames: Iterable[Frame], likelihood: Likelihood | str | dict[str, Any]
     for frame in frames:
         t0 = clock()
         for tid, box in starts.get(frame.index, ()):
-            tracker.add_target(frame, box_xywh_px=np.asarray(box, float), target_id=tid)
+            t = tracker.add_target(frame, box_xywh_px=np.asarray(box, float), target_id=tid)
+            if perspective:
+                b = np.asarray(box, float)
+                feet.append((b[1] + b[3], b[3]))
+                fit = _fit_perspective(feet)
+                t.extra["start_box_px"] = b.copy()
         recs = tracker.step(frame)
         if scale_step:
             _adapt_scale(tracker, recs, float(scale_step), scale_limits)
+        if perspective and fit is not None:
+            _perspective_size(tracker, recs, fit)
         for t in list(tracker.targets):
             if ends.get(t.id, np.inf) <= frame.index:
                 tracker.remove_target(t.id)
@@ -261,7 +284,9 @@ def track(frames: Iterable[Frame], likelihood: Likelihood | str | dict[str, Any]
         n_frames += 1
         records.extend(recs)
         if frame.index in snaps:
-            snapshots[frame.index] = {t.id: t.particles.copy() for t in tracker.targets}
+            snapshots[frame.index] = {
+                t.id: t.particle_boxes_xywh_px[:, :2] + t.particle_boxes_xywh_px[:, 2:] / 2
+                for t in tracker.targets if t.particle_boxes_xywh_px is not None}
     return TrackingRun(rows=records_to_mot(records), seconds=seconds,
                        likelihood_seconds=getattr(timed, "seconds_", 0.0), n_frames=n_frames,
                        n_updates=len(records), snapshots=snapshots,
@@ -306,6 +331,45 @@ def track_boxes(track_rows: np.ndarray, gt_rows: np.ndarray, ids: Iterable[int] 
         g = g[np.argsort(g[:, 0], kind="stable")]
         out[int(tid)] = (g[:, 2:6].copy(), _held_estimates(tr, tid, g[:, 0], hold_last))
     return out
+
+
+def _fit_perspective(feet: list[tuple[float, float]]) -> tuple[float, float] | None:
+    """Least-squares ``h = a y_foot + b`` over start boxes; None when ill-posed (fewer than two
+    distinct rows, or a height that does not grow downwards)."""
+    if len(feet) < 2:
+        return None
+    y, h = np.asarray(feet, float).T
+    if np.ptp(y) < 1.0:
+        return None
+    a, b = np.polyfit(y, h, 1)
+    return (float(a), float(b)) if a > 0 else None
+
+
+def _perspective_size(tracker: MultiTargetTracker, records: list[TrackRecord],
+                      fit: tuple[float, float]) -> None:
+    """Resize each target's box to the perspective fit at its current foot row."""
+    a, b = fit
+    by_id = {r.id: r for r in records}
+    for t in tracker.targets:
+        b0 = t.extra.get("start_box_px")
+        if b0 is None or "box_wh_px" not in t.extra or t.id not in by_id:
+            continue
+        model0 = a * (b0[1] + b0[3]) + b
+        if model0 <= 0:
+            continue
+        k = b0[3] / model0  # this person's height relative to the fit
+        box = t.box_xywh_px
+        cx, cy = box[0] + box[2] / 2, box[1] + box[3] / 2
+        denom = 1.0 - k * a / 2.0  # h = k (a (cy + h / 2) + b)
+        if denom <= 0:
+            continue
+        h = k * (a * cy + b) / denom
+        h = float(np.clip(h, 0.5 * b0[3], 2.0 * b0[3]))
+        w = float(b0[2] * h / b0[3])
+        t.extra["box_wh_px"] = (w, h)
+        new = np.array([cx - w / 2, cy - h / 2, w, h])
+        by_id[t.id].box_xywh_px = new.copy()
+        t.box_xywh_px = new
 
 
 def _adapt_scale(tracker: MultiTargetTracker, records: list[TrackRecord], step: float,

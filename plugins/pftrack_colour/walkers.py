@@ -36,6 +36,7 @@ TORSO_COLOURS_BGR: dict[str, tuple[int, int, int]] = {
 TARGET_NAMES: dict[int, str] = {1: "blue", 2: "red", 3: "purple"}
 
 TORSO_PX = 30  # torso (and tracking box) side, pixels
+WALK_FRAMES = 180  # the walk's length; shorter scenes show its start
 
 
 class WalkersScene(Scene):
@@ -46,7 +47,8 @@ class WalkersScene(Scene):
     seed : int
         Seeds ``np.random.default_rng`` for the layout, the paths and the per-frame noise.
     n_frames : int
-        Number of frames (the paper: 180).
+        Number of frames (the paper: 180). Fewer frames are the start of the 180-frame walk
+        (same speed); more frames stretch the walk over them (slower walkers).
     noise_sigma : float
         Standard deviation of the per-pixel Gaussian noise added to every frame (grey levels).
 
@@ -85,7 +87,9 @@ class WalkersScene(Scene):
             self._check()
             rng = np.random.default_rng(self.seed)
             background = _plaza(rng, self.width, self.height)
-            centres, phase = _paths(rng, int(self.n_frames), self.width, self.height)
+            n = int(self.n_frames)
+            centres, phase = _paths(rng, max(n, WALK_FRAMES), self.width, self.height)
+            centres, phase = centres[:n], phase[:n]
             self.layout_ = {"key": key, "background": background, "centres": centres,
                             "phase": phase, "noise_seed": int(rng.integers(2**63 - 1))}
         return self.layout_
