@@ -19,6 +19,14 @@ For a track ``tr`` (its particles, as image boxes) and a detection ``det`` (box,
 
 Only pairs with ``s > min_score`` (the paper's ``threshold`` of ``I(tr*)``, eq. 6) are matched,
 so a matched detection is exactly ``I(tr*) = 1``.
+
+Appearance (optional, ``appearance_weight > 0``): Breitenstein et al.'s original score uses a
+track-specific classifier ``c_tr(det)`` where seed 001 uses the generic SVM score ``c(det)``.
+With ``appearance_weight = gamma`` the score becomes ``g * (c(det) + gamma * a(tr, det) + alpha
+* mean p_N)``, where ``a(tr, det)`` in [0, 1] is an appearance similarity the caller puts in
+``target.extra["appearance_scores"]`` (one value per detection; the pipeline's session uses
+``exp(-d^2 / (2 sigma^2))`` of the per-channel colour EMD between the track's and the
+detection's histograms). Targets without it get ``a = 0``.
 """
 
 from __future__ import annotations
@@ -38,7 +46,8 @@ def _foot(boxes: np.ndarray) -> np.ndarray:
 
 def score_matrix(targets: Sequence[Target], detections: Detections, *, alpha: float = 1.0,
                  sigma_det: float = 0.25, sigma_size: float = 0.25,
-                 max_distance: float | None = 1.0) -> np.ndarray:
+                 max_distance: float | None = 1.0,
+                 appearance_weight: float = 0.0) -> np.ndarray:
     """Matching scores s(tr, det) (eq. 3-4).
 
     Parameters
@@ -46,7 +55,7 @@ def score_matrix(targets: Sequence[Target], detections: Detections, *, alpha: fl
     targets : sequence of Target
         Each with ``particle_boxes_xywh_px`` (N, 4) (falls back to ``box_xywh_px``).
     detections : Detections
-    alpha, sigma_det, sigma_size, max_distance : float
+    alpha, sigma_det, sigma_size, max_distance, appearance_weight : float
         See the module docstring (distances in track heights).
 
     Returns
@@ -75,7 +84,12 @@ def score_matrix(targets: Sequence[Target], detections: Detections, *, alpha: fl
         d = np.linalg.norm(dfoot[:, None, :] - pf[None, :, :], axis=2) / size_tr  # (K, N)
         prox = np.exp(-0.5 * (d / sigma_det) ** 2).mean(axis=1)
         g = np.exp(-0.5 * (((size_tr - db[:, 3]) / size_tr) / sigma_size) ** 2)
-        s = g * (c + alpha * prox)
+        app = 0.0
+        if appearance_weight > 0:
+            a = t.extra.get("appearance_scores")
+            if a is not None and len(a) == K:
+                app = appearance_weight * np.asarray(a, dtype=np.float64)
+        s = g * (c + app + alpha * prox)
         if max_distance is not None:
             dc = np.linalg.norm(dfoot - _foot(np.asarray(t.box_xywh_px, float)), axis=1) / size_tr
             s = np.where(dc <= max_distance, s, 0.0)
@@ -104,12 +118,14 @@ class _ScoreAssociator(Associator):
     """Shared parameters and the score matrix; subclasses choose the solver."""
 
     def __init__(self, alpha: float = 1.0, sigma_det: float = 0.25, sigma_size: float = 0.25,
-                 max_distance: float | None = 1.0, min_score: float = 0.2) -> None:
+                 max_distance: float | None = 1.0, min_score: float = 0.2,
+                 appearance_weight: float = 0.0) -> None:
         self.alpha = alpha
         self.sigma_det = sigma_det
         self.sigma_size = sigma_size
         self.max_distance = max_distance
         self.min_score = min_score
+        self.appearance_weight = appearance_weight
 
     def _scores(self, targets: Sequence[Target], detections: Detections) -> np.ndarray:
         name = type(self).__name__
@@ -121,7 +137,8 @@ class _ScoreAssociator(Associator):
                              f"{self.max_distance!r}")
         S = score_matrix(targets, detections, alpha=float(self.alpha),
                          sigma_det=float(self.sigma_det), sigma_size=float(self.sigma_size),
-                         max_distance=self.max_distance)
+                         max_distance=self.max_distance,
+                         appearance_weight=float(self.appearance_weight))
         self.scores_ = S
         return S
 
@@ -153,6 +170,8 @@ class GreedyScoreAssociator(_ScoreAssociator):
         Distance gate in track heights (None: none).
     min_score : float
         Pairs must score above this (the paper's threshold of eq. 6).
+    appearance_weight : float
+        Weight of the track-specific appearance term (module docstring); 0: the paper's score.
 
     Attributes
     ----------

@@ -50,9 +50,10 @@ def cell_means(integral: np.ndarray, boxes_xywh_px: np.ndarray,
                grid_wh: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
     """Mean image value over each cell of a ``gw x gh`` grid laid over each box.
 
-    Cell edges are rounded to whole pixels (each cell at least one pixel wide and tall) and
-    clipped to the image; the mean is the exact area average over the clipped cell (no aliasing
-    however large the box is relative to the grid).
+    Cell edges are rounded to whole pixels and clipped to the image; the mean is the exact area
+    average over the clipped cell (no aliasing however large the box is relative to the grid).
+    Neighbouring cells share their edges, so one gather of the ``(gh + 1) x (gw + 1)`` corners
+    per box serves every cell.
 
     Parameters
     ----------
@@ -67,33 +68,29 @@ def cell_means(integral: np.ndarray, boxes_xywh_px: np.ndarray,
     means : ndarray, shape (N, gh, gw) float64
         0 where a cell is invalid.
     valid : ndarray, shape (N, gh, gw) bool
-        False where the cell lies wholly outside the image.
+        False where the cell has no pixel inside the image (outside it, or narrower than a
+        pixel once rounded).
     """
     gw, gh = int(grid_wh[0]), int(grid_wh[1])
     H, W = integral.shape[0] - 1, integral.shape[1] - 1
     b = np.asarray(boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
-    fx = np.arange(gw + 1) / gw
-    fy = np.arange(gh + 1) / gh
-    xe = np.floor(b[:, 0:1] + b[:, 2:3] * fx[None, :] + 0.5)  # (N, gw+1)
-    ye = np.floor(b[:, 1:2] + b[:, 3:4] * fy[None, :] + 0.5)  # (N, gh+1)
-    x0, x1 = xe[:, :-1], np.maximum(xe[:, 1:], xe[:, :-1] + 1)
-    y0, y1 = ye[:, :-1], np.maximum(ye[:, 1:], ye[:, :-1] + 1)
-    bad = ~(np.isfinite(x0).all(axis=1) & np.isfinite(y0).all(axis=1))
+    n = len(b)
+    bad = ~np.all(np.isfinite(b), axis=1)
     if np.any(bad):
-        x0, x1, y0, y1 = (np.where(bad[:, None], 0.0, a) for a in (x0, x1, y0, y1))
-    x0c = np.clip(x0, 0, W).astype(np.intp)
-    x1c = np.clip(x1, 0, W).astype(np.intp)
-    y0c = np.clip(y0, 0, H).astype(np.intp)
-    y1c = np.clip(y1, 0, H).astype(np.intp)
-    Y0, Y1 = y0c[:, :, None], y1c[:, :, None]
-    X0, X1 = x0c[:, None, :], x1c[:, None, :]
-    s = integral[Y1, X1] - integral[Y0, X1] - integral[Y1, X0] + integral[Y0, X0]
-    area = (Y1 - Y0) * (X1 - X0)
+        b = np.where(bad[:, None], 0.0, b)
+    xe = np.floor(b[:, 0:1] + b[:, 2:3] * (np.arange(gw + 1) / gw)[None, :] + 0.5)
+    ye = np.floor(b[:, 1:2] + b[:, 3:4] * (np.arange(gh + 1) / gh)[None, :] + 0.5)
+    xe = np.clip(xe, 0, W).astype(np.intp)  # (N, gw+1)
+    ye = np.clip(ye, 0, H).astype(np.intp)  # (N, gh+1)
+    flat = ye[:, :, None] * (W + 1) + xe[:, None, :]
+    S = np.take(integral, flat)  # (N, gh+1, gw+1) corner sums
+    s = S[:, 1:, 1:] - S[:, :-1, 1:] - S[:, 1:, :-1] + S[:, :-1, :-1]
+    area = (np.diff(ye, axis=1)[:, :, None] * np.diff(xe, axis=1)[:, None, :])
     valid = area > 0
     if np.any(bad):
         valid &= ~bad[:, None, None]
-    means = np.where(valid, s / np.where(valid, area, 1), 0.0)
-    return means, valid
+    means = np.where(valid, s / np.maximum(area, 1), 0.0)
+    return means.reshape(n, gh, gw), valid.reshape(n, gh, gw)
 
 
 def grid_samples(image: np.ndarray, boxes_xywh_px: np.ndarray,
@@ -108,7 +105,7 @@ def grid_samples(image: np.ndarray, boxes_xywh_px: np.ndarray,
 
     Returns
     -------
-    values : ndarray, shape (N, gh * gw[, C]), the image's dtype (0 where invalid)
+    values : ndarray, shape (N, gh * gw[, C]), the image's dtype (pixel (0, 0) where invalid)
     valid : ndarray, shape (N, gh * gw) bool
     """
     gw, gh = int(grid_wh[0]), int(grid_wh[1])
@@ -116,13 +113,15 @@ def grid_samples(image: np.ndarray, boxes_xywh_px: np.ndarray,
     b = np.asarray(boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
     fx = (np.arange(gw) + 0.5) / gw
     fy = (np.arange(gh) + 0.5) / gh
-    xs = np.floor(b[:, 0:1] + b[:, 2:3] * fx[None, :])  # (N, gw)
-    ys = np.floor(b[:, 1:2] + b[:, 3:4] * fy[None, :])  # (N, gh)
+    with np.errstate(invalid="ignore"):
+        xs = np.floor(b[:, 0:1] + b[:, 2:3] * fx[None, :])  # (N, gw)
+        ys = np.floor(b[:, 1:2] + b[:, 3:4] * fy[None, :])  # (N, gh)
     vx = np.isfinite(xs) & (xs >= 0) & (xs < W)
     vy = np.isfinite(ys) & (ys >= 0) & (ys < H)
     xi = np.where(vx, xs, 0).astype(np.intp)
     yi = np.where(vy, ys, 0).astype(np.intp)
     valid = (vy[:, :, None] & vx[:, None, :]).reshape(len(b), gh * gw)
-    vals = image[yi[:, :, None], xi[:, None, :]]
-    vals = vals.reshape((len(b), gh * gw) + image.shape[2:])
+    flat = (yi[:, :, None] * W + xi[:, None, :]).reshape(len(b), gh * gw)
+    rest = image.shape[2:]
+    vals = np.take(image.reshape((H * W,) + rest), flat, axis=0)
     return vals, valid

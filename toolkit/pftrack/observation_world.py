@@ -9,6 +9,11 @@ in metres). Boxes therefore shrink with distance exactly as the camera says.
 
 The inverse, used for births, back-projects a box's foot point (bottom centre) onto the ground
 (:meth:`pftrack.geometry.camera.Camera.image_to_ground`).
+
+People are not all 1.75 m tall: with ``adapt_height`` each target keeps its own height factor in
+``target.extra["height_scale"]`` (1 = ``height_m``), set from the box it was born from and
+moved towards each matched detection's height by :meth:`CameraBoxObservation.update_target`
+(a running mean), within ``height_scale_range``.
 """
 
 from __future__ import annotations
@@ -45,6 +50,10 @@ class CameraBoxObservation(ObservationModel):
     min_visible : float
         :meth:`in_view` is true while at least this fraction of the box's area is inside the
         image (a person stepping out of the picture dies once mostly out).
+    adapt_height : bool
+        Keep a height factor per target (module docstring).
+    height_scale_range : (float, float)
+        Bounds of the per-target height factor.
 
     Notes
     -----
@@ -53,7 +62,8 @@ class CameraBoxObservation(ObservationModel):
 
     def __init__(self, camera: Any, height_m: float = 1.75, width_m: float | None = None,
                  width_ratio: float = 0.355, position_dims: tuple[int, int] = (0, 1),
-                 min_visible: float = 0.5) -> None:
+                 min_visible: float = 0.5, adapt_height: bool = False,
+                 height_scale_range: tuple[float, float] = (0.85, 1.2)) -> None:
         if isinstance(camera, (str, os.PathLike)):
             from pftrack.geometry.formats import load_camera
 
@@ -70,6 +80,12 @@ class CameraBoxObservation(ObservationModel):
         self.width_ratio = float(width_ratio)
         self.position_dims = tuple(int(d) for d in position_dims)
         self.min_visible = float(min_visible)
+        self.adapt_height = bool(adapt_height)
+        lo, hi = (float(v) for v in height_scale_range)
+        if not 0 < lo <= 1 <= hi:
+            raise ValueError(f"CameraBoxObservation: height_scale_range must satisfy "
+                             f"0 < low <= 1 <= high, got {height_scale_range}")
+        self.height_scale_range = (lo, hi)
 
     @property
     def aspect(self) -> float:
@@ -84,22 +100,52 @@ class CameraBoxObservation(ObservationModel):
         out[:, 1] = s[:, self.position_dims[1]]
         return out
 
-    def foot_head_px(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def height_of(self, target: Target | None) -> float:
+        """The height (m) used for ``target``: ``height_m`` times its height factor."""
+        if target is None or not self.adapt_height:
+            return self.height_m
+        return self.height_m * float(target.extra.get("height_scale", 1.0))
+
+    def foot_head_px(self, states: np.ndarray, height_m: float | None = None
+                     ) -> tuple[np.ndarray, np.ndarray]:
         """Projected foot and head points, each (N, 2) pixels (NaN behind the camera)."""
         g = self.ground_points(states)
         n = len(g)
         pts = np.concatenate([g, g])
-        pts[n:, 2] = self.height_m
+        pts[n:, 2] = self.height_m if height_m is None else height_m
         px = self.camera.project(pts)
         return px[:n], px[n:]
+
+    def init_target(self, target: Target, box_xywh_px: np.ndarray | None) -> None:
+        """With ``adapt_height``, the height factor of the box the target is born from."""
+        if self.adapt_height and box_xywh_px is not None:
+            target.extra["height_scale"] = 1.0
+            self.update_target(target, box_xywh_px, rate=1.0)
+
+    def update_target(self, target: Target, box_xywh_px: np.ndarray, rate: float = 0.1) -> None:
+        """Move the target's height factor towards the one ``box_xywh_px`` (a matched
+        detection) shows at the target's current position: ``s <- (1 - rate) s + rate *
+        box_height / model_height``, clipped to ``height_scale_range``. No-op unless
+        ``adapt_height``."""
+        if not self.adapt_height:
+            return
+        ref = self.to_boxes(np.asarray(target.state, dtype=np.float64)[None])[0, 3]
+        h = float(np.asarray(box_xywh_px, dtype=np.float64)[3])
+        if not (np.isfinite(ref) and ref > 0 and h > 0):
+            return
+        lo, hi = self.height_scale_range
+        old = float(target.extra.get("height_scale", 1.0))
+        new = (1.0 - rate) * old + rate * (h / ref)
+        target.extra["height_scale"] = float(np.clip(new, lo, hi))
 
     def to_boxes(self, states: np.ndarray, target: Target | None = None) -> np.ndarray:
         """States (N, D) -> boxes (N, 4) (left, top, width, height) in pixels.
 
         The box's bottom centre is the projected foot point; its height is the image distance
-        from foot to head. States behind the camera give NaN boxes.
+        from foot to head (the target's own height with ``adapt_height``). States behind the
+        camera give NaN boxes.
         """
-        foot, head = self.foot_head_px(states)
+        foot, head = self.foot_head_px(states, self.height_of(target))
         h = np.hypot(foot[:, 0] - head[:, 0], foot[:, 1] - head[:, 1])
         w = h * self.aspect
         out = np.empty((len(foot), 4))
