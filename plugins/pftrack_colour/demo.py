@@ -17,12 +17,10 @@ from pftrack.host import Host, get_host
 from pftrack.io.atomic import atomic_write_text
 
 from pftrack_colour.experiment import centre_errors, cumulative_errors, first_boxes, track
+from pftrack_colour.report import WALKER_COLOURS_BGR as DRAW_COLOURS_BGR
 from pftrack_colour.report import draw_frame, draw_trajectories, line_chart, montage, write_png
 
-__all__ = ["run_demo", "DRAW_COLOURS_BGR"]
-
-#: Drawing colours of the walkers (BGR), brighter than the torsos so boxes stand out.
-DRAW_COLOURS_BGR = {1: (255, 140, 40), 2: (40, 40, 255), 3: (230, 60, 220)}
+__all__ = ["run_demo"]
 
 
 def run_demo(out: str | Path, *, seed: int = 0, n_frames: int = 180, n_particles: int = 500,

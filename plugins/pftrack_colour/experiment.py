@@ -34,6 +34,7 @@ __all__ = [
     "cumulative_errors",
     "walkers_tables",
     "format_walkers_tables",
+    "walkers_markdown",
 ]
 
 #: The four likelihoods of seed 000, baseline first.
@@ -535,3 +536,30 @@ def format_walkers_tables(result: dict[str, Any]) -> str:
         lines.append("")
     lines.append("Timing: " + result.get("setup", {}).get("timing", ""))
     return "\n".join(lines)
+
+
+def walkers_markdown(result: dict[str, Any]) -> str:
+    """Tables 1-4 as Markdown: per N, one row per (targets, likelihood) with time per frame,
+    frames per second and each walker's cumulative error, then the Bh / Cr time ratios."""
+    out = []
+    for n in sorted({r["samples"] for r in result["rows"]}):
+        out.append(f"**N = {n} samples**\n")
+        out.append("| targets | likelihood | frames | ms / frame | frames / s | blue px | red px "
+                   "| purple px |")
+        out.append("|---:|---|---:|---:|---:|---:|---:|---:|")
+        rows = [r for r in result["rows"] if r["samples"] == n]
+        rows.sort(key=lambda r: (r["targets"], LIKELIHOODS.index(r["likelihood"])
+                                 if r["likelihood"] in LIKELIHOODS else 9))
+        for r in rows:
+            e = r["cumulative_error_px"]
+            errs = " | ".join(f"{e[k]:.0f}" if k in e else "-" for k in ("blue", "red", "purple"))
+            out.append(f"| {r['targets']} | {r['likelihood']} | {r['frames']} | "
+                       f"{r['seconds_per_frame'] * 1e3:.2f} | {r['frames_per_second']:.0f} | "
+                       f"{errs} |")
+        ratios = [q for q in result.get("ratios", []) if q["samples"] == n]
+        if ratios:
+            out.append("")
+            out.append("Time ratios: " + "; ".join(
+                f"T={q['targets']} {q['pair']} = {q['ratio']:.1f}x" for q in ratios))
+        out.append("")
+    return "\n".join(out)

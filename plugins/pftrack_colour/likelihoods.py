@@ -37,7 +37,10 @@ by default), so the logarithm of a colour never seen is finite (about -9.2).
 
 Background (eq. 15, 20): every frame, :meth:`~ColourLikelihood.begin_frame` takes the histogram
 of every pixel outside all targets' current colour boxes (their last estimates), on a grid of
-every ``background_stride``-th pixel in each direction (default 2: a quarter of the pixels).
+every ``background_stride``-th pixel in each direction (default 3: one pixel in nine). The L1
+distance between that estimate and the full histogram is about 0.05 on the ``walkers`` frames and
+0.02 on PETS 2009; a stride of 4 aliases with the walkers' 20 px paving joints (L1 0.32), 2 costs
+twice as much for L1 0.11 / 0.01.
 
 Beyond the paper (all optional, off by default except where said):
 
@@ -388,7 +391,7 @@ class BhattacharyyaBackgroundLikelihood(ColourLikelihood):
     def __init__(self, bins: int | tuple[int, int, int] = 8, colour_space: str = "rgb",
                  lam: float = 20.0, eps: float = 1e-4,
                  region: tuple[float, float, float, float] | None = None, parts: int = 1,
-                 update_rate: float = 0.0, background_stride: int = 2) -> None:
+                 update_rate: float = 0.0, background_stride: int = 3) -> None:
         self.bins = bins
         self.colour_space = colour_space
         self.lam = lam
@@ -527,7 +530,7 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
                  lam: float | None = None, eps: float = 1e-4,
                  region: tuple[float, float, float, float] | None = None, parts: int = 1,
                  update_rate: float = 0.0, method: str = "integral",
-                 background_stride: int = 2, overlap: str = "mixture") -> None:
+                 background_stride: int = 3, overlap: str = "mixture") -> None:
         self.bins = bins
         self.colour_space = colour_space
         self.lam = lam

@@ -34,7 +34,7 @@ from pftrack.components import Frame
 from pftrack_colour.experiment import first_boxes, last_frames, track, track_boxes
 
 __all__ = ["PETS_LIKELIHOOD", "PETS_TRACKER", "pets_scene", "run_opencv", "score",
-           "pets_experiment", "box_iou_rows"]
+           "pets_experiment", "pets_markdown", "box_iou_rows", "pets_overlay"]
 
 #: The colour model for PETS people (~25 x 70 px, mostly dark clothes on grey pavement): the
 #: central part of the ground-truth box (less pavement in the template) cut into three stripes
@@ -165,6 +165,7 @@ def pets_experiment(methods: Iterable[str] = ("cross-entropy-bg", "mil", "csrt")
                     frames: tuple[int, int] | None = None, *, data: str | Path | None = None,
                     likelihood: dict[str, Any] | None = None,
                     tracker: dict[str, Any] | None = None, seed: int = 0,
+                    keep_tracks: bool = False,
                     progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Run each method over the sequence (or a slice) and score it.
 
@@ -175,7 +176,9 @@ def pets_experiment(methods: Iterable[str] = ("cross-entropy-bg", "mil", "csrt")
     frames : (first, last), optional
         Ground-truth frame numbers to run (default: all 795).
     likelihood, tracker : dict, optional
-        Override :data:`PETS_LIKELIHOOD` / :data:`PETS_TRACKER`.
+        Override :data:`PETS_LIKELIHOOD` / :data:`PETS_TRACKER` (``tracker`` updates it).
+    keep_tracks : bool
+        Also return each method's MOT rows under ``"tracks"`` (for drawing).
 
     Returns
     -------
@@ -193,6 +196,7 @@ def pets_experiment(methods: Iterable[str] = ("cross-entropy-bg", "mil", "csrt")
     trk = dict(PETS_TRACKER)
     trk.update(tracker or {})
     rows = []
+    tracks = {}
     for method in methods:
         if method in ("mil", "csrt"):
             out = run_opencv(scene.frames(), method, starts, ends)
@@ -205,6 +209,7 @@ def pets_experiment(methods: Iterable[str] = ("cross-entropy-bg", "mil", "csrt")
         else:
             raise ValueError(f"unknown method {method!r}; use cross-entropy-bg, mil or csrt")
         s = score(track_rows, gt)
+        tracks[method] = track_rows
         row = {
             "method": method,
             "mean_center_error_px": s["mean_center_error_px"],
@@ -223,7 +228,7 @@ def pets_experiment(methods: Iterable[str] = ("cross-entropy-bg", "mil", "csrt")
                      f"{row['MOTA']:.3f}, IDF1 {row['IDF1']:.3f}, HOTA {row['HOTA']:.3f}")
     f0 = int(gt[:, 0].min())
     f1 = int(gt[:, 0].max()) if frames is None or frames[1] is None else int(frames[1])
-    return {
+    out = {
         "rows": rows,
         "setup": {
             "sequence": "PETS 2009 S2.L1 (vtest.avi, gt.txt)", "frames": [f0, f1],
@@ -234,3 +239,40 @@ def pets_experiment(methods: Iterable[str] = ("cross-entropy-bg", "mil", "csrt")
                         "excluded from timing; OpenCV on one thread",
         },
     }
+    if keep_tracks:
+        out["tracks"] = tracks
+        out["ground_truth"] = gt
+    return out
+
+
+def pets_overlay(result: dict[str, Any], frame_index: int, data: str | Path | None = None,
+                 ) -> np.ndarray:
+    """One PETS frame with every method's boxes side by side (from a
+    :func:`pets_experiment` result run with ``keep_tracks=True``) and the ground truth."""
+    from pftrack_colour.report import draw_frame, montage
+
+    if "tracks" not in result:
+        raise ValueError("pets_overlay needs a pets_experiment(..., keep_tracks=True) result")
+    frame = next(iter(pets_scene((frame_index, frame_index), data).frames()))
+    gt = result["ground_truth"]
+    panels = []
+    for method, rows in result["tracks"].items():
+        panels.append(draw_frame(frame.image, rows[rows[:, 0] == frame_index],
+                                 gt_rows=gt[gt[:, 0] == frame_index],
+                                 title=f"{method}, frame {frame_index}"))
+    return montage(panels, cols=min(len(panels), 3))
+
+
+def pets_markdown(result: dict[str, Any]) -> str:
+    """The PETS comparison as a Markdown table."""
+    s = result["setup"]
+    lines = [f"{s['sequence']}: frames {s['frames'][0]}-{s['frames'][1]}, {s['persons']} persons, "
+             f"{s['gt_boxes']} ground-truth boxes\n",
+             "| method | centre error px | success | updates / s | frames / s | MOTA | IDF1 | "
+             "HOTA |", "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in result["rows"]:
+        lines.append(f"| {r['method']} | {r['mean_center_error_px']:.1f} | "
+                     f"{r['success_rate']:.3f} | {r['updates_per_second']:.0f} | "
+                     f"{r['frames_per_second']:.1f} | {r['MOTA']:.3f} | {r['IDF1']:.3f} | "
+                     f"{r['HOTA']:.3f} |")
+    return "\n".join(lines)

@@ -16,7 +16,8 @@ import numpy as np
 from pftrack.io.atomic import atomic_write_bytes
 
 __all__ = ["id_colour", "draw_frame", "draw_trajectories", "line_chart", "montage",
-           "write_png", "label"]
+           "write_png", "label", "png_bytes", "likelihood_map", "likelihood_maps",
+           "frames_montage", "WALKER_COLOURS_BGR"]
 
 _PALETTE_BGR = [(180, 119, 31), (14, 127, 255), (44, 160, 44), (40, 39, 214), (189, 103, 148),
                 (75, 86, 140), (194, 119, 227), (127, 127, 127), (34, 189, 188), (207, 190, 23)]
@@ -216,3 +217,70 @@ def write_png(path: str | os.PathLike[str], image_bgr: np.ndarray) -> Path:
     if not ok:
         raise ValueError(f"could not encode {path} as PNG")
     return atomic_write_bytes(path, buf.tobytes())
+
+
+def png_bytes(image_bgr: np.ndarray) -> bytes:
+    """PNG encoding of a BGR image (for ``IPython.display.Image(data=...)``)."""
+    ok, buf = cv2.imencode(".png", image_bgr)
+    if not ok:
+        raise ValueError("could not encode the image as PNG")
+    return buf.tobytes()
+
+
+def _diverging_lut() -> np.ndarray:
+    t = np.linspace(-1.0, 1.0, 256)
+    lut = np.empty((256, 3), np.float64)
+    neg = t < 0
+    # blue (negative) -> white (0) -> red (positive), BGR
+    lut[neg] = np.column_stack([np.full(neg.sum(), 255.0), 255 * (1 + t[neg]),
+                                255 * (1 + t[neg])])
+    lut[~neg] = np.column_stack([255 * (1 - t[~neg]), 255 * (1 - t[~neg]),
+                                 np.full((~neg).sum(), 255.0)])
+    return lut.astype(np.uint8)
+
+
+def likelihood_map(likelihood, frame_bgr: np.ndarray, target_id: int, part: int = 0,
+                   limit: float = 8.0) -> np.ndarray:
+    """What a cross-entropy likelihood adds up: the per-pixel value of one target (``log q`` for
+    ``cross-entropy``, ``log q / h_back`` for ``cross-entropy-bg``, of stripe ``part``) over a
+    whole frame, red where a pixel looks like the target, blue where it looks like background
+    (clipped to +-``limit``). Call after ``begin_frame`` on that frame."""
+    table = likelihood.values_.get(target_id) if hasattr(likelihood, "values_") else None
+    if table is None:
+        raise ValueError(f"likelihood map: no per-pixel table for target {target_id}; call "
+                         "init_target and begin_frame of a cross-entropy likelihood first")
+    v = np.asarray(table[part], float)[likelihood.binner_(frame_bgr)]
+    idx = np.clip((v / limit + 1.0) * 127.5, 0, 255).astype(np.uint8)
+    return _diverging_lut()[idx]
+
+
+#: Drawing colours of the walkers (BGR), brighter than their torsos so boxes stand out.
+WALKER_COLOURS_BGR = {1: (255, 140, 40), 2: (40, 40, 255), 3: (230, 60, 220)}
+
+
+def frames_montage(frames, gt_rows: np.ndarray, indices, *, names=None, colours=None,
+                   scale: int = 2, cols: int | None = None) -> np.ndarray:
+    """The frames numbered ``indices`` with their ground-truth boxes, side by side."""
+    wanted = set(int(i) for i in indices)
+    gt = np.asarray(gt_rows, float).reshape(-1, 10)
+    panels = [draw_frame(f.image, gt[gt[:, 0] == f.index], colours=colours or WALKER_COLOURS_BGR,
+                         names=names, scale=scale, title=f"frame {f.index}")
+              for f in frames if f.index in wanted]
+    return montage(panels, cols=cols or len(panels))
+
+
+def likelihood_maps(likelihood, frame, boxes: Mapping[int, np.ndarray]) -> np.ndarray:
+    """:func:`likelihood_map` of each target started from ``boxes`` ({id: xywh px}) in
+    ``frame``, side by side (the likelihood is set up on that frame)."""
+    from pftrack.components import Target
+
+    targets = [Target(id=int(tid), state=np.asarray(b[:2], float) + np.asarray(b[2:], float) / 2,
+                      box_xywh_px=np.asarray(b, float)) for tid, b in boxes.items()]
+    for t in targets:
+        likelihood.init_target(frame, t)
+    likelihood.begin_frame(frame, targets)
+    maps = [likelihood_map(likelihood, frame.image, t.id) for t in targets]
+    for im, t in zip(maps, targets):
+        _box(im, t.box_xywh_px, (0, 0, 0), 1)
+        label(im, f"target {t.id}", (6, 16))
+    return montage(maps, cols=len(maps))
