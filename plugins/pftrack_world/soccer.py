@@ -599,6 +599,22 @@ class SoccerScene(Scene):
         for k in range(self.tracks_.n_frames):
             yield Frame(index=k + 1, image=self.render(k), time_s=float(self.tracks_.times_s[k]))
 
+    def empty_frames(self, n: int = 25) -> Iterator[Frame]:
+        """``n`` frames of the empty pitch before play (background plus sensor noise), for a
+        detector to learn the background from (:meth:`PitchBlobDetector.fit`). Indices 1..n,
+        times ``-n / fps .. -1 / fps`` seconds."""
+        import cv2
+
+        self.prepare()
+        fps = float(self.fps)
+        for k in range(int(n)):
+            img = self.background_.copy()
+            if self.noise_bank_ is not None:
+                pos, neg = self.noise_bank_[k % len(self.noise_bank_)]
+                cv2.add(img, pos, dst=img)
+                cv2.subtract(img, neg, dst=img)
+            yield Frame(index=k + 1, image=img, time_s=(k - int(n)) / fps)
+
     def ground_truth(self) -> np.ndarray:
         """MOTChallenge rows ``(frame, id, left, top, width, height, 1, x, y, 0)``, (M, 10).
 
@@ -961,21 +977,34 @@ class PitchBlobDetector(Detector):
         Pitch volume (camera's world frame) whose run-off bounds the search region.
     margin_m : float
         Extra ground margin around the volume, metres.
-    history, var_threshold, learning_rate, detect_shadows
-        MOG2's parameters (``learning_rate < 0``: automatic).
+    history, var_threshold, detect_shadows
+        MOG2's parameters.
+    learning_rate : float, optional
+        MOG2's learning rate. None: automatic -- OpenCV's ``1 / min(frames, history)`` while the
+        detector learns the background from the stream itself, and 0 (a frozen background) once
+        :meth:`fit` has learned it from frames of the empty pitch, so players who stand still
+        are never absorbed into the background.
     height_m, width_m : float
         Player cuboid (metres) giving the expected box at each foot point.
     min_height_frac : float
         Blobs shorter than this fraction of the expected height are dropped.
     split_factor : float
         A blob wider (taller) than ``split_factor`` times the expected width (height) is split.
+    split_score : float
+        Factor on the score of the parts of a split blob (their positions are guesses), so that
+        births (``min_score``) can ignore them while the tracker still uses them.
     foot_depth_m : float
         Ground distance from a blob's lowest point (the nearest foot, plus the anti-aliased
         fringe) to the player's centre, away from the camera, added to ``points_world_m``.
         0.7 m removes the mean depth bias on the soccer scene with the seed-001 camera
         (measured: mean error along the viewing direction -0.57 m at 0.3, ~0 at 0.7).
+    boxes : {"model", "blob"}
+        ``"model"``: each detection's box is the box of a ``height_m`` player standing at its
+        ``points_world_m`` (:meth:`model_boxes`), the convention of the tracker's
+        :class:`~pftrack.observation_world.CameraBoxObservation`, so foot points compare without
+        the bias of the blob's lowest pixel; ``"blob"``: the (split) blob's own bounding box.
     warmup_frames : int
-        Frames at the start of a stream that only teach the background.
+        Frames at the start of a stream that only teach the background (unless fitted).
 
     Attributes
     ----------
@@ -990,14 +1019,16 @@ class PitchBlobDetector(Detector):
     Notes
     -----
     Detections carry ``points_world_m``: the ground point under each box's bottom centre.
-    Scores are the blob's foreground fill of its box times its height agreement, in (0, 1].
+    Scores are the blob's foreground fill of its box times its height agreement (times
+    ``split_score`` for the parts of a split blob), in (0, 1].
     """
 
     def __init__(self, camera: str | None = None, volume: str = _DEFAULT_VOLUME,
                  margin_m: float = 2.0, history: int = 500, var_threshold: float = 16.0,
-                 learning_rate: float = -1.0, detect_shadows: bool = True,
+                 learning_rate: float | None = None, detect_shadows: bool = True,
                  height_m: float = 1.8, width_m: float = 0.6, min_height_frac: float = 0.4,
-                 split_factor: float = 1.6, foot_depth_m: float = 0.7,
+                 split_factor: float = 1.6, split_score: float = 0.4, foot_depth_m: float = 0.7,
+                 boxes: str = "model",
                  warmup_frames: int = 1):
         self.camera = camera
         self.volume = volume
@@ -1010,10 +1041,44 @@ class PitchBlobDetector(Detector):
         self.width_m = width_m
         self.min_height_frac = min_height_frac
         self.split_factor = split_factor
+        self.split_score = split_score
         self.foot_depth_m = foot_depth_m
+        self.boxes = boxes
         self.warmup_frames = warmup_frames
 
     _STATE = ("camera_", "band_", "region_", "subtractor_", "frames_seen_", "image_shape_")
+
+    def fit(self, frames: Any, boxes_by_frame: dict[int, np.ndarray] | None = None,
+            rng: np.random.Generator | None = None) -> PitchBlobDetector:
+        """Learn the background from frames of the pitch before play (a fixed camera can film
+        the empty pitch; :meth:`SoccerScene.empty_frames` renders such frames).
+
+        Frames with moving players work too (MOG2 averages them away), but players standing
+        still would become background. ``boxes_by_frame`` and ``rng`` are not used. The learned
+        band of each frame is kept (``fit_crops_``) so that :meth:`reset`, copies and unpickled
+        detectors start from the same background. Returns ``self``.
+        """
+        crops = []
+        shape = None
+        self.__dict__.pop("fit_crops_", None)
+        self.reset()
+        for frame in frames:
+            img = np.asarray(frame.image)
+            if img.ndim != 3 or img.dtype != np.uint8:
+                raise ValueError(f"PitchBlobDetector.fit: frame {frame.index} must be an "
+                                 f"(H, W, 3) uint8 image, got {img.shape} {img.dtype}")
+            if shape is None:
+                shape = img.shape
+                self._setup(shape)
+            elif img.shape != shape:
+                raise ValueError(f"PitchBlobDetector.fit: frame {frame.index} has shape "
+                                 f"{img.shape}, the first had {shape}")
+            y0, y1, x0, x1 = self.band_
+            crops.append(np.ascontiguousarray(img[y0:y1, x0:x1]))
+        self.fit_crops_ = crops
+        self.fit_shape_ = shape
+        self.reset()
+        return self
 
     @classmethod
     def _conformance_example(cls) -> tuple[PitchBlobDetector, dict[str, Any]]:
@@ -1022,7 +1087,7 @@ class PitchBlobDetector(Detector):
                                   for f in _example_frames()]}
 
     def reset(self) -> PitchBlobDetector:
-        """Forget the background model (start of a new stream)."""
+        """Start a new stream: forget what the stream taught (what :meth:`fit` learned stays)."""
         for k in self._STATE:
             self.__dict__.pop(k, None)
         return self
@@ -1079,6 +1144,20 @@ class PitchBlobDetector(Detector):
             detectShadows=bool(self.detect_shadows))
         self.frames_seen_ = 0
         self.image_shape_ = tuple(shape)
+        if self._fitted():
+            if tuple(self.fit_shape_) != tuple(shape):
+                raise ValueError(f"PitchBlobDetector: frames of shape {tuple(shape)} but the "
+                                 f"background was fitted on {tuple(self.fit_shape_)}")
+            for crop in self.fit_crops_:
+                self.subtractor_.apply(crop, learningRate=-1.0)
+
+    def _fitted(self) -> bool:
+        return bool(getattr(self, "fit_crops_", None))
+
+    def _rate(self) -> float:
+        if self.learning_rate is not None:
+            return float(self.learning_rate)
+        return 0.0 if self._fitted() else -1.0
 
     def expected_boxes(self, foot_px: np.ndarray) -> np.ndarray:
         """Boxes (K, 4) xywh px of a player cuboid standing at each foot pixel (K, 2)."""
@@ -1108,7 +1187,7 @@ class PitchBlobDetector(Detector):
                              f"but the stream started with {self.image_shape_}; call reset()")
         y0, y1, x0, x1 = self.band_
         raw = self.subtractor_.apply(np.ascontiguousarray(img[y0:y1, x0:x1]),
-                                     learningRate=float(self.learning_rate))
+                                     learningRate=self._rate())
         self.frames_seen_ += 1
         mask = np.where((raw == 255) & (self.region_ > 0), np.uint8(255), np.uint8(0))
         return cv2.morphologyEx(mask, cv2.MORPH_CLOSE, np.ones((3, 1), np.uint8))
@@ -1116,8 +1195,11 @@ class PitchBlobDetector(Detector):
     def detect(self, frame: Frame) -> Detections:
         import cv2
 
+        if self.boxes not in ("model", "blob"):
+            raise ValueError(f"PitchBlobDetector: boxes must be 'model' or 'blob', got "
+                             f"{self.boxes!r}")
         mask = self.foreground_mask(frame)
-        if self.frames_seen_ <= int(self.warmup_frames):
+        if not self._fitted() and self.frames_seen_ <= int(self.warmup_frames):
             return Detections.empty()
         _, _, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
         stats = stats[1:]
@@ -1150,9 +1232,11 @@ class PitchBlobDetector(Detector):
                 if tall:  # a far player whose feet are hidden behind the near one
                     parts.append([left, b[1], wi, e[3]])
             agree = min(1.0, b[3] / e[3]) if not tall else 1.0
+            # a split guesses where the players of a merged blob stand: less confident
+            conf = fill * agree * (float(self.split_score) if len(parts) > 1 else 1.0)
             for p in parts:
                 boxes.append(p)
-                scores.append(float(np.clip(fill * agree, 1e-3, 1.0)))
+                scores.append(float(np.clip(conf, 1e-3, 1.0)))
         if not boxes:
             return Detections.empty()
         boxes_a = np.asarray(boxes, dtype=np.float64)
@@ -1162,7 +1246,26 @@ class PitchBlobDetector(Detector):
         away = world[:, :2] - self.camera_.center_m[None, :2]
         away /= np.maximum(np.linalg.norm(away, axis=1, keepdims=True), 1e-9)
         world[:, :2] += float(self.foot_depth_m) * away
-        return Detections(boxes_a, np.asarray(scores), world)
+        if self.boxes == "model":
+            boxes_a = self.model_boxes(world)
+            ok = np.isfinite(boxes_a).all(axis=1)
+            boxes_a, world = boxes_a[ok], world[ok]
+            scores = list(np.asarray(scores)[ok])
+        return Detections(boxes_a, np.asarray(scores, dtype=np.float64), world)
+
+    def model_boxes(self, points_world_m: np.ndarray) -> np.ndarray:
+        """Boxes (K, 4) of ``height_m`` players standing at ground points (K, 3): bottom centre
+        at the projected point, top at the projected head, width ``width_m / height_m`` of the
+        height (the convention of :class:`pftrack.observation_world.CameraBoxObservation`)."""
+        g = np.asarray(points_world_m, dtype=np.float64).reshape(-1, 3).copy()
+        g[:, 2] = 0.0
+        head = g.copy()
+        head[:, 2] = float(self.height_m)
+        px = self.camera_.project(np.concatenate([g, head]))
+        foot, top = px[: len(g)], px[len(g):]
+        h = np.hypot(*(foot - top).T)
+        w = h * float(self.width_m) / float(self.height_m)
+        return np.column_stack([foot[:, 0] - w / 2, foot[:, 1] - h, w, h])
 
 
 @functools.lru_cache(maxsize=1)
