@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.stats import wasserstein_distance
-
 from pftrack.components import Detections, Frame, Likelihood, Target
 from pftrack_world.likelihoods import (
     CompositeLikelihood,
@@ -16,6 +14,7 @@ from pftrack_world.likelihoods import (
     emd_1d,
 )
 from pftrack_world.regions import cell_means, grid_samples, integral_image
+from scipy.stats import wasserstein_distance
 
 
 def _frame(seed: int = 0, index: int = 1) -> Frame:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from pftrack.data import data_dir
 from pftrack.observation_world import CameraBoxObservation
 

@@ -34,10 +34,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-
 from pftrack.components import Assignment, Associator, Detections, Target
 
-__all__ = ["score_matrix", "greedy_max", "GreedyScoreAssociator", "HungarianScoreAssociator"]
+__all__ = ["GreedyScoreAssociator", "HungarianScoreAssociator", "greedy_max", "score_matrix"]
 
 
 def _foot(boxes: np.ndarray) -> np.ndarray:

@@ -35,19 +35,18 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
 from pftrack.components import Detections, Detector, Frame
 
 __all__ = [
-    "SVMModel",
     "SVMDetector",
-    "load_model",
-    "save_model",
-    "train_svm_model",
+    "SVMModel",
     "ScaleBand",
-    "scale_plan",
     "box_iou_matrix",
+    "load_model",
     "nms",
+    "save_model",
+    "scale_plan",
+    "train_svm_model",
 ]
 
 MODEL_FORMAT = "pftrack-svm-detector"
@@ -126,10 +125,9 @@ def save_model(model: SVMModel, path: str | os.PathLike[str]) -> Path:
     path = Path(path)
     if path.suffix != ".npz":
         raise ValueError(f"detector model {path}: the file name must end in .npz")
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as fh:
-            np.savez(fh, weights=np.asarray(model.weights, dtype=np.float32),
-                     params=np.array(json.dumps(model.params())))
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        np.savez(fh, weights=np.asarray(model.weights, dtype=np.float32),
+                 params=np.array(json.dumps(model.params())))
     return path
 
 
@@ -306,7 +304,7 @@ def scale_plan(box_height_win: float, window_h: int, foot_offset_win: float,
     """
     if scale_step <= 1.0:
         raise ValueError(f"scale_step must be > 1, got {scale_step}")
-    w, h = image_size_wh
+    h = image_size_wh[1]
     lo, hi = float(min_height_px), float(max_height_px)
     feet = heights = None
     if camera is not None:
@@ -366,8 +364,8 @@ def crop_windows(grey: np.ndarray, windows_xywh: np.ndarray,
     out = np.empty((len(windows_xywh), H, W), dtype=np.uint8)
     ih, iw = grey.shape[:2]
     for i, (x, y, w, h) in enumerate(np.asarray(windows_xywh, dtype=np.float64)):
-        x0, y0 = int(round(x)), int(round(y))
-        x1, y1 = int(round(x + w)), int(round(y + h))
+        x0, y0 = round(x), round(y)
+        x1, y1 = round(x + w), round(y + h)
         x1, y1 = max(x1, x0 + 1), max(y1, y0 + 1)
         pad = (max(0, -y0), max(0, y1 - ih), max(0, -x0), max(0, x1 - iw))
         crop = grey[max(y0, 0):min(y1, ih), max(x0, 0):min(x1, iw)]
@@ -420,7 +418,7 @@ def _dense_windows(model: SVMModel, grey: np.ndarray, bands: Sequence[ScaleBand]
         if y1 - y0 < H * f * 0.999:
             continue
         strip = grey[y0:y1]
-        sw, sh = int(round(iw / f)), int(round((y1 - y0) / f))
+        sw, sh = round(iw / f), round((y1 - y0) / f)
         if sw < W or sh < H:
             continue
         interp = cv2.INTER_AREA if f > 1 else cv2.INTER_LINEAR
@@ -557,7 +555,7 @@ class SVMDetector(Detector):
             self.model_ = load_model(self.model)
         return self.model_
 
-    def set_model(self, model: SVMModel) -> "SVMDetector":
+    def set_model(self, model: SVMModel) -> SVMDetector:
         """Use an in-memory model (what :meth:`fit` does)."""
         self.model_ = model
         for attr in ("hog_", "plan_", "plan_size_"):
@@ -567,7 +565,7 @@ class SVMDetector(Detector):
     def _prepare(self, image_size_wh: tuple[int, int]) -> None:
         m = self._model()
         if getattr(self, "plan_size_", None) != image_size_wh:
-            bl, bt, bw, bh = m.box_in_window
+            _, bt, _, bh = m.box_in_window
             self.plan_ = scale_plan(bh, m.window_wh[1], bt + bh, image_size_wh,
                                     scale_step=self.scale_step, min_height_px=self.min_height_px,
                                     max_height_px=self.max_height_px, camera=self._camera(),
@@ -649,7 +647,7 @@ class SVMDetector(Detector):
 
     def fit(self, frames: Iterable[Frame] | Iterator[Frame], boxes_by_frame: dict[int, np.ndarray],
             rng: np.random.Generator | None = None,
-            ignore_by_frame: dict[int, np.ndarray] | None = None) -> "SVMDetector":
+            ignore_by_frame: dict[int, np.ndarray] | None = None) -> SVMDetector:
         """Train on ``frames`` with their ground-truth person boxes.
 
         Parameters
@@ -773,7 +771,7 @@ def train_svm_model(frames: Iterable[Frame], boxes_by_frame: dict[int, np.ndarra
         return (w / norm).astype(np.float32), b / norm, acc
 
     w, b, acc = train(Xp, Xn)
-    info: dict[str, Any] = {"n_positive": int(len(Xp)), "n_random_negative": int(len(Xn)),
+    info: dict[str, Any] = {"n_positive": len(Xp), "n_random_negative": len(Xn),
                             "n_frames": int(n_seen), "C": C, "aspect": aspect,
                             "occupancy": occupancy, "train_accuracy": acc}
     model = SVMModel(w, b, feature, (W, H), box_in_window, info)

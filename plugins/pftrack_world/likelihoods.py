@@ -48,7 +48,6 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-
 from pftrack.components import Detections, Frame, Likelihood, Target
 
 from pftrack_world.regions import (
@@ -59,8 +58,13 @@ from pftrack_world.regions import (
     sub_boxes,
 )
 
-__all__ = ["NCCLikelihood", "EMDLikelihood", "DetectionLikelihood", "CompositeLikelihood",
-           "emd_1d"]
+__all__ = [
+    "CompositeLikelihood",
+    "DetectionLikelihood",
+    "EMDLikelihood",
+    "NCCLikelihood",
+    "emd_1d",
+]
 
 
 def _grid(value: Any, owner: str, name: str) -> tuple[int, int]:

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["sub_boxes", "integral_image", "cell_means", "grid_samples"]
+__all__ = ["cell_means", "grid_samples", "integral_image", "sub_boxes"]
 
 
 def sub_boxes(boxes_xywh_px: np.ndarray,

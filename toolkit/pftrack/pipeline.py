@@ -44,17 +44,17 @@ from pftrack.components import Detections, Detector, Frame, Target
 from pftrack.tracker import MultiTargetTracker, TrackRecord, records_to_mot
 
 __all__ = [
+    "RunResult",
+    "TrackingSession",
+    "build_detector",
+    "build_session",
+    "evaluate_tracks",
+    "iter_frames",
     "load_config",
     "parse_frames",
-    "TrackingSession",
-    "build_session",
-    "build_detector",
-    "train_detector",
     "read_ground_truth",
-    "iter_frames",
     "run_pipeline",
-    "evaluate_tracks",
-    "RunResult",
+    "train_detector",
 ]
 
 CONFIG_KEYS = {"name", "description", "state", "observation", "motion", "likelihood", "detector",
@@ -106,7 +106,7 @@ def load_config(spec: str | os.PathLike[str] | dict[str, Any]) -> dict[str, Any]
         except yaml.YAMLError as exc:
             raise ValueError(f"config {where}: not valid YAML: {exc}") from None
         if not isinstance(cfg, dict):
-            raise ValueError(f"config {where}: expected a mapping at the top level")
+            raise ValueError(f"config {where}: expected a mapping at the top level")  # noqa: TRY004
     unknown = set(cfg) - CONFIG_KEYS
     if unknown:
         raise ValueError(f"config {where}: unknown keys {sorted(unknown)}; known: "
@@ -428,9 +428,9 @@ class TrackingSession:
                 live.pop(tid, None)
         hide = self.hide_after_misses
         for r in records:
-            if r.id in live and r.id not in self.tentative and r not in out:
-                if hide is None or live[r.id].misses <= hide:
-                    out.append(r)
+            if (r.id in live and r.id not in self.tentative and r not in out
+                    and (hide is None or live[r.id].misses <= hide)):
+                out.append(r)
         # duplicates among confirmed targets
         confirmed = [t for t in live.values() if t.id not in self.tentative]
         if len(confirmed) > 1 and self.merge_iou < 1.0:
@@ -579,12 +579,12 @@ def evaluate_tracks(gt_rows: np.ndarray, track_rows: np.ndarray) -> dict[str, An
         e = _matched_world_errors(visible, tracks)
         out["median_error_m"] = float(np.median(e)) if len(e) else float("nan")
         out["p90_error_m"] = float(np.percentile(e, 90)) if len(e) else float("nan")
-        out["n_world_pairs"] = int(len(e))
+        out["n_world_pairs"] = len(e)
     else:
         out["median_error_m"] = out["p90_error_m"] = float("nan")
     if len(tracks):
         pts = points_by_target(visible, tracks, id_map="match", point="foot")
-        acc, per = accuracy_within(pts["estimated_px"], pts["truth_px"], 5.0)
+        acc, _ = accuracy_within(pts["estimated_px"], pts["truth_px"], 5.0)
         out["accuracy_5px"] = float(acc)
     else:
         out["accuracy_5px"] = 0.0

@@ -22,6 +22,8 @@ import numpy as np
 
 __all__ = ["draw_overlay", "draw_trajectories", "write_report"]
 
+TOP_W = 760  # top-view width for a 576 px tall frame (room for the legend)
+
 
 def _colour_bgr(track_id: int) -> tuple[int, int, int]:
     from pftrack.render.colours import track_colour_bgr
@@ -112,7 +114,7 @@ def draw_trajectories(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
             cv2.rectangle(img, (int(x), int(y)), (int(x + w), int(y + h)), col, 1, cv2.LINE_AA)
             cv2.putText(img, str(tid), (int(x), int(y) - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.5, col,
                         1, cv2.LINE_AA)
-    H, W = img.shape[:2]
+    H = img.shape[0]
     tracks = _world_tracks(rows, frame)
     gt_tracks = _world_tracks(gt_rows, frame) if gt_rows is not None else {}
     top = None
@@ -122,13 +124,16 @@ def draw_trajectories(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
         every = [t for t in tracks.values()] + [t for t in gt_tracks.values()]
         allp = np.concatenate(every)
         lo, hi = allp.min(axis=0), allp.max(axis=0)
-        rgb = render_topview(tracks=tracks, ground_truth=gt_tracks, size_wh=(H, H),
+        rgb = render_topview(tracks=tracks, ground_truth=gt_tracks, size_wh=(TOP_W * H // 576, H),
                              title=f"{title} top view, frame {frame}".strip(),
-                             bounds_m=np.array([lo, hi]))
+                             bounds_m=np.array([lo, hi]), legend=False)
         top = cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)
+        note = "solid: tracks (track ids)   dashed: ground truth (gt ids)"
+        cv2.putText(top, note, (60, 44), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
+                    (60, 60, 60), 1, cv2.LINE_AA)
     if top is None:
-        top = np.full((H, H, 3), 255, np.uint8)
-    return np.concatenate([img, cv2.resize(top, (H, H))], axis=1)
+        top = np.full((H, TOP_W * H // 576, 3), 255, np.uint8)
+    return np.concatenate([img, cv2.resize(top, (top.shape[1], H))], axis=1)
 
 
 def _write_png(path: Path, image_bgr: np.ndarray) -> None:

@@ -192,8 +192,8 @@ def format_table(result: dict[str, Any]) -> str:
     def f(x: Any, nd: int = 3) -> str:
         return "-" if x is None else (f"{x:.{nd}f}" if isinstance(x, float) else str(x))
 
-    lines = [f"PETS 2009 S2.L1 frames {result['frames']} ({result['n_frames']} frames), "
-             f"preset {result['preset']}"]
+    lines = [(f"PETS 2009 S2.L1 frames {result['frames']} ({result['n_frames']} frames), "
+              f"preset {result['preset']}")]
     for k in KEYS:
         lines.append(f"  {k:<24} {f(result.get(k), 4)}")
     for k in ("tracking_fps", "tracking_fps_cpu"):

@@ -57,7 +57,7 @@ def train_handler(args: argparse.Namespace) -> int:
                             camera=args.camera, params=params, seed=seed,
                             progress=not args.quiet)
     if not args.quiet:
-        info = {"model": str(args.out), **getattr(fitted, "model_").info}
+        info = {"model": str(args.out), **fitted.model_.info}
         print(json.dumps(info, indent=2, default=float))
         sys.stdout.flush()
     return 0

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -27,7 +28,7 @@ def preset_listing() -> list[dict[str, str]]:
     out = []
     for e in sorted(get_host().registry.entries("preset"), key=lambda e: e.name):
         try:
-            cfg = yaml.safe_load(open(e.obj).read()) or {}
+            cfg = yaml.safe_load(Path(e.obj).read_text()) or {}
             desc = " ".join(str(cfg.get("description", "")).split())
         except (OSError, yaml.YAMLError) as exc:
             desc = f"(unreadable: {exc})"
@@ -40,7 +41,7 @@ def handler(args: argparse.Namespace) -> int:
 
     if args.show:
         path = get_host().get("preset", args.show)
-        print(open(path).read(), end="")
+        print(Path(path).read_text(), end="")
         return 0
     items = preset_listing()
     if args.json:

@@ -45,8 +45,8 @@ def handler(args: argparse.Namespace) -> int:
                           seed=args.seed, progress=not args.quiet, report=not args.no_report)
     if not args.quiet:
         summary = {"tracks": str(result.out_dir / "tracks.txt"), "frames": result.n_frames,
-                   "rows": int(len(result.rows)),
-                   "ids": int(len(set(result.rows[:, 1].astype(int)))) if len(result.rows) else 0,
+                   "rows": len(result.rows),
+                   "ids": len(set(result.rows[:, 1].astype(int))) if len(result.rows) else 0,
                    **result.timing}
         if result.metrics is not None:
             keys = ("MOTA", "IDF1", "HOTA", "median_error_m", "p90_error_m", "accuracy_5px")
