@@ -26,9 +26,52 @@ TOP_W = 760  # top-view width for a 576 px tall frame (room for the legend)
 
 
 def _colour_bgr(track_id: int) -> tuple[int, int, int]:
-    from pftrack.render.colours import track_colour_bgr
-
+    try:
+        from pftrack.render.colours import track_colour_bgr
+    except ImportError:  # the renderer is optional here: a plain palette
+        rgb = _FALLBACK_RGB[int(track_id) % len(_FALLBACK_RGB)]
+        return (rgb[2], rgb[1], rgb[0])
     return tuple(int(c) for c in track_colour_bgr(int(track_id)))
+
+
+_FALLBACK_RGB = [(31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
+                 (140, 86, 75), (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207)]
+
+
+def _plain_topview(tracks: dict[int, np.ndarray], gt_tracks: dict[int, np.ndarray],
+                   size_wh: tuple[int, int], title: str) -> np.ndarray:
+    """A top view drawn with OpenCV (x right, y up, metres), used when
+    :mod:`pftrack.render.topview` is not available."""
+    import cv2
+
+    w, h = size_wh
+    img = np.full((h, w, 3), 255, np.uint8)
+    pts = np.concatenate(list(tracks.values()) + list(gt_tracks.values()))[:, :2]
+    lo, hi = pts.min(axis=0) - 1.0, pts.max(axis=0) + 1.0
+    scale = min((w - 60) / (hi[0] - lo[0]), (h - 80) / (hi[1] - lo[1]))
+
+    def px(p: np.ndarray) -> np.ndarray:
+        return np.stack([30 + (p[:, 0] - lo[0]) * scale,
+                         h - 30 - (p[:, 1] - lo[1]) * scale], axis=1).round().astype(np.int32)
+
+    for x in np.arange(np.ceil(lo[0]), hi[0], 2.0):
+        q = px(np.array([[x, lo[1]], [x, hi[1]]]))
+        cv2.line(img, tuple(q[0]), tuple(q[1]), (225, 225, 225), 1)
+    for y in np.arange(np.ceil(lo[1]), hi[1], 2.0):
+        q = px(np.array([[lo[0], y], [hi[0], y]]))
+        cv2.line(img, tuple(q[0]), tuple(q[1]), (225, 225, 225), 1)
+    for tid, t in gt_tracks.items():
+        q = px(t[:, :2])
+        for a, b in zip(q[:-1:2], q[1::2]):  # dashed
+            cv2.line(img, tuple(a), tuple(b), _colour_bgr(tid), 1, cv2.LINE_AA)
+    for tid, t in tracks.items():
+        q = px(t[:, :2])
+        cv2.polylines(img, [q.reshape(-1, 1, 2)], False, _colour_bgr(tid), 2, cv2.LINE_AA)
+        cv2.putText(img, str(tid), tuple(q[-1] + 4), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
+                    (0, 0, 0), 1, cv2.LINE_AA)
+    cv2.putText(img, f"{title} (grid 2 m)", (10, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.55,
+                (0, 0, 0), 1, cv2.LINE_AA)
+    return img
 
 
 def _foot(rows: np.ndarray) -> np.ndarray:
@@ -119,15 +162,21 @@ def draw_trajectories(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
     gt_tracks = _world_tracks(gt_rows, frame) if gt_rows is not None else {}
     top = None
     if tracks or gt_tracks:
-        from pftrack.render.topview import render_topview
-
+        try:
+            from pftrack.render.topview import render_topview
+        except ImportError:
+            render_topview = None
         every = [t for t in tracks.values()] + [t for t in gt_tracks.values()]
         allp = np.concatenate(every)
         lo, hi = allp.min(axis=0), allp.max(axis=0)
-        rgb = render_topview(tracks=tracks, ground_truth=gt_tracks, size_wh=(TOP_W * H // 576, H),
-                             title=f"{title} top view, frame {frame}".strip(),
-                             bounds_m=np.array([lo, hi]), legend=False)
-        top = cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)
+        size = (TOP_W * H // 576, H)
+        label = f"{title} top view, frame {frame}".strip()
+        if render_topview is None:
+            top = _plain_topview(tracks, gt_tracks, size, label)
+        else:
+            rgb = render_topview(tracks=tracks, ground_truth=gt_tracks, size_wh=size, title=label,
+                                 bounds_m=np.array([lo, hi]), legend=False)
+            top = cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)
         note = "solid: tracks (track ids)   dashed: ground truth (gt ids)"
         cv2.putText(top, note, (60, 44), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
                     (60, 60, 60), 1, cv2.LINE_AA)
