@@ -1273,3 +1273,96 @@ def _example_frames() -> tuple[Frame, ...]:
     """Six small frames of the soccer scene (cached; the conformance kit asks repeatedly)."""
     scene = SoccerScene(duration_s=0.24, image_size=(640, 360), supersample=1)
     return tuple(scene.frames())
+
+
+# ---------------------------------------------------------------------------------------------
+# Pictures for the notebook and reports (OpenCV drawing on frames; no tracking logic)
+# ---------------------------------------------------------------------------------------------
+
+
+def pitch_band(scene: SoccerScene, margin_px: int = 12) -> tuple[int, int, int, int]:
+    """Rows and columns ``(y0, y1, x0, x1)`` of the image that hold the pitch (with a margin)."""
+    scene.prepare()
+    lo, hi = np.asarray(scene.pitch_.bounds(), dtype=np.float64)[:, :2]
+    ring = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                     for z in (0.0, 2.0)])
+    px = scene.camera_.project(ring)
+    px = px[np.isfinite(px).all(axis=1)]
+    w, h = scene.camera_.image_size
+    x0, y0 = np.floor(px.min(axis=0)).astype(int) - margin_px
+    x1, y1 = np.ceil(px.max(axis=0)).astype(int) + margin_px
+    return max(int(y0), 0), min(int(y1), h), max(int(x0), 0), min(int(x1), w)
+
+
+def crop_pitch(image_bgr: np.ndarray, scene: SoccerScene, zoom: int = 2) -> np.ndarray:
+    """The pitch band of a frame, enlarged ``zoom`` times (nearest neighbour, pixels visible)."""
+    import cv2
+
+    y0, y1, x0, x1 = pitch_band(scene)
+    crop = np.ascontiguousarray(image_bgr[y0:y1, x0:x1])
+    return cv2.resize(crop, None, fx=zoom, fy=zoom, interpolation=cv2.INTER_NEAREST)
+
+
+def calibration_overlay(scene: SoccerScene, zoom: int = 2, step_m: float = 0.25) -> np.ndarray:
+    """The empty pitch with the volume's standard markings projected through the camera drawn
+    over it in red (polylines sampled every ``step_m`` metres, so the lens bends them), and the
+    players' volume (pitch plus run-off, ``height_m`` high) in yellow; enlarged ``zoom`` times
+    over the pitch band. BGR uint8."""
+    import cv2
+
+    scene.prepare()
+    cam = scene.camera_
+    y0, _, x0, _ = pitch_band(scene)
+    img = crop_pitch(scene.background_, scene, zoom)
+    from pftrack.geometry.volumes import sample_polyline
+
+    def draw(points_world_m: np.ndarray, colour: tuple[int, int, int]) -> None:
+        px = cam.project(points_world_m)
+        px = px[np.isfinite(px).all(axis=1)]
+        if len(px) >= 2:
+            q = np.round((px - [x0, y0]) * zoom + (zoom - 1) / 2).astype(np.int32)
+            cv2.polylines(img, [q], False, colour, 1, cv2.LINE_AA)
+
+    for poly in scene.pitch_.markings(step_m=step_m).values():
+        draw(poly, (0, 0, 255))
+    for seg in scene.pitch_.edges():
+        draw(sample_polyline(np.asarray(seg), step_m * 4), (0, 220, 255))
+    return img
+
+
+def draw_tracks(image_bgr: np.ndarray, rows: np.ndarray, frame: int, scene: SoccerScene,
+                zoom: int = 3, gt_rows: np.ndarray | None = None) -> np.ndarray:
+    """The pitch band of ``image_bgr`` enlarged ``zoom`` times with the boxes of ``rows`` in
+    frame ``frame`` (track colours, id above) and, when given, the ground-truth boxes in thin
+    white. BGR uint8."""
+    import cv2
+    from pftrack.render.colours import track_colour_bgr
+
+    y0, _, x0, _ = pitch_band(scene)
+    img = crop_pitch(image_bgr, scene, zoom)
+
+    def rect(r: np.ndarray) -> tuple[tuple[int, int], tuple[int, int]]:
+        a = (round((r[2] - x0) * zoom), round((r[3] - y0) * zoom))
+        b = (round((r[2] + r[4] - x0) * zoom), round((r[3] + r[5] - y0) * zoom))
+        return a, b
+
+    if gt_rows is not None:
+        for r in gt_rows[gt_rows[:, 0] == frame]:
+            cv2.rectangle(img, *rect(r), (255, 255, 255), 1)
+    for r in rows[rows[:, 0] == frame]:
+        a, b = rect(r)
+        col = track_colour_bgr(int(r[1]))
+        cv2.rectangle(img, a, b, col, 1)
+        cv2.putText(img, str(int(r[1])), (a[0], a[1] - 3), cv2.FONT_HERSHEY_SIMPLEX, 0.35,
+                    col, 1, cv2.LINE_AA)
+    return img
+
+
+def png_bytes(image_bgr: np.ndarray) -> bytes:
+    """PNG encoding of a BGR image (for ``IPython.display.Image(data=...)``)."""
+    import cv2
+
+    ok, buf = cv2.imencode(".png", np.ascontiguousarray(image_bgr))
+    if not ok:
+        raise ValueError("png_bytes: OpenCV could not encode the image")
+    return buf.tobytes()

@@ -32,6 +32,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import dataclass, field
 from typing import Any
 
 KEYS = ("MOTA", "IDF1", "HOTA", "median_error_m", "p90_error_m", "accuracy_5px",
@@ -108,31 +109,90 @@ def _load_preset(spec: str) -> dict[str, Any]:
         return load_config(str(shipped))
 
 
-def run(args: argparse.Namespace) -> dict[str, Any]:
+@dataclass
+class SoccerRun:
+    """What :func:`track_scene` produced.
+
+    Attributes
+    ----------
+    scene : SoccerScene
+        The prepared scene (camera, pitch, trajectories).
+    gt : ndarray, shape (M, 10)
+        Ground truth (MOTChallenge rows, boxes in pixels, x, y in metres).
+    rows : ndarray, shape (R, 10)
+        Tracks, sorted by frame and id (world columns filled).
+    timing : dict
+        ``detection_s_per_frame``, ``tracking_s_per_frame``, ``frames_per_second``, ``frames``.
+    clouds : dict of int to ParticleCloud
+        Every target's particles (world metres, labels = track ids) after the frames asked for,
+        weighted by that frame's likelihood (best particle of each target: 1).
+    images : dict of int to ndarray
+        The frames asked for (BGR).
+    particles : int
+        Particles per target.
+    """
+
+    scene: Any
+    gt: Any
+    rows: Any
+    timing: dict[str, float]
+    clouds: dict[int, Any] = field(default_factory=dict)
+    images: dict[int, Any] = field(default_factory=dict)
+    particles: int = 0
+
+
+def track_scene(scene: Any, preset: str | dict[str, Any] = "soccer-ground", *, seed: int = 0,
+                particles: int | None = None, init: str = "gt", births: bool = True,
+                background_frames: int = 25, camera: str | None = None,
+                keep_frames: tuple[int, ...] = (), progress: bool = False) -> SoccerRun:
+    """Track every player of a soccer scene with a preset; time detection and tracking only.
+
+    Parameters
+    ----------
+    scene : SoccerScene
+    preset : str or dict
+        Preset name, YAML path or configuration dict.
+    seed : int
+        Tracker seed.
+    particles : int, optional
+        Overrides the preset's ``n_particles``.
+    init : {"gt", "detections"}
+        Start from the first frame's ground truth, or from detections only.
+    births : bool
+        Keep the preset's births (start targets for players nobody tracks).
+    background_frames : int
+        Frames of the empty pitch the detector learns the background from (untimed).
+    camera : str, optional
+        Camera file for the detector (default: the project's soccer camera).
+    keep_frames : tuple of int
+        Frames (1-based) whose image and particle clouds are kept.
+    """
     import cv2
     import numpy as np
-    from pftrack_world.soccer import SoccerScene
 
-    from pftrack.metrics import evaluate
-    from pftrack.pipeline import build_session, evaluate_tracks
+    from pftrack.geometry.clouds import ParticleCloud
+    from pftrack.pipeline import build_session
     from pftrack.tracker import records_to_mot
 
-    cfg = _load_preset(args.preset)
-    if args.particles is not None:
-        if args.particles < 1:
-            raise ValueError(f"--particles must be >= 1, got {args.particles}")
-        cfg["tracker"] = {**(cfg.get("tracker") or {}), "n_particles": int(args.particles)}
-    scene = SoccerScene(source=args.source, start_s=args.start_s, duration_s=args.duration_s,
-                        fps=args.fps, seed=args.scene_seed, camera=args.camera).prepare()
-    gt = scene.ground_truth()
-    if args.no_births:
+    if init not in ("gt", "detections"):
+        raise ValueError(f"init must be 'gt' or 'detections', got {init!r}")
+    cfg = dict(preset) if isinstance(preset, dict) else _load_preset(preset)
+    if particles is not None:
+        if int(particles) < 1:
+            raise ValueError(f"particles must be >= 1, got {particles}")
+        cfg["tracker"] = {**(cfg.get("tracker") or {}), "n_particles": int(particles)}
+    if not births:
         cfg["births"] = {**(cfg.get("births") or {}), "min_score": float("inf")}
-    session = build_session(cfg, camera=scene.camera_, fps=float(scene.fps), seed=args.seed)
-    detector = build_detector_for(cfg, args.camera)
-    if args.background_frames > 0:
+    scene.prepare()
+    gt = scene.ground_truth()
+    session = build_session(cfg, camera=scene.camera_, fps=float(scene.fps), seed=seed)
+    detector = build_detector_for(cfg, camera if camera is not None else scene.camera)
+    if background_frames > 0:
         # the fixed camera films the empty pitch before play: the background is learned there
-        detector.fit(list(scene.empty_frames(args.background_frames)), {})
+        detector.fit(list(scene.empty_frames(background_frames)), {})
     first = gt[gt[:, 0] == 1]
+    keep = {int(k) for k in keep_frames}
+    out = SoccerRun(scene, gt, None, {}, particles=int(session.tracker.n_particles))
 
     threads = cv2.getNumThreads()
     cv2.setNumThreads(1)
@@ -144,7 +204,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             t0 = time.perf_counter()
             dets = detector.detect(frame)
             t1 = time.perf_counter()
-            if frame.index == 1 and args.init == "gt":
+            if frame.index == 1 and init == "gt":
                 for row in first:
                     session.tracker.add_target(frame, position=row[7:9], target_id=int(row[1]))
             records.extend(session.step(frame, dets))
@@ -152,42 +212,97 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             t_det += t1 - t0
             t_trk += t2 - t1
             n += 1
-            if not args.quiet and n % 50 == 0:
+            if frame.index in keep:
+                out.images[frame.index] = frame.image.copy()
+                out.clouds[frame.index] = _clouds(session.tracker, ParticleCloud)
+            if progress and n % 50 == 0:
                 print(f"soccer: frame {n}/{scene.n_frames}", file=sys.stderr, flush=True)
     finally:
         cv2.setNumThreads(threads)
     rows = records_to_mot(records)
     if len(rows):
         rows = rows[np.lexsort((rows[:, 1], rows[:, 0]))]
-    if args.out_tracks:
-        from pftrack.io.mot import write_mot
-
-        write_mot(args.out_tracks, rows)
-    world = evaluate(gt, rows, metric="world", threshold=args.threshold_m)
-    img = evaluate_tracks(gt, rows)
-    err = _id_errors(gt, rows, args.threshold_m)
+    out.rows = rows
     n = max(n, 1)
-    out: dict[str, Any] = {
+    out.timing = {"detection_s_per_frame": t_det / n, "tracking_s_per_frame": t_trk / n,
+                  "frames_per_second": n / max(t_det + t_trk, 1e-12), "frames": n}
+    return out
+
+
+def _clouds(tracker: Any, cloud_cls: Any) -> Any:
+    """All targets' particles as one cloud on the ground (z = 0), labels = track ids.
+
+    The tracker has just resampled (equal weights), so each particle is weighted by what this
+    frame's likelihood says of it, scaled per target so that its best particle has weight 1.
+    """
+    import numpy as np
+
+    pts, labels, weights = [], [], []
+    for t in tracker.targets:
+        if t.particles is None or len(t.particles) == 0:
+            continue
+        p = np.zeros((len(t.particles), 3))
+        p[:, :2] = t.particles[:, :2]
+        boxes = tracker.observation.to_boxes(t.particles, t)
+        logl = np.asarray(tracker.likelihood.log_likelihood(boxes, t), dtype=np.float64)
+        w = np.exp(logl - np.max(logl)) if np.isfinite(np.max(logl)) else np.ones(len(p))
+        pts.append(p)
+        labels.append(np.full(len(p), t.id))
+        weights.append(np.nan_to_num(w))
+    if not pts:
+        return cloud_cls(np.zeros((0, 3)), np.zeros(0))
+    return cloud_cls(np.concatenate(pts), np.concatenate(weights), np.concatenate(labels))
+
+
+def score_run(run: SoccerRun, threshold_m: float = 1.0) -> dict[str, Any]:
+    """The bench's figures for a :class:`SoccerRun` (see the module docstring)."""
+    import numpy as np
+
+    from pftrack.metrics import evaluate
+    from pftrack.pipeline import evaluate_tracks
+
+    gt, rows = run.gt, run.rows
+    world = evaluate(gt, rows, metric="world", threshold=threshold_m)
+    img = evaluate_tracks(gt, rows)
+    err = _id_errors(gt, rows, threshold_m)
+    return {
         "MOTA": img["MOTA"], "IDF1": img["IDF1"], "HOTA": img["HOTA"],
         "median_error_m": img["median_error_m"], "p90_error_m": img["p90_error_m"],
         "accuracy_5px": img["accuracy_5px"],
-        "detection_s_per_frame": t_det / n, "tracking_s_per_frame": t_trk / n,
-        "frames_per_second": n / max(t_det + t_trk, 1e-12),
+        "detection_s_per_frame": run.timing["detection_s_per_frame"],
+        "tracking_s_per_frame": run.timing["tracking_s_per_frame"],
+        "frames_per_second": run.timing["frames_per_second"],
         "players": len(np.unique(gt[:, 1])),
-        "particles": int(session.tracker.n_particles),
+        "particles": run.particles,
         "metric": "iou", "threshold": 0.5,
         "MOTA_world": world["MOTA"], "IDF1_world": world["IDF1"], "HOTA_world": world["HOTA"],
-        "threshold_m": float(args.threshold_m),
+        "threshold_m": float(threshold_m),
         "median_error_m_by_id": float(np.median(err)) if len(err) else float("nan"),
         "p90_error_m_by_id": float(np.percentile(err, 90)) if len(err) else float("nan"),
         "IDSW": img["IDSW"], "FP": img["FP"], "FN": img["FN"],
         "IDSW_world": world["IDSW"], "FP_world": world["FP"], "FN_world": world["FN"],
-        "frames": n, "fps_video": float(scene.fps), "source": args.source,
-        "start_s": float(args.start_s), "init": args.init,
-        "preset": str(cfg.get("name", args.preset)),
-        "image_size": list(scene.camera_.image_size),
+        "frames": run.timing["frames"], "fps_video": float(run.scene.fps),
+        "source": run.scene.source, "start_s": float(run.scene.start_s),
+        "image_size": list(run.scene.camera_.image_size),
         "rendering": "excluded (frames drawn before the timed detector and tracker calls)",
     }
+
+
+def run(args: argparse.Namespace) -> dict[str, Any]:
+    from pftrack_world.soccer import SoccerScene
+
+    scene = SoccerScene(source=args.source, start_s=args.start_s, duration_s=args.duration_s,
+                        fps=args.fps, seed=args.scene_seed, camera=args.camera)
+    result = track_scene(scene, args.preset, seed=args.seed, particles=args.particles,
+                         init=args.init, births=not args.no_births,
+                         background_frames=args.background_frames, camera=args.camera,
+                         progress=not args.quiet)
+    if args.out_tracks:
+        from pftrack.io.mot import write_mot
+
+        write_mot(args.out_tracks, result.rows)
+    out = score_run(result, args.threshold_m)
+    out.update(init=args.init, preset=str(args.preset))
     return out
 
 
@@ -226,3 +341,34 @@ def format_table(result: dict[str, Any]) -> str:
     lines.append(f"  {'tracking s/frame':<22} {result['tracking_s_per_frame']:.4f}")
     lines.append(f"  {'frames per second':<22} {result['frames_per_second']:.1f}")
     return "\n".join(lines)
+
+
+def scores_markdown(result: dict[str, Any]) -> str:
+    """A :func:`score_run` result as a Markdown table (for the notebook)."""
+    rows = [
+        ("MOTA / IDF1 / HOTA (IoU 0.5, as pets09-ground)",
+         f"{result['MOTA']:.3f} / {result['IDF1']:.3f} / {result['HOTA']:.3f}"),
+        (f"MOTA / IDF1 / HOTA (ground plane, {result['threshold_m']:g} m)",
+         (f"{result['MOTA_world']:.3f} / {result['IDF1_world']:.3f} / "
+         f"{result['HOTA_world']:.3f}")),
+        ("position error, median / p90 (m)",
+         f"{result['median_error_m']:.2f} / {result['p90_error_m']:.2f}"),
+        ("seed 001 accuracy (foot within 5 px)", f"{result['accuracy_5px']:.3f}"),
+        ("id switches / FP / FN (IoU)", f"{result['IDSW']} / {result['FP']} / {result['FN']}"),
+        ("detection / tracking (ms per frame)",
+         (f"{1000 * result['detection_s_per_frame']:.1f} / "
+         f"{1000 * result['tracking_s_per_frame']:.1f}")),
+        ("frames per second (rendering excluded)", f"{result['frames_per_second']:.1f}"),
+        ("players x particles", f"{result['players']} x {result['particles']}"),
+        ("frames", f"{result['frames']} at {result['fps_video']:g} fps"),
+    ]
+    return "\n".join(["| measure | value |", "|---|---|"] + [f"| {a} | {b} |" for a, b in rows])
+
+
+def zoom_bounds(points_world_m: Any, half_m: float = 15.0) -> Any:
+    """A (2, 2) ground rectangle ``[[x0, y0], [x1, y1]]`` of half-size ``half_m`` metres around
+    the median of ``points_world_m`` (N, >= 2): a close-up for the top view."""
+    import numpy as np
+
+    c = np.median(np.asarray(points_world_m, dtype=np.float64)[:, :2], axis=0)
+    return np.array([c - half_m, c + half_m])
