@@ -2,18 +2,14 @@
 particle-filter tracking).
 
 Four likelihoods, all built on a per-target template colour histogram ``q`` taken from the
-target's initial box (eq. 5; RGB 8 x 8 x 8 by default):
+target's initial box (eq. 5; RGB 8 x 8 x 8 by default), registered under these names:
 
-=====================  ======================================  ===================================
-registered name        class                                   equations; cost per particle
-=====================  ======================================  ===================================
-``bhattacharyya``      :class:`BhattacharyyaLikelihood`        eq. 7-9; a histogram, O(w h)
-``bhattacharyya-bg``   :class:`BhattacharyyaBackgroundLikeli`  eq. 23; two histograms, O(w h)
-                       ``hood``
-``cross-entropy``      :class:`CrossEntropyLikelihood`         eq. 13-19; O(1)
-``cross-entropy-bg``   :class:`CrossEntropyBackgroundLikeli`   eq. 20-22, 24; O(1)
-                       ``hood``
-=====================  ======================================  ===================================
+* ``bhattacharyya`` (:class:`BhattacharyyaLikelihood`): eq. 7-9, one histogram per sample,
+  O(w h) per particle;
+* ``bhattacharyya-bg`` (:class:`BhattacharyyaBackgroundLikelihood`): eq. 23, two histograms per
+  sample (target and background), O(w h);
+* ``cross-entropy`` (:class:`CrossEntropyLikelihood`): eq. 13-19, O(1);
+* ``cross-entropy-bg`` (:class:`CrossEntropyBackgroundLikelihood`): eq. 20-22 and 24, O(1).
 
 The Bhattacharyya baselines build each sample's histogram as the paper does (gather the box's
 bin indices and count them, :meth:`~pftrack_colour.histograms.ParticleRegion.box_histograms`),
@@ -39,8 +35,8 @@ Background (eq. 15, 20): every frame, :meth:`~ColourLikelihood.begin_frame` take
 of every pixel outside all targets' current colour boxes (their last estimates), on a grid of
 every ``background_stride``-th pixel in each direction (default 3: one pixel in nine). The L1
 distance between that estimate and the full histogram is about 0.05 on the ``walkers`` frames and
-0.02 on PETS 2009; a stride of 4 aliases with the walkers' 20 px paving joints (L1 0.32), 2 costs
-twice as much for L1 0.11 / 0.01.
+0.02 on PETS 2009. Strides 2 and 4 divide the walkers' 20 px paving period and over-sample its
+joints (L1 0.11 and 0.32): a regular grid aliases with regular texture, pick a stride prime to it.
 
 Beyond the paper (all optional, off by default except where said):
 

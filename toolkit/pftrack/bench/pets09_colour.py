@@ -4,7 +4,8 @@ with background against OpenCV's TrackerMIL and TrackerCSRT, initialised identic
 ``pftrack bench pets09-colour --json`` prints, per method, the mean centre error (px), the
 success rate (IoU >= 0.5 with the ground truth over every frame where a person is present),
 person-updates and video frames per second (decoding excluded; OpenCV on one thread) and MOTA,
-IDF1 and HOTA of the whole set of tracks (``pftrack.metrics.evaluate``). ``--frames A:B`` runs
+IDF1 and HOTA of the whole set of tracks (``pftrack.metrics.evaluate``); pftrack's row is the
+mean of ``--repeats`` seeds (default 3), each listed under ``runs``. ``--frames A:B`` runs
 a slice (ground-truth numbering, 1..795; default: the whole sequence, about 3 minutes on one
 core, most of it MIL and CSRT). Data: ``$PFTRACK_DATA/pets09`` (default ``../shared/data``).
 """
@@ -34,7 +35,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="ground-truth frames to run (default: all, 1:795)")
     parser.add_argument("--methods", default="cross-entropy-bg,mil,csrt",
                         help="comma-separated: cross-entropy-bg, mil, csrt (default: all three)")
-    parser.add_argument("--seed", type=int, default=0, help="pftrack tracker seed")
+    parser.add_argument("--seed", type=int, default=0, help="pftrack's first tracker seed")
+    parser.add_argument("--repeats", type=int, default=3,
+                        help="pftrack runs (seeds seed..seed+R-1); its row is their mean "
+                             "(default 3; each run takes seconds)")
     parser.add_argument("--particles", type=int, default=None,
                         help="pftrack particles per person (default 300)")
     parser.add_argument("--sigma", type=float, default=None,
@@ -66,6 +70,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     try:
         return pets_experiment(
             methods, args.frames, data=args.data, tracker=tracker, seed=args.seed,
+            repeats=args.repeats,
             progress=None if args.quiet else (lambda s: print(s, file=sys.stderr, flush=True)))
     finally:
         cv2.setNumThreads(threads)
@@ -82,5 +87,11 @@ def format_table(result: dict[str, Any]) -> str:
                      f"{r['success_rate']:9.3f}{r['updates_per_second']:11.1f}"
                      f"{r['frames_per_second']:10.1f}{r['MOTA']:8.3f}{r['IDF1']:7.3f}"
                      f"{r['HOTA']:7.3f}")
+    for r in result["rows"]:
+        if "runs" in r:
+            lines.append(f"{r['method']}: mean of {len(r['runs'])} seeds; success per seed "
+                         + ", ".join(f"{x['success_rate']:.3f}" for x in r["runs"])
+                         + "; centre error per seed "
+                         + ", ".join(f"{x['mean_center_error_px']:.1f}" for x in r["runs"]))
     lines.append("Protocol: " + s["protocol"])
     return "\n".join(lines)
