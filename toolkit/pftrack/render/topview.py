@@ -1,0 +1,175 @@
+"""Top view of the ground plane: a volume or pitch, trajectories by track id, particles.
+
+The picture looks straight down the world z axis with a parallel projection, x to the right and
+y up (world metres), with a metre grid and axis labels. Trajectories are coloured by track id
+(:mod:`pftrack.render.colours`), the estimate solid, the ground truth dashed; each track starts
+at a dot and ends at its id. Particles are points coloured by weight (viridis). The output is an
+(H, W, 3) uint8 RGB image, and a PNG when ``out`` is given; the same input gives the same pixels.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from pftrack.geometry.clouds import ParticleCloud
+from pftrack.geometry.volumes import Volume
+from pftrack.render import _layers
+from pftrack.render._pyvista import plotter, polyline_cells, pv, screenshot, write_png
+
+__all__ = ["render_topview", "nice_step"]
+
+
+def nice_step(span: float, target_lines: int = 8) -> float:
+    """A round grid spacing (1, 2 or 5 x 10^k) giving about ``target_lines`` lines over span."""
+    raw = max(span, 1e-9) / max(target_lines, 1)
+    k = np.floor(np.log10(raw))
+    for m in (1.0, 2.0, 5.0, 10.0):
+        if m * 10**k >= raw:
+            return float(m * 10**k)
+    return float(10 ** (k + 1))
+
+
+def render_topview(
+    out: str | os.PathLike[str] | None = None,
+    *,
+    tracks: dict[int, np.ndarray] | None = None,
+    ground_truth: dict[int, np.ndarray] | None = None,
+    volume: Volume | None = None,
+    clouds: Sequence[ParticleCloud] = (),
+    size_wh: tuple[int, int] = (1024, 768),
+    title: str | None = None,
+    bounds_m: np.ndarray | None = None,
+    label_ids: bool = True,
+    legend: bool = True,
+) -> np.ndarray:
+    """Render the ground plane seen from above.
+
+    Parameters
+    ----------
+    out : path, optional
+        PNG to write (atomically).
+    tracks : dict of int to ndarray, shape (K, 3)
+        Estimated trajectories, world metres (z is ignored in the picture), drawn solid.
+    ground_truth : dict of int to ndarray, shape (K, 3), optional
+        Ground-truth trajectories, drawn dashed in their ids' colours.
+    volume : Volume, optional
+        Drawn by its ground lines (pitch markings, or the footprint of a cuboid).
+    clouds : sequence of ParticleCloud
+        Particles, coloured by weight.
+    size_wh : (int, int)
+        Picture size in pixels.
+    title : str, optional
+    bounds_m : ndarray, shape (2, 2) or (2, 3), optional
+        World x/y range to show; default: everything drawn, plus a margin.
+    label_ids, legend : bool
+        Write the id at each track's end; show the legend (estimate / ground truth / particles).
+
+    Returns
+    -------
+    ndarray, shape (H, W, 3), uint8
+        The picture, RGB.
+    """
+    tracks = tracks or {}
+    ground_truth = ground_truth or {}
+    w_px, h_px = int(size_wh[0]), int(size_wh[1])
+    scale = min(w_px, h_px) / 600.0  # line widths and fonts relative to a 600 px picture
+    if bounds_m is None:
+        b = _layers.gather_bounds(volume, list(tracks.values()) + list(ground_truth.values())
+                                  + [c.points_world_m for c in clouds])
+    else:
+        b = np.asarray(bounds_m, dtype=np.float64)[:, :2]
+        b = np.column_stack([b, [0.0, 0.0]])
+    lo, hi = b[0, :2], b[1, :2]
+    span = np.maximum(hi - lo, 1.0)
+    step = nice_step(float(max(span)), 8)
+    # the view: data plus a margin, on the left and bottom extra room for the axis labels
+    margin = 0.06 * span + step * 0.2
+    view_lo = lo - margin - np.array([0.10, 0.08]) * span
+    view_hi = hi + margin
+    centre = (view_lo + view_hi) / 2
+    half = (view_hi - view_lo) / 2
+    aspect = w_px / h_px
+    parallel_scale = float(max(half[1], half[0] / aspect))
+
+    with plotter((w_px, h_px)) as p:
+        # grid every `step` metres over the data range
+        gx = np.arange(np.ceil((lo[0] - margin[0]) / step), np.floor((hi[0] + margin[0]) / step)
+                       + 1) * step
+        gy = np.arange(np.ceil((lo[1] - margin[1]) / step), np.floor((hi[1] + margin[1]) / step)
+                       + 1) * step
+        y0, y1 = lo[1] - margin[1], hi[1] + margin[1]
+        x0, x1 = lo[0] - margin[0], hi[0] + margin[0]
+        grid = [np.array([[x, y0, -0.05], [x, y1, -0.05]]) for x in gx] + \
+               [np.array([[x0, y, -0.05], [x1, y, -0.05]]) for y in gy]
+        gmesh = polyline_cells(grid)
+        _layers.add_lines(p, gmesh, np.full((gmesh.n_cells, 3), 225, np.uint8), 1.0)
+        frame = polyline_cells([np.array([[x0, y0, -0.04], [x1, y0, -0.04], [x1, y1, -0.04],
+                                          [x0, y1, -0.04], [x0, y0, -0.04]])])
+        _layers.add_lines(p, frame, np.full((1, 3), 120, np.uint8), 1.0)
+        fs = max(7, int(round(11 * scale)))
+        if len(gx):
+            p.add_point_labels(np.column_stack([gx, np.full(len(gx), y0 - 0.035 * span[1]),
+                                                np.zeros(len(gx))]),
+                               [f"{v:g}" for v in gx], font_size=fs, bold=False, shape=None,
+                               show_points=False, text_color="black", always_visible=True,
+                               justification_horizontal="center")
+        if len(gy):
+            p.add_point_labels(np.column_stack([np.full(len(gy), x0 - 0.012 * span[0]), gy,
+                                                np.zeros(len(gy))]),
+                               [f"{v:g}" for v in gy], font_size=fs, bold=False, shape=None,
+                               show_points=False, text_color="black", always_visible=True,
+                               justification_horizontal="right",
+                               justification_vertical="center")
+        p.add_point_labels(np.array([[(x0 + x1) / 2, y0 - 0.075 * span[1], 0.0]]),
+                           ["x (m)"], font_size=fs + 1, bold=True, shape=None, show_points=False,
+                           text_color="black", always_visible=True,
+                           justification_horizontal="center")
+        p.add_point_labels(np.array([[x0 - 0.085 * span[0], (y0 + y1) / 2, 0.0]]),
+                           ["y (m)"], font_size=fs + 1, bold=True, shape=None, show_points=False,
+                           text_color="black", always_visible=True,
+                           justification_horizontal="center", justification_vertical="center")
+
+        if volume is not None:
+            _layers.add_ground_lines(p, volume, width=max(1.0, 2.0 * scale), z=0.0)
+        _layers.add_clouds(p, list(clouds), point_size=max(2.0, 3.0 * scale), flatten_z=0.01)
+        _layers.add_tracks(p, ground_truth, width=max(1.0, 2.0 * scale), z=0.02,
+                           dashed=0.012 * float(max(span)))
+        _layers.add_tracks(p, tracks, width=max(1.5, 2.5 * scale), z=0.03)
+        if label_ids:
+            _layers.add_track_ends(p, tracks if tracks else ground_truth, z=0.05,
+                                   font_size=max(7, int(round(10 * scale))),
+                                   point_size=max(3.0, 6.0 * scale))
+        if title:
+            p.add_text(title, position="upper_edge", font_size=max(6, int(round(9 * scale))),
+                       color="black")
+        if legend:
+            entries = []
+            if tracks:
+                entries.append({"label": "estimate (solid, colour = id)", "color": "black",
+                                "face": "-"})
+            if ground_truth:
+                entries.append({"label": "ground truth (dashed)", "color": "grey", "face": "-"})
+            if len(clouds):
+                entries.append({"label": "particles (viridis = weight)", "color": "#21918c",
+                                "face": "circle"})
+            if volume is not None:
+                entries.append({"label": f"{volume.name}", "color": "#468c46", "face": "-"})
+            if entries:
+                p.add_legend(entries, bcolor="white", border=True, loc="lower right",
+                             size=(0.36, 0.045 * len(entries) + 0.01), face=None,
+                             background_opacity=0.85)
+        cam = p.camera
+        cam.parallel_projection = True
+        cam.focal_point = (float(centre[0]), float(centre[1]), 0.0)
+        cam.position = (float(centre[0]), float(centre[1]), 1000.0)
+        cam.up = (0.0, 1.0, 0.0)
+        cam.parallel_scale = parallel_scale
+        cam.clipping_range = (1.0, 2000.0)
+        img = screenshot(p)
+    if out is not None:
+        write_png(Path(out), img)
+    return img
