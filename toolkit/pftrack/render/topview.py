@@ -20,7 +20,63 @@ from pftrack.geometry.volumes import Volume
 from pftrack.render import _layers
 from pftrack.render._pyvista import plotter, polyline_cells, pv, screenshot, write_png
 
-__all__ = ["render_topview", "nice_step"]
+__all__ = ["render_topview", "nice_step", "draw_legend"]
+
+
+def draw_legend(image_rgb: np.ndarray, entries: Sequence[tuple[str, Sequence[int], str]],
+                scale: float = 1.0) -> np.ndarray:
+    """Draw a legend box in the lower-right corner, fully inside the picture (OpenCV).
+
+    Parameters
+    ----------
+    image_rgb : ndarray, shape (H, W, 3), uint8
+    entries : sequence of (label, (r, g, b), kind)
+        ``kind`` is ``"line"``, ``"dash"`` or ``"dot"``.
+    scale : float
+        Size factor (1.0 for a 600 px picture).
+
+    Returns
+    -------
+    ndarray, shape (H, W, 3), uint8
+        A copy with the legend.
+    """
+    import cv2
+
+    img = np.ascontiguousarray(image_rgb).copy()
+    if not entries:
+        return img
+    h, w = img.shape[:2]
+    font, fscale = cv2.FONT_HERSHEY_SIMPLEX, max(0.3, 0.42 * scale)
+    thick = 1
+    sizes = [cv2.getTextSize(lbl, font, fscale, thick)[0] for lbl, _, _ in entries]
+    text_h = max(s[1] for s in sizes)
+    row_h = int(round(text_h * 1.9))
+    sym_w = int(round(22 * max(scale, 0.5)))
+    pad = max(3, int(round(5 * scale)))
+    box_w = min(w - 2, pad * 3 + sym_w + max(s[0] for s in sizes))
+    box_h = min(h - 2, pad * 2 + row_h * len(entries))
+    x1, y1 = w - 1 - pad, h - 1 - pad
+    x0, y0 = max(0, x1 - box_w), max(0, y1 - box_h)
+    region = img[y0:y1 + 1, x0:x1 + 1].astype(np.float64)
+    img[y0:y1 + 1, x0:x1 + 1] = np.round(0.15 * region + 0.85 * 255).astype(np.uint8)
+    cv2.rectangle(img, (x0, y0), (x1, y1), (120, 120, 120), 1)
+    for k, (label, rgb, kind) in enumerate(entries):
+        cy = y0 + pad + row_h * k + row_h // 2
+        sx0, sx1 = x0 + pad, x0 + pad + sym_w
+        colour = tuple(int(c) for c in rgb)
+        lw = max(1, int(round(2 * scale)))
+        if kind == "dot":
+            cv2.circle(img, ((sx0 + sx1) // 2, cy), max(2, lw + 1), colour, -1)
+        elif kind == "dash":
+            n = 3
+            xs = np.linspace(sx0, sx1, 2 * n)
+            for i in range(n):
+                cv2.line(img, (int(xs[2 * i]), cy), (int(xs[2 * i + 1]), cy), colour, lw)
+        else:
+            cv2.line(img, (sx0, cy), (sx1, cy), colour, lw)
+        cv2.putText(img, label, (sx1 + pad, cy + text_h // 2), font, fscale, (0, 0, 0), thick,
+                    cv2.LINE_AA)
+    return img
 
 
 def nice_step(span: float, target_lines: int = 8) -> float:
@@ -146,22 +202,6 @@ def render_topview(
         if title:
             p.add_text(title, position="upper_edge", font_size=max(6, int(round(9 * scale))),
                        color="black")
-        if legend:
-            entries = []
-            if tracks:
-                entries.append({"label": "estimate (solid, colour = id)", "color": "black",
-                                "face": "-"})
-            if ground_truth:
-                entries.append({"label": "ground truth (dashed)", "color": "grey", "face": "-"})
-            if len(clouds):
-                entries.append({"label": "particles (viridis = weight)", "color": "#21918c",
-                                "face": "circle"})
-            if volume is not None:
-                entries.append({"label": f"{volume.name}", "color": "#468c46", "face": "-"})
-            if entries:
-                p.add_legend(entries, bcolor="white", border=True, loc="lower right",
-                             size=(0.36, 0.045 * len(entries) + 0.01), face=None,
-                             background_opacity=0.85)
         cam = p.camera
         cam.parallel_projection = True
         cam.focal_point = (float(centre[0]), float(centre[1]), 0.0)
@@ -170,6 +210,17 @@ def render_topview(
         cam.parallel_scale = parallel_scale
         cam.clipping_range = (1.0, 2000.0)
         img = screenshot(p)
+    if legend:
+        entries = []
+        if tracks:
+            entries.append(("estimate (solid, colour = id)", (0, 0, 0), "line"))
+        if ground_truth:
+            entries.append(("ground truth (dashed)", (128, 128, 128), "dash"))
+        if len(clouds):
+            entries.append(("particles (viridis = weight)", (33, 145, 140), "dot"))
+        if volume is not None:
+            entries.append((str(volume.name), _layers.MARKING_RGB, "line"))
+        img = draw_legend(img, entries, scale)
     if out is not None:
         write_png(Path(out), img)
     return img

@@ -18,39 +18,17 @@ MOT_WORLD_COLS = (7, 8)
 
 
 def read_mot(path: str | os.PathLike[str]) -> np.ndarray:
-    """Read a MOTChallenge text file into an (M, 10) float64 array.
+    """Read a MOTChallenge text file into an (M, 10) float64 array (:func:`pftrack.io.mot.read_mot`).
 
-    Uses :func:`pftrack.io.mot.read_mot` when that module is available, otherwise a plain
-    comma-separated reader (rows padded with -1 to 10 columns, as MOTChallenge does).
+    Raises FileNotFoundError / ValueError naming ``path`` on a missing or malformed file.
     """
-    try:
-        from pftrack.io.mot import read_mot as _io_read_mot  # type: ignore[import-not-found]
-    except ImportError:
-        _io_read_mot = None
-    if _io_read_mot is not None:
-        rows = np.asarray(_io_read_mot(path), dtype=np.float64)
-        return rows.reshape(-1, rows.shape[-1]) if rows.size else np.zeros((0, 10))
-    return _read_mot_plain(path)
+    from pftrack.io.mot import read_mot as _io_read_mot
 
-
-def _read_mot_plain(path: str | os.PathLike[str]) -> np.ndarray:
     path = Path(path)
-    if not path.exists():
+    if not path.is_file():
         raise FileNotFoundError(f"tracks file {path} not found")
-    text = path.read_text()
-    if not text.strip():
-        return np.zeros((0, 10))
-    try:
-        rows = np.loadtxt(path, delimiter=",", ndmin=2, dtype=np.float64)
-    except ValueError as exc:
-        raise ValueError(f"{path}: not a MOTChallenge file (comma-separated numbers): "
-                         f"{exc}") from None
-    if rows.shape[1] < 6:
-        raise ValueError(f"{path}: MOTChallenge rows need at least 6 columns, got "
-                         f"{rows.shape[1]}")
-    if rows.shape[1] < 10:
-        rows = np.hstack([rows, -np.ones((len(rows), 10 - rows.shape[1]))])
-    return rows[:, :10]
+    rows = np.asarray(_io_read_mot(path), dtype=np.float64)
+    return rows.reshape(-1, 10) if rows.size else np.zeros((0, 10))
 
 
 def tracks_from_mot(rows: np.ndarray, world_cols: tuple[int, int] = MOT_WORLD_COLS,
