@@ -188,3 +188,33 @@ def test_nothing_is_loaded_at_import():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["[]", "True"], out.stdout + out.stderr
+
+
+def test_installed_plugin_with_a_bad_registration_warns_and_the_others_still_load(monkeypatch):
+    """An entry-point plugin that clashes with a built-in is reported, not fatal."""
+    import importlib.metadata as md
+    import sys
+    import types
+
+    mod = types.ModuleType("pftrack_clash_plugin")
+
+    @hookimpl
+    def pftrack_register_motion_models(register):
+        register("random-walk", _Walk)  # taken by the built-in 'basic'
+
+    mod.pftrack_register_motion_models = pftrack_register_motion_models
+    monkeypatch.setitem(sys.modules, "pftrack_clash_plugin", mod)
+    real = md.entry_points
+
+    def fake_entry_points(**kw):
+        eps = list(real(**kw))
+        if kw.get("group") == "pftrack":
+            eps.append(md.EntryPoint("clash", "pftrack_clash_plugin", "pftrack"))
+        return eps
+
+    monkeypatch.setattr(md, "entry_points", fake_entry_points)
+    with pytest.warns(PluginLoadWarning, match=r"'clash'.*random-walk.*'basic'"):
+        h = Host()
+    assert h.plugins["clash"].error
+    assert h.registry.get("motion", "random-walk").plugin == "basic"
+    assert "likelihood" in h.plugins["colour"].components

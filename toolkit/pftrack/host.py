@@ -11,8 +11,10 @@ Environment variables
 
 A plugin that fails to import, or whose registration hook raises, gives a
 :class:`PluginLoadWarning` naming it; the other plugins still load. A registration that clashes
-with an existing name, or registers a class of the wrong kind, raises
-:class:`RegistrationError` naming the plugin: that is a bug in the plugin, not a runtime condition.
+with an existing name, or registers a class of the wrong kind, is rejected at once with
+:class:`RegistrationError` naming the plugin: raised for plugins handed to ``Host(plugins=...)``,
+a :class:`PluginLoadWarning` (the plugin's error shows in the listing) for installed plugins, whose
+other registrations and the other plugins still load.
 """
 
 from __future__ import annotations
@@ -215,15 +217,18 @@ class Host:
                     warnings.warn(f"pftrack plugin {ep.name!r} ({ep.value}) failed to import: "
                                   f"{info.error}", PluginLoadWarning, stacklevel=2)
                     continue
-                self._add_plugin(ep.name, obj, info)
+                self._add_plugin(ep.name, obj, info, strict=False)
         for name, obj in plugins:
             if name in disabled:
                 continue
             mod = getattr(obj, "__name__", type(obj).__name__)
             self._add_plugin(name, obj, PluginInfo(name, getattr(obj, "__version__", "?"), False,
-                                                   f"module {mod}"))
+                                                   f"module {mod}"), strict=True)
 
-    def _add_plugin(self, name: str, obj: Any, info: PluginInfo) -> None:
+    def _add_plugin(self, name: str, obj: Any, info: PluginInfo, strict: bool) -> None:
+        """Register ``obj``'s components. A registration error is raised for plugins handed in
+        directly (``strict``: the caller's own code) and turned into a warning naming the
+        plugin for installed ones, so that one bad package cannot stop every other plugin."""
         self.pm.register(obj, name=name)
         self.plugins[name] = info
         for hook, kind in _REGISTER_HOOKS.items():
@@ -232,8 +237,12 @@ class Host:
                     continue
                 try:
                     impl.function(register=self.registry.bind(kind, name))
-                except RegistrationError:
-                    raise
+                except RegistrationError as exc:
+                    if strict:
+                        raise
+                    info.error = f"{hook}: {exc}"
+                    warnings.warn(f"pftrack plugin {name!r} was not fully registered: {exc}",
+                                  PluginLoadWarning, stacklevel=2)
                 except Exception as exc:  # noqa: BLE001
                     info.error = f"{hook}: {type(exc).__name__}: {exc}"
                     warnings.warn(f"pftrack plugin {name!r}: {hook} raised {info.error}",

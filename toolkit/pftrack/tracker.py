@@ -183,7 +183,8 @@ class MultiTargetTracker:
         A target dies after this many consecutive frames without support.
     min_log_likelihood : float, optional
         A frame supports a target when it has a matched detection or its best particle's
-        log-likelihood is at least this; with no detector and no threshold every frame supports.
+        log-likelihood is at least this; with no detections (neither a detector nor detections
+        handed to :meth:`step`) and no threshold, every frame supports.
     kill_out_of_view : bool
         A target dies when its estimate's box leaves the image.
     valid_region : callable, optional
@@ -344,7 +345,7 @@ class MultiTargetTracker:
             supported = ok and (
                 "detection" in t.extra
                 or (self.min_log_likelihood is not None and best >= self.min_log_likelihood)
-                or (self.detector is None and self.min_log_likelihood is None))
+                or (detections is None and self.min_log_likelihood is None))
             t.frames_tracked = t.frames_tracked + 1 if supported else 0
             t.misses = 0 if supported else t.misses + 1
             f.anchor = state[pos_dims].copy()
