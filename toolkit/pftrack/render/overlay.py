@@ -13,7 +13,9 @@ with array indexing (no Python loop over particles).
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -35,6 +37,8 @@ __all__ = [
     "draw_particles",
     "draw_ground_points",
     "render_overlay",
+    "read_video_frame",
+    "write_png_bgr",
 ]
 
 #: Colour of projected ground positions (BGR): pure magenta, rare in natural video.
@@ -282,3 +286,47 @@ def render_overlay(frame_bgr: np.ndarray, *, camera: Camera | None = None,
     if ground_points_m is not None:
         img = draw_ground_points(img, camera, ground_points_m, radius=max(2, thickness + 1))
     return img
+
+
+def read_video_frame(path: str | os.PathLike[str], index: int) -> np.ndarray:
+    """Frame ``index`` (0-based) of a video file as (H, W, 3) uint8 BGR.
+
+    Raises FileNotFoundError / ValueError naming the file when it is missing, unreadable or
+    shorter than ``index + 1`` frames.
+    """
+    import cv2
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"video {path} not found")
+    if index < 0:
+        raise ValueError(f"{path}: frame index must be >= 0, got {index}")
+    cap = cv2.VideoCapture(str(path))
+    try:
+        if not cap.isOpened():
+            raise ValueError(f"{path}: OpenCV cannot open this video")
+        n = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+        if n > 0 and index >= n:
+            raise ValueError(f"{path}: has {n} frames, frame index {index} is past the end")
+        cap.set(cv2.CAP_PROP_POS_FRAMES, index)
+        ok, frame = cap.read()
+    finally:
+        cap.release()
+    if not ok or frame is None:
+        raise ValueError(f"{path}: could not read frame index {index}")
+    return np.ascontiguousarray(frame)
+
+
+def write_png_bgr(path: str | os.PathLike[str], image_bgr: np.ndarray) -> Path:
+    """Write an (H, W, 3) uint8 BGR image as PNG, atomically."""
+    import cv2
+
+    from pftrack.io.atomic import atomic_path
+
+    path = Path(path)
+    if path.suffix.lower() != ".png":
+        raise ValueError(f"{path}: the output must be a .png file")
+    with atomic_path(path) as tmp:
+        if not cv2.imwrite(str(tmp), np.ascontiguousarray(image_bgr)):
+            raise OSError(f"OpenCV could not write {path}")
+    return path

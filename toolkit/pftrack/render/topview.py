@@ -144,8 +144,11 @@ def render_topview(
     step = nice_step(float(max(span)), 8)
     # the view: data plus a margin, on the left and bottom extra room for the axis labels
     margin = 0.06 * span + step * 0.2
-    view_lo = lo - margin - np.array([0.10, 0.08]) * span
-    view_hi = hi + margin
+    # room below for the legend rows (drawn under the x tick labels) and above for the title
+    n_legend = (bool(tracks) + bool(ground_truth) + bool(len(clouds)) + (volume is not None)
+                if legend else 0)
+    view_lo = lo - margin - np.array([0.10, 0.10 + 0.045 * n_legend]) * span
+    view_hi = hi + margin + np.array([0.0, 0.06 if title else 0.0]) * span
     centre = (view_lo + view_hi) / 2
     half = (view_hi - view_lo) / 2
     aspect = w_px / h_px
