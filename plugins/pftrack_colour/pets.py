@@ -45,10 +45,12 @@ __all__ = ["PETS_LIKELIHOOD", "PETS_TRACKER", "pets_scene", "run_opencv", "score
 
 #: The colour model for PETS people (~25 x 70 px, mostly dark clothes on grey pavement): the
 #: central part of the ground-truth box (less pavement in the template) cut into three stripes
-#: (head and shoulders, coat, trousers), cross entropy with background.
+#: (head and shoulders, coat, trousers), cross entropy with background, each person weighted as
+#: in eq. 22 (``overlap="independent"``: on all 795 frames, mean of three seeds, success 0.587
+#: against 0.506 with the ``"mixture"`` joint weighting that wins on ``walkers``).
 PETS_LIKELIHOOD: dict[str, Any] = {
     "type": "cross-entropy-bg",
-    "params": {"region": (0.2, 0.1, 0.8, 0.9), "parts": 3},
+    "params": {"region": (0.2, 0.1, 0.8, 0.9), "parts": 3, "overlap": "independent"},
 }
 #: Tracker settings for PETS (keyword arguments of :func:`~pftrack_colour.experiment.track`):
 #: random walk of 6 px a frame, 300 particles a person; each box starts at the person's first
