@@ -1,0 +1,137 @@
+"""Top view renders: reference image, determinism, legend inside the picture, the CLI on PETS."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from pftrack.geometry.clouds import ParticleCloud
+from pftrack.geometry.volumes import resolve_volume
+from pftrack.render.topview import render_topview
+
+REF_DIR = Path(__file__).resolve().parent / "reference_images"
+#: mean absolute difference (grey levels, 0-255, over all pixels and channels) allowed
+#: against a reference; renders here differ from the reference by 0.0 on the same machine.
+MEAN_ABS_TOL = 2.0
+
+
+def compare_reference(name: str, image_rgb: np.ndarray) -> float:
+    """Mean abs difference to tests/reference_images/NAME (rewritten when
+    PFTRACK_UPDATE_REFERENCES=1)."""
+    path = REF_DIR / name
+    if os.environ.get("PFTRACK_UPDATE_REFERENCES") == "1":
+        REF_DIR.mkdir(exist_ok=True)
+        assert cv2.imwrite(str(path), np.ascontiguousarray(image_rgb[:, :, ::-1]))
+    ref = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    assert ref is not None, f"missing reference {path}; run with PFTRACK_UPDATE_REFERENCES=1"
+    ref = ref[:, :, ::-1]
+    assert ref.shape == image_rgb.shape
+    return float(np.abs(ref.astype(np.int16) - image_rgb.astype(np.int16)).mean())
+
+
+def _scene():
+    t = np.linspace(0, 1, 40)
+    tracks = {3: np.column_stack([-30 + 50 * t, -20 + 30 * t, 0 * t]),
+              7: np.column_stack([20 - 40 * t, 25 * np.sin(3 * t), 0 * t])}
+    gt = {k: v + [1.5, -1.0, 0.0] for k, v in tracks.items()}
+    rng = np.random.default_rng(0)
+    pts = np.column_stack([rng.normal(10, 3, 300), rng.normal(5, 2, 300), np.zeros(300)])
+    w = np.exp(-0.5 * ((pts[:, 0] - 10) ** 2 / 9 + (pts[:, 1] - 5) ** 2 / 4))
+    return tracks, gt, resolve_volume("pitch"), [ParticleCloud(pts, w)]
+
+
+def _render(out=None):
+    tracks, gt, vol, clouds = _scene()
+    return render_topview(out, tracks=tracks, ground_truth=gt, volume=vol, clouds=clouds,
+                          size_wh=(320, 240), title="test")
+
+
+def test_topview_matches_reference():
+    img = _render()
+    assert img.shape == (240, 320, 3) and img.dtype == np.uint8
+    diff = compare_reference("topview_320x240.png", img)
+    print(f"topview mean abs diff vs reference: {diff:.4f}")
+    assert diff < MEAN_ABS_TOL
+
+
+def test_topview_is_deterministic(tmp_path):
+    a = _render(tmp_path / "a.png")
+    b = _render(tmp_path / "b.png")
+    assert np.array_equal(a, b)
+    assert (tmp_path / "a.png").read_bytes() == (tmp_path / "b.png").read_bytes()
+
+
+def test_topview_draws_tracks_in_their_colours():
+    from pftrack.render.colours import track_colours_rgb
+
+    img = _render()
+    for tid in (3, 7):
+        c = track_colours_rgb(np.array([tid]))[0].astype(int)
+        hits = np.all(np.abs(img.astype(int) - c) <= 10, axis=2).sum()
+        assert hits > 40, (tid, hits)
+
+
+def test_topview_legend_inside_picture():
+    """The legend (drawn after rendering) lies fully inside the picture, in the lower right."""
+    from pftrack.render.topview import draw_legend
+
+    blank = np.full((240, 320, 3), 255, np.uint8)
+    entries = [("estimate (solid, colour = id)", (0, 0, 0), "line"),
+               ("ground truth (dashed)", (128, 128, 128), "dash"),
+               ("particles (viridis = weight)", (33, 145, 140), "dot"),
+               ("pitch", (70, 140, 70), "line")]
+    img = draw_legend(blank, entries, scale=240 / 600)
+    rows, cols = np.nonzero(np.any(img != 255, axis=2))
+    assert len(rows) > 200
+    assert rows.max() < 239 and cols.max() < 319  # a margin to the edges
+    assert rows.min() > 120 and cols.min() > 100   # lower right
+    assert np.all(blank == 255)  # input untouched
+
+
+def test_topview_rejects_non_png(tmp_path):
+    with pytest.raises(ValueError, match="png"):
+        _render(tmp_path / "x.jpg")
+    assert not (tmp_path / "x.jpg").exists()
+
+
+def _pets_gt() -> Path:
+    from pftrack.data import data_dir
+
+    p = data_dir() / "pets09" / "gt.txt"
+    if not p.is_file():
+        pytest.skip("PETS 2009 data not found (set PFTRACK_DATA)")
+    return p
+
+
+def test_cli_topview_on_pets_gt(tmp_path, capsys):
+    from pftrack.cli import main
+
+    gt = _pets_gt()
+    out = tmp_path / "top.png"
+    assert main(["render", "topview", str(gt), "--out", str(out), "--gt", str(gt),
+                 "--size", "400x300", "--title", "PETS"]) == 0
+    img = cv2.imread(str(out))
+    assert img.shape == (300, 400, 3)
+    # many non-white, coloured pixels (19 trajectories)
+    sat = img.max(axis=2).astype(int) - img.min(axis=2)
+    assert (sat > 60).sum() > 2000
+
+
+def test_cli_topview_with_volume_and_errors(tmp_path, capsys):
+    from pftrack.cli import main
+
+    gt = _pets_gt()
+    assert main(["render", "topview", str(gt), "--out", str(tmp_path / "v.png"),
+                 "--volume", "pitch"]) == 0
+    assert main(["render", "topview", str(tmp_path / "missing.txt"), "--out",
+                 str(tmp_path / "m.png")]) == 2
+    assert "missing.txt" in capsys.readouterr().err
+    bad = tmp_path / "bad.txt"
+    bad.write_text("1,2,3\nhello\n")
+    assert main(["render", "topview", str(bad), "--out", str(tmp_path / "b.png")]) == 2
+    assert "bad.txt" in capsys.readouterr().err
+    assert not (tmp_path / "b.png").exists() and not (tmp_path / "m.png").exists()
