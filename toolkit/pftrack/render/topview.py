@@ -142,17 +142,24 @@ def render_topview(
     lo, hi = b[0, :2], b[1, :2]
     span = np.maximum(hi - lo, 1.0)
     step = nice_step(float(max(span)), 8)
-    # the view: data plus a margin, on the left and bottom extra room for the axis labels
-    margin = 0.06 * span + step * 0.2
-    # room below for the legend rows (drawn under the x tick labels) and above for the title
+    margin = 0.04 * span + step * 0.2
+    # lay out in pixels: the framed data box, with fixed room (scaled with the picture) on the
+    # left for the y labels, below for the x labels and the legend rows, above for the title
     n_legend = (bool(tracks) + bool(ground_truth) + bool(len(clouds)) + (volume is not None)
                 if legend else 0)
-    view_lo = lo - margin - np.array([0.10, 0.10 + 0.045 * n_legend]) * span
-    view_hi = hi + margin + np.array([0.0, 0.06 if title else 0.0]) * span
-    centre = (view_lo + view_hi) / 2
-    half = (view_hi - view_lo) / 2
-    aspect = w_px / h_px
-    parallel_scale = float(max(half[1], half[0] / aspect))
+    ls = max(scale, 0.7)  # fonts have a minimum size, so the label room does too
+    left_px, right_px = 72 * ls, 12 * ls
+    top_px = (32 if title else 12) * ls
+    bottom_px = (44 * ls + (20 * n_legend + 8) * scale) if n_legend else 44 * ls
+    box_lo, box_hi = lo - margin, hi + margin
+    avail = np.array([w_px - left_px - right_px, h_px - top_px - bottom_px])
+    if np.any(avail < 8):
+        raise ValueError(f"render size {w_px}x{h_px} px is too small for the labels")
+    mpp = float(max((box_hi - box_lo) / avail))  # metres per pixel, same on both axes
+    box_c = (box_lo + box_hi) / 2
+    centre = np.array([box_c[0] - (left_px - right_px) / 2 * mpp,
+                       box_c[1] + (top_px - bottom_px) / 2 * mpp])
+    parallel_scale = h_px / 2 * mpp
 
     with plotter((w_px, h_px)) as p:
         # grid every `step` metres over the data range
@@ -171,23 +178,23 @@ def render_topview(
         _layers.add_lines(p, frame, np.full((1, 3), 120, np.uint8), 1.0)
         fs = max(7, int(round(11 * scale)))
         if len(gx):
-            p.add_point_labels(np.column_stack([gx, np.full(len(gx), y0 - 0.035 * span[1]),
+            p.add_point_labels(np.column_stack([gx, np.full(len(gx), y0 - 16 * ls * mpp),
                                                 np.zeros(len(gx))]),
                                [f"{v:g}" for v in gx], font_size=fs, bold=False, shape=None,
                                show_points=False, text_color="black", always_visible=True,
                                justification_horizontal="center")
         if len(gy):
-            p.add_point_labels(np.column_stack([np.full(len(gy), x0 - 0.012 * span[0]), gy,
+            p.add_point_labels(np.column_stack([np.full(len(gy), x0 - 5 * ls * mpp), gy,
                                                 np.zeros(len(gy))]),
                                [f"{v:g}" for v in gy], font_size=fs, bold=False, shape=None,
                                show_points=False, text_color="black", always_visible=True,
                                justification_horizontal="right",
                                justification_vertical="center")
-        p.add_point_labels(np.array([[(x0 + x1) / 2, y0 - 0.075 * span[1], 0.0]]),
+        p.add_point_labels(np.array([[(x0 + x1) / 2, y0 - 36 * ls * mpp, 0.0]]),
                            ["x (m)"], font_size=fs + 1, bold=True, shape=None, show_points=False,
                            text_color="black", always_visible=True,
                            justification_horizontal="center")
-        p.add_point_labels(np.array([[x0 - 0.085 * span[0], (y0 + y1) / 2, 0.0]]),
+        p.add_point_labels(np.array([[centre[0] + (22 * ls - w_px / 2) * mpp, (y0 + y1) / 2, 0.0]]),
                            ["y (m)"], font_size=fs + 1, bold=True, shape=None, show_points=False,
                            text_color="black", always_visible=True,
                            justification_horizontal="center", justification_vertical="center")
