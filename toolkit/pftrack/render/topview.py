@@ -194,7 +194,8 @@ def render_topview(
                            ["x (m)"], font_size=fs + 1, bold=True, shape=None, show_points=False,
                            text_color="black", always_visible=True,
                            justification_horizontal="center")
-        p.add_point_labels(np.array([[centre[0] + (22 * ls - w_px / 2) * mpp, (y0 + y1) / 2, 0.0]]),
+        ylab_x = max(centre[0] + (22 * ls - w_px / 2) * mpp, x0 - 50 * ls * mpp)
+        p.add_point_labels(np.array([[ylab_x, (y0 + y1) / 2, 0.0]]),
                            ["y (m)"], font_size=fs + 1, bold=True, shape=None, show_points=False,
                            text_color="black", always_visible=True,
                            justification_horizontal="center", justification_vertical="center")

@@ -18,7 +18,9 @@ MOT_WORLD_COLS = (7, 8)
 
 
 def read_mot(path: str | os.PathLike[str]) -> np.ndarray:
-    """Read a MOTChallenge text file into an (M, 10) float64 array (:func:`pftrack.io.mot.read_mot`).
+    """Read a MOTChallenge text file into an (M, 10) float64 array.
+
+    Delegates to :func:`pftrack.io.mot.read_mot`.
 
     Raises FileNotFoundError / ValueError naming ``path`` on a missing or malformed file.
     """
