@@ -8,7 +8,6 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-
 from pftrack.geometry.camera import Camera, OpenCVDistortion
 from pftrack.geometry.clouds import ParticleCloud
 from pftrack.geometry.volumes import CuboidVolume
@@ -18,7 +17,6 @@ from pftrack.render.overlay import (
     project_polylines,
     render_overlay,
 )
-
 from test_render_topview import MEAN_ABS_TOL, compare_reference
 
 

@@ -8,7 +8,6 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-
 from pftrack.geometry.clouds import ParticleCloud
 from pftrack.geometry.volumes import resolve_volume
 from pftrack.render.topview import render_topview

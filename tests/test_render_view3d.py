@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from pftrack.geometry.clouds import ParticleCloud
 from pftrack.geometry.volumes import resolve_volume
 from pftrack.render.view3d import render_view3d

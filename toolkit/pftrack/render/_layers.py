@@ -20,7 +20,7 @@ def _uniform_rgb(n: int, rgb: Sequence[int]) -> np.ndarray:
     return np.tile(np.asarray(rgb, dtype=np.uint8), (n, 1))
 
 
-def add_lines(p: "pv.Plotter", mesh: "pv.PolyData", cell_rgb: np.ndarray, width: float) -> None:
+def add_lines(p: pv.Plotter, mesh: pv.PolyData, cell_rgb: np.ndarray, width: float) -> None:
     if mesh.n_points == 0:
         return
     mesh.cell_data["rgb"] = np.asarray(cell_rgb, dtype=np.uint8)
@@ -28,18 +28,18 @@ def add_lines(p: "pv.Plotter", mesh: "pv.PolyData", cell_rgb: np.ndarray, width:
                show_scalar_bar=False)
 
 
-def add_ground_lines(p: "pv.Plotter", volume: Volume, width: float, z: float = 0.0) -> None:
+def add_ground_lines(p: pv.Plotter, volume: Volume, width: float, z: float = 0.0) -> None:
     lines = [pl + [0.0, 0.0, z] for pl in volume.ground_lines().values()]
     mesh = polyline_cells(lines)
     add_lines(p, mesh, _uniform_rgb(mesh.n_cells, MARKING_RGB), width)
 
 
-def add_volume_edges(p: "pv.Plotter", volume: Volume, width: float) -> None:
+def add_volume_edges(p: pv.Plotter, volume: Volume, width: float) -> None:
     mesh = segment_cells(volume.edges())
     add_lines(p, mesh, _uniform_rgb(mesh.n_cells, VOLUME_EDGE_RGB), width)
 
 
-def add_tracks(p: "pv.Plotter", tracks: dict[int, np.ndarray], width: float, z: float,
+def add_tracks(p: pv.Plotter, tracks: dict[int, np.ndarray], width: float, z: float,
                dashed: float | None = None) -> None:
     """Tracks coloured by id; solid polylines, or dashes of length ``dashed`` metres."""
     ids = sorted(tracks)
@@ -59,7 +59,7 @@ def add_tracks(p: "pv.Plotter", tracks: dict[int, np.ndarray], width: float, z: 
         add_lines(p, mesh, np.repeat(colours, counts, axis=0), width)
 
 
-def add_track_ends(p: "pv.Plotter", tracks: dict[int, np.ndarray], z: float, font_size: int,
+def add_track_ends(p: pv.Plotter, tracks: dict[int, np.ndarray], z: float, font_size: int,
                    point_size: float) -> None:
     """A dot at each track's start and its id at its end."""
     ids = [i for i in sorted(tracks) if len(tracks[i])]
@@ -75,7 +75,7 @@ def add_track_ends(p: "pv.Plotter", tracks: dict[int, np.ndarray], z: float, fon
                        text_color="black", shape=None, show_points=False, always_visible=True)
 
 
-def add_clouds(p: "pv.Plotter", clouds: Sequence[ParticleCloud], point_size: float,
+def add_clouds(p: pv.Plotter, clouds: Sequence[ParticleCloud], point_size: float,
                flatten_z: float | None = None) -> None:
     """Particles coloured by weight (viridis, scaled by the largest weight of all clouds)."""
     clouds = [c for c in clouds if len(c)]

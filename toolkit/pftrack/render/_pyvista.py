@@ -13,21 +13,21 @@ import os
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
 
-from collections.abc import Iterator  # noqa: E402
-from contextlib import contextmanager  # noqa: E402
-from pathlib import Path  # noqa: E402
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
 
-import numpy as np  # noqa: E402
-import pyvista as pv  # noqa: E402
+import numpy as np
+import pyvista as pv
 
-__all__ = ["pv", "plotter", "theme", "screenshot", "write_png", "polyline_cells", "segment_cells"]
+__all__ = ["plotter", "polyline_cells", "pv", "screenshot", "segment_cells", "theme", "write_png"]
 
 BACKGROUND = "white"
 FOREGROUND = "black"
 FONT_FAMILY = "arial"
 
 
-def theme() -> "pv.themes.Theme":
+def theme() -> pv.themes.Theme:
     """A fresh copy of the fixed report theme (white background, black text, no anti-aliasing
     so the pixels do not depend on the GPU's multisampling)."""
     t = pv.themes.DocumentTheme()
@@ -45,7 +45,7 @@ def theme() -> "pv.themes.Theme":
 
 
 @contextmanager
-def plotter(size_wh: tuple[int, int]) -> Iterator["pv.Plotter"]:
+def plotter(size_wh: tuple[int, int]) -> Iterator[pv.Plotter]:
     """An off-screen ``pv.Plotter`` of ``size_wh`` pixels with the report theme, closed after."""
     w, h = int(size_wh[0]), int(size_wh[1])
     if w < 16 or h < 16:
@@ -58,7 +58,7 @@ def plotter(size_wh: tuple[int, int]) -> Iterator["pv.Plotter"]:
         p.deep_clean()
 
 
-def screenshot(p: "pv.Plotter") -> np.ndarray:
+def screenshot(p: pv.Plotter) -> np.ndarray:
     """Render and return the picture as (H, W, 3) uint8 RGB."""
     img = p.screenshot(return_img=True, transparent_background=False)
     return np.ascontiguousarray(np.asarray(img)[:, :, :3], dtype=np.uint8)
@@ -79,7 +79,7 @@ def write_png(path: str | os.PathLike[str], image_rgb: np.ndarray) -> Path:
     return path
 
 
-def polyline_cells(polylines: list[np.ndarray]) -> "pv.PolyData":
+def polyline_cells(polylines: list[np.ndarray]) -> pv.PolyData:
     """One PolyData holding each (K_i, 3) polyline as a line cell (cell i = polyline i)."""
     polylines = [np.asarray(p, dtype=np.float64) for p in polylines if len(p) >= 2]
     if not polylines:
@@ -93,7 +93,7 @@ def polyline_cells(polylines: list[np.ndarray]) -> "pv.PolyData":
     return pv.PolyData(pts, lines=cells)
 
 
-def segment_cells(segments: np.ndarray) -> "pv.PolyData":
+def segment_cells(segments: np.ndarray) -> pv.PolyData:
     """One PolyData with one 2-point line cell per segment: (E, 2, 3) -> E cells."""
     seg = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 3)
     if len(seg) == 0:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["TRACK_PALETTE_RGB", "track_colour_rgb", "track_colours_rgb", "track_colour_bgr"]
+__all__ = ["TRACK_PALETTE_RGB", "track_colour_bgr", "track_colour_rgb", "track_colours_rgb"]
 
 #: 20 distinct colours (RGB, uint8): matplotlib's tab10 followed by ten darker/saturated others.
 TRACK_PALETTE_RGB = np.array(

@@ -18,9 +18,9 @@ import numpy as np
 from pftrack.geometry.clouds import ParticleCloud
 from pftrack.geometry.volumes import Volume
 from pftrack.render import _layers
-from pftrack.render._pyvista import plotter, polyline_cells, pv, screenshot, write_png
+from pftrack.render._pyvista import plotter, polyline_cells, screenshot, write_png
 
-__all__ = ["render_topview", "nice_step", "draw_legend"]
+__all__ = ["draw_legend", "nice_step", "render_topview"]
 
 
 def draw_legend(image_rgb: np.ndarray, entries: Sequence[tuple[str, Sequence[int], str]],

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["read_mot", "tracks_from_mot", "dashed_segments", "polyline_length"]
+__all__ = ["dashed_segments", "polyline_length", "read_mot", "tracks_from_mot"]
 
 #: MOTChallenge columns (0-based): frame, id, left, top, width, height, conf/flag, x, y, z.
 MOT_WORLD_COLS = (7, 8)
