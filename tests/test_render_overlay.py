@@ -150,3 +150,26 @@ def test_cli_overlay_errors_name_the_file(tmp_path, capsys):
                  "--tracks", str(gt), "--out", str(tmp_path / "o.png")]) == 2
     assert "vtest.avi" in capsys.readouterr().err
     assert not (tmp_path / "o.png").exists()
+
+
+def test_soccer_pitch_overlay_lines_through_projected_corners():
+    from pftrack.data import REPO_ROOT
+    from pftrack.geometry.formats import load_camera
+    from pftrack.geometry.volumes import resolve_volume
+
+    cam = load_camera(REPO_ROOT / "calib" / "soccer_seed001.yaml")
+    pitch = resolve_volume("pitch_seed001")
+    w, h = cam.image_size
+    green = np.full((h, w, 3), (40, 110, 40), np.uint8)
+    img = render_overlay(green, camera=cam, volume=pitch)
+    drawn = np.any(img != green, axis=2)
+    assert 2000 < drawn.sum() < 0.2 * w * h
+    # every pitch corner (ground) that falls inside the image has a drawn line within 2 px
+    b = pitch.bounds()
+    corners = np.array([[b[0, 0], b[0, 1], 0], [b[1, 0], b[0, 1], 0], [b[1, 0], b[1, 1], 0],
+                        [b[0, 0], b[1, 1], 0]])
+    px = cam.project(corners)
+    inside = cam.in_image(px, margin_px=3)
+    assert inside.sum() >= 2
+    for u, v in np.round(px[inside]).astype(int):
+        assert drawn[v - 2:v + 3, u - 2:u + 3].any(), (u, v)
