@@ -99,8 +99,8 @@ def draw_trajectories(background: np.ndarray, track_rows: np.ndarray,
                       names: Mapping[int, str] | None = None, scale: int = 2,
                       title: str | None = None) -> np.ndarray:
     """Image-plane trajectories of the box centres over a faded ``background``: estimates as
-    thick lines in each id's colour, ground truth as thin white lines, start (circle) and end
-    (square) marked."""
+    thick lines in each id's colour, ground truth as thin dark lines on top, start (circle) and
+    end (square) marked."""
     bg = cv2.resize(background, None, fx=scale, fy=scale, interpolation=cv2.INTER_LINEAR)
     img = cv2.addWeighted(bg, 0.45, np.full_like(bg, 255), 0.55, 0)
     s = float(scale)
@@ -110,12 +110,6 @@ def draw_trajectories(background: np.ndarray, track_rows: np.ndarray,
         r = r[np.argsort(r[:, 0], kind="stable")]
         return (r[:, 2:4] + r[:, 4:6] / 2) * s
 
-    if gt_rows is not None:
-        g = np.asarray(gt_rows, float).reshape(-1, 10)
-        for tid in np.unique(g[:, 1]).astype(int):
-            c = centres(g, tid)
-            cv2.polylines(img, [np.round(c).astype(np.int32)], False, (60, 60, 60), 1,
-                          cv2.LINE_AA)
     t = np.asarray(track_rows, float).reshape(-1, 10)
     for tid in np.unique(t[:, 1]).astype(int):
         c = centres(t, tid)
@@ -127,8 +121,14 @@ def draw_trajectories(background: np.ndarray, track_rows: np.ndarray,
                       col, -1)
         text = names.get(tid, str(tid)) if names else str(tid)
         label(img, text, (int(p0[0]) + 7, int(p0[1]) - 7), 0.5, col)
+    if gt_rows is not None:  # on top, thin, so that both show where they coincide
+        g = np.asarray(gt_rows, float).reshape(-1, 10)
+        for tid in np.unique(g[:, 1]).astype(int):
+            c = centres(g, tid)
+            cv2.polylines(img, [np.round(c).astype(np.int32)], False, (40, 40, 40), 1,
+                          cv2.LINE_AA)
     y = img.shape[0] - 10
-    label(img, "thick: estimate   thin grey: ground truth   o start   # end", (8, y), 0.45)
+    label(img, "thick: estimate   thin dark: ground truth   o start   # end", (8, y), 0.45)
     if title:
         label(img, title, (8, 20), 0.55)
     return img
