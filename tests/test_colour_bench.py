@@ -7,7 +7,6 @@ import json
 
 import numpy as np
 import pytest
-
 from pftrack.cli import main
 from pftrack.data import data_dir
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from pftrack_colour.histograms import (
     ColourBins,
     ParticleRegion,

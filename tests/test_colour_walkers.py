@@ -7,7 +7,6 @@ import itertools
 
 import numpy as np
 import pytest
-
 from pftrack.testing import check_component
 from pftrack_colour.walkers import TORSO_COLOURS_BGR, WalkersScene, torso_visibility
 
@@ -70,7 +69,7 @@ def test_seeded_and_deterministic(scene):
     other = WalkersScene(seed=1)
     assert not np.allclose(other.ground_truth()[:, 2:4], gt[:, 2:4])
     # the noise comes from the seed too
-    quiet = list(itertools.islice(WalkersScene(seed=0, noise_sigma=0.0).frames(), 1))[0]
+    quiet = next(iter(WalkersScene(seed=0, noise_sigma=0.0).frames()))
     diff = frames[0].image.astype(int) - quiet.image.astype(int)
     assert 2.0 < diff.std() < 4.0
 
@@ -83,8 +82,8 @@ def test_short_scene_and_bad_parameters():
 
 
 def test_registered_and_conforms():
-    from pftrack.host import Host
     import pftrack_colour
+    from pftrack.host import Host
 
     host = Host(load_entry_points=False, plugins=[("colour", pftrack_colour)])
     assert host.get("scene", "walkers") is WalkersScene

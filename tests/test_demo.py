@@ -6,7 +6,6 @@ import json
 
 import cv2
 import numpy as np
-
 from pftrack.cli import main
 from pftrack.io.mot import read_mot
 

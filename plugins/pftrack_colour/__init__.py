@@ -32,6 +32,7 @@ def pftrack_register_likelihoods(register):
 def pftrack_register_scenes(register):
     from pftrack.host import RegistrationError
     from pftrack.scenes.video import VideoScene
+
     from pftrack_colour.walkers import WalkersScene
 
     register("walkers", WalkersScene)

@@ -12,7 +12,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
 from pftrack.host import Host, get_host
 from pftrack.io.atomic import atomic_write_text
 

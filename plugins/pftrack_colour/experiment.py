@@ -16,7 +16,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-
 from pftrack.components import Detections, Frame, Likelihood, Target
 from pftrack.host import Host, get_host
 from pftrack.tracker import ImageBoxObservation, MultiTargetTracker, TrackRecord, records_to_mot
@@ -26,15 +25,15 @@ __all__ = [
     "PAPER",
     "TrackingRun",
     "build_tracker",
+    "centre_errors",
+    "cumulative_errors",
     "first_boxes",
+    "format_walkers_tables",
     "last_frames",
     "track",
     "track_boxes",
-    "centre_errors",
-    "cumulative_errors",
-    "walkers_tables",
-    "format_walkers_tables",
     "walkers_markdown",
+    "walkers_tables",
 ]
 
 #: The four likelihoods of seed 000, baseline first.
@@ -247,7 +246,7 @@ def track(frames: Iterable[Frame], likelihood: Likelihood | str | dict[str, Any]
     tracker = build_tracker(likelihood, **tracker_kw)
     timed = _TimedLikelihood(tracker.likelihood)
     tracker.likelihood = timed
-    snaps = set(int(f) for f in snapshot_frames)
+    snaps = {int(f) for f in snapshot_frames}
     with np.errstate(over="ignore"):  # the tracker's confidence exp(-logL) overflows harmlessly
         return _track_loop(tracker, timed, frames, starts, ends or {}, snaps, scale_step,
                            scale_limits, perspective)
@@ -382,7 +381,7 @@ def _adapt_scale(tracker: MultiTargetTracker, records: list[TrackRecord], step: 
         wh = t.extra.get("box_wh_px")
         if wh is None or t.id not in by_id:
             continue
-        w0, h0 = t.extra.setdefault("box_wh0_px", wh)
+        w0 = t.extra.setdefault("box_wh0_px", wh)[0]
         box = t.box_xywh_px
         cx, cy = box[0] + box[2] / 2, box[1] + box[3] / 2
         ws = np.clip(wh[0] * factors, limits[0] * w0, limits[1] * w0)

@@ -18,10 +18,9 @@ coordinates; a box ``(left, top, width, height)`` covers the pixels whose column
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
-
-import math
 
 import cv2
 import numpy as np
@@ -29,12 +28,12 @@ import numpy as np
 __all__ = [
     "COLOUR_SPACES",
     "ColourBins",
-    "integer_boxes",
-    "clip_boxes",
-    "sub_boxes",
-    "normalise_histogram",
-    "subsample",
     "ParticleRegion",
+    "clip_boxes",
+    "integer_boxes",
+    "normalise_histogram",
+    "sub_boxes",
+    "subsample",
 ]
 
 #: Colour spaces: OpenCV conversion from BGR (None: none) and the value range of each channel.

@@ -55,7 +55,6 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-
 from pftrack.components import Detections, Frame, Likelihood, Target
 
 from pftrack_colour.histograms import (
@@ -68,11 +67,11 @@ from pftrack_colour.histograms import (
 )
 
 __all__ = [
-    "ColourLikelihood",
-    "BhattacharyyaLikelihood",
     "BhattacharyyaBackgroundLikelihood",
-    "CrossEntropyLikelihood",
+    "BhattacharyyaLikelihood",
+    "ColourLikelihood",
     "CrossEntropyBackgroundLikelihood",
+    "CrossEntropyLikelihood",
 ]
 
 _OVERLAP_MODES = ("mixture", "product", "independent")

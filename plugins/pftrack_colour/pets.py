@@ -35,13 +35,21 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
 from pftrack.components import Frame
 
 from pftrack_colour.experiment import first_boxes, last_frames, track, track_boxes
 
-__all__ = ["PETS_LIKELIHOOD", "PETS_TRACKER", "pets_scene", "run_opencv", "score",
-           "pets_experiment", "pets_markdown", "box_iou_rows", "pets_overlay"]
+__all__ = [
+    "PETS_LIKELIHOOD",
+    "PETS_TRACKER",
+    "box_iou_rows",
+    "pets_experiment",
+    "pets_markdown",
+    "pets_overlay",
+    "pets_scene",
+    "run_opencv",
+    "score",
+]
 
 #: The colour model for PETS people (~25 x 70 px, mostly dark clothes on grey pavement): the
 #: central part of the ground-truth box (less pavement in the template) cut into three stripes
@@ -115,7 +123,7 @@ def run_opencv(frames: Iterable[Frame], kind: str,
         h, w = frame.image.shape[:2]
         t0 = clock()
         for tid, box in starts.get(frame.index, ()):
-            x, y, bw, bh = (int(round(v)) for v in box)
+            x, y, bw, bh = (round(float(v)) for v in box)
             # OpenCV wants the box inside the image
             x0, y0 = max(x, 0), max(y, 0)
             x1, y1 = min(x + bw, w), min(y + bh, h)
@@ -166,7 +174,7 @@ def score(track_rows: np.ndarray, gt_rows: np.ndarray) -> dict[str, Any]:
         "success_rate": float(np.mean(iou_all >= 0.5)) if len(iou_all) else float("nan"),
         "MOTA": float(m["MOTA"]), "IDF1": float(m["IDF1"]), "HOTA": float(m["HOTA"]),
         "success_per_person": per_person,
-        "gt_boxes": int(len(iou_all)),
+        "gt_boxes": len(iou_all),
     }
 
 
@@ -260,7 +268,7 @@ def pets_experiment(methods: Iterable[str] = ("cross-entropy-bg", "mil", "csrt")
         "rows": rows,
         "setup": {
             "sequence": "PETS 2009 S2.L1 (vtest.avi, gt.txt)", "frames": [f0, f1],
-            "persons": len(ends), "gt_boxes": int(len(gt)),
+            "persons": len(ends), "gt_boxes": len(gt),
             "pftrack": {"likelihood": lik, **{k: v for k, v in trk.items()},
                         "seeds": list(range(seed, seed + repeats))},
             "protocol": "each id from its first GT box until its GT ends; success = IoU >= 0.5 "
@@ -295,10 +303,10 @@ def pets_overlay(result: dict[str, Any], frame_index: int, data: str | Path | No
 def pets_markdown(result: dict[str, Any]) -> str:
     """The PETS comparison as a Markdown table."""
     s = result["setup"]
-    lines = [f"{s['sequence']}: frames {s['frames'][0]}-{s['frames'][1]}, {s['persons']} persons, "
-             f"{s['gt_boxes']} ground-truth boxes\n",
-             "| method | centre error px | success | updates / s | frames / s | MOTA | IDF1 | "
-             "HOTA |", "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    lines = [(f"{s['sequence']}: frames {s['frames'][0]}-{s['frames'][1]}, {s['persons']} "
+              f"persons, {s['gt_boxes']} ground-truth boxes\n"),
+             "| method | centre error px | success | updates / s | frames / s | MOTA | IDF1 | HOTA |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|"]
     for r in result["rows"]:
         lines.append(f"| {r['method']} | {r['mean_center_error_px']:.1f} | "
                      f"{r['success_rate']:.3f} | {r['updates_per_second']:.0f} | "

@@ -12,12 +12,22 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-
 from pftrack.io.atomic import atomic_write_bytes
 
-__all__ = ["id_colour", "draw_frame", "draw_trajectories", "line_chart", "montage",
-           "write_png", "label", "png_bytes", "likelihood_map", "likelihood_maps",
-           "frames_montage", "WALKER_COLOURS_BGR"]
+__all__ = [
+    "WALKER_COLOURS_BGR",
+    "draw_frame",
+    "draw_trajectories",
+    "frames_montage",
+    "id_colour",
+    "label",
+    "likelihood_map",
+    "likelihood_maps",
+    "line_chart",
+    "montage",
+    "png_bytes",
+    "write_png",
+]
 
 _PALETTE_BGR = [(180, 119, 31), (14, 127, 255), (44, 160, 44), (40, 39, 214), (189, 103, 148),
                 (75, 86, 140), (194, 119, 227), (127, 127, 127), (34, 189, 188), (207, 190, 23)]
@@ -45,8 +55,7 @@ def label(img: np.ndarray, text: str, org: tuple[int, int], scale: float = 0.45,
 
 def _box(img: np.ndarray, box: Sequence[float], colour, thickness: int = 1) -> None:
     x, y, w, h = (float(v) for v in box)
-    cv2.rectangle(img, (int(round(x)), int(round(y))), (int(round(x + w)) - 1,
-                                                        int(round(y + h)) - 1),
+    cv2.rectangle(img, (round(x), round(y)), (round(x + w) - 1, round(y + h) - 1),
                   colour, thickness, cv2.LINE_AA)
 
 
@@ -261,7 +270,7 @@ WALKER_COLOURS_BGR = {1: (255, 140, 40), 2: (40, 40, 255), 3: (230, 60, 220)}
 def frames_montage(frames, gt_rows: np.ndarray, indices, *, names=None, colours=None,
                    scale: int = 2, cols: int | None = None) -> np.ndarray:
     """The frames numbered ``indices`` with their ground-truth boxes, side by side."""
-    wanted = set(int(i) for i in indices)
+    wanted = {int(i) for i in indices}
     gt = np.asarray(gt_rows, float).reshape(-1, 10)
     panels = [draw_frame(f.image, gt[gt[:, 0] == f.index], colours=colours or WALKER_COLOURS_BGR,
                          names=names, scale=scale, title=f"frame {f.index}")

@@ -21,10 +21,9 @@ from typing import Any
 
 import cv2
 import numpy as np
-
 from pftrack.components import Frame, Scene
 
-__all__ = ["WalkersScene", "TORSO_COLOURS_BGR", "TARGET_NAMES", "torso_visibility"]
+__all__ = ["TARGET_NAMES", "TORSO_COLOURS_BGR", "WalkersScene", "torso_visibility"]
 
 #: Torso colours (BGR) of the three people.
 TORSO_COLOURS_BGR: dict[str, tuple[int, int, int]] = {
@@ -316,7 +315,7 @@ def _draw_person(img: np.ndarray, centre: np.ndarray, phase: float,
         img[ty0:ty1, tx0:tx1] = torso[ty0 - y0:ty1 - y0, tx0 - x0:tx1 - x0]
     _limb(img, (x0 + TORSO_PX + 2, y0 + 4), swing, 26, 6, arm)
     # neck and head (skin), hair on top
-    hc = (int(round(cx)), y0 - 9)
+    hc = (round(cx), y0 - 9)
     cv2.rectangle(img, (hc[0] - 3, y0 - 3), (hc[0] + 3, y0), (120, 150, 190), -1)
     cv2.circle(img, hc, 9, (135, 165, 205), -1, cv2.LINE_AA)
     cv2.ellipse(img, (hc[0], hc[1] - 3), (9, 6), 0, 180, 360, (35, 45, 60), -1, cv2.LINE_AA)

@@ -78,10 +78,10 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
 def format_table(result: dict[str, Any]) -> str:
     s = result["setup"]
-    lines = [f"{s['sequence']}, frames {s['frames'][0]}-{s['frames'][1]}, {s['persons']} persons, "
-             f"{s['gt_boxes']} ground-truth boxes",
-             f"{'method':<18s}{'centre err px':>14s}{'success':>9s}{'updates/s':>11s}"
-             f"{'frames/s':>10s}{'MOTA':>8s}{'IDF1':>7s}{'HOTA':>7s}"]
+    lines = [(f"{s['sequence']}, frames {s['frames'][0]}-{s['frames'][1]}, {s['persons']} "
+              f"persons, {s['gt_boxes']} ground-truth boxes"),
+             (f"{'method':<18s}{'centre err px':>14s}{'success':>9s}{'updates/s':>11s}"
+              f"{'frames/s':>10s}{'MOTA':>8s}{'IDF1':>7s}{'HOTA':>7s}")]
     for r in result["rows"]:
         lines.append(f"{r['method']:<18s}{r['mean_center_error_px']:14.1f}"
                      f"{r['success_rate']:9.3f}{r['updates_per_second']:11.1f}"

@@ -54,7 +54,7 @@ class VideoScene(Scene):
         self.frame_rate = frame_rate
 
     @classmethod
-    def _conformance_example(cls) -> "VideoScene":
+    def _conformance_example(cls) -> VideoScene:
         """A 4-frame 64 x 48 MJPG video with ground truth, written once per process to the
         temporary folder (for :mod:`pftrack.testing`)."""
         import tempfile
