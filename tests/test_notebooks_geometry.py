@@ -1,5 +1,5 @@
 """Execute ``notebooks/00_geometry.ipynb`` with nbclient (python3 kernel, cwd = repo root) and
-fail on any cell error; it must show its six pictures."""
+fail on any cell error; it must show its seven pictures."""
 
 from __future__ import annotations
 
@@ -25,4 +25,4 @@ def test_geometry_notebook_runs():
     outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
     assert not [o for o in outputs if o.get("output_type") == "error"]
     images = [o for o in outputs if "image/png" in o.get("data", {})]
-    assert len(images) == 6
+    assert len(images) == 7
