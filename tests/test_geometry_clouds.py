@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from pftrack.geometry.clouds import ParticleCloud, load_ply, save_ply, weights_to_colours
 
 

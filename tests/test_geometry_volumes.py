@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from pftrack.geometry.volumes import (
     CuboidVolume,
     SoccerPitchVolume,
@@ -70,10 +69,10 @@ def test_cuboid_edges_are_the_twelve_box_edges():
     assert foot.shape == (5, 3) and np.allclose(foot[0], foot[-1]) and np.all(foot[:, 2] == 0)
 
 
-@pytest.mark.parametrize("bad", [dict(center_m=[0, 0], size_m=[1, 1, 1]),
-                                 dict(center_m=[0, 0, 0], size_m=[1, 0, 1]),
-                                 dict(center_m=[0, 0, 0], size_m=[1, 1, 1],
-                                      rotation=np.diag([1, 1, -1.0]))])
+@pytest.mark.parametrize("bad", [{"center_m": [0, 0], "size_m": [1, 1, 1]},
+                                 {"center_m": [0, 0, 0], "size_m": [1, 0, 1]},
+                                 {"center_m": [0, 0, 0], "size_m": [1, 1, 1],
+                                      "rotation": np.diag([1, 1, -1.0])}])
 def test_cuboid_rejects_bad_parameters(bad):
     with pytest.raises(ValueError, match="volume 'cuboid'"):
         CuboidVolume(**bad)
@@ -144,8 +143,8 @@ def test_volumes_yaml_round_trip(tmp_path):
     path = save_volumes(tmp_path / "v.yaml", vols)
     back = load_volumes(path)
     assert list(back) == list(vols)
-    for k in vols:
-        assert np.allclose(back[k].edges(), vols[k].edges())
+    for k, v in vols.items():
+        assert np.allclose(back[k].edges(), v.edges())
     assert back["pitch"].frame == "corner" and back["pitch"].length_m == 100
 
 

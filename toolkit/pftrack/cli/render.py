@@ -1,8 +1,8 @@
 """``pftrack render``: pictures of tracks.
 
 * ``pftrack render topview TRACKS.txt --out PNG [--gt GT.txt] [--volume NAME|FILE]
-  [--size WxH] [--title T]`` -- the ground plane from above; trajectories from the MOTChallenge
-  world columns 8-9 (x, y metres), coloured by id; ground truth dashed; the volume's ground
+  [--size WxH] [--title T] [--label L]`` -- the ground plane from above; trajectories from the
+  MOTChallenge world columns 8-9 (x, y metres), coloured by id; ground truth dashed; the volume's ground
   lines when ``--volume`` is given, otherwise just the data's bounds with a metre grid.
 * ``pftrack render overlay --video PATH --frame N --tracks TRACKS.txt [--camera CAM]
   --out PNG`` -- boxes and ids of MOT frame N drawn on the video frame N-1 (MOT frames count
@@ -39,6 +39,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--volume", help="volume name (pitch, near, far, a calib/ name) or YAML file")
     t.add_argument("--size", type=_size, default=(1024, 768), help="WxH pixels (1024x768)")
     t.add_argument("--title", help="title text")
+    t.add_argument("--label", default="estimate",
+                   help="legend name of TRACKS (default: estimate; e.g. 'ground truth')")
     t.set_defaults(func=topview_handler)
     o = rs.add_parser("overlay", help="boxes, ids and projected ground dots on a video frame")
     o.add_argument("--video", required=True, help="video file")
@@ -67,7 +69,7 @@ def topview_handler(args: argparse.Namespace) -> int:
         volume = resolve_volume(args.volume)
     title = args.title if args.title is not None else Path(args.tracks).name
     render_topview(args.out, tracks=tracks, ground_truth=gt, volume=volume,
-                   size_wh=args.size, title=title)
+                   size_wh=args.size, title=title, track_label=args.label)
     print(f"wrote {args.out}")
     return 0
 

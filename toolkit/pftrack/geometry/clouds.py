@@ -30,11 +30,11 @@ from typing import Any
 import numpy as np
 
 __all__ = [
-    "ParticleCloud",
     "WEIGHT_COLORMAP",
-    "weights_to_colours",
-    "save_ply",
+    "ParticleCloud",
     "load_ply",
+    "save_ply",
+    "weights_to_colours",
 ]
 
 #: The fixed colormap for weights (name in matplotlib's registry).
@@ -119,7 +119,7 @@ class ParticleCloud:
         return len(self.points_world_m)
 
     @classmethod
-    def concatenate(cls, clouds: list["ParticleCloud"]) -> "ParticleCloud":
+    def concatenate(cls, clouds: list[ParticleCloud]) -> ParticleCloud:
         """One cloud from several (labels are kept where all have them, else dropped)."""
         if not clouds:
             return cls(np.zeros((0, 3)))
@@ -159,7 +159,7 @@ class ParticleCloud:
         return pc
 
     @classmethod
-    def from_open3d(cls, pcd: Any) -> "ParticleCloud":
+    def from_open3d(cls, pcd: Any) -> ParticleCloud:
         """From a tensor or legacy Open3D point cloud made by :meth:`to_open3d` /
         :meth:`to_legacy_open3d` (or any cloud: then weights are uniform)."""
         import open3d as o3d
@@ -181,7 +181,7 @@ class ParticleCloud:
         return save_ply(path, self)
 
     @classmethod
-    def load_ply(cls, path: str | os.PathLike[str]) -> "ParticleCloud":
+    def load_ply(cls, path: str | os.PathLike[str]) -> ParticleCloud:
         return load_ply(path)
 
 

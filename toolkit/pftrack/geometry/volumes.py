@@ -56,15 +56,15 @@ from typing import Any
 import numpy as np
 
 __all__ = [
-    "Volume",
     "CuboidVolume",
     "SoccerPitchVolume",
-    "seed003_volumes",
+    "Volume",
     "builtin_volumes",
     "load_volumes",
-    "save_volumes",
     "resolve_volume",
     "sample_polyline",
+    "save_volumes",
+    "seed003_volumes",
 ]
 
 # Index pairs into the corner order of :meth:`CuboidVolume.corners` (bit k of the corner index
@@ -204,20 +204,20 @@ class CuboidVolume(Volume):
 
     # -- construction helpers -------------------------------------------------------------
     @classmethod
-    def from_bounds(cls, lower_m: Any, upper_m: Any, name: str = "cuboid") -> "CuboidVolume":
+    def from_bounds(cls, lower_m: Any, upper_m: Any, name: str = "cuboid") -> CuboidVolume:
         """Axis-aligned box from its lower and upper corners (metres)."""
         lo, hi = np.asarray(lower_m, float), np.asarray(upper_m, float)
         return cls((lo + hi) / 2.0, hi - lo, None, name)
 
     @classmethod
     def from_yaw(cls, center_m: Any, size_m: Any, yaw_deg: float = 0.0,
-                 name: str = "cuboid") -> "CuboidVolume":
+                 name: str = "cuboid") -> CuboidVolume:
         """Box rotated by ``yaw_deg`` degrees about the world z axis (counter-clockwise seen
         from above)."""
         return cls(center_m, size_m, _rotation_z(yaw_deg), name)
 
     @classmethod
-    def from_open3d(cls, obb: Any, name: str = "cuboid") -> "CuboidVolume":
+    def from_open3d(cls, obb: Any, name: str = "cuboid") -> CuboidVolume:
         """From an ``open3d.geometry.OrientedBoundingBox`` (or axis-aligned box)."""
         if hasattr(obb, "R"):
             return cls(np.asarray(obb.center), np.asarray(obb.extent), np.asarray(obb.R), name)
@@ -501,7 +501,8 @@ def builtin_volumes() -> dict[str, Volume]:
 
 def _volume_from_dict(d: dict[str, Any], where: str) -> Volume:
     if not isinstance(d, dict):
-        raise ValueError(f"{where}: each volume must be a mapping, got {type(d).__name__}")
+        raise ValueError(  # noqa: TRY004 - bad file content, reported as a user error
+            f"{where}: each volume must be a mapping, got {type(d).__name__}")
     d = dict(d)
     name = str(d.pop("name", "") or "")
     if not name:

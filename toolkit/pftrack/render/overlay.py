@@ -100,7 +100,7 @@ def draw_boxes(image_bgr: np.ndarray, boxes_xywh_px: np.ndarray, ids: np.ndarray
                       cv2.LINE_AA, _SHIFT)
     if labels:
         for (bx, by), i, c in zip(boxes[:, :2], ids, colours):
-            org = (int(round(bx)), int(round(max(by - 4, 12))))
+            org = (round(bx), round(max(by - 4, 12)))
             cv2.putText(img, str(int(i)), org, cv2.FONT_HERSHEY_SIMPLEX, font_scale,
                         (0, 0, 0), thickness + 2, cv2.LINE_AA)
             cv2.putText(img, str(int(i)), org, cv2.FONT_HERSHEY_SIMPLEX, font_scale,

@@ -50,9 +50,9 @@ def draw_legend(image_rgb: np.ndarray, entries: Sequence[tuple[str, Sequence[int
     thick = 1
     sizes = [cv2.getTextSize(lbl, font, fscale, thick)[0] for lbl, _, _ in entries]
     text_h = max(s[1] for s in sizes)
-    row_h = int(round(text_h * 1.9))
-    sym_w = int(round(22 * max(scale, 0.5)))
-    pad = max(3, int(round(5 * scale)))
+    row_h = round(text_h * 1.9)
+    sym_w = round(22 * max(scale, 0.5))
+    pad = max(3, round(5 * scale))
     box_w = min(w - 2, pad * 3 + sym_w + max(s[0] for s in sizes))
     box_h = min(h - 2, pad * 2 + row_h * len(entries))
     x1, y1 = w - 1 - pad, h - 1 - pad
@@ -64,7 +64,7 @@ def draw_legend(image_rgb: np.ndarray, entries: Sequence[tuple[str, Sequence[int
         cy = y0 + pad + row_h * k + row_h // 2
         sx0, sx1 = x0 + pad, x0 + pad + sym_w
         colour = tuple(int(c) for c in rgb)
-        lw = max(1, int(round(2 * scale)))
+        lw = max(1, round(2 * scale))
         if kind == "dot":
             cv2.circle(img, ((sx0 + sx1) // 2, cy), max(2, lw + 1), colour, -1)
         elif kind == "dash":
@@ -101,6 +101,7 @@ def render_topview(
     bounds_m: np.ndarray | None = None,
     label_ids: bool = True,
     legend: bool = True,
+    track_label: str = "estimate",
 ) -> np.ndarray:
     """Render the ground plane seen from above.
 
@@ -123,6 +124,8 @@ def render_topview(
         World x/y range to show; default: everything drawn, plus a margin.
     label_ids, legend : bool
         Write the id at each track's end; show the legend (estimate / ground truth / particles).
+    track_label : str
+        What the legend calls ``tracks`` (e.g. "ground truth" when only the truth is drawn).
 
     Returns
     -------
@@ -176,7 +179,7 @@ def render_topview(
         frame = polyline_cells([np.array([[x0, y0, -0.04], [x1, y0, -0.04], [x1, y1, -0.04],
                                           [x0, y1, -0.04], [x0, y0, -0.04]])])
         _layers.add_lines(p, frame, np.full((1, 3), 120, np.uint8), 1.0)
-        fs = max(7, int(round(11 * scale)))
+        fs = max(7, round(11 * scale))
         if len(gx):
             p.add_point_labels(np.column_stack([gx, np.full(len(gx), y0 - 16 * ls * mpp),
                                                 np.zeros(len(gx))]),
@@ -208,10 +211,10 @@ def render_topview(
         _layers.add_tracks(p, tracks, width=max(1.5, 2.5 * scale), z=0.03)
         if label_ids:
             _layers.add_track_ends(p, tracks if tracks else ground_truth, z=0.05,
-                                   font_size=max(7, int(round(10 * scale))),
+                                   font_size=max(7, round(10 * scale)),
                                    point_size=max(3.0, 6.0 * scale))
         if title:
-            p.add_text(title, position="upper_edge", font_size=max(6, int(round(9 * scale))),
+            p.add_text(title, position="upper_edge", font_size=max(6, round(9 * scale)),
                        color="black")
         cam = p.camera
         cam.parallel_projection = True
@@ -224,7 +227,7 @@ def render_topview(
     if legend:
         entries = []
         if tracks:
-            entries.append(("estimate (solid, colour = id)", (0, 0, 0), "line"))
+            entries.append((f"{track_label} (solid, colour = id)", (0, 0, 0), "line"))
         if ground_truth:
             entries.append(("ground truth (dashed)", (128, 128, 128), "dash"))
         if len(clouds):

@@ -22,9 +22,16 @@ from pftrack.geometry.camera import Camera
 from pftrack.geometry.clouds import ParticleCloud
 from pftrack.geometry.volumes import Volume
 from pftrack.render import _layers
-from pftrack.render._pyvista import plotter, polyline_cells, pv, screenshot, segment_cells, write_png
+from pftrack.render._pyvista import (
+    plotter,
+    polyline_cells,
+    pv,
+    screenshot,
+    segment_cells,
+    write_png,
+)
 
-__all__ = ["render_view3d", "camera_frustum"]
+__all__ = ["camera_frustum", "render_view3d"]
 
 #: Camera frusta (RGB): dark red.
 CAMERA_RGB = (170, 30, 30)
@@ -183,11 +190,11 @@ def render_view3d(
             p.show_bounds(bounds=[float(b[0, 0]), float(b[1, 0]), float(b[0, 1]),
                                   float(b[1, 1]), float(b[0, 2]), float(b[1, 2])],
                           xtitle="x (m)", ytitle="y (m)", ztitle="z (m)", grid=None,
-                          location="outer", color="black", font_size=max(8, int(round(12 * scale))),
+                          location="outer", color="black", font_size=max(8, round(12 * scale)),
                           n_xlabels=4, n_ylabels=4, n_zlabels=3, fmt="%.0f",
                           use_2d=True, use_3d_text=False)
         if title:
-            p.add_text(title, position="upper_edge", font_size=max(6, int(round(9 * scale))),
+            p.add_text(title, position="upper_edge", font_size=max(6, round(9 * scale)),
                        color="black")
         cam = p.camera
         cam.parallel_projection = False
