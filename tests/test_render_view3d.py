@@ -72,3 +72,11 @@ def test_view3d_camera_frustum_on_pets(tmp_path):
     assert red > 100  # the frustum is drawn
     bare = render_view3d(tracks=tracks, size_wh=(320, 240), axes=False)
     assert np.all(np.abs(bare.astype(int) - CAMERA_RGB) < 40, axis=2).sum() < 5
+
+
+def test_view3d_matches_reference():
+    from test_render_topview import MEAN_ABS_TOL, compare_reference
+
+    near, cloud = _scene()
+    img = render_view3d(volumes=[near], clouds=[cloud], size_wh=(320, 240), title="near")
+    assert compare_reference("view3d_320x240.png", img) < MEAN_ABS_TOL
