@@ -23,6 +23,7 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.special import expit
 
 from pftrack.components import Associator, Detections, Detector, Frame, Likelihood, MotionModel, Target
 from pftrack.filter import (
@@ -390,7 +391,7 @@ class MultiTargetTracker:
         return TrackRecord(
             frame=frame.index, id=t.id, box_xywh_px=t.box_xywh_px.copy(), state=t.state.copy(),
             position=pos.copy(), extent=t.extent.copy(),
-            confidence=float(1.0 / (1.0 + np.exp(-best_logl))) if np.isfinite(best_logl) else 0.0,
+            confidence=float(expit(best_logl)) if np.isfinite(best_logl) else 0.0,
             world_m=None if world is None else np.asarray(world, dtype=np.float64),
         )
 
