@@ -74,6 +74,29 @@ def test_topview_draws_tracks_in_their_colours():
         assert hits > 40, (tid, hits)
 
 
+def test_zoomed_topview_is_cut_to_its_frame():
+    """With bounds_m, tracks that run past the shown box stop at its frame: nothing is drawn
+    over the axis labels, the title or the legend (VTK clipping planes on the data actors)."""
+    from pftrack.render.colours import track_colours_rgb
+
+    tracks, _, vol, _ = _scene()
+    zoom = np.array([[-10.0, -10.0], [5.0, 5.0]])
+    img = render_topview(tracks=tracks, volume=vol, bounds_m=zoom, size_wh=(320, 240),
+                         legend=False)
+    colour = track_colours_rgb(np.array([3]))[0].astype(int)
+    hit = np.all(np.abs(img.astype(int) - colour) <= 10, axis=2)
+    rows, cols = np.nonzero(hit)
+    assert len(rows) > 40  # the part of track 3 inside the box is drawn
+    # the framed box is the grey rectangle; find its extent from the frame colour (120)
+    frame = np.all(img == 120, axis=2)
+    fr, fc = np.nonzero(frame)
+    assert rows.min() >= fr.min() - 2 and rows.max() <= fr.max() + 2
+    assert cols.min() >= fc.min() - 2 and cols.max() <= fc.max() + 2
+    # track 3 crosses the whole pitch: unclipped it would reach the picture's left part
+    full = render_topview(tracks=tracks, volume=vol, size_wh=(320, 240), legend=False)
+    assert np.all(np.abs(full.astype(int) - colour) <= 10, axis=2).sum() > 0
+
+
 def test_topview_legend_inside_picture():
     """The legend (drawn after rendering) lies fully inside the picture, in the lower right."""
     from pftrack.render.topview import draw_legend

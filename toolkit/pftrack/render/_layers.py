@@ -60,8 +60,12 @@ def add_tracks(p: pv.Plotter, tracks: dict[int, np.ndarray], width: float, z: fl
 
 
 def add_track_ends(p: pv.Plotter, tracks: dict[int, np.ndarray], z: float, font_size: int,
-                   point_size: float) -> None:
-    """A dot at each track's start and its id at its end."""
+                   point_size: float, box_xy: np.ndarray | None = None) -> None:
+    """A dot at each track's start and its id at its end.
+
+    ``box_xy`` (shape (2, 2): [[x0, y0], [x1, y1]] metres) drops the id labels whose end lies
+    outside the shown box (labels are 2D overlays, which clipping planes do not cut).
+    """
     ids = [i for i in sorted(tracks) if len(tracks[i])]
     if not ids:
         return
@@ -71,8 +75,34 @@ def add_track_ends(p: pv.Plotter, tracks: dict[int, np.ndarray], z: float, font_
     dots.point_data["rgb"] = track_colours_rgb(np.array(ids))
     p.add_mesh(dots, scalars="rgb", rgb=True, point_size=point_size, lighting=False,
                render_points_as_spheres=False, show_scalar_bar=False)
-    p.add_point_labels(ends, [str(i) for i in ids], font_size=font_size, bold=True,
-                       text_color="black", shape=None, show_points=False, always_visible=True)
+    if box_xy is not None:
+        inside = np.all((ends[:, :2] >= box_xy[0]) & (ends[:, :2] <= box_xy[1]), axis=1)
+        ends, ids = ends[inside], [i for i, k in zip(ids, inside) if k]
+    if len(ids):
+        p.add_point_labels(ends, [str(i) for i in ids], font_size=font_size, bold=True,
+                           text_color="black", shape=None, show_points=False,
+                           always_visible=True)
+
+
+def clip_new_actors(p: pv.Plotter, before: set[str], box_xy: np.ndarray) -> None:
+    """Cut every 3D actor added since ``before`` (the renderer's actor names) to the box
+    ``[[x0, y0], [x1, y1]]`` in world metres, with four VTK clipping planes on its mapper."""
+    import vtk
+
+    planes = []
+    for origin, normal in (((box_xy[0, 0], 0, 0), (1, 0, 0)), ((box_xy[1, 0], 0, 0), (-1, 0, 0)),
+                           ((0, box_xy[0, 1], 0), (0, 1, 0)), ((0, box_xy[1, 1], 0), (0, -1, 0))):
+        plane = vtk.vtkPlane()
+        plane.SetOrigin(*map(float, origin))
+        plane.SetNormal(*map(float, normal))
+        planes.append(plane)
+    for name, actor in p.renderer.actors.items():
+        if name in before:
+            continue
+        mapper = actor.GetMapper() if hasattr(actor, "GetMapper") else None
+        if mapper is not None and hasattr(mapper, "AddClippingPlane"):
+            for plane in planes:
+                mapper.AddClippingPlane(plane)
 
 
 def add_clouds(p: pv.Plotter, clouds: Sequence[ParticleCloud], point_size: float,

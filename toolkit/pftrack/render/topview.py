@@ -203,6 +203,10 @@ def render_topview(
                            text_color="black", always_visible=True,
                            justification_horizontal="center", justification_vertical="center")
 
+        # everything drawn in world coordinates from here on is cut to the framed box, so a
+        # zoomed view (bounds_m) does not spill over the axis labels and the legend
+        box_xy = np.array([[x0, y0], [x1, y1]])
+        data_from = set(p.renderer.actors)
         if volume is not None:
             _layers.add_ground_lines(p, volume, width=max(1.0, 2.0 * scale), z=0.0)
         _layers.add_clouds(p, list(clouds), point_size=max(2.0, 3.0 * scale), flatten_z=0.01)
@@ -212,7 +216,8 @@ def render_topview(
         if label_ids:
             _layers.add_track_ends(p, tracks if tracks else ground_truth, z=0.05,
                                    font_size=max(7, round(10 * scale)),
-                                   point_size=max(3.0, 6.0 * scale))
+                                   point_size=max(3.0, 6.0 * scale), box_xy=box_xy)
+        _layers.clip_new_actors(p, data_from, box_xy)
         if title:
             p.add_text(title, position="upper_edge", font_size=max(6, round(9 * scale)),
                        color="black")
