@@ -18,6 +18,7 @@ All randomness comes from one ``numpy.random.Generator``; the same seed gives bi
 from __future__ import annotations
 
 import logging
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
@@ -27,9 +28,9 @@ from scipy.special import expit
 
 from pftrack.components import Associator, Detections, Detector, Frame, Likelihood, MotionModel, Target
 from pftrack.filter import (
+    RESAMPLERS,
     effective_sample_size,
     normalize_log_weights,
-    resample,
     weighted_extent,
     weighted_mean,
 )
@@ -152,6 +153,7 @@ class _Filter:
     particles: np.ndarray
     weights: np.ndarray
     anchor: np.ndarray  # position to re-spread around when every weight vanishes
+    log_weights: np.ndarray  # np.log(weights), kept so a uniform row is not re-logged each frame
 
 
 class MultiTargetTracker:
@@ -167,7 +169,8 @@ class MultiTargetTracker:
         Particles per target.
     resampling : {"systematic", "stratified", "residual", "multinomial"}
     ess_threshold : float
-        Resample when ESS < ess_threshold * n_particles (1.0: every frame, as the papers do).
+        Resample when ESS < ess_threshold * n_particles (1.0: every frame, as the papers do;
+        the ESS is then not computed).
     dt : float
         Time step per frame in the motion model's unit (1 frame, or 1/fps seconds).
     init_spread : float or array
@@ -214,7 +217,9 @@ class MultiTargetTracker:
         if rng is None:
             raise ValueError("MultiTargetTracker needs rng=np.random.default_rng(seed): "
                              "pftrack never uses global random state")
-        resample(np.ones(1), rng=np.random.default_rng(0), scheme=resampling)  # validates name
+        if resampling not in RESAMPLERS:
+            raise ValueError(f"resampling scheme {resampling!r} unknown; choose one of "
+                             f"{sorted(RESAMPLERS)}")
         self.motion = motion
         self.likelihood = likelihood
         self.observation = observation
@@ -238,6 +243,11 @@ class MultiTargetTracker:
         self._next_id = 1
         self.recoveries = 0  # frames in which some target lost every weight and was re-spread
         self.last_detections: Detections | None = None
+        # read-only uniform weights and their logarithm, shared by every target after resampling
+        self._uniform = np.full(self.n_particles, 1.0 / self.n_particles)
+        self._uniform_log = np.log(self._uniform)
+        self._uniform.flags.writeable = False
+        self._uniform_log.flags.writeable = False
 
     # -- targets ------------------------------------------------------------------------------
 
@@ -266,7 +276,7 @@ class MultiTargetTracker:
         self._next_id = max(self._next_id, int(target_id) + 1)
         particles = self.motion.init_states(position, self.n_particles, self.rng,
                                             spread=self.init_spread)
-        weights = np.full(self.n_particles, 1.0 / self.n_particles)
+        weights = self._uniform
         state = weighted_mean(particles, weights)
         state[list(self.motion.position_dims)] = position  # the given position, not its sample mean
         target = Target(id=int(target_id), state=state, box_xywh_px=np.zeros(4),
@@ -275,7 +285,8 @@ class MultiTargetTracker:
         self.observation.init_target(target, box_xywh_px)
         target.box_xywh_px = self.observation.to_boxes(state[None], target)[0]
         target.particle_boxes_xywh_px = self.observation.to_boxes(particles, target)
-        self._filters[target.id] = _Filter(target, particles, weights, position.copy())
+        self._filters[target.id] = _Filter(target, particles, weights, position.copy(),
+                                           self._uniform_log)
         self.likelihood.init_target(frame, target)
         return target
 
@@ -293,12 +304,15 @@ class MultiTargetTracker:
         """
         pos_dims = list(self.motion.position_dims)
         filters = list(self._filters.values())
-        # 1. predict
+        observation = self.observation
+        rng = self.rng
+        # 1. predict; each target's particle boxes are computed once here and reused by the
+        # associator, the likelihood and callers (``target.particle_boxes_xywh_px``)
         for f in filters:
-            f.particles = self.motion.predict(f.particles, self.dt, self.rng, target=f.target)
             t = f.target
+            f.particles = self.motion.predict(f.particles, self.dt, rng, target=t)
             t.particles = f.particles
-            t.particle_boxes_xywh_px = self.observation.to_boxes(f.particles, t)
+            t.particle_boxes_xywh_px = observation.to_boxes(f.particles, t)
             t.age += 1
             t.extra.pop("detection", None)
         # 2. detect and associate
@@ -319,55 +333,70 @@ class MultiTargetTracker:
         # 3. weight
         targets = [f.target for f in filters]
         self.likelihood.begin_frame(frame, targets, detections)
+        n = self.n_particles
+        resampler = RESAMPLERS[self.resampling]
+        always_resample = self.ess_threshold >= 1.0  # ESS <= N: no need to compute it
+        ess_min = self.ess_threshold * n + 1e-9
+        # the base in_view is "the estimate's box overlaps the image": read it off that box
+        box_in_view = type(observation).in_view is ObservationModel.in_view
+        img_w, img_h = frame.size_wh
         records = []
         dead = []
         recovered = False
         for f in filters:
             t = f.target
-            logl = np.asarray(self.likelihood.log_likelihood(t.particle_boxes_xywh_px, t),
-                              dtype=np.float64)
+            logl = self.likelihood.log_likelihood(t.particle_boxes_xywh_px, t)
+            if type(logl) is not np.ndarray or logl.dtype != np.float64:
+                logl = np.asarray(logl, dtype=np.float64)
             if logl.shape != (len(f.particles),):
                 raise ValueError(f"likelihood {type(self.likelihood).__name__} returned shape "
                                  f"{logl.shape}, expected ({len(f.particles)},)")
             if self.valid_region is not None:
                 logl = np.where(self.valid_region(f.particles[:, pos_dims]), logl, -np.inf)
-            w, ok = normalize_log_weights(np.log(f.weights) + logl)
+            w, ok = normalize_log_weights(f.log_weights + logl)
             if not ok:
                 # nothing explains the observation: re-spread around the last estimate
                 recovered = True
-                f.particles = self.motion.init_states(f.anchor, self.n_particles, self.rng,
+                f.particles = self.motion.init_states(f.anchor, n, rng,
                                                       spread=self.recover_spread)
-                w = np.full(self.n_particles, 1.0 / self.n_particles)
-            best = float(np.max(logl)) if len(logl) and ok else -np.inf
+                w = self._uniform
+            best = float(logl.max()) if ok and len(logl) else -math.inf
             state = weighted_mean(f.particles, w)
             t.state = state
             t.extent = weighted_extent(f.particles, w, state)
-            t.box_xywh_px = self.observation.to_boxes(state[None], t)[0]
+            box = observation.to_boxes(state[None], t)[0]
+            t.box_xywh_px = box
             supported = ok and (
                 "detection" in t.extra
                 or (self.min_log_likelihood is not None and best >= self.min_log_likelihood)
                 or (detections is None and self.min_log_likelihood is None))
             t.frames_tracked = t.frames_tracked + 1 if supported else 0
             t.misses = 0 if supported else t.misses + 1
-            f.anchor = state[pos_dims].copy()
+            f.anchor = state[pos_dims]  # fancy indexing: a copy
             # 4. resample
-            if effective_sample_size(w) < self.ess_threshold * self.n_particles + 1e-9:
-                idx = resample(w, self.rng, self.resampling)
-                f.particles = f.particles[idx]
-                w = np.full(self.n_particles, 1.0 / self.n_particles)
-            f.weights = w
+            if always_resample or effective_sample_size(w) < ess_min:
+                # take() is several times faster than fancy indexing for small N, same values
+                f.particles = f.particles.take(resampler(w, rng, None), axis=0)
+                f.weights, f.log_weights = self._uniform, self._uniform_log
+            else:
+                f.weights, f.log_weights = w, np.log(w)
             t.particles = f.particles
             # 5. death
             gone = self.max_misses is not None and t.misses > self.max_misses
-            if self.kill_out_of_view and not self.observation.in_view(state[None], frame.size_wh,
-                                                                        t)[0]:
-                gone = True
+            if self.kill_out_of_view:
+                if box_in_view:
+                    bx, by, bw, bh = box.tolist()
+                    visible = bx < img_w and by < img_h and bx + bw > 0 and by + bh > 0
+                else:
+                    visible = observation.in_view(state[None], frame.size_wh, t)[0]
+                if not visible:
+                    gone = True
             if self.valid_region is not None and not self.valid_region(state[None, pos_dims])[0]:
                 gone = True
             if gone:
                 dead.append(t.id)
                 continue
-            records.append(self._record(frame, t, best))
+            records.append(self._record(frame, t, best, pos_dims))
         if recovered:
             self.recoveries += 1
             log.info("frame %d: every particle weight of a target vanished; re-spread around "
@@ -385,13 +414,16 @@ class MultiTargetTracker:
                     records.append(self._record(frame, t, 0.0))
         return records
 
-    def _record(self, frame: Frame, t: Target, best_logl: float) -> TrackRecord:
+    def _record(self, frame: Frame, t: Target, best_logl: float,
+                pos_dims: list[int] | None = None) -> TrackRecord:
         world = self.observation.world_position(t.state)
-        pos = t.state[list(self.motion.position_dims)]
+        if pos_dims is None:
+            pos_dims = list(self.motion.position_dims)
         return TrackRecord(
             frame=frame.index, id=t.id, box_xywh_px=t.box_xywh_px.copy(), state=t.state.copy(),
-            position=pos.copy(), extent=t.extent.copy(),
-            confidence=float(expit(best_logl)) if np.isfinite(best_logl) else 0.0,
+            position=t.state[pos_dims],  # fancy indexing: already a copy
+            extent=t.extent.copy(),
+            confidence=float(expit(best_logl)) if math.isfinite(best_logl) else 0.0,
             world_m=None if world is None else np.asarray(world, dtype=np.float64),
         )
 

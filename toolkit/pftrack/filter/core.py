@@ -8,6 +8,7 @@ state layout: ``particles = particles[idx]``.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -48,9 +49,10 @@ def normalize_log_weights(log_weights: np.ndarray) -> tuple[np.ndarray, bool]:
     if lw.ndim == 1 and lw.size:
         # fast path (every frame, every target): a finite maximum means no NaN (max would be
         # NaN) and no +inf; the operations are those of the general path, so are the results
-        m = lw.max()
-        if np.isfinite(m):
-            w = np.exp(lw - m)
+        m = float(lw.max())
+        if -math.inf < m < math.inf:
+            w = np.subtract(lw, m)
+            np.exp(w, out=w)
             w /= w.sum()
             return w, True
     lw = np.where(np.isnan(lw), -np.inf, lw)
@@ -75,17 +77,21 @@ def normalize_log_weights(log_weights: np.ndarray) -> tuple[np.ndarray, bool]:
 def effective_sample_size(weights: np.ndarray) -> np.ndarray | float:
     """ESS = 1 / sum(w^2) of normalised weights, along the last axis."""
     w = np.asarray(weights, dtype=np.float64)
+    if w.ndim == 1:
+        return 1.0 / float(np.square(w).sum())  # the same pairwise sum as below, fewer calls
     ess = 1.0 / np.sum(w * w, axis=-1)
     return float(ess) if np.ndim(ess) == 0 else ess
 
 
 def _cumsum_normalised(weights: np.ndarray) -> np.ndarray:
-    w = np.asarray(weights, dtype=np.float64).reshape(-1)
+    w = np.asarray(weights, dtype=np.float64)
+    if w.ndim != 1:
+        w = w.reshape(-1)
     if len(w) == 0:
         raise ValueError("resampling needs at least one weight, got an empty array")
-    c = np.cumsum(w)
-    total = c[-1]
-    if not (np.isfinite(total) and total > 0) or w.min() < 0:
+    c = np.add.accumulate(w)  # np.cumsum's loop without its dispatch overhead
+    total = float(c[-1])
+    if not 0.0 < total < math.inf or w.min() < 0:  # NaN fails the first test
         raise ValueError(f"resampling weights must be non-negative with a positive finite sum "
                          f"(got sum {total}, min {w.min()}); normalise them with "
                          "normalize_log_weights first")
@@ -97,7 +103,7 @@ def _cumsum_normalised(weights: np.ndarray) -> np.ndarray:
 def _indices_from_cumulative(cum: np.ndarray, n: int) -> np.ndarray:
     """Sorted indices (n,) from cumulative copy counts ``cum`` (non-decreasing, last == n):
     particle i is copied ``cum[i] - cum[i-1]`` times. O(N): index j is ``#{i : cum[i] <= j}``."""
-    return np.cumsum(np.bincount(cum, minlength=n + 1)[:n])
+    return np.add.accumulate(np.bincount(cum, minlength=n + 1)[:n])
 
 
 def multinomial_resample(weights: np.ndarray, rng: np.random.Generator,
@@ -131,7 +137,8 @@ def systematic_resample(weights: np.ndarray, rng: np.random.Generator,
     c -= u
     np.ceil(c, out=c)
     cum = c.astype(np.intp)
-    np.clip(cum, 0, n, out=cum)
+    # c >= 0 and u < 1 give cum >= 0; only round-off in c can push a count above n
+    np.minimum(cum, n, out=cum)
     return _indices_from_cumulative(cum, n)
 
 
