@@ -67,6 +67,20 @@ def test_uneven_bins_and_hsv():
     assert bh.max() < 216
 
 
+@pytest.mark.parametrize("space", ["rgb", "bgr", "hsv"])
+def test_bins_of_views_equal_bins_of_copies(space):
+    """A crop of a frame is binned in place (row-strided view); other layouts are copied."""
+    img = _image(4, (40, 50))
+    cb = ColourBins((4, 8, 2), space)
+    full = cb(img)
+    for view, rows, cols in ((img[5:30, 7:44], slice(5, 30), slice(7, 44)),
+                             (img[::2, ::3], slice(None, None, 2), slice(None, None, 3)),
+                             (img[:, ::-1], slice(None), slice(None, None, -1))):
+        got = cb(view)
+        assert got.dtype == full.dtype
+        np.testing.assert_array_equal(got, full[rows, cols])
+
+
 @pytest.mark.parametrize("kwargs, word", [({"bins": 0}, "bins"), ({"bins": (8, 8)}, "bins"),
                                           ({"colour_space": "xyz"}, "colour_space")])
 def test_bad_binning_parameters_are_named(kwargs, word):

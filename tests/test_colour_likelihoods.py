@@ -162,6 +162,66 @@ def test_joint_weighting_inside_another_targets_box(overlap):
     assert ll == pytest.approx(expected, rel=1e-4)
 
 
+def _three_targets(seed: int = 4):
+    """The two-patch scene plus a third target whose box overlaps target 2's."""
+    frame, (t1, t2) = _scene(seed)
+    t3 = Target(id=3, state=np.array([62.0, 42.0]), box_xywh_px=np.array([56.0, 36.0, 12, 12]))
+    return frame, [t1, t2, t3]
+
+
+@pytest.mark.parametrize("overlap", ["mixture", "product"])
+def test_joint_weighting_where_two_other_targets_overlap(overlap):
+    """Pixels under two other targets (K = 2) take the general path: brute force per pixel."""
+    frame, targets = _three_targets()
+    t1 = targets[0]
+    lik = _ready(CrossEntropyBackgroundLikelihood(background_stride=1, overlap=overlap), frame,
+                 targets)
+    box = np.array([[48.0, 28.0, 14.0, 14.0]])  # over targets 2 and 3 and their overlap
+    ll = lik.log_likelihood(box, t1)[0]
+    bins = ColourBins(8)(frame.image)
+    q = {t.id: lik.template(t.id)[0] for t in targets}
+    hb = lik.background_
+    expected = 0.0
+    n_two = 0
+    for y in range(28, 42):
+        for x in range(48, 62):
+            b = bins[y, x]
+            under = [tid for tid, (x0, y0) in ((2, (50, 30)), (3, (56, 36)))
+                     if x0 <= x < x0 + 12 and y0 <= y < y0 + 12]
+            n_two += len(under) == 2
+            if not under:
+                expected += np.log(q[1][b] / hb[b])
+            elif overlap == "product":
+                expected += np.log(q[1][b])
+            else:
+                s = sum(q[tid][b] for tid in under)
+                expected += np.log((q[1][b] + s) / (len(under) + 1)) - np.log(s / len(under))
+    assert n_two == 36  # the case under test does occur
+    assert ll == pytest.approx(expected, rel=1e-4)
+
+
+@pytest.mark.parametrize("overlap", ["mixture", "product"])
+@pytest.mark.parametrize("parts", [1, 2])
+def test_per_pair_tables_equal_the_general_path_bit_for_bit(overlap, parts):
+    """Where each covered pixel lies under one other target, values come from per-pair tables;
+    they are the numbers the general (masked) path computes."""
+    frame, targets = _scene(5)
+    lik = _ready(CrossEntropyBackgroundLikelihood(overlap=overlap, parts=parts), frame,
+                 targets)
+    boxes = _boxes(np.random.default_rng(6), n=300)
+    t = targets[0]
+    region = ParticleRegion(frame.image, boxes)
+    bins = lik.binner_(region.pixels())
+    cover = lik._coverage(region, t.id)
+    assert cover  # some sample boxes reach into target 2's box
+    for k in range(parts):
+        lik._cover_cache = None
+        fast = lik._value_image(region, bins, lik.values_[t.id], k, t.id)
+        lik._cover_cache = (None, *lik._cover_sums(region, bins, t.id))
+        general = lik._value_image(region, bins, lik.values_[t.id], k, t.id)
+        assert np.array_equal(fast, general)
+
+
 def test_bhattacharyya_matches_brute_force():
     frame, targets = _scene(4)
     lik = _ready(BhattacharyyaLikelihood(lam=20.0), frame, targets)

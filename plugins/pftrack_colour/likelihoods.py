@@ -558,9 +558,17 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
         if self.overlap == "independent":
             return values
         if self._cover_cache is None:
-            self._cover_cache = self._cover_sums(region, bins, target_id)
-        covered, s_cov, k_cov = self._cover_cache
-        if covered is None:
+            cover = self._coverage(region, target_id)
+            if _disjoint(cover):
+                # each covered pixel lies under one other target's stripe: its value is a
+                # function of its bin alone, read from a per-pair table (same numbers)
+                self._cover_cache = (cover, None, None, None)
+            else:
+                self._cover_cache = (None, *self._cover_sums(region, bins, target_id, cover))
+        cover, covered, s_cov, k_cov = self._cover_cache
+        if cover is not None:
+            for tid, k, sl in cover:
+                values[sl] = self._pair_table(target_id, part, tid, k)[bins[sl]]
             return values
         qk = self.template(target_id)[part].astype(np.float32)
         qv = qk[bins[covered]]
@@ -570,10 +578,39 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
             values[covered] = np.log((qv + s_cov) / (k_cov + 1.0)) - np.log(s_cov / k_cov)
         return values
 
-    def _cover_sums(self, region, bins, target_id):
+    def _pair_table(self, target_id: int, part: int, other_id: int, other_part: int,
+                    ) -> np.ndarray:
+        """Value (m,) float32 of a pixel of stripe ``part`` of ``target_id``'s sample that lies
+        under stripe ``other_part`` of ``other_id``'s box only: what the general path computes
+        with ``S = q_other`` and ``K = 1``. Kept while both templates are unchanged."""
+        cache = self.__dict__.setdefault("_pair_tables", {})
+        key = (target_id, part, other_id, other_part)
+        q_own, q_other = self.template(target_id), self.template(other_id)
+        hit = cache.get(key)
+        if hit is not None and hit[0] is q_own and hit[1] is q_other:
+            return hit[2]
+        qk = q_own[part].astype(np.float32)
+        if self.overlap == "product":
+            table = np.log(qk)
+        else:  # mixture, K = 1
+            s_cov = q_other[other_part].astype(np.float32)
+            k_cov = np.ones(1, dtype=np.float32)
+            table = np.log((qk + s_cov) / (k_cov + 1.0)) - np.log(s_cov / k_cov)
+        cache[key] = (q_own, q_other, table)
+        return table
+
+    def end_target(self, target: Target) -> None:
+        super().end_target(target)
+        cache = getattr(self, "_pair_tables", None)
+        if cache:
+            for key in [k for k in cache if target.id in (k[0], k[2])]:
+                del cache[key]
+
+    def _cover_sums(self, region, bins, target_id, cover=None):
         """Pixels of the region inside other targets' boxes, with S (sum of their histograms at
         each pixel's colour) and K (how many cover it)."""
-        cover = self._coverage(region, target_id)
+        if cover is None:
+            cover = self._coverage(region, target_id)
         if not cover:
             return None, None, None
         rows, cols = region.shape
@@ -584,6 +621,17 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
             k[sl] += 1.0
         covered = k > 0
         return covered, s_sum[covered], k[covered]
+
+
+def _disjoint(cover: list[tuple[int, int, tuple[slice, slice]]]) -> bool:
+    """No two of the rectangles (row slice, column slice) overlap."""
+    for i in range(1, len(cover)):
+        ys, xs = cover[i][2]
+        for _, _, (ys2, xs2) in cover[:i]:
+            if (ys.start < ys2.stop and ys2.start < ys.stop
+                    and xs.start < xs2.stop and xs2.start < xs.stop):
+                return False
+    return True
 
 
 for _cls in (BhattacharyyaLikelihood, BhattacharyyaBackgroundLikelihood, CrossEntropyLikelihood,
