@@ -158,3 +158,48 @@ def test_weighted_mean_variance_extent_numbers():
     u = np.full(len(cloud), 1.0 / len(cloud))
     assert np.allclose(weighted_mean(cloud, u), [1.0, -2.0], atol=0.02)
     assert np.allclose(weighted_extent(cloud, u), [6.0, 1.0], rtol=0.01)
+
+
+def test_row_functions_equal_one_filter_at_a_time_bit_for_bit():
+    """The (T, N) forms the tracker uses for T targets: every row is the single-filter result,
+    and systematic_resample_rows draws the numbers T successive calls would."""
+    from pftrack.filter import normalize_log_weight_rows, systematic_resample_rows
+
+    rng = np.random.default_rng(3)
+    for k in range(200):
+        t, n, d = int(rng.integers(1, 5)), int(rng.integers(1, 700)), int(rng.integers(1, 4))
+        lw = rng.normal(0.0, 10.0 ** rng.uniform(0, 4), (t, n))  # many exp() underflows
+        if k % 4 == 0:
+            lw[rng.integers(t)] = -np.inf  # a row with no finite weight
+        if k % 6 == 0:
+            lw[rng.integers(t), rng.integers(n)] = np.nan
+        w, ok = normalize_log_weight_rows(lw)
+        for i in range(t):
+            wi, oki = normalize_log_weights(lw[i])
+            assert np.array_equal(w[i], wi) and ok[i] == oki
+        if not ok.all():
+            continue
+        seed = int(rng.integers(1 << 31))
+        idx = systematic_resample_rows(w, np.random.default_rng(seed))
+        one = np.random.default_rng(seed)
+        for i in range(t):
+            assert np.array_equal(idx[i], resample(w[i], one, "systematic"))
+        p = rng.normal(50.0, 10.0, (t, n, d))
+        mean = weighted_mean(p, w)
+        ext = weighted_extent(p, w, mean)
+        for i in range(t):
+            assert np.array_equal(mean[i], weighted_mean(p[i], w[i]))
+            assert np.array_equal(ext[i], weighted_extent(p[i], w[i]))
+
+
+def test_row_functions_reject_bad_shapes_and_weights():
+    from pftrack.filter import normalize_log_weight_rows, systematic_resample_rows
+
+    with pytest.raises(ValueError, match=r"\(T, N\)"):
+        normalize_log_weight_rows(np.zeros(5))
+    with pytest.raises(ValueError, match=r"\(T, N\)"):
+        systematic_resample_rows(np.zeros((2, 0)), np.random.default_rng(0))
+    with pytest.raises(ValueError, match="non-negative"):
+        systematic_resample_rows(np.array([[0.5, 0.5], [0.0, 0.0]]), np.random.default_rng(0))
+    with pytest.raises(ValueError, match="non-negative"):
+        systematic_resample_rows(np.array([[1.5, -0.5]]), np.random.default_rng(0))

@@ -17,15 +17,35 @@ __all__ = [
     "RESAMPLERS",
     "effective_sample_size",
     "multinomial_resample",
+    "normalize_log_weight_rows",
     "normalize_log_weights",
     "resample",
     "residual_resample",
     "stratified_resample",
     "systematic_resample",
+    "systematic_resample_rows",
     "weighted_extent",
     "weighted_mean",
     "weighted_variance",
 ]
+
+
+#: exp(x) is exactly 0.0 below log(2**-1075) = -745.13...; numpy's vectorised exp takes a slow
+#: path for such arguments, and sharply peaked likelihoods (seed 000's cross entropy with
+#: lambda = n) put most particles there
+_EXP_ZERO_BELOW = -746.0
+
+
+def _exp_normalised(shifted: np.ndarray) -> np.ndarray:
+    """``exp(shifted)`` normalised along the last axis; ``shifted`` <= 0 with a 0 in each row.
+    Arguments whose exponential is exactly zero are not evaluated (same numbers)."""
+    w = np.zeros(shifted.shape)
+    np.exp(shifted, out=w, where=shifted > _EXP_ZERO_BELOW)
+    if w.ndim == 1:
+        w /= w.sum()
+    else:
+        w /= w.sum(axis=-1, keepdims=True)
+    return w
 
 
 def normalize_log_weights(log_weights: np.ndarray) -> tuple[np.ndarray, bool]:
@@ -51,10 +71,7 @@ def normalize_log_weights(log_weights: np.ndarray) -> tuple[np.ndarray, bool]:
         # NaN) and no +inf; the operations are those of the general path, so are the results
         m = float(lw.max())
         if -math.inf < m < math.inf:
-            w = np.subtract(lw, m)
-            np.exp(w, out=w)
-            w /= w.sum()
-            return w, True
+            return _exp_normalised(np.subtract(lw, m)), True
     lw = np.where(np.isnan(lw), -np.inf, lw)
     m = np.max(lw, axis=-1, keepdims=True)
     finite = np.isfinite(m)
@@ -72,6 +89,33 @@ def normalize_log_weights(log_weights: np.ndarray) -> tuple[np.ndarray, bool]:
     n = lw.shape[-1]
     w = np.where(good, w / np.where(good, s, 1.0), 1.0 / n)
     return w, bool(np.all(good))
+
+
+def normalize_log_weight_rows(log_weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`normalize_log_weights` of every row of a (T, N) array at once, with one flag per
+    row: one filter per target, all targets in one call.
+
+    Returns
+    -------
+    weights : ndarray, shape (T, N), float64
+        Row ``i`` equals ``normalize_log_weights(log_weights[i])[0]`` bit for bit.
+    ok : ndarray, shape (T,), bool
+        Row ``i``'s flag from :func:`normalize_log_weights`.
+    """
+    lw = np.asarray(log_weights, dtype=np.float64)
+    if lw.ndim != 2:
+        raise ValueError(f"normalize_log_weight_rows expects a (T, N) array, got shape "
+                         f"{lw.shape}")
+    t, n = lw.shape
+    if t and n:
+        m = lw.max(axis=1)
+        if np.isfinite(m).all():  # the fast path of normalize_log_weights, row by row
+            return _exp_normalised(np.subtract(lw, m[:, None])), np.ones(t, dtype=bool)
+    w = np.empty(lw.shape)
+    ok = np.ones(t, dtype=bool)
+    for i in range(t):
+        w[i], ok[i] = normalize_log_weights(lw[i])
+    return w, ok
 
 
 def effective_sample_size(weights: np.ndarray) -> np.ndarray | float:
@@ -142,6 +186,35 @@ def systematic_resample(weights: np.ndarray, rng: np.random.Generator,
     return _indices_from_cumulative(cum, n)
 
 
+def systematic_resample_rows(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """:func:`systematic_resample` of every row of a (T, N) array: indices (T, N), row ``i``
+    equal to what the ``i``-th of T successive ``systematic_resample(weights[i], rng)`` calls
+    returns (the T offsets come from one ``rng.random(T)``, the same numbers)."""
+    w = np.asarray(weights, dtype=np.float64)
+    if w.ndim != 2 or w.shape[1] == 0:
+        raise ValueError(f"systematic_resample_rows expects a (T, N) array with N >= 1, got "
+                         f"shape {w.shape}")
+    t, n = w.shape
+    c = np.add.accumulate(w, axis=1)
+    total = c[:, -1].copy()
+    if t and (not ((total > 0) & (total < math.inf)).all() or w.min() < 0):
+        raise ValueError(f"resampling weights must be non-negative with a positive finite sum "
+                         f"in every row (got sums {total}, min {w.min()}); normalise them with "
+                         "normalize_log_weight_rows first")
+    c *= (1.0 / total)[:, None]
+    c[:, -1] = 1.0  # guard the last bin against round-off
+    u = rng.random(t)
+    c *= n
+    c -= u[:, None]
+    np.ceil(c, out=c)
+    cum = c.astype(np.intp)
+    np.minimum(cum, n, out=cum)
+    # one bincount for every row: row i's counts live in bins i (n + 1) .. i (n + 1) + n
+    cum += (np.arange(t, dtype=np.intp) * (n + 1))[:, None]
+    counts = np.bincount(cum.ravel(), minlength=t * (n + 1)).reshape(t, n + 1)[:, :n]
+    return np.add.accumulate(counts, axis=1)
+
+
 def stratified_resample(weights: np.ndarray, rng: np.random.Generator,
                         n: int | None = None) -> np.ndarray:
     """One uniform draw in each of ``n`` equal strata: pointers ``(j + u_j) / n``.
@@ -202,23 +275,34 @@ def resample(weights: np.ndarray, rng: np.random.Generator, scheme: str = "syste
 def weighted_mean(states: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """Estimate as the weighted mean of the particles (seed 000 eq. 12, seed 003 eq. 8-9).
 
-    ``states`` (N, D), ``weights`` (N,) normalised -> (D,).
+    ``states`` (N, D), ``weights`` (N,) normalised -> (D,); or one filter per row:
+    ``states`` (T, N, D), ``weights`` (T, N) -> (T, D), row ``i`` equal to the (N, D) result
+    for ``states[i]`` bit for bit.
     """
     # einsum, not BLAS gemv: OpenBLAS threads stall on a loaded machine (16 ms instead of 0.3 ms
     # at 100k particles) and a (D,) reduction gains nothing from them
-    return np.einsum("n,nd->d", np.asarray(weights, dtype=np.float64),
-                     np.asarray(states, dtype=np.float64))
+    w = np.asarray(weights, dtype=np.float64)
+    return np.einsum(_EINSUM[w.ndim], w, np.asarray(states, dtype=np.float64))
+
+
+_EINSUM = {1: "n,nd->d", 2: "tn,tnd->td"}
 
 
 def weighted_variance(states: np.ndarray, weights: np.ndarray,
                       mean: np.ndarray | None = None) -> np.ndarray:
-    """Weighted variance per state axis, (N, D) and (N,) -> (D,)."""
-    mean = weighted_mean(states, weights) if mean is None else mean
-    d = states - mean
-    return np.einsum("n,nd->d", np.asarray(weights, dtype=np.float64), d * d)
+    """Weighted variance per state axis, (N, D) and (N,) -> (D,); or (T, N, D) and (T, N)
+    -> (T, D), one filter per row."""
+    w = np.asarray(weights, dtype=np.float64)
+    mean = weighted_mean(states, w) if mean is None else np.asarray(mean, dtype=np.float64)
+    d = np.subtract(states, mean if w.ndim == 1 else mean[:, None, :])
+    d *= d
+    return np.einsum(_EINSUM[w.ndim], w, d)
 
 
 def weighted_extent(states: np.ndarray, weights: np.ndarray,
                     mean: np.ndarray | None = None) -> np.ndarray:
-    """Size estimate ``l = 2 sqrt(sum_i g_i (x_i - x_0)^2)`` per axis (seed 003 eq. 10)."""
-    return 2.0 * np.sqrt(weighted_variance(states, weights, mean))
+    """Size estimate ``l = 2 sqrt(sum_i g_i (x_i - x_0)^2)`` per axis (seed 003 eq. 10);
+    shapes as :func:`weighted_variance`."""
+    e = np.sqrt(weighted_variance(states, weights, mean))
+    e *= 2.0
+    return e
