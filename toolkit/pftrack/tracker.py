@@ -7,7 +7,8 @@ Data flow per frame (top to bottom)::
           -> observation.to_boxes                   particle boxes (N, 4) xywh px
           -> [associator] detections <-> targets    ``target.extra["detection"]``
           -> likelihood.begin_frame(all targets) -> likelihood.log_likelihood (per target)
-          -> normalise, estimate (weighted mean), extent, resample on ESS
+          -> normalise, estimate (weighted mean), extent, resample on ESS: vectorised over
+             the targets (one row per filter, each row the single-filter numbers bit for bit)
           -> death (misses, leaving the valid region) and birth (unmatched confident detections)
           -> list[TrackRecord]
 
@@ -30,7 +31,9 @@ from pftrack.components import Associator, Detections, Detector, Frame, Likeliho
 from pftrack.filter import (
     RESAMPLERS,
     effective_sample_size,
+    normalize_log_weight_rows,
     normalize_log_weights,
+    systematic_resample_rows,
     weighted_extent,
     weighted_mean,
 )
@@ -248,6 +251,7 @@ class MultiTargetTracker:
         self._uniform_log = np.log(self._uniform)
         self._uniform.flags.writeable = False
         self._uniform_log.flags.writeable = False
+        self._vectorise = True  # False: one target at a time (same numbers; for tests)
 
     # -- targets ------------------------------------------------------------------------------
 
@@ -330,19 +334,11 @@ class MultiTargetTracker:
                     "index": int(di),
                 }
             unmatched_dets = a.unmatched_detections
-        # 3. weight
+        # 3. weight every target (each sees the others as the frame found them)
         targets = [f.target for f in filters]
         self.likelihood.begin_frame(frame, targets, detections)
         n = self.n_particles
-        resampler = RESAMPLERS[self.resampling]
-        always_resample = self.ess_threshold >= 1.0  # ESS <= N: no need to compute it
-        ess_min = self.ess_threshold * n + 1e-9
-        # the base in_view is "the estimate's box overlaps the image": read it off that box
-        box_in_view = type(observation).in_view is ObservationModel.in_view
-        img_w, img_h = frame.size_wh
-        records = []
-        dead = []
-        recovered = False
+        logls = []
         for f in filters:
             t = f.target
             logl = self.likelihood.log_likelihood(t.particle_boxes_xywh_px, t)
@@ -353,17 +349,59 @@ class MultiTargetTracker:
                                  f"{logl.shape}, expected ({len(f.particles)},)")
             if self.valid_region is not None:
                 logl = np.where(self.valid_region(f.particles[:, pos_dims]), logl, -np.inf)
-            w, ok = normalize_log_weights(f.log_weights + logl)
+            logls.append(logl)
+        # 4. normalise, estimate, resample: one filter per row, vectorised over the targets
+        # (every row equals the single-filter computation bit for bit; the T systematic offsets
+        # are the T numbers successive calls would draw)
+        resampler = RESAMPLERS[self.resampling]
+        always_resample = self.ess_threshold >= 1.0  # ESS <= N: no need to compute it
+        ess_min = self.ess_threshold * n + 1e-9
+        weights = ok_rows = best_rows = states = extents = resampled = None
+        if self._vectorise and filters and all(len(f.particles) == n for f in filters):
+            lw = np.stack(logls)
+            best_rows = lw.max(axis=1).tolist()
+            if all(f.log_weights is self._uniform_log for f in filters):
+                lw += self._uniform_log
+            else:
+                lw += np.stack([f.log_weights for f in filters])
+            weights, ok_rows = normalize_log_weight_rows(lw)
+            if ok_rows.all():  # no recovery draws random numbers between the targets
+                p = np.stack([f.particles for f in filters])  # (T, N, D)
+                states = weighted_mean(p, weights)
+                extents = weighted_extent(p, weights, states)
+                if always_resample and self.resampling == "systematic":
+                    idx = systematic_resample_rows(weights, rng)
+                    idx += (np.arange(len(filters), dtype=np.intp) * n)[:, None]
+                    resampled = p.reshape(-1, p.shape[2]).take(idx.ravel(), axis=0)
+                    resampled = resampled.reshape(p.shape)
+        # the base in_view is "the estimate's box overlaps the image": read it off that box
+        box_in_view = type(observation).in_view is ObservationModel.in_view
+        img_w, img_h = frame.size_wh
+        records = []
+        dead = []
+        recovered = False
+        for i, f in enumerate(filters):
+            t = f.target
+            if weights is not None:
+                w, ok = weights[i], bool(ok_rows[i])
+            else:
+                w, ok = normalize_log_weights(f.log_weights + logls[i])
             if not ok:
                 # nothing explains the observation: re-spread around the last estimate
                 recovered = True
                 f.particles = self.motion.init_states(f.anchor, n, rng,
                                                       spread=self.recover_spread)
                 w = self._uniform
-            best = float(logl.max()) if ok and len(logl) else -math.inf
-            state = weighted_mean(f.particles, w)
+            if not ok or not len(logls[i]):
+                best = -math.inf
+            else:
+                best = best_rows[i] if best_rows is not None else float(logls[i].max())
+            if states is not None:
+                state, t.extent = states[i], extents[i]
+            else:
+                state = weighted_mean(f.particles, w)
+                t.extent = weighted_extent(f.particles, w, state)
             t.state = state
-            t.extent = weighted_extent(f.particles, w, state)
             box = observation.to_boxes(state[None], t)[0]
             t.box_xywh_px = box
             supported = ok and (
@@ -373,8 +411,11 @@ class MultiTargetTracker:
             t.frames_tracked = t.frames_tracked + 1 if supported else 0
             t.misses = 0 if supported else t.misses + 1
             f.anchor = state[pos_dims]  # fancy indexing: a copy
-            # 4. resample
-            if always_resample or effective_sample_size(w) < ess_min:
+            # resample
+            if resampled is not None:
+                f.particles = resampled[i]
+                f.weights, f.log_weights = self._uniform, self._uniform_log
+            elif always_resample or effective_sample_size(w) < ess_min:
                 # take() is several times faster than fancy indexing for small N, same values
                 f.particles = f.particles.take(resampler(w, rng, None), axis=0)
                 f.weights, f.log_weights = self._uniform, self._uniform_log
