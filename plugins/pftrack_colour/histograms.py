@@ -475,11 +475,7 @@ class ParticleRegion:
             # each box's four corners in the integral image of the padded region, gathered
             # with one take; the sum is ((bottom-right - top-right) - bottom-left) + top-left
             stride = ii.shape[1]
-            corners = self._corner_index(stride)
-            if oy:
-                corners = corners + oy * stride
-            g = ii.ravel().take(corners + np.array([[sh * stride + bw], [bw], [sh * stride],
-                                                    [0]], dtype=np.intp))
+            g = ii.ravel().take(self._corner_index(stride, oy, sh, bw))
             out = g[0]
             out -= g[1]
             out -= g[2]
@@ -487,19 +483,17 @@ class ParticleRegion:
             return out
         return self._corner_sums(v, part)
 
-    def _corner_index(self, stride: int) -> np.ndarray:
-        """Flat index (N,) of each same-size box's top-left corner in a row-major array of
-        ``stride`` columns laid over the padded region (cached per stride)."""
-        key = ("corner", stride)
-        idx = self._cache.get(key)
-        if idx is None:
-            px0, py0 = self._pad[:2]
-            xy = self._xy.astype(np.intp)  # exact: integers below 1e9
-            idx = xy[1] * stride
-            idx += xy[0]
-            idx -= py0 * stride + px0
-            self._cache[key] = idx
-        return idx
+    def _corner_index(self, stride: int, oy: int, sh: int, bw: int) -> np.ndarray:
+        """Flat indices (4, N) of the bottom-right, top-right, bottom-left and top-left corners
+        of each same-size box's ``bw x sh`` window starting ``oy`` rows below its top, in a
+        row-major array of ``stride`` columns laid over the padded region."""
+        px0, py0 = self._pad[:2]
+        top_left = (oy - py0) * stride - px0
+        xy = self._xy[1] * float(stride)  # exact: integers well below 2**53
+        xy += self._xy[0]
+        offsets = np.array([top_left + sh * stride + bw, top_left + bw,
+                            top_left + sh * stride, top_left], dtype=np.float64)
+        return np.add.outer(offsets, xy).astype(np.intp)
 
     def _corner_sums(self, v: np.ndarray, part: tuple[int, int] | None = None) -> np.ndarray:
         rows, cols = self.shape

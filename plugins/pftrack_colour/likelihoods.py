@@ -51,6 +51,7 @@ Beyond the paper (all optional, off by default except where said):
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -189,6 +190,7 @@ class ColourLikelihood(Likelihood):
         self.values_.pop(target.id, None)
 
     def end_target(self, target: Target) -> None:
+        self.__dict__.get("_log_templates", {}).pop(target.id, None)
         if hasattr(self, "templates_"):
             self.templates_.pop(target.id, None)
             self.target_rects_.pop(target.id, None)
@@ -209,7 +211,9 @@ class ColourLikelihood(Likelihood):
                     self.templates_[t.id] = ((1 - a) * self.templates_[t.id]
                                              + a * normalise_histogram(counts, self.eps))
         self.image_ = frame.image
-        if live:
+        if self.region is None:  # a handful of boxes: rounded one by one (same numbers)
+            self.target_rects_ = {t.id: _integer_rect(t.box_xywh_px) for t in live}
+        elif live:
             boxes = self._colour_boxes(np.array([t.box_xywh_px for t in live], dtype=float))
             self.target_rects_ = dict(zip((t.id for t in live), integer_boxes(boxes)))
         else:
@@ -222,6 +226,16 @@ class ColourLikelihood(Likelihood):
     def _value_table(self, target_id: int) -> np.ndarray | None:
         """Per-frame, per-target table (parts, m); default none."""
         return None
+
+    def _log_template(self, target_id: int) -> np.ndarray:
+        """``np.log`` of a target's templates (parts, m), kept while the template is unchanged
+        (templates are replaced, never modified in place)."""
+        cache = self.__dict__.setdefault("_log_templates", {})
+        q = self.template(target_id)
+        hit = cache.get(target_id)
+        if hit is None or hit[0] is not q:
+            hit = cache[target_id] = (q, np.log(q))
+        return hit[1]
 
     def _background(self, image: np.ndarray) -> None:
         """Background histogram from every ``background_stride``-th pixel outside all targets'
@@ -308,6 +322,16 @@ class ColourLikelihood(Likelihood):
             if k in d:
                 d[k] = None
         return d
+
+
+def _integer_rect(box_xywh_px: np.ndarray) -> np.ndarray:
+    """``integer_boxes(box[None])[0]`` for one box, with Python scalars (begin_frame rounds a
+    handful of boxes per frame; numpy's per-call cost dominates there)."""
+    v = [c + 0.5 for c in np.asarray(box_xywh_px, dtype=np.float64).reshape(4).tolist()]
+    if not all(abs(c) < 1e9 for c in v):  # far away, NaN or infinite: the vectorised rules
+        return integer_boxes(np.asarray(box_xywh_px, dtype=np.float64)[None])[0]
+    x0, y0, w, h = (math.floor(c) for c in v)
+    return np.array([x0, y0, x0 + max(w, 1), y0 + max(h, 1)], dtype=np.int64)
 
 
 def _bhattacharyya(counts: np.ndarray, n: np.ndarray, sqrt_q: np.ndarray) -> np.ndarray:
@@ -462,7 +486,7 @@ class CrossEntropyLikelihood(ColourLikelihood):
     def _value_table(self, target_id: int) -> np.ndarray:
         """Per-bin value whose sum over a box's pixels is the log-likelihood (λ = n), one row
         per stripe, float32."""
-        return np.log(self.template(target_id)).astype(np.float32)
+        return self._log_template(target_id).astype(np.float32)
 
     def _log_likelihood(self, region, q, target_id):
         binner = self.binner_
@@ -547,7 +571,7 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
                              "literally and needs overlap='independent'")
 
     def _value_table(self, target_id: int) -> np.ndarray:
-        return (np.log(self.template(target_id)) - self.log_background_).astype(np.float32)
+        return (self._log_template(target_id) - self.log_background_).astype(np.float32)
 
     def _log_likelihood(self, region, q, target_id):
         self._cover_cache = None  # per call: the other targets' coverage of this region
