@@ -95,6 +95,25 @@ def test_histogram_counts_every_pixel():
     assert h.sum() == img.shape[0] * img.shape[1]
 
 
+@pytest.mark.parametrize("space", ["rgb", "bgr", "hsv", "lab", "ycrcb"])
+@pytest.mark.parametrize("bins", [8, (4, 6, 5), (256, 3, 1)])
+def test_masked_histogram_counts_the_masked_bins(space, bins):
+    """One calcHist call where it bins exactly (ranges of 256), the bin image elsewhere (hue):
+    either way the counts of the bins of the pixels the mask keeps."""
+    img = _image(5, (31, 45))
+    cb = ColourBins(bins, space)
+    mask = np.random.default_rng(6).random(img.shape[:2]) < 0.4
+    expected = np.bincount(cb(img)[mask], minlength=cb.n_bins).astype(float)
+    for m in (mask, mask.astype(np.uint8) * 255):
+        got = cb.histogram(img, m)
+        assert got.dtype == np.float64
+        np.testing.assert_array_equal(got, expected)
+    np.testing.assert_array_equal(cb.histogram(img[::2, ::3]),
+                                  np.bincount(cb(img[::2, ::3]).ravel(), minlength=cb.n_bins))
+    with pytest.raises(ValueError, match="mask shape"):
+        cb.histogram(img, mask[1:])
+
+
 @pytest.mark.parametrize("shape", [(240, 360), (241, 361), (7, 5)])
 @pytest.mark.parametrize("stride", [1, 2, 3])
 def test_subsample_is_the_strided_slice(shape, stride):

@@ -123,6 +123,22 @@ def test_background_histogram_excludes_every_target_box():
     assert lik.background_[red] < 1e-4
 
 
+@pytest.mark.parametrize("space, stride", [("rgb", 3), ("hsv", 2), ("lab", 1)])
+def test_background_counts_one_histogram_call_equal_the_bin_image_path(space, stride):
+    """cross-entropy-bg counts the background with one masked histogram call, the
+    Bhattacharyya background (which also needs per-target counts) from the bin image: the same
+    numbers, also when the targets cover the whole image."""
+    frame, targets = _scene(7)
+    big = Target(id=3, state=np.array([40.0, 30.0]), box_xywh_px=np.array([-5.0, -5, 90, 70]))
+    for ts in (targets, [*targets, big]):
+        kw = {"colour_space": space, "background_stride": stride}
+        ce = _ready(CrossEntropyBackgroundLikelihood(**kw), frame, ts)
+        bh = _ready(BhattacharyyaBackgroundLikelihood(**kw), frame, ts)
+        assert np.array_equal(ce.background_counts_, bh.background_counts_)
+        assert np.array_equal(ce.background_, bh.background_)
+        assert ce.background_counts_.sum() > 0
+
+
 def test_cross_entropy_background_is_the_log_ratio_sum():
     """eq. 21-22: log L = Σ_{x in box} log(q / h_back)(bin(x)) for a box clear of other targets."""
     frame, targets = _scene()

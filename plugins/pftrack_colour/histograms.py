@@ -93,6 +93,10 @@ class ColourBins:
         object.__setattr__(self, "_luts", tuple(np.ascontiguousarray(lut[:, :, j])
                                                 for j in range(3)))
         object.__setattr__(self, "_shape", nb)
+        # cv2.calcHist bins an 8-bit channel through floor(v * n / range) in double precision:
+        # exact (the formula above) when the range is 256, a power of two
+        object.__setattr__(self, "_calchist", (list(order), list(nb), [0, 256] * 3)
+                           if all(r == 256 for r in ranges) else None)
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -133,9 +137,35 @@ class ColourBins:
         l0, l1, l2 = self._luts  # type: ignore[attr-defined]
         return cv2.add(cv2.add(cv2.LUT(c0, l0), cv2.LUT(c1, l1)), cv2.LUT(c2, l2))
 
-    def histogram(self, image_bgr: np.ndarray) -> np.ndarray:
-        """Bin counts of all pixels of ``image_bgr``: shape (n_bins,), float64."""
-        return np.bincount(self(image_bgr).ravel(), minlength=self.n_bins).astype(np.float64)
+    def histogram(self, image_bgr: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+        """Bin counts of the pixels of ``image_bgr`` (where ``mask``, (H, W) bool or uint8, is
+        nonzero): shape (n_bins,), float64.
+
+        One ``cv2.calcHist`` call when it bins exactly as :meth:`__call__` does (channel ranges
+        of 256), else the bin image and ``np.bincount``; the counts are the same.
+        """
+        img = np.asarray(image_bgr)
+        if mask is not None:
+            mask = np.asarray(mask)
+            if mask.shape != img.shape[:2]:
+                raise ValueError(f"mask shape {mask.shape} does not match the image's "
+                                 f"{img.shape[:2]}")
+        spec = self._calchist  # type: ignore[attr-defined]
+        if spec is None or img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
+            bins = self(img)
+            if mask is not None:
+                bins = bins[mask.astype(bool, copy=False)]
+            return np.bincount(bins.ravel(), minlength=self.n_bins).astype(np.float64)
+        code = COLOUR_SPACES[str(self.colour_space).lower()][0]
+        img = np.ascontiguousarray(img)
+        if code is not None:
+            img = cv2.cvtColor(img, code)
+        if mask is not None:
+            mask = np.ascontiguousarray(mask.view(np.uint8) if mask.dtype == bool
+                                        else (mask != 0).view(np.uint8))
+        channels, sizes, ranges = spec
+        h = cv2.calcHist([img], channels, mask, sizes, ranges)  # float32, exact below 2**24
+        return h.reshape(-1).astype(np.float64)
 
 
 def subsample(image: np.ndarray, stride: int) -> np.ndarray:

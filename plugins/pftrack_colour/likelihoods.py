@@ -243,7 +243,7 @@ class ColourLikelihood(Likelihood):
         target, the counts of its own box's grid pixels that no other target covers."""
         s = int(self.background_stride)
         binner = self.binner_
-        grid = binner(subsample(image, s))
+        sub = subsample(image, s)
         m = binner.n_bins
         slices = {}
         for tid, r in self.target_rects_.items():
@@ -252,6 +252,22 @@ class ColourLikelihood(Likelihood):
             gy0, gy1 = -(-max(int(r[1]), 0) // s), -(-max(int(r[3]), 0) // s)
             if gx1 > gx0 and gy1 > gy0:
                 slices[tid] = (slice(gy0, gy1), slice(gx0, gx1))
+        if not self.needs_own_counts:
+            # the counts alone: one masked histogram call (same counts as the bin image path)
+            keep = None
+            if slices:
+                keep = np.ones(sub.shape[:2], dtype=np.uint8)
+                for sl in slices.values():
+                    keep[sl] = 0
+            counts = binner.histogram(sub, keep)
+            if keep is not None and not counts.any():  # targets cover the whole image
+                counts = binner.histogram(sub)
+            self.background_counts_ = counts * (s * s)  # estimated full-resolution counts
+            self.background_ = normalise_histogram(counts, self.eps)
+            self.log_background_ = np.log(self.background_)
+            self.own_counts_ = {}
+            return
+        grid = binner(sub)
         cover = None
         if slices:
             cover = np.zeros(grid.shape, dtype=np.uint8)
