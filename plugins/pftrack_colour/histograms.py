@@ -161,8 +161,11 @@ class ColourBins:
         if code is not None:
             img = cv2.cvtColor(img, code)
         if mask is not None:
-            mask = np.ascontiguousarray(mask.view(np.uint8) if mask.dtype == bool
-                                        else (mask != 0).view(np.uint8))
+            if mask.dtype == bool:
+                mask = mask.view(np.uint8)
+            elif mask.dtype != np.uint8:
+                mask = (mask != 0).view(np.uint8)
+            mask = np.ascontiguousarray(mask)
         channels, sizes, ranges = spec
         h = cv2.calcHist([img], channels, mask, sizes, ranges)  # float32, exact below 2**24
         return h.reshape(-1).astype(np.float64)

@@ -109,7 +109,7 @@ def normalize_log_weight_rows(log_weights: np.ndarray) -> tuple[np.ndarray, np.n
     t, n = lw.shape
     if t and n:
         m = lw.max(axis=1)
-        if np.isfinite(m).all():  # the fast path of normalize_log_weights, row by row
+        if all(-math.inf < v < math.inf for v in m.tolist()):  # fast path, row by row
             return _exp_normalised(np.subtract(lw, m[:, None])), np.ones(t, dtype=bool)
     w = np.empty(lw.shape)
     ok = np.ones(t, dtype=bool)
@@ -196,12 +196,12 @@ def systematic_resample_rows(weights: np.ndarray, rng: np.random.Generator) -> n
                          f"shape {w.shape}")
     t, n = w.shape
     c = np.add.accumulate(w, axis=1)
-    total = c[:, -1].copy()
-    if t and (not ((total > 0) & (total < math.inf)).all() or w.min() < 0):
+    total = c[:, -1].tolist()
+    if not all(0.0 < v < math.inf for v in total) or (t and w.min() < 0):  # NaN fails too
         raise ValueError(f"resampling weights must be non-negative with a positive finite sum "
                          f"in every row (got sums {total}, min {w.min()}); normalise them with "
                          "normalize_log_weight_rows first")
-    c *= (1.0 / total)[:, None]
+    c *= (1.0 / c[:, -1])[:, None]  # the right side is evaluated before c changes
     c[:, -1] = 1.0  # guard the last bin against round-off
     u = rng.random(t)
     c *= n
