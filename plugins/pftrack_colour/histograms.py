@@ -93,6 +93,7 @@ class ColourBins:
         object.__setattr__(self, "_luts", tuple(np.ascontiguousarray(lut[:, :, j])
                                                 for j in range(3)))
         object.__setattr__(self, "_shape", nb)
+        object.__setattr__(self, "_code", COLOUR_SPACES[space][0])
         # cv2.calcHist bins an 8-bit channel through floor(v * n / range) in double precision:
         # exact (the formula above) when the range is 256, a power of two
         object.__setattr__(self, "_calchist", (list(order), list(nb), [0, 256] * 3)
@@ -127,7 +128,7 @@ class ColourBins:
             raise ValueError(f"expected a BGR uint8 image (H, W, 3), got {img.dtype} {img.shape}")
         if img.shape[0] == 0 or img.shape[1] == 0:
             return np.zeros(img.shape[:2], dtype=self._lut.dtype)
-        code = COLOUR_SPACES[str(self.colour_space).lower()][0]
+        code = self._code  # type: ignore[attr-defined]
         if code is not None:
             img = cv2.cvtColor(np.ascontiguousarray(img), code)
         elif img.strides[1:] != (3, 1):  # OpenCV reads row-strided views, not others
@@ -156,7 +157,7 @@ class ColourBins:
             if mask is not None:
                 bins = bins[mask.astype(bool, copy=False)]
             return np.bincount(bins.ravel(), minlength=self.n_bins).astype(np.float64)
-        code = COLOUR_SPACES[str(self.colour_space).lower()][0]
+        code = self._code  # type: ignore[attr-defined]
         img = np.ascontiguousarray(img)
         if code is not None:
             img = cv2.cvtColor(img, code)

@@ -295,13 +295,14 @@ class ColourLikelihood(Likelihood):
         for tid, r in self.target_rects_.items():
             if tid == target_id:
                 continue
-            x0, x1 = max(int(r[0]), region.x0), min(int(r[2]), region.x1)
+            r0, r1, r2, r3 = r.tolist()
+            x0, x1 = max(r0, region.x0), min(r2, region.x1)
             if x1 <= x0:
                 continue
-            h = int(r[3]) - int(r[1])
+            h = r3 - r1
             for k in range(p):
-                ry0 = int(r[1]) + (k * h) // p
-                ry1 = int(r[1]) + ((k + 1) * h) // p
+                ry0 = r1 + (k * h) // p
+                ry1 = r1 + ((k + 1) * h) // p
                 y0, y1 = max(ry0, region.y0), min(ry1, region.y1)
                 if y1 > y0:
                     out.append((tid, k, (slice(y0 - region.y0, y1 - region.y0),
@@ -516,8 +517,9 @@ class CrossEntropyLikelihood(ColourLikelihood):
                 sums = sums + region.box_histograms(bins, binner.n_bins, part) @ table[k]
         else:
             for k, part in enumerate(self._parts):
-                sums = sums + region.box_sums(self._value_image(region, bins, table, k,
-                                                                target_id), part)
+                box = region.box_sums(self._value_image(region, bins, table, k, target_id), part)
+                # integral-image sums are never -0.0, so 0.0 + box would be box bit for bit
+                sums = box if k == 0 else sums + box
         if self.lam is None and region.all_inside:  # λ = n: the sum itself (eq. 18, 21)
             return sums
         lam = region.box_area if self.lam is None else float(self.lam)
