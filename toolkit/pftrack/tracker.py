@@ -361,15 +361,15 @@ class MultiTargetTracker:
         ess_min = self.ess_threshold * n + 1e-9
         weights = ok_rows = best_rows = states = extents = resampled = None
         if self._vectorise and filters and all(len(f.particles) == n for f in filters):
-            lw = np.stack(logls)
+            lw = np.array(logls)  # (T, N); np.array is cheaper than np.stack for a few rows
             best_rows = lw.max(axis=1).tolist()
             if all(f.log_weights is self._uniform_log for f in filters):
                 lw += self._uniform_log
             else:
-                lw += np.stack([f.log_weights for f in filters])
+                lw += np.array([f.log_weights for f in filters])
             weights, ok_rows = normalize_log_weight_rows(lw)
             if ok_rows.all():  # no recovery draws random numbers between the targets
-                p = np.stack([f.particles for f in filters])  # (T, N, D)
+                p = np.array([f.particles for f in filters])  # (T, N, D)
                 states = weighted_mean(p, weights)
                 extents = weighted_extent(p, weights, states)
                 if always_resample and self.resampling == "systematic":
