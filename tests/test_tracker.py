@@ -191,8 +191,8 @@ def test_targets_vectorised_equal_one_at_a_time_bit_for_bit(scheme, ess):
                                 rng=np.random.default_rng(5), kill_out_of_view=False)
         tr._vectorise = vectorise
         frames = list(_frames(60))
-        for tid in truth:
-            tr.add_target(frames[0], truth[tid](0), target_id=tid)
+        for tid, path in truth.items():
+            tr.add_target(frames[0], path(0), target_id=tid)
         recs = [r for f in frames[1:] for r in tr.step(f)]
         return records_to_mot(recs), tr.recoveries
 

@@ -27,7 +27,15 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import expit
 
-from pftrack.components import Associator, Detections, Detector, Frame, Likelihood, MotionModel, Target
+from pftrack.components import (
+    Associator,
+    Detections,
+    Detector,
+    Frame,
+    Likelihood,
+    MotionModel,
+    Target,
+)
 from pftrack.filter import (
     RESAMPLERS,
     effective_sample_size,
@@ -41,10 +49,10 @@ from pftrack.filter import (
 log = logging.getLogger(__name__)
 
 __all__ = [
-    "ObservationModel",
     "ImageBoxObservation",
-    "TrackRecord",
     "MultiTargetTracker",
+    "ObservationModel",
+    "TrackRecord",
     "records_to_mot",
 ]
 
@@ -472,7 +480,7 @@ class MultiTargetTracker:
         )
 
     def run(self, frames: Iterable[Frame],
-            initial: Callable[[Frame, "MultiTargetTracker"], None] | None = None,
+            initial: Callable[[Frame, MultiTargetTracker], None] | None = None,
             ) -> Iterator[list[TrackRecord]]:
         """Stream ``frames`` through :meth:`step`, yielding each frame's records.
 
