@@ -125,6 +125,65 @@ def test_session_removes_the_younger_duplicate_and_scores_appearance():
         assert np.argmax(a) == own
 
 
+def _world_cfg(**births) -> dict:
+    return {
+        "state": "world",
+        "observation": {"height_m": 1.75, "width_ratio": 0.355},
+        "motion": {"type": "constant-acceleration",
+                   "params": {"position_noise": 0.001, "velocity_noise": 0.001,
+                              "acceleration_noise": 0.001, "max_frames_tracked": 1}},
+        "likelihood": {"type": "composite", "params": {"terms": [
+            {"likelihood": {"type": "detection", "params": {"floor": 1e-3}}, "weight": 1.0}]}},
+        "associator": {"type": "greedy-score", "params": {}},
+        "tracker": {"n_particles": 50, "init_spread": 0.001, "max_misses": 10},
+        "births": {"confirm_hits": 1, "confirm_window": 1, **births},
+    }
+
+
+@pytest.mark.skipif(not (PETS / "View_001.xml").is_file(), reason="PETS 2009 data not found")
+def test_world_duplicates_are_told_by_ground_distance_not_image_overlap():
+    """Two people 0.9 m apart, one behind the other: their boxes overlap (IoU > 0.6) yet
+    both stay with merge_distance_m; a second track 0.1 m from a person is removed (the
+    younger). With image overlap alone (merge_iou) the hidden person would be removed."""
+    from pftrack.components import Frame
+    from pftrack.geometry.formats import load_camera
+    from pftrack.pipeline import _box_iou
+
+    cam = load_camera(PETS / "View_001.xml")
+    frame0 = Frame(1, np.zeros((576, 768, 3), np.uint8))
+    # 0.9 m apart along the camera's line of sight (IoU 0.77 in the image)
+    positions = {"front": (-6.0, -6.0), "behind": (-6.0 + 0.9 * np.cos(np.pi / 6),
+                                                    -6.0 + 0.9 * np.sin(np.pi / 6)),
+                 "duplicate": (-6.05, -5.95)}
+
+    def survivors(**births):
+        session = build_session(_world_cfg(**births), camera=cam, fps=10.0, seed=0)
+        tr = session.tracker
+        ids = {k: tr.add_target(frame0, np.array(p)).id for k, p in positions.items()}
+        boxes = {k: tr._filters[i].target.box_xywh_px for k, i in ids.items()}
+        session.step(Frame(2, frame0.image), Detections.empty())
+        live = {t.id for t in tr.targets}
+        return {k for k, i in ids.items() if i in live}, boxes
+
+    kept, boxes = survivors(merge_distance_m=0.4)
+    assert _box_iou(boxes["front"], boxes["behind"])[0, 0] > 0.6
+    assert kept == {"front", "behind"}
+    kept, _ = survivors(merge_iou=0.6)
+    assert kept == {"front"}
+    with pytest.raises(ValueError, match="merge_distance_m"):
+        build_session(_world_cfg(merge_distance_m=-1.0), camera=cam, fps=10.0, seed=0)
+
+
+def test_empty_result_writes_an_empty_mot_file(tmp_path):
+    from pftrack.io.mot import read_mot
+    from pftrack.pipeline import RunResult, write_outputs
+
+    res = RunResult(np.zeros((0, 10)), {}, {})
+    write_outputs(tmp_path, {"name": "x"}, res, None, {}, None)
+    assert (tmp_path / "tracks.txt").read_text() == ""
+    assert read_mot(tmp_path / "tracks.txt").shape == (0, 10)
+
+
 @pytest.mark.slow
 def test_pets_run_writes_tracks_metrics_and_report(tmp_path):
     """Train on frames 1-200, track frames 401-460 on the ground plane."""

@@ -23,8 +23,9 @@ records -> MOTChallenge rows (world columns filled for ground-plane state).
 overlapping no live target by more than ``max_iou``, starts a *tentative* target; it is confirmed
 once ``confirm_hits`` of its first ``confirm_window`` frames had a matched detection, and then its
 records from birth on are output (so confirmation costs no frames); otherwise it is dropped
-unseen. Two confirmed targets whose boxes overlap by more than ``merge_iou`` are one person
-tracked twice: the younger is removed.
+unseen. Two confirmed targets that are one person tracked twice (ground positions closer than
+``merge_distance_m`` with a world frame, else boxes overlapping by more than ``merge_iou``): the
+younger is removed.
 
 Frame numbers are the ground truth's (MOTChallenge, 1-based): MOT frame N is video frame N - 1.
 """
@@ -63,6 +64,7 @@ TRACKER_KEYS = {"n_particles", "resampling", "ess_threshold", "dt", "init_spread
                 "recover_spread", "max_misses", "min_log_likelihood", "kill_out_of_view",
                 "target_size"}
 BIRTH_KEYS = {"min_score", "max_iou", "confirm_hits", "confirm_window", "merge_iou",
+              "merge_distance_m",
               "hide_after_misses", "appearance"}
 APPEARANCE_KEYS = {"bins", "sigma", "update_rate", "region"}
 
@@ -288,6 +290,12 @@ class TrackingSession:
         first ``confirm_window`` frames (birth frame included), else dropped.
     merge_iou : float
         Confirmed targets overlapping by more than this: the younger is removed.
+    merge_distance_m : float, optional
+        With a ground-plane observation model: confirmed targets whose ground positions are
+        closer than this (metres) are one person tracked twice and the younger is removed;
+        ``merge_iou`` is then not used. Image overlap is the wrong test on the ground plane:
+        two people one behind the other (a metre or more apart in depth) overlap in the
+        image, and removing one of them loses a correctly tracked person.
     valid_region : callable, optional
         ``f(positions (N, 2)) -> bool (N,)``: births only where true.
     hide_after_misses : int, optional
@@ -305,8 +313,8 @@ class TrackingSession:
 
     def __init__(self, tracker: MultiTargetTracker, *, min_score: float = 0.2,
                  max_iou: float = 0.3, confirm_hits: int = 3, confirm_window: int = 5,
-                 merge_iou: float = 0.6, valid_region: Any = None,
-                 hide_after_misses: int | None = None,
+                 merge_iou: float = 0.6, merge_distance_m: float | None = None,
+                 valid_region: Any = None, hide_after_misses: int | None = None,
                  appearance: dict[str, Any] | None = None) -> None:
         if confirm_hits < 1 or confirm_window < confirm_hits:
             raise ValueError(f"births: need 1 <= confirm_hits <= confirm_window, got "
@@ -317,6 +325,10 @@ class TrackingSession:
         self.confirm_hits = int(confirm_hits)
         self.confirm_window = int(confirm_window)
         self.merge_iou = float(merge_iou)
+        if merge_distance_m is not None and not float(merge_distance_m) > 0:
+            raise ValueError(f"births.merge_distance_m must be > 0 metres or null, got "
+                             f"{merge_distance_m!r}")
+        self.merge_distance_m = None if merge_distance_m is None else float(merge_distance_m)
         self.valid_region = valid_region
         self.hide_after_misses = hide_after_misses
         if appearance is not None:
@@ -396,6 +408,20 @@ class TrackingSession:
             old = t.extra.get("appearance_hist")
             t.extra["appearance_hist"] = h.copy() if old is None else (1 - a) * old + a * h
 
+    def _duplicates(self, targets: list[Target]) -> np.ndarray | None:
+        """Boolean (T, T): pairs of targets that are one person (None: no test configured)."""
+        obs = self.tracker.observation
+        if self.merge_distance_m is not None:
+            world = [obs.world_position(t.state) for t in targets]
+            if all(w is not None for w in world):
+                xy = np.array([np.asarray(w, dtype=np.float64)[:2] for w in world])
+                d = np.linalg.norm(xy[:, None, :] - xy[None, :, :], axis=2)
+                return d < self.merge_distance_m
+        if self.merge_iou >= 1.0:
+            return None
+        boxes = np.array([t.box_xywh_px for t in targets])
+        return _box_iou(boxes, boxes) > self.merge_iou
+
     def step(self, frame: Frame, detections: Detections | None) -> list[TrackRecord]:
         """One frame; returns the records to output now (confirmed targets, plus the buffered
         records of targets confirmed in this frame)."""
@@ -433,12 +459,10 @@ class TrackingSession:
                 out.append(r)
         # duplicates among confirmed targets
         confirmed = [t for t in live.values() if t.id not in self.tentative]
-        if len(confirmed) > 1 and self.merge_iou < 1.0:
-            boxes = np.array([t.box_xywh_px for t in confirmed])
-            iou = _box_iou(boxes, boxes)
-            np.fill_diagonal(iou, 0.0)
+        same = self._duplicates(confirmed) if len(confirmed) > 1 else None
+        if same is not None:
             gone: set[int] = set()
-            for i, j in zip(*np.nonzero(np.triu(iou > self.merge_iou))):
+            for i, j in zip(*np.nonzero(np.triu(same, 1))):
                 a, b = confirmed[i], confirmed[j]
                 if a.id in gone or b.id in gone:
                     continue
@@ -727,10 +751,7 @@ def write_outputs(out_dir: str | os.PathLike[str], cfg: dict[str, Any], result: 
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    if len(result.rows):
-        write_mot(out / "tracks.txt", result.rows)
-    else:
-        atomic_write_text(out / "tracks.txt", "\n")  # an empty result is still a result
+    write_mot(out / "tracks.txt", result.rows)  # no tracks: an empty file, still a result
     if result.metrics is not None:
         atomic_write_text(out / "metrics.json",
                           json.dumps(result.metrics, indent=2, default=float) + "\n")
