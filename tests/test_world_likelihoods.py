@@ -216,3 +216,38 @@ def test_composite_validation():
         CompositeLikelihood(terms=[{"likelihood": "nope"}]).begin_frame(_frame(), [])
     with pytest.raises(ValueError, match="colour_space"):
         EMDLikelihood(colour_space="xyz").begin_frame(_frame(), [])
+
+
+def test_composite_exclusion_keeps_a_coasting_target_off_a_detected_one(host_with_const):
+    """A target without a detection is weighted by prod_j (1 - exp(-d_j^2 / 2 r^2)) over the
+    targets that have one; detected targets and the exclusion-free composite are unchanged."""
+    a = {"type": "const-test", "params": {"value": np.log(0.5)}}
+    comp = CompositeLikelihood(terms=[{"likelihood": a, "weight": 1.0}], exclusion_m=0.3)
+    plain = CompositeLikelihood(terms=[{"likelihood": a, "weight": 1.0}])
+    f = _frame()
+    coasting = _target([0, 0, 5, 5], 1, (0.0, 0.0))
+    detected = _target([0, 0, 5, 5], 2, (0.4, 0.0))
+    far = _target([0, 0, 5, 5], 3, (10.0, 0.0))  # no detection either: excludes nobody
+    rng = np.random.default_rng(0)
+    for t, centre in ((coasting, (0.0, 0.0)), (detected, (0.4, 0.0)), (far, (10.0, 0.0))):
+        p = np.zeros((4, 6))
+        p[:, :2] = np.asarray(centre) + rng.normal(0, 0.05, (4, 2))
+        t.particles = p
+    detected.extra["detection"] = {"box_xywh_px": np.zeros(4), "score": 1.0, "index": 0}
+    for c in (comp, plain):
+        c.begin_frame(f, [coasting, detected, far])
+    assert set(comp.anchors_) == {2}
+    anchor = detected.particles[:, :2].mean(axis=0)
+    d2 = ((coasting.particles[:, :2] - anchor) ** 2).sum(axis=1)
+    want = np.log(0.5) + np.log(1.0 - np.exp(-0.5 * d2 / 0.3 ** 2))
+    np.testing.assert_allclose(comp.log_likelihood(np.zeros((4, 4)), coasting), want)
+    # particles nearer the detected person weigh less
+    near = np.argsort(d2)
+    assert np.all(np.diff(comp.log_likelihood(np.zeros((4, 4)), coasting)[near]) > 0)
+    for t in (detected, far):
+        np.testing.assert_allclose(comp.log_likelihood(np.zeros((4, 4)), t), np.log(0.5))
+    np.testing.assert_allclose(plain.log_likelihood(np.zeros((4, 4)), coasting), np.log(0.5))
+    # boxes that are not the target's own particles: no exclusion (nothing to place them)
+    np.testing.assert_allclose(comp.log_likelihood(np.zeros((2, 4)), coasting), np.log(0.5))
+    with pytest.raises(ValueError, match="exclusion_m"):
+        CompositeLikelihood(terms=[{"likelihood": a}], exclusion_m=0.0).begin_frame(f, [])
