@@ -17,6 +17,7 @@ from pftrack_world.detector import (
     _hog,
     box_iou_matrix,
     crop_windows,
+    heights_from_boxes,
     load_model,
     merge_clusters,
     nms,
@@ -88,6 +89,46 @@ def test_scale_plan_follows_the_camera():
         scale_plan(76.8, 96, 86.4, (768, 576), scale_step=1.0)
 
 
+def test_heights_learnt_from_boxes_match_the_camera_on_pets():
+    """The affine foot -> height law fitted to PETS ground-truth boxes (frames 1-400) predicts
+    the camera's expected heights, and the scale plan it gives scans the same bands."""
+    from pftrack.geometry.formats import load_camera
+    from pftrack.pipeline import read_ground_truth
+    from pftrack_world.detector import expected_heights_px
+
+    # exact on boxes that follow an affine law; NaN above the "horizon" (h <= 0)
+    u, v = np.meshgrid(np.arange(0, 640, 40.0), np.arange(0, 480, 40.0))
+    h = 0.4 * v.ravel() - 0.05 * u.ravel() - 20.0
+    keep = h > 5
+    boxes = np.stack([u.ravel() - 0.2 * h, v.ravel() - h, 0.4 * h, h], axis=1)[keep]
+    feet, heights = heights_from_boxes(boxes, (640, 480), step_px=16)
+    ok = np.isfinite(heights)
+    np.testing.assert_allclose(heights[ok], 0.4 * feet[ok, 1] - 0.05 * feet[ok, 0] - 20.0,
+                               atol=1e-9)
+    assert not np.isfinite(heights[feet[:, 1] == 0]).any()
+    with pytest.raises(ValueError, match="at least 3"):
+        heights_from_boxes(boxes[:2], (640, 480))
+    if not (PETS / "gt.txt").is_file():
+        pytest.skip("PETS 2009 data not found")
+    gt = read_ground_truth(PETS / "gt.txt", 1, 400)
+    feet, learnt = heights_from_boxes(gt[gt[:, 6] == 1, 2:6], (768, 576))
+    cam = load_camera(PETS / "View_001.xml")
+    _, camera = expected_heights_px(cam, 1.75, (768, 576))
+    both = np.isfinite(learnt) & np.isfinite(camera) & (feet[:, 1] >= 250)  # the walkway rows
+    # measured: median relative difference 0.014
+    assert np.median(np.abs(learnt[both] / camera[both] - 1)) < 0.05
+    plan_cam = scale_plan(76.8, 96, 86.4, (768, 576), min_height_px=48, camera=cam)
+    plan_box = scale_plan(76.8, 96, 86.4, (768, 576), min_height_px=48,
+                          expected=(feet, learnt))
+    assert plan_box[0].f == pytest.approx(plan_cam[0].f)
+    # the same ten scales; each scans about the same rows as the camera's (measured: band
+    # ends within 32 px)
+    assert len(plan_box) == len(plan_cam) == 10
+    for b, c in zip(plan_box, plan_cam):
+        assert b.f == pytest.approx(c.f)
+        assert abs(b.top_min - c.top_min) <= 40 and abs(b.top_max - c.top_max) <= 40
+
+
 def test_nms_and_merge():
     boxes = np.array([[0, 0, 10, 20], [1, 0, 10, 20], [30, 0, 10, 20]], dtype=float)
     scores = np.array([0.5, 0.9, 0.7])
@@ -141,6 +182,8 @@ def test_fit_is_seeded_and_finds_the_objects():
     np.testing.assert_array_equal(a.weights, b.weights)
     assert not np.array_equal(a.weights, c.weights)
     assert a.info["n_positive"] == 2 * 3 * 20  # every box and its mirror image
+    # no camera: hard negatives mined over the scales the training boxes show
+    assert a.info["mining_scales"] == "training boxes"
     assert np.linalg.norm(a.weights) == pytest.approx(1.0, rel=1e-5)
     det = SVMDetector(min_height_px=25, max_height_px=60, scale_step=1.1, **kw)
     det.fit(sc.frames, sc.boxes_by_frame, rng=np.random.default_rng(0))

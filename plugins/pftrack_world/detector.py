@@ -22,7 +22,11 @@ Training (:func:`train_svm_model`): positives are the ground-truth boxes (visibi
 mapped into the window and their horizontal mirror images; negatives are random windows whose
 person box has IoU < ``neg_iou`` with every ground-truth box (any flag), drawn with a seeded
 ``numpy.random.Generator``; one optional round of hard-negative mining adds the detector's own
-false positives on the training frames.
+false positives on the training frames, searched where the detector looks at run time: the
+camera's band of rows per scale when the detector has a camera, else the band the training boxes
+themselves show (:func:`heights_from_boxes`), so a model trained without a camera mines the same
+kind of windows as one trained with it (a plain pyramid would spend the hard negatives on scales
+no person can have at that row).
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ __all__ = [
     "SVMModel",
     "ScaleBand",
     "box_iou_matrix",
+    "heights_from_boxes",
     "load_model",
     "nms",
     "save_model",
@@ -272,10 +277,51 @@ def expected_heights_px(camera: Any, height_m: float, image_size_wh: tuple[int, 
     return px, heights
 
 
+def heights_from_boxes(boxes_xywh_px: np.ndarray, image_size_wh: tuple[int, int],
+                       step_px: int = 16) -> tuple[np.ndarray, np.ndarray]:
+    """Expected person height (px) for a foot at each pixel of a grid, learnt from boxes.
+
+    Without a camera, the ground-truth boxes of the training frames say the same thing a
+    calibrated camera does: on a flat ground seen by a pinhole camera, a person's image height
+    is an affine function of the foot point ``(u, v)`` (it grows linearly with the distance of
+    the foot row below the horizon). The least-squares plane ``h = a u + b v + c`` through the
+    boxes' (foot, height) samples is evaluated on the grid of :func:`expected_heights_px`.
+
+    Parameters
+    ----------
+    boxes_xywh_px : ndarray, shape (K, 4)
+        Person boxes (left, top, width, height) in pixels; at least 3.
+    image_size_wh : (int, int)
+    step_px : int
+        Grid step (pixels).
+
+    Returns
+    -------
+    feet : ndarray, shape (M, 2)
+        Foot pixels of the grid.
+    heights : ndarray, shape (M,)
+        Expected heights (px); NaN where the fit is not positive (above the horizon).
+    """
+    b = np.asarray(boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
+    b = b[np.all(np.isfinite(b), axis=1) & (b[:, 3] > 0)]
+    if len(b) < 3:
+        raise ValueError(f"heights_from_boxes: need at least 3 boxes, got {len(b)}")
+    A = np.column_stack([b[:, 0] + 0.5 * b[:, 2], b[:, 1] + b[:, 3], np.ones(len(b))])
+    coef, *_ = np.linalg.lstsq(A, b[:, 3], rcond=None)
+    w, h = image_size_wh
+    us, vs = np.meshgrid(np.arange(0, w, step_px, dtype=np.float64),
+                         np.arange(0, h, step_px, dtype=np.float64))
+    px = np.stack([us.ravel(), vs.ravel()], axis=1)
+    heights = px @ coef[:2] + coef[2]
+    heights[~(heights > 0)] = np.nan
+    return px, heights
+
+
 def scale_plan(box_height_win: float, window_h: int, foot_offset_win: float,
                image_size_wh: tuple[int, int], *, scale_step: float = 1.15,
                min_height_px: float = 40.0, max_height_px: float = 400.0,
                camera: Any = None, height_m: float = 1.75, tolerance: float = 1.25,
+               expected: tuple[np.ndarray, np.ndarray] | None = None,
                ) -> list[ScaleBand]:
     """The scales to search and, with a camera, the band of window tops at each scale.
 
@@ -301,14 +347,20 @@ def scale_plan(box_height_win: float, window_h: int, foot_offset_win: float,
     tolerance : float
         A foot row is searched at scale f when the expected height is within a factor
         ``tolerance * sqrt(scale_step)`` of the scale's box height.
+    expected : (feet (M, 2), heights (M,)), optional
+        Used like the camera's expectation when there is no camera (e.g.
+        :func:`heights_from_boxes` of the training boxes).
     """
     if scale_step <= 1.0:
         raise ValueError(f"scale_step must be > 1, got {scale_step}")
     h = image_size_wh[1]
     lo, hi = float(min_height_px), float(max_height_px)
     feet = heights = None
-    if camera is not None:
-        feet, heights = expected_heights_px(camera, height_m, image_size_wh)
+    if camera is not None or expected is not None:
+        if camera is not None:
+            feet, heights = expected_heights_px(camera, height_m, image_size_wh)
+        else:
+            feet, heights = (np.asarray(a, dtype=np.float64) for a in expected)
         ok = np.isfinite(heights)
         if not np.any(ok):
             raise ValueError("scale_plan: no image row sees the ground through this camera")
@@ -322,7 +374,7 @@ def scale_plan(box_height_win: float, window_h: int, foot_offset_win: float,
     for k in range(n):
         box_h = lo * scale_step ** k
         f = box_h / box_height_win
-        if camera is None:
+        if feet is None:
             bands.append(ScaleBand(f, 0, int(h - window_h * f)))
             continue
         sel = (heights >= box_h / slack) & (heights <= box_h * slack)
@@ -569,7 +621,8 @@ class SVMDetector(Detector):
             self.plan_ = scale_plan(bh, m.window_wh[1], bt + bh, image_size_wh,
                                     scale_step=self.scale_step, min_height_px=self.min_height_px,
                                     max_height_px=self.max_height_px, camera=self._camera(),
-                                    height_m=self.height_m)
+                                    height_m=self.height_m,
+                                    expected=getattr(self, "expected_heights_", None))
             self.plan_size_ = image_size_wh
         if m.feature == "hog" and not hasattr(self, "hog_"):
             hog = _hog(m.window_wh)
@@ -776,9 +829,26 @@ def train_svm_model(frames: Iterable[Frame], boxes_by_frame: dict[int, np.ndarra
                             "occupancy": occupancy, "train_accuracy": acc}
     model = SVMModel(w, b, feature, (W, H), box_in_window, info)
     hard_total = 0
-    for _ in range(int(hard_negative_rounds)):
+    # hard negatives are mined where the detector will look at run time: the camera's scale
+    # band at each row when the detector has one, else the band the training boxes themselves
+    # give (heights_from_boxes), so training without --camera mines the same kind of windows
+    # instead of every scale at every row
+    expected = None
+    rounds = int(hard_negative_rounds)
+    if rounds > 0 and kept and (detector is None or detector._camera() is None):
+        ih, iw = kept[0][0].shape[:2]
+        expected = heights_from_boxes(stacked, (iw, ih))
+        if not np.any(np.isfinite(expected[1])):
+            expected = None  # degenerate boxes: fall back to the plain pyramid
+    if rounds > 0:
+        info["mining_scales"] = ("camera" if detector is not None and detector._camera()
+                                 is not None else "training boxes" if expected is not None
+                                 else "pyramid")
+    for _ in range(rounds):
         det = (detector.clone() if detector is not None else SVMDetector())
         det.set_model(model)
+        if expected is not None:
+            det.expected_heights_ = expected
         hard = []
         for grey, avoid in kept:
             boxes, scores = det.score_windows(grey, threshold=-0.1)
