@@ -20,6 +20,8 @@ from pftrack.components import Detections, Frame, Likelihood, Target
 from pftrack.host import Host, get_host
 from pftrack.tracker import ImageBoxObservation, MultiTargetTracker, TrackRecord, records_to_mot
 
+from pftrack_colour import _jit
+
 __all__ = [
     "LIKELIHOODS",
     "PAPER",
@@ -244,6 +246,7 @@ def track(frames: Iterable[Frame], likelihood: Likelihood | str | dict[str, Any]
     TrackingRun
     """
     tracker = build_tracker(likelihood, **tracker_kw)
+    _jit.warm_up()  # compiled kernels loaded before the clock starts
     timed = _TimedLikelihood(tracker.likelihood)
     tracker.likelihood = timed
     snaps = {int(f) for f in snapshot_frames}

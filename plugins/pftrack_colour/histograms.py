@@ -92,6 +92,7 @@ class ColourBins:
         # table is about three times faster than on three channels
         object.__setattr__(self, "_luts", tuple(np.ascontiguousarray(lut[:, :, j])
                                                 for j in range(3)))
+        object.__setattr__(self, "_flat_luts", tuple(t.reshape(-1) for t in self._luts))
         object.__setattr__(self, "_shape", nb)
         object.__setattr__(self, "_code", COLOUR_SPACES[space][0])
         # cv2.calcHist bins an 8-bit channel through floor(v * n / range) in double precision:
@@ -103,6 +104,18 @@ class ColourBins:
     def shape(self) -> tuple[int, int, int]:
         """Bins per channel."""
         return self._shape  # type: ignore[attr-defined]
+
+    @property
+    def channel_luts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per channel of the (converted) image, (256,) int tables whose sum over a pixel's
+        three channels is its bin index (the kernels in :mod:`pftrack_colour._jit` read
+        them)."""
+        return self._flat_luts  # type: ignore[attr-defined]
+
+    @property
+    def conversion(self) -> int | None:
+        """OpenCV conversion code from BGR applied before binning (None: none)."""
+        return self._code  # type: ignore[attr-defined]
 
     @property
     def n_bins(self) -> int:
@@ -516,6 +529,14 @@ class ParticleRegion:
             out += g[3]
             return out
         return self._corner_sums(v, part)
+
+    def fixed_corners(self) -> tuple[np.ndarray, np.ndarray]:
+        """Same-size boxes (``fixed_size`` set) wholly inside the image: each box's top-left
+        corner in region pixels, ``(xs, ys)`` as (N,) int64."""
+        if self.fixed_size is None or not self.all_inside:
+            raise ValueError("fixed_corners needs same-size boxes wholly inside the image")
+        px0, py0 = self._pad[:2]
+        return ((self._xy[0] - px0).astype(np.int64), (self._xy[1] - py0).astype(np.int64))
 
     def _corner_index(self, stride: int, oy: int, sh: int, bw: int) -> np.ndarray:
         """Flat indices (4, N) of the bottom-right, top-right, bottom-left and top-left corners

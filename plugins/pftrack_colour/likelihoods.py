@@ -53,11 +53,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
+import cv2
 import numpy as np
 from pftrack.components import Detections, Frame, Likelihood, Target
 
+from pftrack_colour import _jit
 from pftrack_colour.histograms import (
     ColourBins,
     ParticleRegion,
@@ -243,7 +245,6 @@ class ColourLikelihood(Likelihood):
         target, the counts of its own box's grid pixels that no other target covers."""
         s = int(self.background_stride)
         binner = self.binner_
-        sub = subsample(image, s)
         m = binner.n_bins
         slices = {}
         for tid, r in self.target_rects_.items():
@@ -252,6 +253,17 @@ class ColourLikelihood(Likelihood):
             gy0, gy1 = -(-max(int(r[1]), 0) // s), -(-max(int(r[3]), 0) // s)
             if gx1 > gx0 and gy1 > gy0:
                 slices[tid] = (slice(gy0, gy1), slice(gx0, gx1))
+        if not self.needs_own_counts and _jit.ENABLED and binner.conversion is None:
+            # the counts alone, read off the frame's grid pixels in one compiled pass
+            luts = binner.channel_luts
+            rects = np.array([(sx.start, sy.start, sx.stop, sy.stop)
+                              for sy, sx in slices.values()], dtype=np.int64).reshape(-1, 4)
+            counts = _jit.grid_histogram(image, s, *luts, rects, m)
+            if len(rects) and not counts.any():  # targets cover the whole image
+                counts = _jit.grid_histogram(image, s, *luts, rects[:0], m)
+            self._set_background(counts, s)
+            return
+        sub = subsample(image, s)
         if not self.needs_own_counts:
             # the counts alone: one masked histogram call (same counts as the bin image path)
             keep = None
@@ -262,10 +274,7 @@ class ColourLikelihood(Likelihood):
             counts = binner.histogram(sub, keep)
             if keep is not None and not counts.any():  # targets cover the whole image
                 counts = binner.histogram(sub)
-            self.background_counts_ = counts * (s * s)  # estimated full-resolution counts
-            self.background_ = normalise_histogram(counts, self.eps)
-            self.log_background_ = np.log(self.background_)
-            self.own_counts_ = {}
+            self._set_background(counts, s)
             return
         grid = binner(sub)
         cover = None
@@ -278,14 +287,18 @@ class ColourLikelihood(Likelihood):
             counts = np.bincount(grid.ravel(), minlength=m).astype(np.float64)
         if counts.sum() == 0:  # targets cover the whole image: no background evidence
             counts = np.bincount(grid.ravel(), minlength=m).astype(np.float64)
-        self.background_counts_ = counts * (s * s)  # estimated full-resolution counts
-        self.background_ = normalise_histogram(counts, self.eps)
-        self.log_background_ = np.log(self.background_)
-        self.own_counts_ = {}
+        self._set_background(counts, s)
         if self.needs_own_counts and cover is not None:
             for tid, sl in slices.items():
                 only = grid[sl][cover[sl] == 1]
                 self.own_counts_[tid] = np.bincount(only, minlength=m).astype(np.float64) * (s * s)
+
+    def _set_background(self, counts: np.ndarray, stride: int) -> None:
+        """The background histogram from the grid's bin counts (m,)."""
+        self.background_counts_ = counts * (stride * stride)  # estimated full-resolution counts
+        self.background_ = normalise_histogram(counts, self.eps)
+        self.log_background_ = np.log(self.background_)
+        self.own_counts_ = {}
 
     def _coverage(self, region: ParticleRegion, target_id: int,
                   ) -> list[tuple[int, int, tuple[slice, slice]]]:
@@ -320,6 +333,9 @@ class ColourLikelihood(Likelihood):
         boxes = np.asarray(boxes_xywh_px, dtype=np.float64)
         if self.region is not None:
             boxes = self._colour_boxes(boxes)
+        out = self._compiled_log_likelihood(image, boxes, target.id)
+        if out is not None:
+            return out
         region = ParticleRegion(image, boxes)
         if len(region) == 0:
             return np.zeros(0)
@@ -332,6 +348,12 @@ class ColourLikelihood(Likelihood):
                         target_id: int) -> np.ndarray:
         raise NotImplementedError
 
+    def _compiled_log_likelihood(self, image: np.ndarray, boxes: np.ndarray,
+                                 target_id: int) -> np.ndarray | None:
+        """The log-likelihoods through :mod:`pftrack_colour._jit` where that applies (same
+        numbers as :meth:`_log_likelihood`), else None; default: never."""
+        return None
+
     def __getstate__(self) -> dict[str, Any]:
         # the frames being weighted are not part of a pickled likelihood
         d = dict(self.__dict__)
@@ -339,6 +361,15 @@ class ColourLikelihood(Likelihood):
             if k in d:
                 d[k] = None
         return d
+
+
+class _Bounds(NamedTuple):
+    """A region's extent in image pixels (end exclusive), as :class:`ParticleRegion` has it."""
+
+    x0: int
+    y0: int
+    x1: int
+    y1: int
 
 
 def _integer_rect(box_xywh_px: np.ndarray) -> np.ndarray:
@@ -507,10 +538,10 @@ class CrossEntropyLikelihood(ColourLikelihood):
 
     def _log_likelihood(self, region, q, target_id):
         binner = self.binner_
-        bins = binner(region.pixels())
         table = self.values_.get(target_id)
         if table is None:  # a target born after begin_frame
             table = self.values_[target_id] = self._value_table(target_id)
+        bins = binner(region.pixels())
         sums = 0.0
         if self.method == "histogram":
             for k, part in enumerate(self._parts):
@@ -524,6 +555,54 @@ class CrossEntropyLikelihood(ColourLikelihood):
             return sums
         lam = region.box_area if self.lam is None else float(self.lam)
         return lam * sums / np.maximum(region.n_pixels, 1.0)
+
+    def _compiled_log_likelihood(self, image, boxes, target_id):
+        """Same-size boxes wholly inside the image: one compiled call lays the boxes out and
+        one per stripe sums the per-pixel values through an integral image (the numbers of the
+        integral path bit for bit, without its forty-odd array calls per target)."""
+        if self.method != "integral" or not _jit.ENABLED or boxes.ndim != 2 \
+                or boxes.shape[1] != 4:
+            return None
+        h, w = image.shape[:2]
+        ok, x0, y0, x1, y1, bw, bh, xs, ys = _jit.fixed_layout(boxes, w, h)
+        if not ok:
+            return None
+        overlays = self._overlays(_Bounds(x0, y0, x1, y1), target_id)
+        if overlays is None:
+            return None
+        table = self.values_.get(target_id)
+        if table is None:  # a target born after begin_frame
+            table = self.values_[target_id] = self._value_table(target_id)
+        binner = self.binner_
+        pixels = image[y0:y1, x0:x1]
+        if binner.conversion is not None:
+            pixels = cv2.cvtColor(np.ascontiguousarray(pixels), binner.conversion)
+        l0, l1, l2 = binner.channel_luts
+        rects, tables = overlays
+        sums = None
+        for k, part in enumerate(self._parts):
+            oy, sh = 0, bh
+            if part is not None:
+                oy = (part[0] * bh) // part[1]
+                sh = ((part[0] + 1) * bh) // part[1] - oy
+            if sh <= 0:
+                box = np.zeros(len(xs))
+            else:
+                box = _jit.value_box_sums(pixels, l0, l1, l2, table[k], rects, tables[k], xs,
+                                          ys, oy, sh, bw)
+            sums = box if k == 0 else sums + box
+        if self.lam is None:  # λ = n: the sum itself (eq. 18, 21)
+            return sums
+        return float(self.lam) * sums / np.full(len(xs), float(max(bw * bh, 1)))
+
+    def _overlays(self, region: ParticleRegion | _Bounds, target_id: int,
+                  ) -> tuple[np.ndarray, list[np.ndarray]] | None:
+        """Rectangles of the region whose pixels take their value from another table, (K, 4)
+        int64 ``(x0, y0, x1, y1)``, and per stripe the (K, m) float32 tables; None: the
+        compiled path cannot express this region's values."""
+        m = self.binner_.n_bins
+        empty = np.zeros((0, m), dtype=np.float32)
+        return np.zeros((0, 4), dtype=np.int64), [empty] * len(self._parts)
 
     def _value_image(self, region: ParticleRegion, bins: np.ndarray, table: np.ndarray,
                      part: int, target_id: int) -> np.ndarray:
@@ -594,6 +673,20 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
     def _log_likelihood(self, region, q, target_id):
         self._cover_cache = None  # per call: the other targets' coverage of this region
         return super()._log_likelihood(region, q, target_id)
+
+    def _overlays(self, region, target_id):
+        if self.overlap == "independent":
+            return super()._overlays(region, target_id)
+        cover = self._coverage(region, target_id)
+        if not cover:
+            return super()._overlays(region, target_id)
+        if not _disjoint(cover):
+            return None  # pixels under two other targets: the general (masked) path
+        rects = np.array([(sx.start, sy.start, sx.stop, sy.stop) for _, _, (sy, sx) in cover],
+                         dtype=np.int64)
+        tables = [np.array([self._pair_table(target_id, k, tid, other) for tid, other, _ in cover])
+                  for k in range(len(self._parts))]
+        return rects, tables
 
     def _value_image(self, region, bins, table, part, target_id):
         values = table[part][bins]
