@@ -200,3 +200,39 @@ def test_targets_vectorised_equal_one_at_a_time_bit_for_bit(scheme, ess):
     assert rec_a == rec_b == 3
     assert len(a) == 3 * 59
     assert np.array_equal(a, b)
+
+
+def test_the_likelihood_is_prepared_once_when_the_tracker_is_built_before_any_frame():
+    class Counting(_TruthLikelihood):
+        def prepare(self):
+            self.prepared_ = getattr(self, "prepared_", 0) + 1
+
+        def begin_frame(self, frame, targets, detections=None):
+            assert self.prepared_ == 1  # prepared before the first frame
+            super().begin_frame(frame, targets, detections)
+
+    lik = Counting()
+    lik.truth_ = {1: lambda k: np.array([20.0, 50.0])}
+    tr = MultiTargetTracker(_Walk(), lik, ImageBoxObservation(10, 10), n_particles=50,
+                            rng=np.random.default_rng(0))
+    assert lik.prepared_ == 1
+    frames = list(_frames(3))
+    tr.add_target(frames[0], np.array([20.0, 50.0]), target_id=1)
+    for f in frames[1:]:
+        tr.step(f)
+    assert lik.prepared_ == 1
+
+
+def test_a_composite_likelihood_prepares_its_terms(monkeypatch):
+    from pftrack.host import get_host
+    from pftrack_colour import _jit
+
+    loaded = []
+    monkeypatch.setattr(_jit, "warm_up", lambda: loaded.append(1))
+    lik = get_host().build("likelihood", {"type": "composite", "params": {"terms": [
+        {"likelihood": {"type": "cross-entropy-bg"}, "weight": 1.0},
+        {"likelihood": {"type": "cross-entropy", "params": {"method": "histogram"}},
+         "weight": 1.0}]}})
+    MultiTargetTracker(_Walk(), lik, ImageBoxObservation(10, 10), n_particles=10,
+                       rng=np.random.default_rng(0))
+    assert loaded == [1]  # the integral term loads the kernels; the histogram one needs none

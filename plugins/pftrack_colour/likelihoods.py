@@ -525,6 +525,13 @@ class CrossEntropyLikelihood(ColourLikelihood):
         self.update_rate = update_rate
         self.method = method
 
+    def prepare(self) -> None:
+        """Validate the parameters and load the compiled kernels (compiling them on the
+        process's first use), so that the first frame does not pay for it."""
+        self._setup()
+        if self.method == "integral":
+            _jit.warm_up()
+
     def _check_params(self) -> None:
         super()._check_params()
         if self.method not in ("integral", "histogram"):

@@ -555,6 +555,10 @@ class CompositeLikelihood(Likelihood):
             out.append(beta if w == "beta" else (1.0 - beta) if w == "1-beta" else float(w))
         return out
 
+    def prepare(self) -> None:
+        for t in self._build():
+            t.prepare()
+
     def init_target(self, frame: Frame, target: Target) -> None:
         for t in self._build():
             t.init_target(frame, target)

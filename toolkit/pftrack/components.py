@@ -313,6 +313,11 @@ class Likelihood(Component):
 
     kind: ClassVar[str] = "likelihood"
 
+    def prepare(self) -> None:
+        """Called once when a tracker is built with this likelihood, before any frame: load or
+        compile whatever is expensive to set up, so that the first frame of a timed run does
+        not pay for it. Must be idempotent. Default: nothing."""
+
     def init_target(self, frame: Frame, target: Target) -> None:
         """Called when ``target`` is born in ``frame``; default: nothing."""
 

@@ -263,6 +263,7 @@ class MultiTargetTracker:
         self._uniform.flags.writeable = False
         self._uniform_log.flags.writeable = False
         self._vectorise = True  # False: one target at a time (same numbers; for tests)
+        likelihood.prepare()  # compiled kernels and the like: before the first frame
 
     # -- targets ------------------------------------------------------------------------------
 
