@@ -188,6 +188,7 @@ def test_fixed_layout_is_the_particle_regions():
         if ok:
             assert (x0, y0, x1, y1) == (region.x0, region.y0, region.x1, region.y1)
             assert (bw, bh) == region.fixed_size
-            rx, ry = region.fixed_corners()
-            assert np.array_equal(xs, rx) and np.array_equal(ys, ry)
+            rects = region.rects  # (N, 4) x0, y0, x1, y1, unclipped
+            assert np.array_equal(xs, rects[:, 0] - region.x0)
+            assert np.array_equal(ys, rects[:, 1] - region.y0)
     assert not _jit.fixed_layout(np.zeros((0, 4)), 120, 90)[0]

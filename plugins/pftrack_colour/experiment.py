@@ -31,6 +31,7 @@ __all__ = [
     "cumulative_errors",
     "first_boxes",
     "format_walkers_tables",
+    "implementation",
     "last_frames",
     "track",
     "track_boxes",
@@ -58,14 +59,14 @@ PAPER: dict[str, Any] = {
     },
 }
 
-#: How the likelihoods are computed, for the benchmark reports.
-IMPLEMENTATION = ("Bhattacharyya baselines: numpy, one histogram per sample (eq. 7), vectorised "
-                  "over samples; cross entropy: O(1) per sample through an integral image, the "
-                  "common case (same-size boxes inside the image) in compiled numba kernels "
-                  "(pftrack_colour._jit), the rest in numpy")
-IMPLEMENTATION_NO_JIT = ("Bhattacharyya baselines: numpy, one histogram per sample (eq. 7), "
-                         "vectorised over samples; cross entropy: O(1) per sample through an "
-                         "integral image, numpy only (PFTRACK_NO_JIT)")
+def implementation() -> str:
+    """How the likelihoods are computed, for the benchmark reports."""
+    ce = ("the common case (same-size boxes inside the image) in compiled numba kernels "
+          "(pftrack_colour._jit), the rest in numpy" if _jit.ENABLED
+          else "numpy only (PFTRACK_NO_JIT)")
+    return ("Bhattacharyya baselines: numpy, one histogram per sample (eq. 7), vectorised over "
+            f"samples; cross entropy: O(1) per sample through an integral image, {ce}")
+
 
 #: Random-walk noise per frame (px) used by the experiments; the walkers move 1-3 px a frame.
 DEFAULT_SIGMA_PX = 4.0
@@ -257,8 +258,8 @@ def track(frames: Iterable[Frame], likelihood: Likelihood | str | dict[str, Any]
     -------
     TrackingRun
     """
-    tracker = build_tracker(likelihood, **tracker_kw)  # its likelihood is prepared: the
-    # compiled kernels are loaded before the clock starts
+    # building the tracker prepares the likelihood (compiled kernels loaded) before the clock
+    tracker = build_tracker(likelihood, **tracker_kw)
     timed = _TimedLikelihood(tracker.likelihood)
     tracker.likelihood = timed
     snaps = {int(f) for f in snapshot_frames}
@@ -521,7 +522,7 @@ def walkers_tables(likelihoods: Sequence[str] = LIKELIHOODS,
             "timing": "tracking only: frames rendered into a list before timing; drawing "
                       "excluded; one thread (cv2.setNumThreads(1))",
             "slow_frames": slow_frames,
-            "implementation": IMPLEMENTATION if _jit.ENABLED else IMPLEMENTATION_NO_JIT,
+            "implementation": implementation(),
         },
     }
 

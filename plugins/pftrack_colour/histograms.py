@@ -530,14 +530,6 @@ class ParticleRegion:
             return out
         return self._corner_sums(v, part)
 
-    def fixed_corners(self) -> tuple[np.ndarray, np.ndarray]:
-        """Same-size boxes (``fixed_size`` set) wholly inside the image: each box's top-left
-        corner in region pixels, ``(xs, ys)`` as (N,) int64."""
-        if self.fixed_size is None or not self.all_inside:
-            raise ValueError("fixed_corners needs same-size boxes wholly inside the image")
-        px0, py0 = self._pad[:2]
-        return ((self._xy[0] - px0).astype(np.int64), (self._xy[1] - py0).astype(np.int64))
-
     def _corner_index(self, stride: int, oy: int, sh: int, bw: int) -> np.ndarray:
         """Flat indices (4, N) of the bottom-right, top-right, bottom-left and top-left corners
         of each same-size box's ``bw x sh`` window starting ``oy`` rows below its top, in a

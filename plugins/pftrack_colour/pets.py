@@ -37,8 +37,13 @@ from typing import Any
 import numpy as np
 from pftrack.components import Frame
 
-from pftrack_colour import _jit
-from pftrack_colour.experiment import first_boxes, last_frames, track, track_boxes
+from pftrack_colour.experiment import (
+    first_boxes,
+    implementation,
+    last_frames,
+    track,
+    track_boxes,
+)
 
 __all__ = [
     "PETS_LIKELIHOOD",
@@ -275,9 +280,7 @@ def pets_experiment(methods: Iterable[str] = ("cross-entropy-bg", "mil", "csrt")
             "protocol": "each id from its first GT box until its GT ends; success = IoU >= 0.5 "
                         "over all GT boxes; centre error holds a method's last box; decoding "
                         "excluded from timing; OpenCV on one thread",
-            "implementation": "cross entropy through compiled numba kernels where they apply "
-                              "(pftrack_colour._jit)" if _jit.ENABLED else "numpy only "
-                              "(PFTRACK_NO_JIT)",
+            "implementation": implementation(),
         },
     }
     if keep_tracks:
