@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from pftrack.bench import core
+from pftrack_basic import bench_core as core
 from pftrack.cli import main
 
 

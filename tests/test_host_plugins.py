@@ -60,8 +60,13 @@ def test_installed_plugin_is_listed_as_third_party(sample_site):
     assert s["builtin"] is False
     assert s["version"] == "0.3.1"
     assert "pftrack-sample" in s["source"]
-    assert s["components"] == {"motion": ["sample-drift"], "likelihood": ["sample-box-area"]}
-    assert s["hooks"] == ["pftrack_register_likelihoods", "pftrack_register_motion_models"]
+    assert s["components"] == {
+        "motion": ["sample-drift"], "likelihood": ["sample-box-area", "sample-brightness"],
+        "detector": ["sample-bright"], "associator": ["sample-nearest"],
+        "scene": ["sample-dots"], "metric": ["sample-count"], "preset": ["sample-dots"],
+        "command": ["sample-write-dots"], "benchmark": ["sample-brightness"],
+        "demo": ["sample-dots"]}
+    assert "pftrack_register_commands" in s["hooks"] and len(s["hooks"]) == 10
     assert "error" not in s
     assert all(plugins[n]["builtin"] for n in ("basic", "colour", "world"))
     # third-party plugins are listed after the built-ins
@@ -107,6 +112,39 @@ def test_installed_plugin_builds_runs_and_conforms(sample_site):
     assert r["config"] == {"type": "sample-drift",
                            "params": {"velocity_px": [2.0, -1.0], "sigma_px": 0.0}}
     assert r["fails"] == []
+
+
+def test_a_paper_arrives_as_a_plugin_without_editing_pftrack(sample_site, tmp_path):
+    """Every piece the sample plugin registers runs through the ``pftrack`` command line: its
+    command writes its scene as a video, its preset tracks it with its own detector, associator,
+    motion model and likelihood, ``pftrack eval`` reports its metric, ``pftrack bench`` runs its
+    benchmark and ``pftrack demo NAME`` its demo."""
+    data = tmp_path / "dots"
+    _run(sample_site, ["-m", "pftrack", "sample-write-dots", "--out", str(data),
+                       "--frames", "40"])
+    assert (data / "dots.avi").is_file() and (data / "gt.txt").is_file()
+    out = tmp_path / "run"
+    proc = _run(sample_site, ["-m", "pftrack", "run", "sample-dots", "--video",
+                              str(data / "dots.avi"), "--gt", str(data / "gt.txt"), "--out",
+                              str(out), "--seed", "3"])
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["MOTA"] > 0.9 and metrics["IDSW"] == 0, proc.stdout
+    assert metrics["num_tracker_ids"] == 2
+    ev = json.loads(_run(sample_site, ["-m", "pftrack", "eval", str(data / "gt.txt"),
+                                       str(out / "tracks.txt"), "--json"]).stdout)
+    sample = ev["plugin_metrics"]["sample-count"]
+    assert sample["ids"] == 2.0 and 0.9 < sample["rows_ratio"] <= 1.0
+    assert abs(ev["MOTA"] - metrics["MOTA"]) < 1e-12
+    bench = json.loads(_run(sample_site, ["-m", "pftrack", "bench", "sample-brightness",
+                                          "--boxes", "500", "--json"]).stdout)
+    assert bench["boxes"] == 500 and bench["seconds"] > 0
+    _run(sample_site, ["-m", "pftrack", "demo", "sample-dots", "--out", str(tmp_path / "demo"),
+                       "--frames", "5"])
+    assert (tmp_path / "demo" / "gt.txt").read_text().count("\n") == 10
+    # the built-in default demo is still the one ``pftrack demo`` runs without a name
+    code = ("from pftrack.cli.demo import _default; from pftrack.host import get_host; "
+            "print(_default({e.name: e.obj for e in get_host().registry.entries('demo')}))")
+    assert _run(sample_site, ["-c", code]).stdout.strip() == "walkers"
 
 
 def test_disable_plugins_env_blocks_it(sample_site):

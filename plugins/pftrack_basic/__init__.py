@@ -11,7 +11,8 @@ Components (registered name -> class):
 * likelihood: ``gaussian`` :class:`~pftrack_basic.gaussian.GaussianLikelihood`;
 * associator: ``hungarian-iou`` :class:`~pftrack_basic.association.HungarianIoUAssociator`,
   ``greedy-iou`` :class:`~pftrack_basic.association.GreedyIoUAssociator`;
-* detector: ``mog2`` :class:`~pftrack_basic.background.BackgroundSubtractionDetector`.
+* detector: ``mog2`` :class:`~pftrack_basic.background.BackgroundSubtractionDetector`;
+* benchmark: ``core`` (:mod:`pftrack_basic.bench_core`: the filter step against Stone Soup).
 
 Only this module is imported when the host loads the plugin; the component modules are light
 (numpy only; scipy and OpenCV are imported inside the methods that need them).
@@ -59,3 +60,12 @@ def pftrack_register_detectors(register):
     from pftrack_basic.background import BackgroundSubtractionDetector
 
     register("mog2", BackgroundSubtractionDetector)
+
+
+@hookimpl
+def pftrack_register_benchmarks(register):
+    from pftrack.extensions import Benchmark
+
+    from pftrack_basic import bench_core
+
+    register("core", Benchmark.from_module(bench_core))

@@ -1,6 +1,8 @@
 """Built-in plugin ``colour`` (seed 000): colour-histogram likelihoods (Bhattacharyya and cross
 entropy, with and without a background histogram), the synthetic ``walkers`` scene and a generic
-``video`` scene (a video file with optional MOTChallenge ground truth).
+``video`` scene (a video file with optional MOTChallenge ground truth); the benchmarks
+``seed000`` (the paper's Tables 1-4) and ``pets09-colour`` (every person of PETS 2009 S2.L1,
+against OpenCV's MIL and CSRT), and the default demo ``walkers`` (``pftrack demo``).
 
 Registered through the ``pftrack`` entry-point group exactly as a third-party plugin is; nothing
 is imported from here until the host loads the plugin.
@@ -42,3 +44,23 @@ def pftrack_register_scenes(register):
         register("video", VideoScene)
     except RegistrationError:
         pass
+
+
+@hookimpl
+def pftrack_register_benchmarks(register):
+    from pftrack.extensions import Benchmark
+
+    from pftrack_colour import bench_pets09, bench_seed000
+
+    register("seed000", Benchmark.from_module(bench_seed000))
+    register("pets09-colour", Benchmark.from_module(bench_pets09))
+
+
+@hookimpl
+def pftrack_register_demos(register):
+    from pftrack.extensions import Demo
+
+    from pftrack_colour import demo
+
+    register("walkers", Demo(summary="track the synthetic walkers (seed 000) and write a report",
+                             run=demo.run_cli, add_arguments=demo.add_arguments, default=True))

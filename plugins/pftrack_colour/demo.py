@@ -120,3 +120,39 @@ def run_demo(out: str | Path, *, seed: int = 0, n_frames: int = 180, n_particles
                                  xlabel="frame", ylabel="px"))
     files["error_curve"] = write_png(out / "error_curve.png", montage(charts, cols=1))
     return {"files": {k: str(v) for k, v in files.items()}, "metrics": metrics}
+
+
+# -- ``pftrack demo`` (registered by the plugin as the default demo) ---------------------------
+
+
+def add_arguments(parser) -> None:
+    """Options of ``pftrack demo walkers``."""
+    parser.add_argument("--seed", type=int, default=0, help="scene seed (default 0)")
+    parser.add_argument("--frames", type=int, default=180, help="frames to render (default 180)")
+    parser.add_argument("--particles", type=int, default=500,
+                        help="particles per walker (default 500)")
+    parser.add_argument("--no-baseline", action="store_true",
+                        help="skip the Bhattacharyya + background comparison run")
+
+
+def run_cli(args) -> int:
+    """``pftrack demo``: track the synthetic walkers and print the figures and the files."""
+    import sys
+
+    if args.frames < 1:
+        raise ValueError(f"--frames must be >= 1, got {args.frames}")
+    if args.particles < 1:
+        raise ValueError(f"--particles must be >= 1, got {args.particles}")
+    with np.errstate(over="ignore"):  # a best log-likelihood far below 0 overflows exp harmlessly
+        result = run_demo(args.out, seed=args.seed, n_frames=args.frames,
+                          n_particles=args.particles,
+                          baseline=None if args.no_baseline else "bhattacharyya-bg",
+                          progress=lambda s: print(s, file=sys.stderr, flush=True))
+    for m, v in result["metrics"]["methods"].items():
+        errs = ", ".join(f"{k} {e:.0f}" for k, e in v["cumulative_error_px"].items())
+        print(f"{m}: cumulative error px {errs}; {v['frames_per_second']:.0f} frames/s; "
+              f"MOTA {v['MOTA']:.3f}, IDF1 {v['IDF1']:.3f}, HOTA {v['HOTA']:.3f}")
+    print("wrote:")
+    for name, path in result["files"].items():
+        print(f"  {name:<26s} {path}")
+    return 0

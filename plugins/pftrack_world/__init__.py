@@ -13,7 +13,9 @@ Components (registered name -> class):
 * likelihood: ``detection`` (eq. 6), ``emd`` (eq. 7), ``ncc`` (eq. 8), ``composite`` (eq. 5, 9:
   any likelihood plugins weighted by numbers, beta or 1 - beta);
 * scene: ``soccer`` :class:`~pftrack_world.soccer.SoccerScene`;
-* preset: ``pets09-ground`` and ``soccer-ground`` (``pftrack/presets/*.yaml``).
+* preset: ``pets09-ground`` and ``soccer-ground`` (package data, ``pftrack_world/presets``);
+* benchmark: ``pets09-ground`` (:mod:`pftrack_world.bench_pets09_ground`) and ``soccer``
+  (:mod:`pftrack_world.bench_soccer`).
 
 The ground-plane observation model (particles -> image boxes through the camera) is core:
 :class:`pftrack.observation_world.CameraBoxObservation`.
@@ -72,8 +74,16 @@ def pftrack_register_scenes(register):
 def pftrack_register_presets(register):
     from importlib import resources
 
-    presets = resources.files("pftrack") / "presets"
+    presets = resources.files("pftrack_world") / "presets"
     register("pets09-ground", str(presets / "pets09-ground.yaml"))
-    soccer = presets / "soccer-ground.yaml"
-    if soccer.is_file():  # shipped by the soccer work; absent from partial checkouts
-        register("soccer-ground", str(soccer))
+    register("soccer-ground", str(presets / "soccer-ground.yaml"))
+
+
+@hookimpl
+def pftrack_register_benchmarks(register):
+    from pftrack.extensions import Benchmark
+
+    from pftrack_world import bench_pets09_ground, bench_soccer
+
+    register("pets09-ground", Benchmark.from_module(bench_pets09_ground))
+    register("soccer", Benchmark.from_module(bench_soccer))

@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pftrack.components import Detections, Detector, Frame
+from pftrack.components import Detections, Detector, Frame, RunContext
 
 __all__ = [
     "SVMDetector",
@@ -588,6 +588,30 @@ class SVMDetector(Detector):
         self.max_hard_negatives = max_hard_negatives
 
     # -- set-up -------------------------------------------------------------------------------
+
+    def setup(self, context: RunContext) -> None:
+        """The run's camera when ``camera`` is not set; the run's detector model
+        (``--detector-model``) when it names one."""
+        if self.camera is None and context.camera is not None:
+            self.camera_ = context.camera
+        if context.detector_model is not None:
+            self.load(context.detector_model)
+
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write the fitted model (``.npz``, no pickle) atomically: :func:`save_model`."""
+        if not hasattr(self, "model_"):
+            raise ValueError("SVMDetector.save: no model yet; call fit() first")
+        return save_model(self.model_, path)
+
+    def load(self, path: str | os.PathLike[str]) -> SVMDetector:
+        """Use the model in ``path`` (:func:`load_model`)."""
+        self.set_model(load_model(path))
+        return self
+
+    def describe(self) -> dict[str, Any]:
+        """The model's parameters and training record (``pftrack detector info``)."""
+        m = self._model()
+        return {**m.params(), "n_features": m.n_features}
 
     def _camera(self) -> Any:
         if not hasattr(self, "camera_"):

@@ -58,7 +58,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from pftrack.components import Detections, Frame, Likelihood, Target
+from pftrack.components import Detections, Frame, Likelihood, RunContext, Target
 
 from pftrack_world.regions import (
     cell_means,
@@ -516,10 +516,18 @@ class CompositeLikelihood(Likelihood):
                            "weight": 0.5}],
                    beta_sigma=30.0)
 
-    def _build(self) -> list[Likelihood]:
+    def setup(self, context: RunContext) -> None:
+        """Build the terms with the run's host and hand each the context."""
+        self.terms_ = None
+        for t in self._build(context):
+            t.setup(context)
+
+    def _build(self, context: RunContext | None = None) -> list[Likelihood]:
+        """The terms, built once through ``context``'s host (without :meth:`setup`, e.g. a
+        composite used directly from Python: the process-wide host)."""
         if getattr(self, "terms_", None) is not None:
             return self.terms_
-        from pftrack.host import get_host
+        host = (context or RunContext()).get_host()
 
         if self.mix not in _MIXES:
             raise ValueError(f"CompositeLikelihood: mix must be one of {_MIXES}, got {self.mix!r}")
@@ -543,7 +551,7 @@ class CompositeLikelihood(Likelihood):
                                      f"number, 'beta' or '1-beta'")
             elif not (isinstance(w, (int, float)) and np.isfinite(w) and w >= 0):
                 raise ValueError(f"CompositeLikelihood: terms[{i}] weight must be >= 0, got {w!r}")
-            built.append(get_host().build("likelihood", term["likelihood"]))
+            built.append(host.build("likelihood", term["likelihood"]))
         self.terms_ = built
         return built
 

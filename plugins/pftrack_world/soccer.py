@@ -51,6 +51,7 @@ from __future__ import annotations
 import functools
 import itertools
 import math
+import os
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -58,7 +59,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pftrack.components import Detections, Detector, Frame, Scene
+from pftrack.components import Detections, Detector, Frame, RunContext, Scene
 
 __all__ = [
     "SOURCES",
@@ -1048,8 +1049,14 @@ class PitchBlobDetector(Detector):
 
     _STATE = ("camera_", "band_", "region_", "subtractor_", "frames_seen_", "image_shape_")
 
+    def setup(self, context: RunContext) -> None:
+        """The run's camera (``--camera``) when ``camera`` is not set."""
+        if context.camera is not None:
+            self.run_camera_ = context.camera
+
     def fit(self, frames: Any, boxes_by_frame: dict[int, np.ndarray] | None = None,
-            rng: np.random.Generator | None = None) -> PitchBlobDetector:
+            rng: np.random.Generator | None = None,
+            ignore_by_frame: dict[int, np.ndarray] | None = None) -> PitchBlobDetector:
         """Learn the background from frames of the pitch before play (a fixed camera can film
         the empty pitch; :meth:`SoccerScene.empty_frames` renders such frames).
 
@@ -1103,10 +1110,14 @@ class PitchBlobDetector(Detector):
         from pftrack.geometry.formats import load_camera
         from pftrack.geometry.volumes import resolve_volume
 
-        path = Path(self.camera) if self.camera is not None else default_soccer_camera_path()
-        if not path.is_file():
-            raise FileNotFoundError(f"PitchBlobDetector: camera file not found: {path}")
-        cam = load_camera(path)
+        given = self.camera if self.camera is not None else getattr(self, "run_camera_", None)
+        if given is not None and not isinstance(given, (str, os.PathLike)):
+            cam, path = given, "(the run's camera)"
+        else:
+            path = Path(given) if given is not None else default_soccer_camera_path()
+            if not path.is_file():
+                raise FileNotFoundError(f"PitchBlobDetector: camera file not found: {path}")
+            cam = load_camera(path)
         h, w = shape[:2]
         if tuple(cam.image_size) != (w, h):
             cam = cam.resized((w, h))

@@ -17,9 +17,11 @@ from __future__ import annotations
 
 import copy
 import inspect
+import os
 from abc import ABC, abstractmethod
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
@@ -36,6 +38,7 @@ __all__ = [
     "Target",
     "Assignment",
     "KINDS",
+    "RunContext",
 ]
 
 
@@ -172,6 +175,42 @@ class Assignment:
         return cls(m, ut, ud)
 
 
+@dataclass
+class RunContext:
+    """What a run knows beyond a component's own parameters, handed to
+    :meth:`Component.setup` once when the run is built (before any frame).
+
+    A component takes its dependencies from here, never by having a parameter of a particular
+    name filled in: the camera a ground-plane detector scans with, the detector model file a
+    trained detector loads, the host a composite builds its parts with.
+
+    Attributes
+    ----------
+    host : pftrack.host.Host, optional
+        Builds sub-components by registered name (default: the process-wide host).
+    camera : pftrack.geometry.camera.Camera, optional
+        The run's calibrated camera (world metres, z up), when it has one.
+    fps : float
+        Frames per second of the source.
+    detector_model : str, optional
+        A model file written by :meth:`Detector.save` (``pftrack detector train``) for the
+        run's detector to :meth:`Detector.load`.
+    """
+
+    host: Any = None
+    camera: Any = None
+    fps: float = 25.0
+    detector_model: str | None = None
+
+    def get_host(self) -> Any:
+        """``host``, or the process-wide :func:`pftrack.host.get_host` when none was given."""
+        if self.host is None:
+            from pftrack.host import get_host
+
+            self.host = get_host()
+        return self.host
+
+
 # --------------------------------------------------------------------------------------------
 # Component base
 # --------------------------------------------------------------------------------------------
@@ -214,6 +253,11 @@ class Component(ABC):
                 )
             out[n] = getattr(self, n)
         return out
+
+    def setup(self, context: RunContext) -> None:
+        """Called once when a run is built, before any frame, with what the run knows (its
+        camera, fps, detector model, the host). Take dependencies from ``context`` into ``*_``
+        attributes here. Default: nothing."""
 
     def set_params(self, **params: Any) -> "Component":
         valid = set(self._param_names())
@@ -352,10 +396,35 @@ class Detector(Component):
     kind: ClassVar[str] = "detector"
 
     def fit(self, frames: Sequence[Frame] | Iterator[Frame], boxes_by_frame: dict[int, np.ndarray],
-            rng: np.random.Generator | None = None) -> "Detector":
-        """Learn from frames with ground-truth boxes (``{frame index: (K, 4) xywh px}``).
-        Default: nothing to learn."""
+            rng: np.random.Generator | None = None,
+            ignore_by_frame: dict[int, np.ndarray] | None = None) -> "Detector":
+        """Learn from frames with ground-truth boxes (``{frame index: (K, 4) xywh px}``);
+        ``ignore_by_frame`` holds boxes that are neither positives nor negatives (partly hidden
+        people). Default: nothing to learn."""
         return self
+
+    @property
+    def learns(self) -> bool:
+        """Whether :meth:`fit` learns something that :meth:`save` can write."""
+        return type(self).save is not Detector.save
+
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write what :meth:`fit` learned to ``path`` in a safe format (no pickle), atomically;
+        the inverse is :meth:`load`. Returns the path written. A detector that learns nothing
+        raises ``NotImplementedError``."""
+        raise NotImplementedError(f"detector {self.name or type(self).__name__!r} learns "
+                                  "nothing to save")
+
+    def load(self, path: str | os.PathLike[str]) -> "Detector":
+        """Use the model :meth:`save` wrote to ``path`` (returns ``self``). Raises
+        ``ValueError`` naming the file when it is not such a model."""
+        raise NotImplementedError(f"detector {self.name or type(self).__name__!r} has no model "
+                                  "to load")
+
+    def describe(self) -> dict[str, Any]:
+        """What the learned model holds (parameters, training record), JSON-serialisable, for
+        ``pftrack detector info``. Default: the parameters."""
+        return _plain(self.get_params())
 
     @abstractmethod
     def detect(self, frame: Frame) -> Detections:

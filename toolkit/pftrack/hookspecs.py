@@ -2,67 +2,146 @@
 
 A plugin is any module or object with functions named like the specs below and marked with
 :data:`pftrack.hookimpl`; it is found through the entry-point group ``pftrack`` (the built-in
-plugins use the same group). Hooks run at set-up, never per frame, particle or pixel.
+plugins ``basic``, ``colour`` and ``world`` use the same group and the same hooks). Every hook is
+called once, when a :class:`pftrack.host.Host` loads the plugin; none is called per frame,
+particle or pixel. Nothing is loaded at import time.
 
-Each ``pftrack_register_*`` hook receives a ``register`` callable bound to the calling plugin::
+Each ``pftrack_register_*`` hook receives a ``register`` callable bound to the calling plugin and
+typed by what it accepts::
 
     @pftrack.hookimpl
     def pftrack_register_likelihoods(register):
         register("my-colour", MyColourLikelihood)
 
-``register(name, cls, *, override=False)`` raises :class:`pftrack.registry.RegistrationError`
-naming the plugin at fault when ``name`` is already taken (unless ``override=True``) or when
-``cls`` is not a subclass of the kind's base class.
+``register(name, obj, *, override=False)`` raises :class:`pftrack.host.RegistrationError`
+naming the plugin at fault, at once, when ``name`` is already taken (unless ``override=True``)
+or when ``obj`` is not of the kind's type (a subclass of the kind's base class in
+:mod:`pftrack.components`, or the record type of :mod:`pftrack.extensions`). A built-in's name is
+replaced only with ``override=True``, and the host warns which plugin did it.
+
+Groups
+------
+* **Components** (classes, built by name from a run's configuration): detectors, likelihoods,
+  motion models, associators, scenes.
+* **Run configurations**: presets.
+* **Evaluation**: metrics (``pftrack eval`` reports every registered one).
+* **Command line**: benchmarks (``pftrack bench NAME``), commands (``pftrack NAME``) and demos
+  (``pftrack demo``).
 """
 
 from __future__ import annotations
 
-from typing import Protocol
+from collections.abc import Callable
+from os import PathLike
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
 import pluggy
+
+if TYPE_CHECKING:  # typing only: the specs import nothing heavy
+    from pftrack.components import Associator, Detector, Likelihood, MotionModel, Scene
+    from pftrack.extensions import Benchmark, Command, Demo
 
 PROJECT = "pftrack"
 hookspec = pluggy.HookspecMarker(PROJECT)
 hookimpl = pluggy.HookimplMarker(PROJECT)
 
-
-class Register(Protocol):
-    """The callable a registration hook receives."""
-
-    def __call__(self, name: str, obj: object, *, override: bool = False) -> None: ...
+T_contra = TypeVar("T_contra", contravariant=True)
 
 
-@hookspec
-def pftrack_register_detectors(register: Register) -> None:
-    """Register :class:`pftrack.components.Detector` subclasses. Called once when the host loads."""
+class Register(Protocol[T_contra]):
+    """The callable a registration hook receives, typed by what it accepts."""
+
+    def __call__(self, name: str, obj: T_contra, *, override: bool = False) -> None: ...
 
 
-@hookspec
-def pftrack_register_likelihoods(register: Register) -> None:
-    """Register :class:`pftrack.components.Likelihood` subclasses. Called once when the host loads."""
+#: A metric: ``f(gt_rows (M, 10), track_rows (K, 10), **options) -> {name: float}`` on
+#: MOTChallenge arrays; ``options`` are ``pftrack eval``'s (``metric``, ``threshold``,
+#: ``zero_marked``), a metric ignores the ones it does not take.
+MetricFunction = Callable[..., "dict[str, float]"]
 
 
-@hookspec
-def pftrack_register_motion_models(register: Register) -> None:
-    """Register :class:`pftrack.components.MotionModel` subclasses. Called once when the host loads."""
+# -- components ------------------------------------------------------------------------------
 
 
 @hookspec
-def pftrack_register_associators(register: Register) -> None:
-    """Register :class:`pftrack.components.Associator` subclasses. Called once when the host loads."""
+def pftrack_register_detectors(register: Register[type[Detector]]) -> None:
+    """Register :class:`pftrack.components.Detector` subclasses by name."""
 
 
 @hookspec
-def pftrack_register_scenes(register: Register) -> None:
+def pftrack_register_likelihoods(register: Register[type[Likelihood]]) -> None:
+    """Register :class:`pftrack.components.Likelihood` subclasses by name."""
+
+
+@hookspec
+def pftrack_register_motion_models(register: Register[type[MotionModel]]) -> None:
+    """Register :class:`pftrack.components.MotionModel` subclasses by name."""
+
+
+@hookspec
+def pftrack_register_associators(register: Register[type[Associator]]) -> None:
+    """Register :class:`pftrack.components.Associator` subclasses by name."""
+
+
+@hookspec
+def pftrack_register_scenes(register: Register[type[Scene]]) -> None:
     """Register :class:`pftrack.components.Scene` subclasses (videos, synthetic scenes)."""
 
 
-@hookspec
-def pftrack_register_presets(register: Register) -> None:
-    """Register tracking presets: ``register(name, path_to_yaml)``; ``pftrack run NAME`` uses them."""
+# -- run configurations ----------------------------------------------------------------------
 
 
 @hookspec
-def pftrack_register_metrics(register: Register) -> None:
-    """Register metric functions ``f(gt_rows, track_rows, **options) -> dict[str, float]``
-    taking MOTChallenge arrays; ``pftrack eval`` reports every registered metric."""
+def pftrack_register_presets(register: Register[str | PathLike[str]]) -> None:
+    """Register tracking presets: ``register(name, path_to_yaml)``, the YAML shipped as the
+    plugin's package data (``importlib.resources.files(__package__) / "presets" / ...``, never a
+    path relative to a repository). ``pftrack run NAME`` and ``pftrack presets`` use them."""
+
+
+# -- evaluation ------------------------------------------------------------------------------
+
+
+@hookspec
+def pftrack_register_metrics(register: Register[MetricFunction]) -> None:
+    """Register metric functions (:data:`MetricFunction`). ``pftrack eval`` calls every
+    registered metric after its own CLEAR/Identity/HOTA figures and reports each result under
+    ``"plugin_metrics": {name: {...}}``; one that raises is reported there as
+    ``{"error": "..."}`` and the others still run."""
+
+
+# -- command line ----------------------------------------------------------------------------
+
+
+@hookspec
+def pftrack_register_benchmarks(register: Register[Benchmark]) -> None:
+    """Register :class:`pftrack.extensions.Benchmark` records: ``pftrack bench NAME``."""
+
+
+@hookspec
+def pftrack_register_commands(register: Register[Command]) -> None:
+    """Register :class:`pftrack.extensions.Command` records: ``pftrack NAME``. A name that a
+    core command already has is refused with a warning naming the plugin."""
+
+
+@hookspec
+def pftrack_register_demos(register: Register[Demo]) -> None:
+    """Register :class:`pftrack.extensions.Demo` records: ``pftrack demo [NAME]``."""
+
+
+__all__ = [
+    "MetricFunction",
+    "PROJECT",
+    "Register",
+    "hookimpl",
+    "hookspec",
+    "pftrack_register_associators",
+    "pftrack_register_benchmarks",
+    "pftrack_register_commands",
+    "pftrack_register_demos",
+    "pftrack_register_detectors",
+    "pftrack_register_likelihoods",
+    "pftrack_register_metrics",
+    "pftrack_register_motion_models",
+    "pftrack_register_presets",
+    "pftrack_register_scenes",
+]

@@ -32,6 +32,7 @@ import pluggy
 
 from pftrack import hookspecs
 from pftrack.components import KINDS, Component
+from pftrack.extensions import Benchmark, Command, Demo
 
 ENTRY_POINT_GROUP = "pftrack"
 ENV_DISABLE = "PFTRACK_DISABLE_PLUGINS"
@@ -47,8 +48,13 @@ _REGISTER_HOOKS = {
     "pftrack_register_scenes": "scene",
     "pftrack_register_presets": "preset",
     "pftrack_register_metrics": "metric",
+    "pftrack_register_benchmarks": "benchmark",
+    "pftrack_register_commands": "command",
+    "pftrack_register_demos": "demo",
 }
-ALL_KINDS = ("detector", "likelihood", "motion", "associator", "scene", "preset", "metric")
+_RECORD_TYPES: dict[str, type] = {"benchmark": Benchmark, "command": Command, "demo": Demo}
+ALL_KINDS = ("detector", "likelihood", "motion", "associator", "scene", "preset", "metric",
+             "benchmark", "command", "demo")
 
 
 class RegistrationError(ValueError):
@@ -100,6 +106,10 @@ class PluginInfo:
         return d
 
 
+def _is_builtin(ep: metadata.EntryPoint) -> bool:
+    return ep.dist is not None and ep.dist.name == BUILTIN_DIST
+
+
 def _env_list(var: str) -> set[str]:
     raw = os.environ.get(var, "")
     return {p.strip() for p in raw.split(",") if p.strip()}
@@ -146,6 +156,12 @@ class Registry:
                 raise RegistrationError(f"plugin {plugin!r}: preset {name!r} file not found: {obj}")
         elif kind == "metric" and not callable(obj):
             raise RegistrationError(f"plugin {plugin!r}: metric {name!r} is not callable")
+        elif kind in _RECORD_TYPES:
+            rtype = _RECORD_TYPES[kind]
+            if not isinstance(obj, rtype):
+                raise RegistrationError(
+                    f"plugin {plugin!r} registered {kind} {name!r} as {obj!r}, which is not a "
+                    f"{rtype.__module__}.{rtype.__name__}")
         existing = self._entries[kind].get(name)
         if existing is not None and not override:
             raise RegistrationError(
@@ -200,7 +216,10 @@ class Host:
         disabled = _env_list(ENV_DISABLE)
         no_autoload = _env_flag(ENV_NO_AUTOLOAD)
         if load_entry_points:
-            for ep in sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
+            # built-ins first: a third-party plugin that registers a built-in's name is the one
+            # refused (and named), unless it overrides on purpose
+            eps = metadata.entry_points(group=ENTRY_POINT_GROUP)
+            for ep in sorted(eps, key=lambda e: (not _is_builtin(e), e.name)):
                 dist = ep.dist.name if ep.dist is not None else "?"
                 builtin = dist == BUILTIN_DIST
                 if ep.name in disabled or ep.name in self.plugins:

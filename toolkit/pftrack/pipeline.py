@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from pftrack.components import Detections, Detector, Frame, Target
+from pftrack.components import Detections, Detector, Frame, RunContext, Target
 from pftrack.tracker import MultiTargetTracker, TrackRecord, records_to_mot
 
 __all__ = [
@@ -184,20 +184,16 @@ def read_ground_truth(path: str | os.PathLike[str], first: int = 1,
 # --------------------------------------------------------------------------------------------
 
 
-def build_detector(cfg: dict[str, Any], camera: Any = None, model: str | None = None):
-    """The configured detector, with ``camera`` and ``model`` filled in when it takes them."""
-    from pftrack.host import get_host
-
+def build_detector(cfg: dict[str, Any], context: RunContext | None = None):
+    """The configured detector (None when the configuration has none), built through the
+    context's host and set up with the context (its camera, its detector model)."""
     spec = cfg.get("detector")
     if not spec:
         return None
+    context = context or RunContext()
     spec = {"type": spec["type"], "params": dict(spec.get("params") or {})}
-    det = get_host().build("detector", spec)
-    params = det.get_params()
-    if "camera" in params and params["camera"] is None and camera is not None:
-        det.set_params(camera=camera)
-    if "model" in params and model is not None:
-        det.set_params(model=str(model))
+    det = context.get_host().build("detector", spec)
+    det.setup(context)
     return det
 
 
@@ -219,7 +215,7 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
     merged = {**(det_cfg.get("params") or {}), **(train_cfg.get("params") or {}),
               **(params or {})}
     det_cfg = {"type": det_cfg.get("type", "svm"), "params": merged}
-    det = build_detector({"detector": det_cfg}, camera=camera)
+    det = build_detector({"detector": det_cfg}, RunContext(camera=_load_camera(camera)))
     first, last = parse_frames(frames)
     rows = read_ground_truth(gt, first, last)
     pos: dict[int, np.ndarray] = {}
@@ -230,20 +226,16 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
         ign[int(f)] = r[r[:, 6] == 0, 2:6]
     rng = np.random.default_rng(seed)
     frames_it = iter_frames(video, first, last)
-    kwargs = {"ignore_by_frame": ign} if "ignore_by_frame" in det.fit.__code__.co_varnames else {}
     if progress:
         from tqdm.auto import tqdm
 
         n = (last - first + 1) if last is not None else None
         frames_it = tqdm(frames_it, total=n, desc="detector: training frames", unit="frame")
-    det.fit(frames_it, pos, rng=rng, **kwargs)
+    det.fit(frames_it, pos, rng=rng, ignore_by_frame=ign)
     if out is not None:
-        from pftrack_world.detector import save_model
-
-        if not hasattr(det, "model_"):
-            raise ValueError(f"detector {det_cfg['type']!r} has no model to save")
-        save_model(det.model_, out)
-        det.set_params(model=str(out))
+        if not det.learns:
+            raise ValueError(f"detector {det_cfg['type']!r} learns nothing to save")
+        det.save(out)
     return det
 
 
@@ -547,6 +539,10 @@ def build_session(cfg: dict[str, Any], *, camera: Any = None, fps: float = 25.0,
     motion = host.build("motion", cfg["motion"])
     likelihood = host.build("likelihood", cfg["likelihood"])
     associator = host.build("associator", cfg["associator"]) if cfg.get("associator") else None
+    context = RunContext(host=host, camera=camera, fps=float(fps))
+    for component in (motion, likelihood, associator):
+        if component is not None:
+            component.setup(context)
     topts = dict(cfg.get("tracker") or {})
     dt = topts.pop("dt", "auto")
     dt = 1.0 / float(fps) if dt in (None, "auto") else float(dt)
@@ -670,7 +666,8 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     session = build_session(cfg, camera=cam, fps=fps, seed=seed)
     detector = None
     if detections is None and cfg.get("detector"):
-        detector = build_detector(cfg, camera=cam, model=detector_model)
+        detector = build_detector(cfg, RunContext(camera=cam, fps=fps, detector_model=(
+            None if detector_model is None else str(detector_model))))
     frame_iter: Iterable[Frame] = iter_frames(video, first, last)
     n_total = None
     if last is not None:

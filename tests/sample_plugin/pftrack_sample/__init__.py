@@ -1,10 +1,13 @@
 """Sample third-party pftrack plugin (test fixture).
 
 It shows the whole surface a plugin author needs: components subclassing the contracts in
-:mod:`pftrack.components`, registered through ``pftrack_register_*`` hooks, exposed through the
-``pftrack`` entry-point group in ``pyproject.toml``. The project's tests install it into a temporary
-folder and check that ``pftrack plugins`` lists it, that it builds and runs, and that the
-``PFTRACK_DISABLE_*`` environment variables block it.
+:mod:`pftrack.components` (a detector, likelihoods, a motion model, an associator, a scene), a
+preset shipped as package data, a metric, and a command, a benchmark and a demo
+(:mod:`pftrack.extensions`), all registered through ``pftrack_register_*`` hooks and exposed
+through the ``pftrack`` entry-point group in ``pyproject.toml``. The project's tests install it into
+a temporary folder and check that ``pftrack plugins`` lists it, that every piece runs through the
+``pftrack`` command line without editing pftrack, and that the ``PFTRACK_DISABLE_*`` environment
+variables block it.
 """
 
 from __future__ import annotations
@@ -12,7 +15,17 @@ from __future__ import annotations
 import numpy as np
 
 from pftrack import hookimpl
-from pftrack.components import Likelihood, MotionModel, Target
+from pftrack.components import (
+    Assignment,
+    Associator,
+    Detections,
+    Detector,
+    Frame,
+    Likelihood,
+    MotionModel,
+    Scene,
+    Target,
+)
 
 __version__ = "0.3.1"
 
@@ -64,6 +77,158 @@ class BoxAreaLikelihood(Likelihood):
         return -0.5 * z * z
 
 
+class BrightnessLikelihood(Likelihood):
+    """Prefers boxes over bright pixels: ``log L = mean grey level in the box / scale``, the
+    mean from one integral image per frame (O(1) per box, no loop over particles)."""
+
+    def __init__(self, scale: float = 30.0):
+        self.scale = scale
+
+    def begin_frame(self, frame, targets, detections=None) -> None:
+        import cv2
+
+        grey = cv2.cvtColor(frame.image, cv2.COLOR_BGR2GRAY)
+        self.integral_ = cv2.integral(grey, sdepth=cv2.CV_64F)
+
+    def log_likelihood(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
+        ii = self.integral_
+        h, w = ii.shape[0] - 1, ii.shape[1] - 1
+        b = np.asarray(boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
+        x0 = np.clip(np.round(b[:, 0]), 0, w).astype(int)
+        y0 = np.clip(np.round(b[:, 1]), 0, h).astype(int)
+        x1 = np.clip(np.round(b[:, 0] + b[:, 2]), 0, w).astype(int)
+        y1 = np.clip(np.round(b[:, 1] + b[:, 3]), 0, h).astype(int)
+        area = np.maximum((x1 - x0) * (y1 - y0), 1)
+        s = ii[y1, x1] - ii[y0, x1] - ii[y1, x0] + ii[y0, x0]
+        return s / area / float(self.scale)
+
+
+class BrightSpotDetector(Detector):
+    """Connected regions of pixels brighter than ``threshold`` (grey level), as boxes with
+    score 1."""
+
+    def __init__(self, threshold: int = 128, min_area_px: int = 20):
+        self.threshold = threshold
+        self.min_area_px = min_area_px
+
+    def detect(self, frame: Frame) -> Detections:
+        import cv2
+
+        grey = cv2.cvtColor(frame.image, cv2.COLOR_BGR2GRAY)
+        mask = (grey > self.threshold).astype(np.uint8)
+        n, _, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=4)
+        keep = stats[1:, cv2.CC_STAT_AREA] >= self.min_area_px
+        boxes = stats[1:, :4][keep].astype(np.float64)
+        return Detections(boxes, np.ones(len(boxes)))
+
+
+class NearestAssociator(Associator):
+    """Greedy nearest box centres, closer than ``max_distance_px``."""
+
+    def __init__(self, max_distance_px: float = 30.0):
+        self.max_distance_px = max_distance_px
+
+    def associate(self, targets, detections) -> Assignment:
+        if not len(targets) or not len(detections):
+            return Assignment.from_matches([], len(targets), len(detections))
+        tb = np.array([t.box_xywh_px for t in targets])
+        db = detections.boxes_xywh_px
+        tc = tb[:, :2] + tb[:, 2:] / 2
+        dc = db[:, :2] + db[:, 2:] / 2
+        d = np.linalg.norm(tc[:, None] - dc[None], axis=2)
+        matches = []
+        while np.isfinite(d).any() and d.min() < self.max_distance_px:
+            i, j = np.unravel_index(np.argmin(d), d.shape)
+            matches.append((i, j))
+            d[i, :] = np.inf
+            d[:, j] = np.inf
+        return Assignment.from_matches(matches, len(targets), len(detections))
+
+
+class DotsScene(Scene):
+    """``n_dots`` bright 20 x 20 squares moving in straight lines on a black 160 x 120 picture,
+    with their ground truth (MOTChallenge rows)."""
+
+    def __init__(self, n_dots: int = 2, n_frames: int = 40, seed: int = 0):
+        self.n_dots = n_dots
+        self.n_frames = n_frames
+        self.seed = seed
+
+    def _tracks(self) -> np.ndarray:
+        rng = np.random.default_rng(self.seed)
+        start = np.column_stack([np.linspace(20, 120, self.n_dots), rng.uniform(20, 80,
+                                                                               self.n_dots)])
+        vel = np.column_stack([np.zeros(self.n_dots), np.full(self.n_dots, 0.5)])
+        k = np.arange(self.n_frames)[:, None, None]
+        return start[None] + k * vel[None]  # (F, n, 2) top-left corners
+
+    def frames(self):
+        for k, corners in enumerate(self._tracks()):
+            img = np.zeros((120, 160, 3), np.uint8)
+            for x, y in np.round(corners).astype(int):
+                img[y:y + 20, x:x + 20] = 255
+            yield Frame(k + 1, img, k / self.fps)
+
+    def ground_truth(self) -> np.ndarray:
+        rows = [[k + 1, i + 1, *np.round(c), 20, 20, 1, -1, -1, -1]
+                for k, corners in enumerate(self._tracks()) for i, c in enumerate(corners)]
+        return np.asarray(rows, dtype=np.float64)
+
+
+def count_metric(gt_rows: np.ndarray, track_rows: np.ndarray) -> dict[str, float]:
+    """Rows of tracks per row of ground truth."""
+    return {"rows_ratio": len(track_rows) / max(len(gt_rows), 1),
+            "ids": float(len(np.unique(np.asarray(track_rows).reshape(-1, 10)[:, 1])))}
+
+
+# -- command, benchmark, demo ----------------------------------------------------------------
+
+
+def _write_args(parser) -> None:
+    parser.add_argument("--out", required=True, help="folder for dots.avi and gt.txt")
+    parser.add_argument("--frames", type=int, default=40)
+
+
+def write_dots(args) -> int:
+    """``pftrack sample-write-dots``: the dots scene as a video and its ground truth."""
+    from pathlib import Path
+
+    import cv2
+    from pftrack.io.mot import write_mot
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    scene = DotsScene(n_frames=args.frames)
+    writer = cv2.VideoWriter(str(out / "dots.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 25.0,
+                             (160, 120))
+    for f in scene.frames():
+        writer.write(f.image)
+    writer.release()
+    write_mot(out / "gt.txt", scene.ground_truth())
+    print(f"wrote {out / 'dots.avi'} and {out / 'gt.txt'}")
+    return 0
+
+
+def bench_brightness(args) -> dict:
+    """Time the brightness likelihood over ``--boxes`` boxes."""
+    import time
+
+    lik = BrightnessLikelihood()
+    scene = DotsScene(n_frames=1)
+    frame = next(iter(scene.frames()))
+    lik.begin_frame(frame, [])
+    boxes = np.random.default_rng(0).uniform(0, 140, (args.boxes, 4))
+    t0 = time.perf_counter()
+    ll = lik.log_likelihood(boxes, None)
+    return {"benchmark": "sample-brightness", "boxes": args.boxes,
+            "seconds": time.perf_counter() - t0, "mean_log_likelihood": float(ll.mean())}
+
+
+def demo_dots(args) -> int:
+    """The dots written by :func:`write_dots`, and nothing else."""
+    return write_dots(args)
+
+
 @hookimpl
 def pftrack_register_motion_models(register):
     register("sample-drift", DriftMotion)
@@ -72,3 +237,58 @@ def pftrack_register_motion_models(register):
 @hookimpl
 def pftrack_register_likelihoods(register):
     register("sample-box-area", BoxAreaLikelihood)
+    register("sample-brightness", BrightnessLikelihood)
+
+
+@hookimpl
+def pftrack_register_detectors(register):
+    register("sample-bright", BrightSpotDetector)
+
+
+@hookimpl
+def pftrack_register_associators(register):
+    register("sample-nearest", NearestAssociator)
+
+
+@hookimpl
+def pftrack_register_scenes(register):
+    register("sample-dots", DotsScene)
+
+
+@hookimpl
+def pftrack_register_metrics(register):
+    register("sample-count", count_metric)
+
+
+@hookimpl
+def pftrack_register_presets(register):
+    from importlib import resources
+
+    register("sample-dots", str(resources.files("pftrack_sample") / "presets" /
+                                "sample-dots.yaml"))
+
+
+@hookimpl
+def pftrack_register_commands(register):
+    from pftrack.extensions import Command
+
+    register("sample-write-dots", Command(summary="write the sample dots video and its truth",
+                                          run=write_dots, add_arguments=_write_args))
+
+
+@hookimpl
+def pftrack_register_benchmarks(register):
+    from pftrack.extensions import Benchmark
+
+    register("sample-brightness", Benchmark(
+        summary="time the sample brightness likelihood", run=bench_brightness,
+        add_arguments=lambda p: p.add_argument("--boxes", type=int, default=1000)))
+
+
+@hookimpl
+def pftrack_register_demos(register):
+    from pftrack.extensions import Demo
+
+    register("sample-dots", Demo(summary="write the sample dots", run=demo_dots,
+                                 add_arguments=lambda p: p.add_argument("--frames", type=int,
+                                                                        default=40)))

@@ -3,6 +3,9 @@
 Each sub-command lives in its own module of this package and exposes
 ``register(subparsers)``, which adds its parser and sets ``func=handler(args) -> int``.
 Modules are found by scanning this package, so adding a command never edits a shared list.
+Plugins add their own commands (:class:`pftrack.extensions.Command`, hook
+``pftrack_register_commands``); one whose name a core command has is refused with a warning
+naming the plugin.
 Heavy imports (OpenCV, Open3D, pyvista) happen inside the handlers, not at parser build time.
 """
 
@@ -31,7 +34,25 @@ def build_parser() -> argparse.ArgumentParser:
         register = getattr(module, "register", None)
         if register is not None:
             register(sub)
+    _plugin_commands(sub)
     return parser
+
+
+def _plugin_commands(sub: argparse._SubParsersAction) -> None:
+    import warnings
+
+    from pftrack.host import PluginLoadWarning, get_host
+
+    for entry in sorted(get_host().registry.entries("command"), key=lambda e: e.name):
+        if entry.name in sub.choices:
+            warnings.warn(f"pftrack plugin {entry.plugin!r}: command {entry.name!r} is a core "
+                          "command and was not added", PluginLoadWarning, stacklevel=2)
+            continue
+        cmd = entry.obj
+        p = sub.add_parser(entry.name, help=f"{cmd.summary} [{entry.plugin}]",
+                           description=cmd.description or cmd.summary)
+        cmd.add_arguments(p)
+        p.set_defaults(func=cmd.run)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -38,6 +38,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     t.set_defaults(func=train_handler)
     i = dsub.add_parser("info", help="print a model's parameters and training record")
     i.add_argument("model", metavar="MODEL")
+    i.add_argument("--config", default="pets09-ground",
+                   help="configuration whose detector reads the model (default pets09-ground)")
     i.set_defaults(func=info_handler)
     p.set_defaults(func=lambda a: (p.print_help(), 2)[1])
 
@@ -57,16 +59,23 @@ def train_handler(args: argparse.Namespace) -> int:
                             camera=args.camera, params=params, seed=seed,
                             progress=not args.quiet)
     if not args.quiet:
-        info = {"model": str(args.out), **fitted.model_.info}
-        print(json.dumps(info, indent=2, default=float))
+        print(json.dumps({"model": str(args.out), **fitted.describe()}, indent=2,
+                         default=float))
         sys.stdout.flush()
     return 0
 
 
 def info_handler(args: argparse.Namespace) -> int:
-    from pftrack_world.detector import load_model
+    from pathlib import Path
 
-    m = load_model(args.model)
-    print(json.dumps({"model": args.model, **m.params(), "n_features": m.n_features}, indent=2,
-                     default=float))
+    from pftrack.pipeline import build_detector, load_config
+
+    if not Path(args.model).is_file():
+        raise FileNotFoundError(f"detector model {args.model} not found")
+    cfg = load_config(args.config)
+    det = build_detector(cfg)
+    if det is None:
+        raise ValueError(f"config {args.config}: no detector")
+    det.load(args.model)
+    print(json.dumps({"model": args.model, **det.describe()}, indent=2, default=float))
     return 0

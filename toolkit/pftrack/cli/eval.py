@@ -2,7 +2,9 @@
 
 Prints HOTA, MOTA, IDF1 and friends as a table, or with ``--json`` a JSON object whose top-level
 keys include MOTA, MOTP, IDF1, IDP, IDR, IDSW, HOTA, DetA, AssA (see
-:func:`pftrack.metrics.evaluate`). ``--out FILE`` also writes the JSON, atomically.
+:func:`pftrack.metrics.evaluate`), and under ``plugin_metrics`` every metric a plugin registered
+(hook ``pftrack_register_metrics``): ``{name: {figure: value}}``, or ``{name: {"error": ...}}``
+for one that raised. ``--out FILE`` also writes the JSON, atomically.
 """
 
 from __future__ import annotations
@@ -45,8 +47,43 @@ def handler(args: argparse.Namespace) -> int:
                           zero_marked=args.zero_marked)
     except ValueError as exc:
         raise ValueError(f"{args.gt} vs {args.tracks}: {exc}") from None
-    text = json.dumps(result, indent=2)
+    extra = plugin_metrics(gt, tracks, metric=args.metric, threshold=args.threshold,
+                           zero_marked=args.zero_marked)
+    if extra:
+        result["plugin_metrics"] = extra
+    text = json.dumps(result, indent=2, default=float)
     if args.out:
         atomic_write_text(args.out, text + "\n")
-    print(text if args.json else format_table(result))
+    if args.json:
+        print(text)
+    else:
+        print(format_table(result))
+        for name, figures in extra.items():
+            print(f"{name}: " + ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
+                                          for k, v in figures.items()))
     return 0
+
+
+def plugin_metrics(gt, tracks, **options) -> dict:
+    """Every registered metric's figures on ``gt`` and ``tracks`` (MOT arrays): ``{name:
+    {figure: value}}``. Each metric gets the options its signature takes; one that raises is
+    reported as ``{"error": "Type: message"}`` and the others still run."""
+    import inspect
+
+    from pftrack.host import get_host
+
+    out: dict = {}
+    for entry in sorted(get_host().registry.entries("metric"), key=lambda e: e.name):
+        fn = entry.obj
+        try:
+            params = inspect.signature(fn).parameters
+            takes_all = any(p.kind is p.VAR_KEYWORD for p in params.values())
+            kw = {k: v for k, v in options.items() if takes_all or k in params}
+            value = fn(gt, tracks, **kw)
+            if not isinstance(value, dict):
+                raise TypeError(f"returned {type(value).__name__}, expected a dict")
+            out[entry.name] = {str(k): (float(v) if isinstance(v, (int, float)) else v)
+                               for k, v in value.items()}
+        except Exception as exc:  # noqa: BLE001 - one plugin's metric must not stop the rest
+            out[entry.name] = {"error": f"{type(exc).__name__}: {exc}", "plugin": entry.plugin}
+    return out

@@ -1,1 +1,0 @@
-"""Benchmarks: each module here is a ``pftrack bench`` sub-command (see :mod:`pftrack.cli.bench`)."""
