@@ -8,7 +8,7 @@ import pickle
 import numpy as np
 import pytest
 
-from pftrack.components import Detections, Frame, Target
+from pftrack.components import DetectionMatch, Detections, Frame, Target
 from pftrack.data import data_dir
 from pftrack_basic.association import (
     GreedyIoUAssociator,
@@ -20,10 +20,9 @@ from pftrack_basic.background import BackgroundSubtractionDetector
 from pftrack_basic.gaussian import GaussianLikelihood
 
 
-def _t(box, tid=1, **extra):
-    t = Target(id=tid, state=np.zeros(2), box_xywh_px=np.asarray(box, float))
-    t.extra.update(extra)
-    return t
+def _t(box, tid=1, observation_px=None, detection=None):
+    return Target(id=tid, state=np.zeros(2), box_xywh_px=np.asarray(box, float),
+                  observation_px=observation_px, detection=detection)
 
 
 # -- Gaussian likelihood -----------------------------------------------------------------------
@@ -33,12 +32,12 @@ def test_gaussian_likelihood_values_and_observation_precedence():
     lik = GaussianLikelihood(sigma_px=2.0)
     boxes = np.array([[0.0, 0.0, 10, 10], [3.0, 4.0, 10, 10], [-50, -50, 10, 10]])  # centres
     t = _t([0, 0, 10, 10], observation_px=[5.0, 5.0],
-           detection={"box_xywh_px": np.array([100.0, 100, 10, 10]), "score": 1.0, "index": 0})
+           detection=DetectionMatch(np.array([100.0, 100, 10, 10]), 1.0, 0))
     lik.begin_frame(Frame(1, np.zeros((20, 20, 3), np.uint8)), [t], None)
     ll = lik.log_likelihood(boxes, t)
     # d^2 = 0, 25, 5000 -> -d^2 / (2 * 4)
     assert ll.dtype == np.float64 and np.allclose(ll, [0.0, -25 / 8, -5000 / 8])
-    del t.extra["observation_px"]  # now the matched detection, centre (105, 105)
+    t.observation_px = None  # now the matched detection, centre (105, 105)
     ll = lik.log_likelihood(np.array([[100.0, 100, 10, 10], [103.0, 104, 10, 10]]), t)
     assert np.allclose(ll, [0.0, -25 / 8])
 

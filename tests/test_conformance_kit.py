@@ -92,7 +92,7 @@ class _Centre(Likelihood):
 
     def log_likelihood(self, boxes_xywh_px, target):
         c = boxes_xywh_px[:, :2] + boxes_xywh_px[:, 2:] / 2
-        d = c - target.extra["observation_px"]
+        d = c - target.observation_px
         return -np.sum(d * d, axis=1) / (2 * self.sigma_px**2)
 
 
@@ -158,13 +158,14 @@ class EverythingToFirstAssociator(Associator):
 
 
 class NeedsSetupLikelihood(Likelihood):
-    """Needs a key the synthetic targets lack; supplies it through the hook."""
+    """Needs a field the synthetic targets lack (appearance scores); supplies it through the
+    hook."""
 
-    def __init__(self, key: str = "needle") -> None:
-        self.key = key
+    def __init__(self, offset: float = 0.0) -> None:
+        self.offset = offset
 
     def log_likelihood(self, boxes_xywh_px, target):
-        c = boxes_xywh_px[:, 0] - target.extra[self.key]
+        c = boxes_xywh_px[:, 0] - target.appearance_scores[0] - self.offset
         return -0.5 * c * c
 
     @classmethod
@@ -172,7 +173,7 @@ class NeedsSetupLikelihood(Likelihood):
         sc = synthetic_scene(seed=3)
         targets = sc.targets()
         for t in targets:
-            t.extra["needle"] = 42.0
+            t.appearance_scores = np.array([42.0])
         return cls(), {"targets": targets}
 
 

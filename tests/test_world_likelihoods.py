@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack.components import Detections, Frame, Likelihood, Target
+from pftrack.components import DetectionMatch, Detections, Frame, Likelihood, Target
 from pftrack_world.likelihoods import (
     CompositeLikelihood,
     DetectionLikelihood,
@@ -138,7 +138,7 @@ def test_detection_likelihood_eq6():
     boxes = np.array([[60, 30, 20, 50], [63, 30, 20, 50]], dtype=float)
     # I(tr*) = 0: no matched detection -> p_D = 0
     assert np.all(lik.log_likelihood(boxes, t) == -np.inf)
-    t.extra["detection"] = {"box_xywh_px": dets.boxes_xywh_px[0], "score": 0.8, "index": 0}
+    t.detection = DetectionMatch(dets.boxes_xywh_px[0], 0.8, 0)
     p = np.exp(lik.log_likelihood(boxes, t))
     iou1 = (17 * 50) / (2 * 1000 - 17 * 50)
     expect = [2.0 * 1.0 + 0.5 * 0.8 * 1.0,
@@ -233,7 +233,7 @@ def test_composite_exclusion_keeps_a_coasting_target_off_a_detected_one(host_wit
         p = np.zeros((4, 6))
         p[:, :2] = np.asarray(centre) + rng.normal(0, 0.05, (4, 2))
         t.particles = p
-    detected.extra["detection"] = {"box_xywh_px": np.zeros(4), "score": 1.0, "index": 0}
+    detected.detection = DetectionMatch(np.zeros(4), 1.0, 0)
     for c in (comp, plain):
         c.begin_frame(f, [coasting, detected, far])
     assert set(comp.anchors_) == {2}

@@ -118,7 +118,7 @@ def test_session_removes_the_younger_duplicate_and_scores_appearance():
     # is highest for its own object
     session._appearance_before(sc.frames[2], dets[3])
     for t in tr.targets:
-        a = t.extra["appearance_scores"]
+        a = t.appearance_scores
         assert a.shape == (3,) and np.all((a >= 0) & (a <= 1))
         own = int(np.argmin(np.linalg.norm(dets[3].boxes_xywh_px[:, :2] - t.box_xywh_px[:2],
                                            axis=1)))

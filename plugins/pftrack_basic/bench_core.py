@@ -100,7 +100,7 @@ def _pftrack_step(n: int, seed: int) -> tuple[Callable[[Any], Any], Callable[[],
     likelihood = GaussianLikelihood(sigma_px=5.0)
     target = Target(id=1, state=np.zeros(6), box_xywh_px=np.zeros(4), frames_tracked=3,
                     size_m=1.0)
-    target.extra["observation_px"] = np.array([203.0, 148.0])
+    target.observation_px = np.array([203.0, 148.0])
     start = motion.init_states(np.array([200.0, 150.0]), n, rng, spread=5.0)
     log_w0 = np.full(n, -np.log(n))
 

@@ -22,8 +22,8 @@ class GaussianLikelihood(Likelihood):
     ``log L = -||c - o||^2 / (2 sigma_px^2)`` with ``c`` the box centre ``(left + w/2, top + h/2)``
     in pixels. The observation ``o`` (pixels) of a target is, in order of precedence:
 
-    1. ``target.extra["observation_px"]``: a point (2,) the caller sets (synthetic data, tests);
-    2. ``target.extra["detection"]["box_xywh_px"]``: the centre of the detection the tracker's
+    1. ``target.observation_px``: a point (2,) the caller sets (synthetic data, tests);
+    2. ``target.detection.box_xywh_px``: the centre of the detection the tracker's
        associator matched to the target;
     3. when ``use_all_detections`` is true and :meth:`begin_frame` received detections: the
        nearest detection centre to each particle (a max over detections of the Gaussian);
@@ -58,16 +58,16 @@ class GaussianLikelihood(Likelihood):
             self.detection_centres_px_ = b[:, :2] + 0.5 * b[:, 2:]
 
     def _observation(self, target: Target) -> np.ndarray | None:
-        obs = target.extra.get("observation_px")
+        obs = target.observation_px
         if obs is not None:
             o = np.asarray(obs, dtype=np.float64).reshape(-1)
             if o.shape != (2,) or not np.all(np.isfinite(o)):
                 raise ValueError(f"GaussianLikelihood: target {target.id} has "
-                                 f"extra['observation_px']={obs!r}; expected 2 finite numbers (px)")
+                                 f"observation_px={obs!r}; expected 2 finite numbers (px)")
             return o[None, :]
-        det = target.extra.get("detection")
+        det = target.detection
         if det is not None:
-            b = np.asarray(det["box_xywh_px"], dtype=np.float64).reshape(4)
+            b = np.asarray(det.box_xywh_px, dtype=np.float64).reshape(4)
             return (b[:2] + 0.5 * b[2:])[None, :]
         if self.use_all_detections:
             centres = getattr(self, "detection_centres_px_", None)

@@ -273,6 +273,8 @@ def _track_loop(tracker: MultiTargetTracker, timed: _TimedLikelihood, frames: It
                 snaps: set[int], scale_step: float | None, scale_limits: tuple[float, float],
                 perspective: bool) -> TrackingRun:
     feet: list[tuple[float, float]] = []  # (foot row, height) of the start boxes so far
+    start_boxes: dict[int, np.ndarray] = {}  # each target's starting box (perspective)
+    first_sizes: dict[int, tuple[float, float]] = {}  # each target's first size (scale_step)
     fit: tuple[float, float] | None = None
     records: list[TrackRecord] = []
     snapshots: dict[int, dict[int, np.ndarray]] = {}
@@ -287,12 +289,12 @@ def _track_loop(tracker: MultiTargetTracker, timed: _TimedLikelihood, frames: It
                 b = np.asarray(box, float)
                 feet.append((b[1] + b[3], b[3]))
                 fit = _fit_perspective(feet)
-                t.extra["start_box_px"] = b.copy()
+                start_boxes[t.id] = b.copy()
         recs = tracker.step(frame)
         if scale_step:
-            _adapt_scale(tracker, recs, float(scale_step), scale_limits)
+            _adapt_scale(tracker, recs, float(scale_step), scale_limits, first_sizes)
         if perspective and fit is not None:
-            _perspective_size(tracker, recs, fit)
+            _perspective_size(tracker, recs, fit, start_boxes)
         for t in list(tracker.targets):
             if ends.get(t.id, np.inf) <= frame.index:
                 tracker.remove_target(t.id)
@@ -362,13 +364,14 @@ def _fit_perspective(feet: list[tuple[float, float]]) -> tuple[float, float] | N
 
 
 def _perspective_size(tracker: MultiTargetTracker, records: list[TrackRecord],
-                      fit: tuple[float, float]) -> None:
-    """Resize each target's box to the perspective fit at its current foot row."""
+                      fit: tuple[float, float], start_boxes: dict[int, np.ndarray]) -> None:
+    """Resize each target's box to the perspective fit at its current foot row
+    (``start_boxes``: each target's starting box, by id)."""
     a, b = fit
     by_id = {r.id: r for r in records}
     for t in tracker.targets:
-        b0 = t.extra.get("start_box_px")
-        if b0 is None or "box_wh_px" not in t.extra or t.id not in by_id:
+        b0 = start_boxes.get(t.id)
+        if b0 is None or t.box_wh_px is None or t.id not in by_id:
             continue
         model0 = a * (b0[1] + b0[3]) + b
         if model0 <= 0:
@@ -382,22 +385,24 @@ def _perspective_size(tracker: MultiTargetTracker, records: list[TrackRecord],
         h = k * (a * cy + b) / denom
         h = float(np.clip(h, 0.5 * b0[3], 2.0 * b0[3]))
         w = float(b0[2] * h / b0[3])
-        t.extra["box_wh_px"] = (w, h)
+        t.box_wh_px = (w, h)
         new = np.array([cx - w / 2, cy - h / 2, w, h])
         by_id[t.id].box_xywh_px = new.copy()
         t.box_xywh_px = new
 
 
 def _adapt_scale(tracker: MultiTargetTracker, records: list[TrackRecord], step: float,
-                 limits: tuple[float, float]) -> None:
-    """One step of scale search per target around its estimate (see :func:`track`)."""
+                 limits: tuple[float, float], first_sizes: dict[int, tuple[float, float]],
+                 ) -> None:
+    """One step of scale search per target around its estimate (see :func:`track`);
+    ``first_sizes`` keeps each target's first box size (by id), the reference of ``limits``."""
     by_id = {r.id: r for r in records}
     factors = np.array([1.0 - step, 1.0, 1.0 + step])
     for t in tracker.targets:
-        wh = t.extra.get("box_wh_px")
+        wh = t.box_wh_px
         if wh is None or t.id not in by_id:
             continue
-        w0 = t.extra.setdefault("box_wh0_px", wh)[0]
+        w0 = first_sizes.setdefault(t.id, wh)[0]
         box = t.box_xywh_px
         cx, cy = box[0] + box[2] / 2, box[1] + box[3] / 2
         ws = np.clip(wh[0] * factors, limits[0] * w0, limits[1] * w0)
@@ -406,7 +411,7 @@ def _adapt_scale(tracker: MultiTargetTracker, records: list[TrackRecord], step: 
         ll = tracker.likelihood.log_likelihood(cands, t)
         k = int(np.argmax(ll))
         if k != 1 and np.isfinite(ll[k]):
-            t.extra["box_wh_px"] = (float(ws[k]), float(hs[k]))
+            t.box_wh_px = (float(ws[k]), float(hs[k]))
             by_id[t.id].box_xywh_px = cands[k].copy()
             t.box_xywh_px = cands[k].copy()
 

@@ -24,7 +24,7 @@ Appearance (optional, ``appearance_weight > 0``): Breitenstein et al.'s original
 track-specific classifier ``c_tr(det)`` where seed 001 uses the generic SVM score ``c(det)``.
 With ``appearance_weight = gamma`` the score becomes ``g * (c(det) + gamma * a(tr, det) + alpha
 * mean p_N)``, where ``a(tr, det)`` in [0, 1] is an appearance similarity the caller puts in
-``target.extra["appearance_scores"]`` (one value per detection; the pipeline's session uses
+``target.appearance_scores`` (one value per detection; the pipeline's session uses
 ``exp(-d^2 / (2 sigma^2))`` of the per-channel colour EMD between the track's and the
 detection's histograms). Targets without it get ``a = 0``.
 """
@@ -85,7 +85,7 @@ def score_matrix(targets: Sequence[Target], detections: Detections, *, alpha: fl
         g = np.exp(-0.5 * (((size_tr - db[:, 3]) / size_tr) / sigma_size) ** 2)
         app = 0.0
         if appearance_weight > 0:
-            a = t.extra.get("appearance_scores")
+            a = t.appearance_scores
             if a is not None and len(a) == K:
                 app = appearance_weight * np.asarray(a, dtype=np.float64)
         s = g * (c + app + alpha * prox)

@@ -446,10 +446,10 @@ class DetectionLikelihood(Likelihood):
     def probability(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
         """p_D (N,) without the floor."""
         b = np.asarray(boxes_xywh_px, dtype=np.float64)
-        match = target.extra.get("detection")
+        match = target.detection
         if match is None:
             return np.zeros(len(b))
-        d = np.asarray(match["box_xywh_px"], dtype=np.float64)
+        d = np.asarray(match.box_xywh_px, dtype=np.float64)
         dist = np.linalg.norm(_foot(b) - _foot(d), axis=1) / max(float(d[3]), 1e-6)
         pn = np.exp(-0.5 * (dist / float(self.sigma)) ** 2)
         p = float(self.psi) * pn
@@ -593,7 +593,7 @@ class CompositeLikelihood(Likelihood):
             # and matched before the weights are computed)
             self.anchors_ = {t.id: np.asarray(t.particles, dtype=np.float64)[:, :2].mean(axis=0)
                              for t in targets
-                             if "detection" in t.extra and t.particles is not None
+                             if t.detection is not None and t.particles is not None
                              and len(t.particles)}
         for t in terms:
             t.begin_frame(frame, targets, detections)
@@ -601,7 +601,7 @@ class CompositeLikelihood(Likelihood):
     def _exclusion(self, target: Target) -> np.ndarray | None:
         """log of the exclusion prior (N,) for ``target``'s particles, or None when it does not
         apply (no ``exclusion_m``, the target matched a detection, nobody else did)."""
-        if self.exclusion_m is None or "detection" in target.extra or target.particles is None:
+        if self.exclusion_m is None or target.detection is not None or target.particles is None:
             return None
         others = [p for tid, p in getattr(self, "anchors_", {}).items() if tid != target.id]
         if not others:

@@ -36,6 +36,7 @@ __all__ = [
     "Frame",
     "Detections",
     "Target",
+    "DetectionMatch",
     "Assignment",
     "KINDS",
     "RunContext",
@@ -107,6 +108,25 @@ class Detections:
         return cls(np.zeros((0, 4)), np.zeros(0))
 
 
+@dataclass(frozen=True)
+class DetectionMatch:
+    """The detection an associator matched to a target in this frame.
+
+    Attributes
+    ----------
+    box_xywh_px : ndarray, shape (4,), float64
+        The detection's box (left, top, width, height), pixels.
+    score : float
+        The detector's confidence c(det).
+    index : int
+        Its row in this frame's :class:`Detections`.
+    """
+
+    box_xywh_px: np.ndarray
+    score: float
+    index: int
+
+
 @dataclass
 class Target:
     """What the tracker knows of one target; handed to likelihoods, motion models and associators.
@@ -135,6 +155,19 @@ class Target:
         Frames since birth.
     misses : int
         Consecutive frames without support.
+    detection : DetectionMatch or None
+        The detection matched to the target in this frame (set by the tracker after
+        association, None when unmatched); likelihoods and track management read it.
+    box_wh_px : (float, float) or None
+        The target's own image box size (width, height) in pixels, for observation models that
+        keep one per target (an image-plane box started from a detection or a given box).
+    appearance_scores : ndarray, shape (K,), or None
+        Appearance similarity in [0, 1] of this frame's K detections to the target's
+        appearance model (set before association by the track management that keeps such a
+        model; associators with an appearance term read it).
+    observation_px : ndarray, shape (2,), or None
+        A point measurement of the target in pixels that the caller supplies (synthetic data,
+        tests); likelihoods that use points prefer it to the matched detection.
     """
 
     id: int
@@ -147,7 +180,10 @@ class Target:
     size_m: float = 1.0
     age: int = 0
     misses: int = 0
-    extra: dict[str, Any] = field(default_factory=dict)
+    detection: DetectionMatch | None = None
+    box_wh_px: tuple[float, float] | None = None
+    appearance_scores: np.ndarray | None = None
+    observation_px: np.ndarray | None = None
 
 
 @dataclass

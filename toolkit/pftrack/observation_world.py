@@ -11,7 +11,7 @@ The inverse, used for births, back-projects a box's foot point (bottom centre) o
 (:meth:`pftrack.geometry.camera.Camera.image_to_ground`).
 
 People are not all 1.75 m tall: with ``adapt_height`` each target keeps its own height factor in
-``target.extra["height_scale"]`` (1 = ``height_m``), set from the box it was born from and
+the model's ``height_scales_`` (by target id; 1 = ``height_m``), set from the box it was born from and
 moved towards each matched detection's height by :meth:`CameraBoxObservation.update_target`
 (a running mean), within ``height_scale_range``.
 """
@@ -104,7 +104,7 @@ class CameraBoxObservation(ObservationModel):
         """The height (m) used for ``target``: ``height_m`` times its height factor."""
         if target is None or not self.adapt_height:
             return self.height_m
-        return self.height_m * float(target.extra.get("height_scale", 1.0))
+        return self.height_m * self._scales().get(target.id, 1.0)
 
     def foot_head_px(self, states: np.ndarray, height_m: float | None = None
                      ) -> tuple[np.ndarray, np.ndarray]:
@@ -119,7 +119,7 @@ class CameraBoxObservation(ObservationModel):
     def init_target(self, target: Target, box_xywh_px: np.ndarray | None) -> None:
         """With ``adapt_height``, the height factor of the box the target is born from."""
         if self.adapt_height and box_xywh_px is not None:
-            target.extra["height_scale"] = 1.0
+            self._scales()[target.id] = 1.0
             self.update_target(target, box_xywh_px, rate=1.0)
 
     def update_target(self, target: Target, box_xywh_px: np.ndarray, rate: float = 0.1) -> None:
@@ -134,9 +134,20 @@ class CameraBoxObservation(ObservationModel):
         if not (np.isfinite(ref) and ref > 0 and h > 0):
             return
         lo, hi = self.height_scale_range
-        old = float(target.extra.get("height_scale", 1.0))
+        old = self._scales().get(target.id, 1.0)
         new = (1.0 - rate) * old + rate * (h / ref)
-        target.extra["height_scale"] = float(np.clip(new, lo, hi))
+        self._scales()[target.id] = float(np.clip(new, lo, hi))
+
+    def _scales(self) -> dict[int, float]:
+        """Per-target height factors (``height_scales_``), created on first use."""
+        scales = self.__dict__.get("height_scales_")
+        if scales is None:
+            scales = self.height_scales_ = {}
+        return scales
+
+    def end_target(self, target: Target) -> None:
+        """Forget the target's height factor."""
+        self._scales().pop(target.id, None)
 
     def to_boxes(self, states: np.ndarray, target: Target | None = None) -> np.ndarray:
         """States (N, D) -> boxes (N, 4) (left, top, width, height) in pixels.

@@ -298,7 +298,7 @@ class TrackingSession:
         ``{bins, sigma, update_rate, region}``: keep a colour model per target (per-channel BGR
         histograms of its matched detections, ``bins`` per channel, running mean with
         ``update_rate``, over the ``region`` fractions of the box) and, before each frame's
-        association, put ``target.extra["appearance_scores"]`` = ``exp(-d^2 / (2 sigma^2))``
+        association, put ``target.appearance_scores`` = ``exp(-d^2 / (2 sigma^2))``
         with ``d`` the exact per-channel 1-D EMD (bins, / (bins - 1), channel mean) between the
         target's model and each detection; associators with ``appearance_weight > 0`` use it.
     """
@@ -330,6 +330,8 @@ class TrackingSession:
                                  f"{sorted(APPEARANCE_KEYS)}")
         self.appearance = appearance
         self.tentative: dict[int, _Tentative] = {}
+        # each live target's colour model (per-channel histograms), by target id
+        self.appearance_models_: dict[int, np.ndarray] = {}
 
     def _record(self, frame: Frame, t: Target) -> TrackRecord:
         obs = self.tracker.observation
@@ -363,20 +365,20 @@ class TrackingSession:
     def _appearance_before(self, frame: Frame, detections: Detections | None) -> np.ndarray | None:
         if self.appearance is None or detections is None or len(detections) == 0:
             for t in self.tracker.targets:
-                t.extra.pop("appearance_scores", None)
+                t.appearance_scores = None
             return None
         hists = self._histograms(frame, detections.boxes_xywh_px)
         sigma = float(self.appearance.get("sigma", 0.1))
         cdf = np.cumsum(hists, axis=-1)
         bins = hists.shape[-1]
         for t in self.tracker.targets:
-            model = t.extra.get("appearance_hist")
+            model = self.appearance_models_.get(t.id)
             if model is None:
-                t.extra.pop("appearance_scores", None)
+                t.appearance_scores = None
                 continue
             d = np.abs(cdf - np.cumsum(model, axis=-1)[None]).sum(axis=-1).mean(axis=1)
             d /= bins - 1
-            t.extra["appearance_scores"] = np.exp(-0.5 * (d / sigma) ** 2)
+            t.appearance_scores = np.exp(-0.5 * (d / sigma) ** 2)
         return hists
 
     def _adapt_sizes(self) -> None:
@@ -384,21 +386,20 @@ class TrackingSession:
         if update is None:
             return
         for t in self.tracker.targets:
-            m = t.extra.get("detection")
-            if m is not None:
-                update(t, m["box_xywh_px"])
+            if t.detection is not None:
+                update(t, t.detection.box_xywh_px)
 
     def _appearance_after(self, hists: np.ndarray | None) -> None:
         if hists is None:
             return
         a = float(self.appearance.get("update_rate", 0.1))
+        models = self.appearance_models_
         for t in self.tracker.targets:
-            m = t.extra.get("detection")
-            if m is None:
+            if t.detection is None:
                 continue
-            h = hists[int(m["index"])]
-            old = t.extra.get("appearance_hist")
-            t.extra["appearance_hist"] = h.copy() if old is None else (1 - a) * old + a * h
+            h = hists[t.detection.index]
+            old = models.get(t.id)
+            models[t.id] = h.copy() if old is None else (1 - a) * old + a * h
 
     def _duplicates(self, targets: list[Target]) -> np.ndarray | None:
         """Boolean (T, T): pairs of targets that are one person (None: no test configured)."""
@@ -425,8 +426,7 @@ class TrackingSession:
         live = {t.id: t for t in tr.targets}
         out: list[TrackRecord] = []
         by_id = {r.id: r for r in records}
-        matched = {int(t.extra["detection"]["index"]) for t in live.values()
-                   if "detection" in t.extra}
+        matched = {t.detection.index for t in live.values() if t.detection is not None}
         # tentative targets: count hits, confirm or drop
         for tid in list(self.tentative):
             tent = self.tentative[tid]
@@ -434,7 +434,7 @@ class TrackingSession:
                 del self.tentative[tid]
                 continue
             tent.age += 1
-            tent.hits += int("detection" in live[tid].extra)
+            tent.hits += int(live[tid].detection is not None)
             if tid in by_id:
                 tent.records.append(by_id[tid])
             if tent.hits >= self.confirm_hits:
@@ -482,13 +482,16 @@ class TrackingSession:
                 t = tr.add_target(frame, box_xywh_px=box)
                 t.frames_tracked = 1
                 if hists is not None:
-                    t.extra["appearance_hist"] = hists[i].copy()
+                    self.appearance_models_[t.id] = hists[i].copy()
                 taken.append(t.box_xywh_px)
                 rec = self._record(frame, t)
                 if self.confirm_hits <= 1:
                     out.append(rec)
                 else:
                     self.tentative[t.id] = _Tentative(hits=1, age=1, records=[rec])
+        for tid in [tid for tid in self.appearance_models_ if tid not in live
+                    and tid not in {t.id for t in tr.targets}]:
+            del self.appearance_models_[tid]  # the target died
         return out
 
 

@@ -5,7 +5,7 @@ Data flow per frame (top to bottom)::
     frame -> [detector] -> detections
           -> motion.predict (per target)            particles (N, D) in the motion model's space
           -> observation.to_boxes                   particle boxes (N, 4) xywh px
-          -> [associator] detections <-> targets    ``target.extra["detection"]``
+          -> [associator] detections <-> targets    ``target.detection``
           -> likelihood.begin_frame(all targets) -> likelihood.log_likelihood (per target)
           -> normalise, estimate (weighted mean), extent, resample on ESS: vectorised over
              the targets (one row per filter, each row the single-filter numbers bit for bit)
@@ -29,6 +29,7 @@ from scipy.special import expit
 
 from pftrack.components import (
     Associator,
+    DetectionMatch,
     Detections,
     Detector,
     Frame,
@@ -68,11 +69,15 @@ class ObservationModel(ABC):
     def to_boxes(self, states: np.ndarray, target: Target | None = None) -> np.ndarray:
         """States (N, D) -> boxes (N, 4) as (left, top, width, height) in pixels.
 
-        ``target`` lets a model keep per-target parameters (a box size) in ``target.extra``.
+        ``target`` lets a model use per-target parameters (``target.box_wh_px``, or its own
+        per-target state keyed by ``target.id``).
         """
 
     def init_target(self, target: Target, box_xywh_px: np.ndarray | None) -> None:
         """Called when a target is born, with the box it was started from (if any)."""
+
+    def end_target(self, target: Target) -> None:
+        """Called when a target dies: drop any per-target state kept for it."""
 
     @abstractmethod
     def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:
@@ -96,7 +101,7 @@ class ImageBoxObservation(ObservationModel):
     (seed 000 uses 30 x 30 px).
 
     With ``size_from_box=True`` each target keeps the size of the box it was started from
-    (``target.extra["box_wh_px"]``), e.g. each person's ground-truth size at initialisation.
+    (``target.box_wh_px``), e.g. each person's ground-truth size at initialisation.
     """
 
     def __init__(self, width_px: float = 30.0, height_px: float = 30.0,
@@ -110,13 +115,13 @@ class ImageBoxObservation(ObservationModel):
 
     def init_target(self, target: Target, box_xywh_px: np.ndarray | None) -> None:
         if self.size_from_box and box_xywh_px is not None:
-            target.extra["box_wh_px"] = (float(box_xywh_px[2]), float(box_xywh_px[3]))
+            target.box_wh_px = (float(box_xywh_px[2]), float(box_xywh_px[3]))
 
     def to_boxes(self, states: np.ndarray, target: Target | None = None) -> np.ndarray:
         s = np.asarray(states, dtype=np.float64)
         w, h = self.width_px, self.height_px
-        if target is not None and "box_wh_px" in target.extra:
-            w, h = target.extra["box_wh_px"]
+        if target is not None and target.box_wh_px is not None:
+            w, h = target.box_wh_px
         if len(s) == 1:  # an estimate: Python floats are the same IEEE doubles, and faster
             x, y = s[0, :2].tolist()
             return np.array([[x - 0.5 * w, y - 0.5 * h, w, h]])
@@ -194,7 +199,7 @@ class MultiTargetTracker:
         non-finite (defaults to ``5 * init_spread``).
     detector, associator : optional
         When given, detections are computed each frame and matched to targets; the match is put
-        in ``target.extra["detection"] = {"box_xywh_px", "score", "index"}`` for likelihoods.
+        in ``target.detection`` (:class:`~pftrack.components.DetectionMatch`) for likelihoods.
     birth_min_score : float, optional
         Unmatched detections at least this confident start new targets (no births when None).
     max_misses : int, optional
@@ -310,6 +315,7 @@ class MultiTargetTracker:
         f = self._filters.pop(target_id, None)
         if f is not None:
             self.likelihood.end_target(f.target)
+            self.observation.end_target(f.target)
 
     # -- one frame ----------------------------------------------------------------------------
 
@@ -330,7 +336,7 @@ class MultiTargetTracker:
             t.particles = f.particles
             t.particle_boxes_xywh_px = observation.to_boxes(f.particles, t)
             t.age += 1
-            t.extra.pop("detection", None)
+            t.detection = None
         # 2. detect and associate
         if detections is None and self.detector is not None:
             detections = self.detector.detect(frame)
@@ -340,11 +346,8 @@ class MultiTargetTracker:
             targets = [f.target for f in filters]
             a = self.associator.associate(targets, detections)
             for ti, di in a.matches:
-                targets[ti].extra["detection"] = {
-                    "box_xywh_px": detections.boxes_xywh_px[di],
-                    "score": float(detections.scores[di]),
-                    "index": int(di),
-                }
+                targets[ti].detection = DetectionMatch(detections.boxes_xywh_px[di],
+                                                       float(detections.scores[di]), int(di))
             unmatched_dets = a.unmatched_detections
         # 3. weight every target (each sees the others as the frame found them)
         targets = [f.target for f in filters]
@@ -417,7 +420,7 @@ class MultiTargetTracker:
             box = observation.to_boxes(state[None], t)[0]
             t.box_xywh_px = box
             supported = ok and (
-                "detection" in t.extra
+                t.detection is not None
                 or (self.min_log_likelihood is not None and best >= self.min_log_likelihood)
                 or (detections is None and self.min_log_likelihood is None))
             t.frames_tracked = t.frames_tracked + 1 if supported else 0

@@ -48,7 +48,7 @@ The set-up hook for plugin authors
 ----------------------------------
 By default the kit exercises a component on a small seeded synthetic scene
 (:func:`pftrack.testing.synthetic.synthetic_scene`: three coloured boxes moving over a noisy
-160 x 120 px background; targets carry ``extra["observation_px"]`` and ``extra["detection"]``).
+160 x 120 px background; targets carry ``observation_px`` and ``detection``).
 A component that needs more (a camera, a trained model, world-coordinate states, a data file)
 defines a classmethod returning a fresh configured instance and, optionally, its context::
 

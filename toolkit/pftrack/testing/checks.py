@@ -458,7 +458,7 @@ def _associator_workflow(ex: ConformanceExample, rng: np.random.Generator, run: 
         targets = [target_from_box(b + np.array([1.0, -1.0, 0.0, 0.0]), i + 1, detection_index=None)
                    for i, b in enumerate(sc.boxes_by_frame[f0])]
         for t in targets:
-            t.extra.clear()
+            t.observation_px = t.detection = None
     dets = ex.detections if ex.detections is not None else sc.detections(f0 + 1)
     saved = (dets.boxes_xywh_px.copy(), dets.scores.copy(),
              [np.array(t.box_xywh_px, copy=True) for t in targets])

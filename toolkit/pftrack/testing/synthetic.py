@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pftrack.components import Detections, Frame, Target
+from pftrack.components import DetectionMatch, Detections, Frame, Target
 
 __all__ = ["SyntheticScene", "synthetic_scene", "target_from_box"]
 
@@ -54,7 +54,7 @@ class SyntheticScene:
     def targets(self, frame_index: int | None = None, state_dim: int = 2) -> list[Target]:
         """One :class:`Target` per object at ``frame_index`` (default: the first frame), ids 1..3.
 
-        ``target.extra`` carries ``observation_px`` (the true box centre) and ``detection``
+        the target carries ``observation_px`` (the true box centre) and ``detection``
         (the true box as the tracker's associator would put it), so likelihoods that read either
         find them.
         """
@@ -73,10 +73,9 @@ def target_from_box(box_xywh_px: np.ndarray, target_id: int = 1, state_dim: int 
     state[:2] = centre
     t = Target(id=int(target_id), state=state, box_xywh_px=b.copy(),
                extent=np.ones_like(state), frames_tracked=3, size_m=float(size), age=3)
-    t.extra["observation_px"] = centre.copy()
+    t.observation_px = centre.copy()
     if detection_index is not None:
-        t.extra["detection"] = {"box_xywh_px": b.copy(), "score": 0.9,
-                                "index": int(detection_index)}
+        t.detection = DetectionMatch(b.copy(), 0.9, int(detection_index))
     return t
 
 
