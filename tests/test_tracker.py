@@ -7,6 +7,7 @@ import pytest
 
 from pftrack.components import Detections, Detector, Frame, Likelihood, MotionModel, Target
 from pftrack.tracker import ImageBoxObservation, MultiTargetTracker, records_to_mot
+from pftrack_basic.tracks import DetectionBirthTracks
 
 
 class _Walk(MotionModel):
@@ -123,7 +124,8 @@ def test_birth_from_detections_and_death_after_misses():
     lik.truth_ = type("T", (), {"__getitem__": lambda s, i: (lambda k: np.array([50.0, 50.0]))})()
     tr = MultiTargetTracker(_Walk(1.0), lik, ImageBoxObservation(10, 10), n_particles=100,
                             detector=_ListDetector(boxes), associator=_NearestAssociator(),
-                            birth_min_score=0.5, max_misses=3, rng=np.random.default_rng(0))
+                            tracks=DetectionBirthTracks(min_score=0.5), max_misses=3,
+                            rng=np.random.default_rng(0))
     out = {f.index: tr.step(f) for f in _frames(50)}
     alive = [k for k, recs in out.items() if recs]
     assert alive[0] == 5                      # born on its first detection

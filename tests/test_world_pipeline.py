@@ -1,5 +1,6 @@
-"""The run pipeline: configuration loading, the seed-001 tracking session (confirmed births,
-hidden coasting, duplicate removal, appearance scores) and a real PETS 2009 run."""
+"""The run pipeline: configuration loading, the engine a configuration builds with the
+``confirmed`` track manager (confirmed births, hidden coasting, duplicate removal, appearance
+scores) and a real PETS 2009 run."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import numpy as np
 import pytest
 from pftrack.components import Detections
 from pftrack.data import data_dir
-from pftrack.pipeline import build_session, load_config, parse_frames
+from pftrack.pipeline import build_engine, load_config, parse_frames
 from pftrack.testing import synthetic_scene
 
 PETS = data_dir() / "pets09"
@@ -32,10 +33,10 @@ def _image_cfg(**births) -> dict:
     }
 
 
-def _run(session, scene, dets_by_frame):
+def _run(engine, scene, dets_by_frame):
     out = {}
     for f in scene.frames:
-        for r in session.step(f, dets_by_frame[f.index]):
+        for r in engine.step(f, dets_by_frame[f.index]):
             out.setdefault(r.frame, {})[r.id] = r
     return out
 
@@ -67,8 +68,8 @@ def test_session_confirms_births_and_drops_one_frame_detections():
     d2 = dets[2]
     dets[2] = Detections(np.vstack([d2.boxes_xywh_px, [120, 5, 20, 40]]),
                          np.r_[d2.scores, 0.95])
-    session = build_session(_image_cfg(), fps=25.0, seed=0)
-    out = _run(session, sc, dets)
+    engine = build_engine(_image_cfg(), fps=25.0, seed=0)
+    out = _run(engine, sc, dets)
     ids_per_frame = {f: sorted(v) for f, v in out.items()}
     # confirmation at frame 3 back-fills frames 1 and 2 with the same ids
     assert ids_per_frame[1] == ids_per_frame[3] == ids_per_frame[10] == [1, 2, 3]
@@ -88,13 +89,13 @@ def test_session_hides_coasting_targets_then_ends_them():
     for i in range(6, 13):  # object 0 (the first detection) disappears from frame 6
         d = dets[i]
         dets[i] = Detections(d.boxes_xywh_px[1:], d.scores[1:])
-    session = build_session(_image_cfg(hide_after_misses=1), fps=25.0, seed=0)
-    out = _run(session, sc, dets)
+    engine = build_engine(_image_cfg(hide_after_misses=1), fps=25.0, seed=0)
+    out = _run(engine, sc, dets)
     first = min(out[5], key=lambda k: np.linalg.norm(out[5][k].box_xywh_px[:2]
                                                        - sc.boxes_by_frame[5][0, :2]))
     assert first in out[6]  # one miss: still shown
     assert first not in out[7] and first not in out[8]  # coasting: hidden
-    assert first not in {t.id for t in session.tracker.targets}  # dead after max_misses = 3
+    assert first not in {t.id for t in engine.targets}  # dead after max_misses = 3
     assert all(len(out[f]) == 2 for f in range(7, 13))
 
 
@@ -103,20 +104,20 @@ def test_session_removes_the_younger_duplicate_and_scores_appearance():
     dets = {i: sc.detections(i, extra_box=False) for i in sc.boxes_by_frame}
     cfg = _image_cfg(confirm_hits=1, confirm_window=1, merge_iou=0.5,
                      appearance={"bins": 8, "sigma": 0.1})
-    session = build_session(cfg, fps=25.0, seed=0)
+    tr = build_engine(cfg, fps=25.0, seed=0)
     f1 = sc.frames[0]
-    session.step(f1, dets[1])
-    tr = session.tracker
+    tr.step(f1, dets[1])
     assert len(tr.targets) == 3
     # a duplicate of object 0, born later
     dup = tr.add_target(f1, box_xywh_px=sc.boxes_by_frame[1][0] + [1, 0, 0, 0])
-    out = session.step(sc.frames[1], dets[2])
+    out = tr.step(sc.frames[1], dets[2])
     live = {t.id for t in tr.targets}
     assert dup.id not in live and len(live) == 3
     assert dup.id not in {r.id for r in out}
     # every target carries its colour model and, per detection, a similarity in [0, 1] that
     # is highest for its own object
-    session._appearance_before(sc.frames[2], dets[3])
+    tr.tracks.before_frame(tr, sc.frames[2], dets[3])
+    assert set(tr.tracks.appearance_models_) == {t.id for t in tr.targets}
     for t in tr.targets:
         a = t.appearance_scores
         assert a.shape == (3,) and np.all((a >= 0) & (a <= 1))
@@ -147,7 +148,7 @@ def test_world_duplicates_are_told_by_ground_distance_not_image_overlap():
     younger). With image overlap alone (merge_iou) the hidden person would be removed."""
     from pftrack.components import Frame
     from pftrack.geometry.formats import load_camera
-    from pftrack.pipeline import _box_iou
+    from pftrack_basic.association import box_iou
 
     cam = load_camera(PETS / "View_001.xml")
     frame0 = Frame(1, np.zeros((576, 768, 3), np.uint8))
@@ -157,21 +158,20 @@ def test_world_duplicates_are_told_by_ground_distance_not_image_overlap():
                  "duplicate": (-6.05, -5.95)}
 
     def survivors(**births):
-        session = build_session(_world_cfg(**births), camera=cam, fps=10.0, seed=0)
-        tr = session.tracker
+        tr = build_engine(_world_cfg(**births), camera=cam, fps=10.0, seed=0)
         ids = {k: tr.add_target(frame0, np.array(p)).id for k, p in positions.items()}
         boxes = {k: tr._filters[i].target.box_xywh_px for k, i in ids.items()}
-        session.step(Frame(2, frame0.image), Detections.empty())
+        tr.step(Frame(2, frame0.image), Detections.empty())
         live = {t.id for t in tr.targets}
         return {k for k, i in ids.items() if i in live}, boxes
 
     kept, boxes = survivors(merge_distance_m=0.4)
-    assert _box_iou(boxes["front"], boxes["behind"])[0, 0] > 0.6
+    assert box_iou(boxes["front"], boxes["behind"])[0, 0] > 0.6
     assert kept == {"front", "behind"}
     kept, _ = survivors(merge_iou=0.6)
     assert kept == {"front"}
     with pytest.raises(ValueError, match="merge_distance_m"):
-        build_session(_world_cfg(merge_distance_m=-1.0), camera=cam, fps=10.0, seed=0)
+        build_engine(_world_cfg(merge_distance_m=-1.0), camera=cam, fps=10.0, seed=0)
 
 
 def test_empty_result_writes_an_empty_mot_file(tmp_path):

@@ -12,6 +12,12 @@ Components (registered name -> class):
 * associator: ``hungarian-iou`` :class:`~pftrack_basic.association.HungarianIoUAssociator`,
   ``greedy-iou`` :class:`~pftrack_basic.association.GreedyIoUAssociator`;
 * detector: ``mog2`` :class:`~pftrack_basic.background.BackgroundSubtractionDetector`;
+* observation: ``image-box`` :class:`pftrack.tracker.ImageBoxObservation` (image-plane box
+  centre), ``camera-box`` :class:`pftrack.observation_world.CameraBoxObservation` (ground-plane
+  position through the run's camera);
+* tracks: ``manual`` :class:`pftrack.tracker.ManualTracks` (targets added by the caller),
+  ``births`` :class:`~pftrack_basic.tracks.DetectionBirthTracks`, ``confirmed``
+  :class:`~pftrack_basic.tracks.ConfirmedTracks` (tentative -> confirmed, merging, appearance);
 * benchmark: ``core`` (:mod:`pftrack_basic.bench_core`: the filter step against Stone Soup).
 
 Only this module is imported when the host loads the plugin; the component modules are light
@@ -69,3 +75,23 @@ def pftrack_register_benchmarks(register):
     from pftrack_basic import bench_core
 
     register("core", Benchmark.from_module(bench_core))
+
+
+@hookimpl
+def pftrack_register_observation_models(register):
+    from pftrack.observation_world import CameraBoxObservation
+    from pftrack.tracker import ImageBoxObservation
+
+    register("image-box", ImageBoxObservation)
+    register("camera-box", CameraBoxObservation)
+
+
+@hookimpl
+def pftrack_register_track_managers(register):
+    from pftrack.tracker import ManualTracks
+
+    from pftrack_basic.tracks import ConfirmedTracks, DetectionBirthTracks
+
+    register("manual", ManualTracks)
+    register("births", DetectionBirthTracks)
+    register("confirmed", ConfirmedTracks)

@@ -64,3 +64,10 @@ def pftrack_register_demos(register):
 
     register("walkers", Demo(summary="track the synthetic walkers (seed 000) and write a report",
                              run=demo.run_cli, add_arguments=demo.add_arguments, default=True))
+
+
+@hookimpl
+def pftrack_register_track_managers(register):
+    from pftrack_colour.experiment import GivenBoxTracks
+
+    register("given-boxes", GivenBoxTracks)

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from pftrack.components import Detections, Frame, Likelihood, Target
+from pftrack.components import Detections, Frame, Likelihood, Target, TrackManager
 from pftrack.host import Host, get_host
 from pftrack.tracker import ImageBoxObservation, MultiTargetTracker, TrackRecord, records_to_mot
 
@@ -29,6 +29,7 @@ __all__ = [
     "build_tracker",
     "centre_errors",
     "cumulative_errors",
+    "GivenBoxTracks",
     "first_boxes",
     "format_walkers_tables",
     "implementation",
@@ -153,6 +154,7 @@ def build_tracker(likelihood: Likelihood | str | dict[str, Any], *, n_particles:
                   box_size_px: tuple[float, float] | None = (30.0, 30.0), seed: int = 0,
                   min_log_likelihood: float | None = None, max_misses: int | None = None,
                   motion: str | dict[str, Any] | None = None,
+                  tracks: TrackManager | None = None,
                   host: Host | None = None) -> MultiTargetTracker:
     """Seed 000's tracker: random walk of the box centre, fixed-size boxes, resampling every
     frame (systematic), initial spread N(0, 1) px (eq. 6), estimate = weighted mean (eq. 12).
@@ -177,6 +179,8 @@ def build_tracker(likelihood: Likelihood | str | dict[str, Any], *, n_particles:
     motion : str or dict, optional
         Another motion model (registered name or config; its state must start with the box
         centre in px); default: ``random-walk`` with ``sigma_px``.
+    tracks : TrackManager, optional
+        The engine's track management (default: targets added by the caller).
     """
     host = host or get_host()
     lik = host.build("likelihood", likelihood)
@@ -187,7 +191,8 @@ def build_tracker(likelihood: Likelihood | str | dict[str, Any], *, n_particles:
         obs = ImageBoxObservation(size_from_box=True)
     else:
         obs = ImageBoxObservation(float(box_size_px[0]), float(box_size_px[1]))
-    return MultiTargetTracker(motion, lik, obs, n_particles=n_particles, resampling="systematic",
+    return MultiTargetTracker(motion, lik, obs, tracks=tracks, n_particles=n_particles,
+                              resampling="systematic",
                               ess_threshold=1.0, init_spread=1.0,
                               min_log_likelihood=min_log_likelihood, max_misses=max_misses,
                               kill_out_of_view=True, rng=np.random.default_rng(seed))
@@ -259,23 +264,20 @@ def track(frames: Iterable[Frame], likelihood: Likelihood | str | dict[str, Any]
     TrackingRun
     """
     # building the tracker prepares the likelihood (compiled kernels loaded) before the clock
-    tracker = build_tracker(likelihood, **tracker_kw)
+    tracks = GivenBoxTracks(starts=starts, ends=ends or {}, scale_step=scale_step,
+                            scale_limits=scale_limits, perspective=perspective)
+    tracker = build_tracker(likelihood, tracks=tracks, **tracker_kw)
     timed = _TimedLikelihood(tracker.likelihood)
     tracker.likelihood = timed
     snaps = {int(f) for f in snapshot_frames}
     with np.errstate(over="ignore"):  # the tracker's confidence exp(-logL) overflows harmlessly
-        return _track_loop(tracker, timed, frames, starts, ends or {}, snaps, scale_step,
-                           scale_limits, perspective)
+        return _track_loop(tracker, timed, frames, snaps)
 
 
 def _track_loop(tracker: MultiTargetTracker, timed: _TimedLikelihood, frames: Iterable[Frame],
-                starts: dict[int, list[tuple[int, np.ndarray]]], ends: dict[int, int],
-                snaps: set[int], scale_step: float | None, scale_limits: tuple[float, float],
-                perspective: bool) -> TrackingRun:
-    feet: list[tuple[float, float]] = []  # (foot row, height) of the start boxes so far
-    start_boxes: dict[int, np.ndarray] = {}  # each target's starting box (perspective)
-    first_sizes: dict[int, tuple[float, float]] = {}  # each target's first size (scale_step)
-    fit: tuple[float, float] | None = None
+                snaps: set[int]) -> TrackingRun:
+    """Step the engine through ``frames`` (its track manager starts, resizes and ends the
+    targets), timing the engine's calls only."""
     records: list[TrackRecord] = []
     snapshots: dict[int, dict[int, np.ndarray]] = {}
     seconds = 0.0
@@ -283,21 +285,7 @@ def _track_loop(tracker: MultiTargetTracker, timed: _TimedLikelihood, frames: It
     clock = time.perf_counter
     for frame in frames:
         t0 = clock()
-        for tid, box in starts.get(frame.index, ()):
-            t = tracker.add_target(frame, box_xywh_px=np.asarray(box, float), target_id=tid)
-            if perspective:
-                b = np.asarray(box, float)
-                feet.append((b[1] + b[3], b[3]))
-                fit = _fit_perspective(feet)
-                start_boxes[t.id] = b.copy()
         recs = tracker.step(frame)
-        if scale_step:
-            _adapt_scale(tracker, recs, float(scale_step), scale_limits, first_sizes)
-        if perspective and fit is not None:
-            _perspective_size(tracker, recs, fit, start_boxes)
-        for t in list(tracker.targets):
-            if ends.get(t.id, np.inf) <= frame.index:
-                tracker.remove_target(t.id)
         seconds += clock() - t0
         n_frames += 1
         records.extend(recs)
@@ -309,6 +297,82 @@ def _track_loop(tracker: MultiTargetTracker, timed: _TimedLikelihood, frames: It
                        likelihood_seconds=getattr(timed, "seconds_", 0.0), n_frames=n_frames,
                        n_updates=len(records), snapshots=snapshots,
                        recoveries=tracker.recoveries)
+
+
+class GivenBoxTracks(TrackManager):
+    """Targets started from given boxes at given frames and stopped at given frames (seed 000's
+    protocol: each person from its first ground-truth box to its last), optionally resized
+    every frame; every live target's estimate is output.
+
+    Parameters
+    ----------
+    starts : {frame: [(id, box_xywh_px)]}
+        Targets to start (e.g. :func:`first_boxes` of the ground truth).
+    ends : {id: frame}
+        Frame after which a target is stopped (e.g. :func:`last_frames`).
+    scale_step : float, optional
+        Per-frame scale search around the estimate (see :func:`track`).
+    scale_limits : (float, float)
+        Bounds of the scale search, times the starting size.
+    perspective : bool
+        Box height from a linear fit of height against foot row (see :func:`track`).
+
+    Attributes
+    ----------
+    start_boxes_ : dict[int, ndarray]
+        Each target's starting box (perspective).
+    first_sizes_ : dict[int, (float, float)]
+        Each target's first size (scale search).
+    feet_ : list of (foot row, height)
+        The start boxes so far (perspective fit).
+    """
+
+    def __init__(self, starts: dict[int, list[tuple[int, np.ndarray]]] | None = None,
+                 ends: dict[int, int] | None = None, scale_step: float | None = None,
+                 scale_limits: tuple[float, float] = (0.6, 1.6),
+                 perspective: bool = False) -> None:
+        self.starts = starts
+        self.ends = ends
+        self.scale_step = scale_step
+        self.scale_limits = scale_limits
+        self.perspective = perspective
+
+    def _state(self) -> None:
+        if "start_boxes_" not in self.__dict__:
+            self.start_boxes_: dict[int, np.ndarray] = {}
+            self.first_sizes_: dict[int, tuple[float, float]] = {}
+            self.feet_: list[tuple[float, float]] = []
+            self.fit_: tuple[float, float] | None = None
+
+    def before_frame(self, engine: Any, frame: Frame, detections: Detections | None) -> None:
+        self._state()
+        for tid, box in (self.starts or {}).get(frame.index, ()):
+            t = engine.add_target(frame, box_xywh_px=np.asarray(box, float), target_id=tid)
+            if self.perspective:
+                b = np.asarray(box, float)
+                self.feet_.append((b[1] + b[3], b[3]))
+                self.fit_ = _fit_perspective(self.feet_)
+                self.start_boxes_[t.id] = b.copy()
+
+    def after_frame(self, engine: Any, frame: Frame, detections: Detections | None,
+                    records: list[TrackRecord], unmatched_detections: np.ndarray,
+                    ) -> list[TrackRecord]:
+        self._state()
+        if self.scale_step:
+            _adapt_scale(engine, records, float(self.scale_step), self.scale_limits,
+                         self.first_sizes_)
+        if self.perspective and self.fit_ is not None:
+            _perspective_size(engine, records, self.fit_, self.start_boxes_)
+        ends = self.ends or {}
+        for t in list(engine.targets):
+            if ends.get(t.id, np.inf) <= frame.index:
+                engine.remove_target(t.id)
+        return records
+
+    def end_target(self, target: Target) -> None:
+        self._state()
+        self.start_boxes_.pop(target.id, None)
+        self.first_sizes_.pop(target.id, None)
 
 
 def _held_estimates(track_rows: np.ndarray, tid: int, frames: np.ndarray,

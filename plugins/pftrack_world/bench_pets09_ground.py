@@ -105,7 +105,7 @@ def _variants(cfg: dict[str, Any]) -> dict[str, dict[str, Any]]:
     # detection and fixed, as seed 001's 2D baseline
     c2 = with_lik(composite((ncc, 1.0), scale=40.0))
     c2["state"] = "image"
-    c2["observation"] = {"size_from_box": True}
+    c2["observation"] = {"type": "image-box", "params": {"size_from_box": True}}
     mp = dict(c2["motion"].get("params") or {})
     for k in ("position_noise", "velocity_noise", "acceleration_noise"):
         if k in mp:

@@ -171,7 +171,7 @@ def track_scene(scene: Any, preset: str | dict[str, Any] = "soccer-ground", *, s
     import numpy as np
 
     from pftrack.geometry.clouds import ParticleCloud
-    from pftrack.pipeline import build_session
+    from pftrack.pipeline import build_engine
     from pftrack.tracker import records_to_mot
 
     if init not in ("gt", "detections"):
@@ -182,17 +182,19 @@ def track_scene(scene: Any, preset: str | dict[str, Any] = "soccer-ground", *, s
             raise ValueError(f"particles must be >= 1, got {particles}")
         cfg["tracker"] = {**(cfg.get("tracker") or {}), "n_particles": int(particles)}
     if not births:
-        cfg["births"] = {**(cfg.get("births") or {}), "min_score": float("inf")}
+        spec = cfg.get("tracks") or {"type": "confirmed", "params": cfg.pop("births", None)}
+        cfg["tracks"] = {"type": spec["type"],
+                         "params": {**(spec.get("params") or {}), "min_score": float("inf")}}
     scene.prepare()
     gt = scene.ground_truth()
-    session = build_session(cfg, camera=scene.camera_, fps=float(scene.fps), seed=seed)
+    engine = build_engine(cfg, camera=scene.camera_, fps=float(scene.fps), seed=seed)
     detector = build_detector_for(cfg, camera if camera is not None else scene.camera)
     if background_frames > 0:
         # the fixed camera films the empty pitch before play: the background is learned there
         detector.fit(list(scene.empty_frames(background_frames)), {})
     first = gt[gt[:, 0] == 1]
     keep = {int(k) for k in keep_frames}
-    out = SoccerRun(scene, gt, None, {}, particles=int(session.tracker.n_particles))
+    out = SoccerRun(scene, gt, None, {}, particles=int(engine.n_particles))
 
     threads = cv2.getNumThreads()
     cv2.setNumThreads(1)
@@ -206,15 +208,15 @@ def track_scene(scene: Any, preset: str | dict[str, Any] = "soccer-ground", *, s
             t1 = time.perf_counter()
             if frame.index == 1 and init == "gt":
                 for row in first:
-                    session.tracker.add_target(frame, position=row[7:9], target_id=int(row[1]))
-            records.extend(session.step(frame, dets))
+                    engine.add_target(frame, position=row[7:9], target_id=int(row[1]))
+            records.extend(engine.step(frame, dets))
             t2 = time.perf_counter()
             t_det += t1 - t0
             t_trk += t2 - t1
             n += 1
             if frame.index in keep:
                 out.images[frame.index] = frame.image.copy()
-                out.clouds[frame.index] = _clouds(session.tracker, ParticleCloud)
+                out.clouds[frame.index] = _clouds(engine, ParticleCloud)
             if progress and n % 50 == 0:
                 print(f"soccer: frame {n}/{scene.n_frames}", file=sys.stderr, flush=True)
     finally:

@@ -39,7 +39,10 @@ __all__ = [
     "DetectionMatch",
     "Assignment",
     "KINDS",
+    "ObservationModel",
     "RunContext",
+    "TrackManager",
+    "TrackRecord",
 ]
 
 
@@ -499,10 +502,126 @@ class Scene(Component):
         return 25.0
 
 
+# --------------------------------------------------------------------------------------------
+# The engine's replaceable parts: observation model, track management
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class TrackRecord:
+    """One target's estimate in one frame: what the engine outputs.
+
+    ``box_xywh_px`` is the image box of the estimate; ``position`` its position in state space
+    (pixels for image-plane models, world metres for ground-plane ones); ``world_m`` the ground
+    position (x, y, z) in metres when the observation model knows one, else None;
+    ``confidence`` the logistic of the best particle's log-likelihood (0.5 at a birth).
+    """
+
+    frame: int
+    id: int
+    box_xywh_px: np.ndarray
+    state: np.ndarray
+    position: np.ndarray
+    extent: np.ndarray
+    confidence: float
+    world_m: np.ndarray | None = None
+
+
+class ObservationModel(Component):
+    """Maps particle states to image boxes, and a detection box back to a position.
+
+    The engine is state-space agnostic: an image-plane model reads the box centre from the
+    state, a ground-plane model projects a foot and a head point through the run's camera
+    (taken from :class:`RunContext` in :meth:`setup`), a volume model points in a 3-D cuboid.
+    """
+
+    kind: ClassVar[str] = "observation"
+
+    @abstractmethod
+    def to_boxes(self, states: np.ndarray, target: Target | None = None) -> np.ndarray:
+        """States (N, D) -> boxes (N, 4) as (left, top, width, height) in pixels.
+
+        ``target`` lets a model use per-target parameters (``target.box_wh_px``, or its own
+        per-target state keyed by ``target.id``).
+        """
+
+    def init_target(self, target: Target, box_xywh_px: np.ndarray | None) -> None:
+        """Called when a target is born, with the box it was started from (if any)."""
+
+    def end_target(self, target: Target) -> None:
+        """Called when a target dies: drop any per-target state kept for it."""
+
+    def update_target(self, target: Target, box_xywh_px: np.ndarray) -> None:
+        """Called after each frame in which ``target`` matched a detection (its box), for
+        models that adapt per-target parameters (a height factor). Default: nothing."""
+
+    @abstractmethod
+    def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:
+        """A box (4,) -> the position (P,) in state space that would produce it (for births)."""
+
+    def world_position(self, state: np.ndarray) -> np.ndarray | None:
+        """Ground position (x, y, z) in world metres of a state (D,), or None when the model
+        has no world frame (image-plane tracking)."""
+        return None
+
+    def in_view(self, states: np.ndarray, image_size_wh: tuple[int, int],
+                target: Target | None = None) -> np.ndarray:
+        """Boolean (N,): the state's box overlaps the image. Override for volumes/fields."""
+        b = self.to_boxes(states, target)
+        w, h = image_size_wh
+        return (b[:, 0] < w) & (b[:, 1] < h) & (b[:, 0] + b[:, 2] > 0) & (b[:, 1] + b[:, 3] > 0)
+
+
+class TrackManager(Component):
+    """Track management: which targets exist and which estimates are output.
+
+    The engine (:class:`pftrack.tracker.MultiTargetTracker`) runs one frame as: detect ->
+    ``before_frame`` -> predict -> detect and associate -> weight -> normalise, estimate, resample -> the
+    filter's own deaths (misses, out of view, out of the valid region) -> ``after_frame``.
+    A track manager decides births (from unmatched detections, or from given boxes), the
+    tentative -> confirmed life of a new target, merging duplicates, any other end of a target,
+    and which of the frame's records to output (a confirmed target's earlier frames may be
+    output when it is confirmed). It changes the engine only through its public methods
+    (``add_target``, ``remove_target``, ``record``, ``targets``).
+    """
+
+    kind: ClassVar[str] = "tracks"
+
+    def before_frame(self, engine: Any, frame: Frame, detections: Detections | None) -> None:
+        """Called before the frame's predict step, with the frame's detections (None when the
+        run has none): start targets due in this frame, prepare what the associator reads
+        (``Target.appearance_scores``). Default: nothing."""
+
+    def after_frame(self, engine: Any, frame: Frame, detections: Detections | None,
+                    records: list[TrackRecord], unmatched_detections: np.ndarray,
+                    ) -> list[TrackRecord]:
+        """Called once the live targets are estimated; returns the records to output now.
+
+        Parameters
+        ----------
+        engine : MultiTargetTracker
+        frame : Frame
+        detections : Detections or None
+            The frame's detections (None when the run has none).
+        records : list of TrackRecord
+            This frame's estimate of every live target, in id order.
+        unmatched_detections : ndarray of int
+            Rows of ``detections`` that no target matched (candidates for births).
+
+        Default: output every record (no births).
+        """
+        return records
+
+    def end_target(self, target: Target) -> None:
+        """Called when ``target`` dies, whoever ended it; drop its per-target state."""
+
+
 KINDS: dict[str, type[Component]] = {
     "detector": Detector,
     "likelihood": Likelihood,
     "motion": MotionModel,
     "associator": Associator,
     "scene": Scene,
+    "observation": ObservationModel,
+    "tracks": TrackManager,
 }

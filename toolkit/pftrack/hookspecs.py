@@ -22,7 +22,8 @@ replaced only with ``override=True``, and the host warns which plugin did it.
 Groups
 ------
 * **Components** (classes, built by name from a run's configuration): detectors, likelihoods,
-  motion models, associators, scenes.
+  motion models, associators, scenes, observation models and track managers (the two parts of
+  the one tracking engine that vary between papers).
 * **Run configurations**: presets.
 * **Evaluation**: metrics (``pftrack eval`` reports every registered one).
 * **Command line**: benchmarks (``pftrack bench NAME``), commands (``pftrack NAME``) and demos
@@ -38,7 +39,15 @@ from typing import TYPE_CHECKING, Protocol, TypeVar
 import pluggy
 
 if TYPE_CHECKING:  # typing only: the specs import nothing heavy
-    from pftrack.components import Associator, Detector, Likelihood, MotionModel, Scene
+    from pftrack.components import (
+        Associator,
+        Detector,
+        Likelihood,
+        MotionModel,
+        ObservationModel,
+        Scene,
+        TrackManager,
+    )
     from pftrack.extensions import Benchmark, Command, Demo
 
 PROJECT = "pftrack"
@@ -86,6 +95,18 @@ def pftrack_register_associators(register: Register[type[Associator]]) -> None:
 @hookspec
 def pftrack_register_scenes(register: Register[type[Scene]]) -> None:
     """Register :class:`pftrack.components.Scene` subclasses (videos, synthetic scenes)."""
+
+
+@hookspec
+def pftrack_register_observation_models(register: Register[type[ObservationModel]]) -> None:
+    """Register :class:`pftrack.components.ObservationModel` subclasses by name (states ->
+    image boxes: image-plane boxes, boxes through a camera, points in a volume)."""
+
+
+@hookspec
+def pftrack_register_track_managers(register: Register[type[TrackManager]]) -> None:
+    """Register :class:`pftrack.components.TrackManager` subclasses by name (births,
+    confirmation, merging, ends, output)."""
 
 
 # -- run configurations ----------------------------------------------------------------------
@@ -142,6 +163,8 @@ __all__ = [
     "pftrack_register_likelihoods",
     "pftrack_register_metrics",
     "pftrack_register_motion_models",
+    "pftrack_register_observation_models",
     "pftrack_register_presets",
     "pftrack_register_scenes",
+    "pftrack_register_track_managers",
 ]

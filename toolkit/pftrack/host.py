@@ -46,6 +46,8 @@ _REGISTER_HOOKS = {
     "pftrack_register_motion_models": "motion",
     "pftrack_register_associators": "associator",
     "pftrack_register_scenes": "scene",
+    "pftrack_register_observation_models": "observation",
+    "pftrack_register_track_managers": "tracks",
     "pftrack_register_presets": "preset",
     "pftrack_register_metrics": "metric",
     "pftrack_register_benchmarks": "benchmark",
@@ -53,8 +55,8 @@ _REGISTER_HOOKS = {
     "pftrack_register_demos": "demo",
 }
 _RECORD_TYPES: dict[str, type] = {"benchmark": Benchmark, "command": Command, "demo": Demo}
-ALL_KINDS = ("detector", "likelihood", "motion", "associator", "scene", "preset", "metric",
-             "benchmark", "command", "demo")
+ALL_KINDS = ("detector", "likelihood", "motion", "associator", "scene", "observation", "tracks",
+             "preset", "metric", "benchmark", "command", "demo")
 
 
 class RegistrationError(ValueError):

@@ -23,8 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from pftrack.components import Target
-from pftrack.tracker import ObservationModel
+from pftrack.components import ObservationModel, RunContext, Target
 
 __all__ = ["CameraBoxObservation"]
 
@@ -37,6 +36,8 @@ class CameraBoxObservation(ObservationModel):
     camera : Camera or str
         A :class:`pftrack.geometry.camera.Camera` (world metres, z up) or a camera file path
         (anything :func:`pftrack.geometry.formats.load_camera` reads, e.g. PETS Tsai XML).
+        None: the run's camera (:meth:`setup` takes it from the
+        :class:`~pftrack.components.RunContext`; ``pftrack run --camera``).
     height_m : float
         Height of the tracked objects in metres (about 1.75 m for people).
     width_m : float, optional
@@ -60,7 +61,7 @@ class CameraBoxObservation(ObservationModel):
     ``to_boxes`` is vectorised: one projection of 2N points per call.
     """
 
-    def __init__(self, camera: Any, height_m: float = 1.75, width_m: float | None = None,
+    def __init__(self, camera: Any = None, height_m: float = 1.75, width_m: float | None = None,
                  width_ratio: float = 0.355, position_dims: tuple[int, int] = (0, 1),
                  min_visible: float = 0.5, adapt_height: bool = False,
                  height_scale_range: tuple[float, float] = (0.85, 1.2)) -> None:
@@ -86,6 +87,17 @@ class CameraBoxObservation(ObservationModel):
             raise ValueError(f"CameraBoxObservation: height_scale_range must satisfy "
                              f"0 < low <= 1 <= high, got {height_scale_range}")
         self.height_scale_range = (lo, hi)
+
+    def setup(self, context: RunContext) -> None:
+        """The run's camera when none was given."""
+        if self.camera is None:
+            self.camera = context.camera
+
+    def _cam(self) -> Any:
+        if self.camera is None:
+            raise ValueError("CameraBoxObservation: no camera; give camera=... or run with a "
+                             "camera (pftrack run --camera PATH)")
+        return self.camera
 
     @property
     def aspect(self) -> float:
@@ -113,7 +125,7 @@ class CameraBoxObservation(ObservationModel):
         n = len(g)
         pts = np.concatenate([g, g])
         pts[n:, 2] = self.height_m if height_m is None else height_m
-        px = self.camera.project(pts)
+        px = self._cam().project(pts)
         return px[:n], px[n:]
 
     def init_target(self, target: Target, box_xywh_px: np.ndarray | None) -> None:
@@ -170,7 +182,7 @@ class CameraBoxObservation(ObservationModel):
         """Ground position (p_x, p_y) in metres under a box's foot point (bottom centre);
         NaN when the foot point's ray does not meet the ground in front of the camera."""
         b = np.asarray(box_xywh_px, dtype=np.float64).reshape(4)
-        g = self.camera.image_to_ground(np.array([[b[0] + 0.5 * b[2], b[1] + b[3]]]))[0]
+        g = self._cam().image_to_ground(np.array([[b[0] + 0.5 * b[2], b[1] + b[3]]]))[0]
         return g[:2].copy()
 
     def world_position(self, state: np.ndarray) -> np.ndarray:

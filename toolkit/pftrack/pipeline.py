@@ -4,28 +4,21 @@ A configuration (a YAML file, or the name of a preset a plugin registered) names
 by their registered names; this module builds them through the plugin host, so every component of
 a run is replaceable by a third-party plugin::
 
-    state: world | image          ground-plane particles through a camera, or image-plane boxes
-    observation: {...}            CameraBoxObservation / ImageBoxObservation parameters
+    state: world | image          default observation: camera-box (ground plane) or image-box
+    observation: {type, params}   a registered observation model (legacy: its parameters only)
     motion: {type, params}        a registered motion model
     likelihood: {type, params}    a registered likelihood (e.g. ``composite``)
     detector: {type, params, train: {frames, params, seed}}
     associator: {type, params}
-    tracker: {...}                MultiTargetTracker options (n_particles, max_misses, ...)
-    births: {...}                 TrackingSession's birth policy (below)
+    tracks: {type, params}        a registered track manager (default ``confirmed``)
+    births: {...}                 legacy: the ``confirmed`` track manager's parameters
+    tracker: {...}                engine options (n_particles, max_misses, dt, ...)
     valid_region_m: [x0, x1, y0, y1]   optional ground rectangle (metres) people live in
 
-Data flow per frame: video frame -> detector -> :class:`TrackingSession` (the tracker's predict,
-associate, weight, estimate, resample, death; then births from confirmed detections) -> track
-records -> MOTChallenge rows (world columns filled for ground-plane state).
-
-:class:`TrackingSession` is seed 001's tracking loop around :class:`pftrack.tracker.MultiTargetTracker`
-(whose own birth option is left off): an unmatched detection at least ``min_score`` confident,
-overlapping no live target by more than ``max_iou``, starts a *tentative* target; it is confirmed
-once ``confirm_hits`` of its first ``confirm_window`` frames had a matched detection, and then its
-records from birth on are output (so confirmation costs no frames); otherwise it is dropped
-unseen. Two confirmed targets that are one person tracked twice (ground positions closer than
-``merge_distance_m`` with a world frame, else boxes overlapping by more than ``merge_iou``): the
-younger is removed.
+Data flow per frame: video frame -> detector (timed on its own) -> the one engine,
+:meth:`pftrack.tracker.MultiTargetTracker.step` (predict, associate, weight, estimate, resample,
+the filter's deaths; then the track manager's births, confirmation and merging) -> track records
+-> MOTChallenge rows (world columns filled for ground-plane state).
 
 Frame numbers are the ground truth's (MOTChallenge, 1-based): MOT frame N is video frame N - 1.
 """
@@ -35,20 +28,19 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Iterable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from pftrack.components import Detections, Detector, Frame, RunContext, Target
+from pftrack.components import Detections, Frame, RunContext
 from pftrack.tracker import MultiTargetTracker, TrackRecord, records_to_mot
 
 __all__ = [
     "RunResult",
-    "TrackingSession",
     "build_detector",
-    "build_session",
+    "build_engine",
     "evaluate_tracks",
     "iter_frames",
     "load_config",
@@ -59,14 +51,10 @@ __all__ = [
 ]
 
 CONFIG_KEYS = {"name", "description", "state", "observation", "motion", "likelihood", "detector",
-               "associator", "tracker", "births", "valid_region_m", "report"}
+               "associator", "tracker", "tracks", "births", "valid_region_m", "report"}
 TRACKER_KEYS = {"n_particles", "resampling", "ess_threshold", "dt", "init_spread",
                 "recover_spread", "max_misses", "min_log_likelihood", "kill_out_of_view",
                 "target_size"}
-BIRTH_KEYS = {"min_score", "max_iou", "confirm_hits", "confirm_window", "merge_iou",
-              "merge_distance_m",
-              "hide_after_misses", "appearance"}
-APPEARANCE_KEYS = {"bins", "sigma", "update_rate", "region"}
 
 
 # --------------------------------------------------------------------------------------------
@@ -119,7 +107,7 @@ def load_config(spec: str | os.PathLike[str] | dict[str, Any]) -> dict[str, Any]
     if cfg.get("state", "world") not in ("world", "image"):
         raise ValueError(f"config {where}: state must be 'world' or 'image', got "
                          f"{cfg.get('state')!r}")
-    for key, allowed in (("tracker", TRACKER_KEYS), ("births", BIRTH_KEYS)):
+    for key, allowed in (("tracker", TRACKER_KEYS),):
         bad = set(cfg.get(key) or {}) - allowed
         if bad:
             raise ValueError(f"config {where}: unknown {key} options {sorted(bad)}; known: "
@@ -244,267 +232,6 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
 # --------------------------------------------------------------------------------------------
 
 
-@dataclass
-class _Tentative:
-    hits: int
-    age: int
-    records: list[TrackRecord] = field(default_factory=list)
-
-
-def _box_iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    a = np.asarray(a, dtype=np.float64).reshape(-1, 4)
-    b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
-    x0 = np.maximum(a[:, None, 0], b[None, :, 0])
-    y0 = np.maximum(a[:, None, 1], b[None, :, 1])
-    x1 = np.minimum(a[:, None, 0] + a[:, None, 2], b[None, :, 0] + b[None, :, 2])
-    y1 = np.minimum(a[:, None, 1] + a[:, None, 3], b[None, :, 1] + b[None, :, 3])
-    inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
-    union = (a[:, 2] * a[:, 3])[:, None] + (b[:, 2] * b[:, 3])[None, :] - inter
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out = np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0)
-    return np.nan_to_num(out)
-
-
-class TrackingSession:
-    """Seed 001's tracking loop: the tracker's per-target filters, births from confirmed
-    detections, duplicate removal (see the module docstring).
-
-    Parameters
-    ----------
-    tracker : MultiTargetTracker
-        Built with ``birth_min_score=None`` (births are decided here).
-    min_score : float
-        Least detector score c(det) of a detection that may start a target.
-    max_iou : float
-        A detection overlapping a live target's box by more than this starts nothing.
-    confirm_hits, confirm_window : int
-        A tentative target is confirmed after ``confirm_hits`` matched detections within its
-        first ``confirm_window`` frames (birth frame included), else dropped.
-    merge_iou : float
-        Confirmed targets overlapping by more than this: the younger is removed.
-    merge_distance_m : float, optional
-        With a ground-plane observation model: confirmed targets whose ground positions are
-        closer than this (metres) are one person tracked twice and the younger is removed;
-        ``merge_iou`` is then not used. Image overlap is the wrong test on the ground plane:
-        two people one behind the other (a metre or more apart in depth) overlap in the
-        image, and removing one of them loses a correctly tracked person.
-    valid_region : callable, optional
-        ``f(positions (N, 2)) -> bool (N,)``: births only where true.
-    hide_after_misses : int, optional
-        A live target is not output in frames where it has gone more than this many frames
-        without a matched detection (it keeps being tracked and reappears when matched again):
-        a coasting estimate is worth showing for a short occlusion, not once it may have drifted.
-    appearance : dict, optional
-        ``{bins, sigma, update_rate, region}``: keep a colour model per target (per-channel BGR
-        histograms of its matched detections, ``bins`` per channel, running mean with
-        ``update_rate``, over the ``region`` fractions of the box) and, before each frame's
-        association, put ``target.appearance_scores`` = ``exp(-d^2 / (2 sigma^2))``
-        with ``d`` the exact per-channel 1-D EMD (bins, / (bins - 1), channel mean) between the
-        target's model and each detection; associators with ``appearance_weight > 0`` use it.
-    """
-
-    def __init__(self, tracker: MultiTargetTracker, *, min_score: float = 0.2,
-                 max_iou: float = 0.3, confirm_hits: int = 3, confirm_window: int = 5,
-                 merge_iou: float = 0.6, merge_distance_m: float | None = None,
-                 valid_region: Any = None, hide_after_misses: int | None = None,
-                 appearance: dict[str, Any] | None = None) -> None:
-        if confirm_hits < 1 or confirm_window < confirm_hits:
-            raise ValueError(f"births: need 1 <= confirm_hits <= confirm_window, got "
-                             f"{confirm_hits}, {confirm_window}")
-        self.tracker = tracker
-        self.min_score = float(min_score)
-        self.max_iou = float(max_iou)
-        self.confirm_hits = int(confirm_hits)
-        self.confirm_window = int(confirm_window)
-        self.merge_iou = float(merge_iou)
-        if merge_distance_m is not None and not float(merge_distance_m) > 0:
-            raise ValueError(f"births.merge_distance_m must be > 0 metres or null, got "
-                             f"{merge_distance_m!r}")
-        self.merge_distance_m = None if merge_distance_m is None else float(merge_distance_m)
-        self.valid_region = valid_region
-        self.hide_after_misses = hide_after_misses
-        if appearance is not None:
-            bad = set(appearance) - APPEARANCE_KEYS
-            if bad:
-                raise ValueError(f"births.appearance: unknown options {sorted(bad)}; known: "
-                                 f"{sorted(APPEARANCE_KEYS)}")
-        self.appearance = appearance
-        self.tentative: dict[int, _Tentative] = {}
-        # each live target's colour model (per-channel histograms), by target id
-        self.appearance_models_: dict[int, np.ndarray] = {}
-
-    def _record(self, frame: Frame, t: Target) -> TrackRecord:
-        obs = self.tracker.observation
-        pos = t.state[list(self.tracker.motion.position_dims)]
-        world = obs.world_position(t.state)
-        return TrackRecord(frame=frame.index, id=t.id, box_xywh_px=t.box_xywh_px.copy(),
-                           state=t.state.copy(), position=pos.copy(), extent=t.extent.copy(),
-                           confidence=0.5,
-                           world_m=None if world is None else np.asarray(world, float))
-
-    # -- appearance ---------------------------------------------------------------------------
-
-    def _histograms(self, frame: Frame, boxes: np.ndarray) -> np.ndarray:
-        """Per-channel normalised histograms (K, 3, bins) of the boxes' regions (every pixel)."""
-        opts = self.appearance or {}
-        bins = int(opts.get("bins", 16))
-        fx0, fy0, fx1, fy1 = opts.get("region", (0.15, 0.1, 0.85, 0.9))
-        img = frame.image
-        H, W = img.shape[:2]
-        out = np.full((len(boxes), 3, bins), 1.0 / bins)
-        for k, (x, y, w, h) in enumerate(np.asarray(boxes, dtype=np.float64)):
-            x0, x1 = int(max(x + fx0 * w, 0)), int(min(x + fx1 * w, W))
-            y0, y1 = int(max(y + fy0 * h, 0)), int(min(y + fy1 * h, H))
-            if x1 <= x0 or y1 <= y0:
-                continue
-            q = (img[y0:y1, x0:x1].reshape(-1, 3).astype(np.int32) * bins) >> 8
-            idx = (np.arange(3)[None, :] * bins + q).ravel()
-            out[k] = np.bincount(idx, minlength=3 * bins).reshape(3, bins) / len(q)
-        return out
-
-    def _appearance_before(self, frame: Frame, detections: Detections | None) -> np.ndarray | None:
-        if self.appearance is None or detections is None or len(detections) == 0:
-            for t in self.tracker.targets:
-                t.appearance_scores = None
-            return None
-        hists = self._histograms(frame, detections.boxes_xywh_px)
-        sigma = float(self.appearance.get("sigma", 0.1))
-        cdf = np.cumsum(hists, axis=-1)
-        bins = hists.shape[-1]
-        for t in self.tracker.targets:
-            model = self.appearance_models_.get(t.id)
-            if model is None:
-                t.appearance_scores = None
-                continue
-            d = np.abs(cdf - np.cumsum(model, axis=-1)[None]).sum(axis=-1).mean(axis=1)
-            d /= bins - 1
-            t.appearance_scores = np.exp(-0.5 * (d / sigma) ** 2)
-        return hists
-
-    def _adapt_sizes(self) -> None:
-        update = getattr(self.tracker.observation, "update_target", None)
-        if update is None:
-            return
-        for t in self.tracker.targets:
-            if t.detection is not None:
-                update(t, t.detection.box_xywh_px)
-
-    def _appearance_after(self, hists: np.ndarray | None) -> None:
-        if hists is None:
-            return
-        a = float(self.appearance.get("update_rate", 0.1))
-        models = self.appearance_models_
-        for t in self.tracker.targets:
-            if t.detection is None:
-                continue
-            h = hists[t.detection.index]
-            old = models.get(t.id)
-            models[t.id] = h.copy() if old is None else (1 - a) * old + a * h
-
-    def _duplicates(self, targets: list[Target]) -> np.ndarray | None:
-        """Boolean (T, T): pairs of targets that are one person (None: no test configured)."""
-        obs = self.tracker.observation
-        if self.merge_distance_m is not None:
-            world = [obs.world_position(t.state) for t in targets]
-            if all(w is not None for w in world):
-                xy = np.array([np.asarray(w, dtype=np.float64)[:2] for w in world])
-                d = np.linalg.norm(xy[:, None, :] - xy[None, :, :], axis=2)
-                return d < self.merge_distance_m
-        if self.merge_iou >= 1.0:
-            return None
-        boxes = np.array([t.box_xywh_px for t in targets])
-        return _box_iou(boxes, boxes) > self.merge_iou
-
-    def step(self, frame: Frame, detections: Detections | None) -> list[TrackRecord]:
-        """One frame; returns the records to output now (confirmed targets, plus the buffered
-        records of targets confirmed in this frame)."""
-        tr = self.tracker
-        hists = self._appearance_before(frame, detections)
-        records = tr.step(frame, detections)
-        self._appearance_after(hists)
-        self._adapt_sizes()
-        live = {t.id: t for t in tr.targets}
-        out: list[TrackRecord] = []
-        by_id = {r.id: r for r in records}
-        matched = {t.detection.index for t in live.values() if t.detection is not None}
-        # tentative targets: count hits, confirm or drop
-        for tid in list(self.tentative):
-            tent = self.tentative[tid]
-            if tid not in live:
-                del self.tentative[tid]
-                continue
-            tent.age += 1
-            tent.hits += int(live[tid].detection is not None)
-            if tid in by_id:
-                tent.records.append(by_id[tid])
-            if tent.hits >= self.confirm_hits:
-                out.extend(tent.records)
-                del self.tentative[tid]
-            elif tent.age >= self.confirm_window:
-                tr.remove_target(tid)
-                del self.tentative[tid]
-                live.pop(tid, None)
-        hide = self.hide_after_misses
-        for r in records:
-            if (r.id in live and r.id not in self.tentative and r not in out
-                    and (hide is None or live[r.id].misses <= hide)):
-                out.append(r)
-        # duplicates among confirmed targets
-        confirmed = [t for t in live.values() if t.id not in self.tentative]
-        same = self._duplicates(confirmed) if len(confirmed) > 1 else None
-        if same is not None:
-            gone: set[int] = set()
-            for i, j in zip(*np.nonzero(np.triu(same, 1))):
-                a, b = confirmed[i], confirmed[j]
-                if a.id in gone or b.id in gone:
-                    continue
-                young = a if (a.age, -a.id) < (b.age, -b.id) else b
-                gone.add(young.id)
-            for tid in gone:
-                tr.remove_target(tid)
-                live.pop(tid, None)
-            out = [r for r in out if r.id not in gone or r.frame != frame.index]
-        # births
-        if detections is not None and len(detections):
-            cand = [i for i in range(len(detections))
-                    if i not in matched and detections.scores[i] >= self.min_score]
-            cand.sort(key=lambda i: -detections.scores[i])
-            taken = [t.box_xywh_px for t in live.values()]
-            for i in cand:
-                box = detections.boxes_xywh_px[i]
-                if taken and _box_iou(box, np.array(taken)).max() > self.max_iou:
-                    continue
-                pos = tr.observation.position_from_box(box)
-                if not np.all(np.isfinite(pos)):
-                    continue
-                if self.valid_region is not None and not self.valid_region(pos[None])[0]:
-                    continue
-                t = tr.add_target(frame, box_xywh_px=box)
-                t.frames_tracked = 1
-                if hists is not None:
-                    self.appearance_models_[t.id] = hists[i].copy()
-                taken.append(t.box_xywh_px)
-                rec = self._record(frame, t)
-                if self.confirm_hits <= 1:
-                    out.append(rec)
-                else:
-                    self.tentative[t.id] = _Tentative(hits=1, age=1, records=[rec])
-        for tid in [tid for tid in self.appearance_models_ if tid not in live
-                    and tid not in {t.id for t in tr.targets}]:
-            del self.appearance_models_[tid]  # the target died
-        return out
-
-
-class ExternalDetector(Detector):
-    """Stands in the tracker's ``detector`` slot when detections are computed outside it (timed
-    separately, or reused across runs) and handed to ``step(frame, detections)``: it marks the
-    tracker as detection-driven, so a frame supports a target only through a matched detection
-    (``max_misses`` counts frames without one). It never detects anything itself."""
-
-    def detect(self, frame: Frame) -> Detections:
-        return Detections.empty()
-
-
 def _valid_region(rect: Sequence[float] | None):
     if rect is None:
         return None
@@ -520,42 +247,62 @@ def _valid_region(rect: Sequence[float] | None):
     return inside
 
 
-def build_session(cfg: dict[str, Any], *, camera: Any = None, fps: float = 25.0,
-                  seed: int = 0) -> TrackingSession:
-    """Build motion, likelihood, associator and observation from ``cfg`` through the host and
-    wrap them in a :class:`TrackingSession` (the detector is run separately)."""
+def _spec(value: Any, default_type: str) -> dict[str, Any]:
+    """A component spec ``{"type", "params"}`` from a config value: a spec, a registered name,
+    or (legacy form) a bare parameter mapping of ``default_type``."""
+    if isinstance(value, str):
+        return {"type": value, "params": {}}
+    value = dict(value or {})
+    if "type" in value:
+        return {"type": value["type"], "params": dict(value.get("params") or {})}
+    return {"type": default_type, "params": value}
+
+
+def build_engine(cfg: dict[str, Any], *, camera: Any = None, fps: float = 25.0,
+                 seed: int = 0, host: Any = None) -> MultiTargetTracker:
+    """The tracking engine of a configuration: observation model, motion, likelihood,
+    associator and track management built by name through the host, each set up with the run's
+    :class:`~pftrack.components.RunContext` (camera, fps). The detector is built and run
+    separately (:func:`build_detector`), so that its time is measured on its own; its detections
+    are handed to :meth:`~pftrack.tracker.MultiTargetTracker.step`.
+
+    ``observation`` defaults by ``state`` (``world``: ``camera-box``, ``image``:
+    ``image-box``); ``tracks`` defaults to ``confirmed`` with the legacy ``births`` options.
+    """
     from pftrack.host import get_host
-    from pftrack.tracker import ImageBoxObservation
 
-    host = get_host()
+    host = host or get_host()
     state = cfg.get("state", "world")
-    obs_params = dict(cfg.get("observation") or {})
-    if state == "world":
-        if camera is None:
-            raise ValueError(f"config {cfg.get('_source', '')}: state 'world' needs a camera "
-                             "(--camera PATH)")
-        from pftrack.observation_world import CameraBoxObservation
-
-        observation = CameraBoxObservation(camera, **obs_params)
-    else:
-        observation = ImageBoxObservation(**obs_params)
-    motion = host.build("motion", cfg["motion"])
-    likelihood = host.build("likelihood", cfg["likelihood"])
-    associator = host.build("associator", cfg["associator"]) if cfg.get("associator") else None
+    obs_spec = _spec(cfg.get("observation"), "camera-box" if state == "world" else "image-box")
+    if obs_spec["type"] == "camera-box" and camera is None and obs_spec["params"].get(
+            "camera") is None:
+        raise ValueError(f"config {cfg.get('_source', '')}: state 'world' needs a camera "
+                         "(--camera PATH)")
+    if cfg.get("tracks") is not None and cfg.get("births"):
+        raise ValueError(f"config {cfg.get('_source', '')}: give 'tracks' or the legacy "
+                         "'births', not both")
+    tracks_spec = _spec(cfg.get("tracks") if cfg.get("tracks") is not None
+                        else cfg.get("births"), "confirmed")
     context = RunContext(host=host, camera=camera, fps=float(fps))
-    for component in (motion, likelihood, associator):
+    parts = {
+        "observation": host.build("observation", obs_spec),
+        "motion": host.build("motion", cfg["motion"]),
+        "likelihood": host.build("likelihood", cfg["likelihood"]),
+        "associator": (host.build("associator", cfg["associator"])
+                       if cfg.get("associator") else None),
+        "tracks": host.build("tracks", tracks_spec),
+    }
+    for component in parts.values():
         if component is not None:
             component.setup(context)
     topts = dict(cfg.get("tracker") or {})
     dt = topts.pop("dt", "auto")
     dt = 1.0 / float(fps) if dt in (None, "auto") else float(dt)
-    valid = _valid_region(cfg.get("valid_region_m"))
-    tracker = MultiTargetTracker(motion, likelihood, observation, dt=dt, associator=associator,
-                                 detector=ExternalDetector() if associator is not None else None,
-                                 birth_min_score=None, valid_region=valid,
-                                 rng=np.random.default_rng(seed), **topts)
-    births = dict(cfg.get("births") or {})
-    return TrackingSession(tracker, valid_region=valid, **births)
+    return MultiTargetTracker(
+        parts["motion"], parts["likelihood"], parts["observation"], tracks=parts["tracks"],
+        associator=parts["associator"], detection_driven=parts["associator"] is not None,
+        dt=dt, valid_region=_valid_region(cfg.get("valid_region_m")),
+        rng=np.random.default_rng(seed), **topts)
 
 
 # --------------------------------------------------------------------------------------------
@@ -568,6 +315,8 @@ def _matched_world_errors(gt: np.ndarray, tracks: np.ndarray, iou_threshold: flo
     """Ground-plane distances (m) of gt/track rows matched per frame (Hungarian on IoU >= thr)."""
     from scipy.optimize import linear_sum_assignment
 
+    from pftrack.metrics.similarity import box_iou
+
     errs = []
     tf = tracks[:, 0].astype(int)
     for f in np.unique(gt[:, 0]).astype(int):
@@ -575,7 +324,7 @@ def _matched_world_errors(gt: np.ndarray, tracks: np.ndarray, iou_threshold: flo
         t = tracks[tf == f]
         if len(g) == 0 or len(t) == 0:
             continue
-        iou = _box_iou(g[:, 2:6], t[:, 2:6])
+        iou = np.nan_to_num(box_iou(g[:, None, 2:6], t[None, :, 2:6]))
         r, c = linear_sum_assignment(-iou)
         ok = iou[r, c] >= iou_threshold
         d = np.linalg.norm(g[r[ok], 7:9] - t[c[ok], 7:9], axis=1)
@@ -666,7 +415,7 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
         raise FileNotFoundError(f"video {video} not found")
     first, last = parse_frames(frames)
     fps = video_fps(video)
-    session = build_session(cfg, camera=cam, fps=fps, seed=seed)
+    engine = build_engine(cfg, camera=cam, fps=fps, seed=seed)
     detector = None
     if detections is None and cfg.get("detector"):
         detector = build_detector(cfg, RunContext(camera=cam, fps=fps, detector_model=(
@@ -696,7 +445,7 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
         else:
             d = None
         t1, c1 = time.perf_counter(), time.process_time()
-        records.extend(session.step(frame, d))
+        records.extend(engine.step(frame, d))
         t2, c2 = time.perf_counter(), time.process_time()
         t_det += t1 - t0
         t_trk += t2 - t1

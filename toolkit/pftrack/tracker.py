@@ -1,18 +1,28 @@
-"""The multi-target tracker: one particle filter per target, driven frame by frame.
+"""The tracking engine: one particle filter per target, driven frame by frame. Every run of
+pftrack (``pftrack run``, the demo, every benchmark, the notebooks) goes through
+:meth:`MultiTargetTracker.step`; what varies between papers is a component chosen by
+configuration, not another loop.
 
 Data flow per frame (top to bottom)::
 
     frame -> [detector] -> detections
+          -> tracks.before_frame                     track management: given starts, appearance
           -> motion.predict (per target)            particles (N, D) in the motion model's space
           -> observation.to_boxes                   particle boxes (N, 4) xywh px
           -> [associator] detections <-> targets    ``target.detection``
           -> likelihood.begin_frame(all targets) -> likelihood.log_likelihood (per target)
           -> normalise, estimate (weighted mean), extent, resample on ESS: vectorised over
              the targets (one row per filter, each row the single-filter numbers bit for bit)
-          -> death (misses, leaving the valid region) and birth (unmatched confident detections)
+          -> the filter's deaths (misses, leaving the image or the valid region)
+          -> observation.update_target (matched targets)
+          -> tracks.after_frame: births, confirmation, merging, ends, the records to output
           -> list[TrackRecord]
 
-The tracker streams: it keeps only the live targets, so memory does not grow with video length.
+The observation model (:class:`pftrack.components.ObservationModel`) and the track management
+(:class:`pftrack.components.TrackManager`) are plugin kinds; :class:`ImageBoxObservation` and
+:class:`ManualTracks` (targets added by the caller, every estimate output) are the defaults.
+
+The engine streams: it keeps only the live targets, so memory does not grow with video length.
 All randomness comes from one ``numpy.random.Generator``; the same seed gives bit-identical tracks.
 """
 
@@ -20,7 +30,6 @@ from __future__ import annotations
 
 import logging
 import math
-from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
@@ -35,7 +44,10 @@ from pftrack.components import (
     Frame,
     Likelihood,
     MotionModel,
+    ObservationModel,
     Target,
+    TrackManager,
+    TrackRecord,
 )
 from pftrack.filter import (
     RESAMPLERS,
@@ -51,49 +63,12 @@ log = logging.getLogger(__name__)
 
 __all__ = [
     "ImageBoxObservation",
+    "ManualTracks",
     "MultiTargetTracker",
     "ObservationModel",
     "TrackRecord",
     "records_to_mot",
 ]
-
-
-class ObservationModel(ABC):
-    """Maps particle states to image boxes, and a detection box back to a position.
-
-    The tracker is state-space agnostic: an image-plane model reads the box centre from the
-    state, a world model projects a foot and a head point through a camera.
-    """
-
-    @abstractmethod
-    def to_boxes(self, states: np.ndarray, target: Target | None = None) -> np.ndarray:
-        """States (N, D) -> boxes (N, 4) as (left, top, width, height) in pixels.
-
-        ``target`` lets a model use per-target parameters (``target.box_wh_px``, or its own
-        per-target state keyed by ``target.id``).
-        """
-
-    def init_target(self, target: Target, box_xywh_px: np.ndarray | None) -> None:
-        """Called when a target is born, with the box it was started from (if any)."""
-
-    def end_target(self, target: Target) -> None:
-        """Called when a target dies: drop any per-target state kept for it."""
-
-    @abstractmethod
-    def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:
-        """A box (4,) -> the position (P,) in state space that would produce it (for births)."""
-
-    def world_position(self, state: np.ndarray) -> np.ndarray | None:
-        """Ground position (x, y, z) in world metres of a state (D,), or None when the model
-        has no world frame (image-plane tracking)."""
-        return None
-
-    def in_view(self, states: np.ndarray, image_size_wh: tuple[int, int],
-                target: Target | None = None) -> np.ndarray:
-        """Boolean (N,): the state's box overlaps the image. Override for volumes/fields."""
-        b = self.to_boxes(states, target)
-        w, h = image_size_wh
-        return (b[:, 0] < w) & (b[:, 1] < h) & (b[:, 0] + b[:, 2] > 0) & (b[:, 1] + b[:, 3] > 0)
 
 
 class ImageBoxObservation(ObservationModel):
@@ -106,12 +81,12 @@ class ImageBoxObservation(ObservationModel):
 
     def __init__(self, width_px: float = 30.0, height_px: float = 30.0,
                  size_from_box: bool = False) -> None:
-        if width_px <= 0 or height_px <= 0:
+        if not (width_px > 0 and height_px > 0):
             raise ValueError(f"ImageBoxObservation: box size must be positive, got "
                              f"{width_px} x {height_px}")
-        self.width_px = float(width_px)
-        self.height_px = float(height_px)
-        self.size_from_box = bool(size_from_box)
+        self.width_px = width_px
+        self.height_px = height_px
+        self.size_from_box = size_from_box
 
     def init_target(self, target: Target, box_xywh_px: np.ndarray | None) -> None:
         if self.size_from_box and box_xywh_px is not None:
@@ -119,7 +94,7 @@ class ImageBoxObservation(ObservationModel):
 
     def to_boxes(self, states: np.ndarray, target: Target | None = None) -> np.ndarray:
         s = np.asarray(states, dtype=np.float64)
-        w, h = self.width_px, self.height_px
+        w, h = float(self.width_px), float(self.height_px)
         if target is not None and target.box_wh_px is not None:
             w, h = target.box_wh_px
         if len(s) == 1:  # an estimate: Python floats are the same IEEE doubles, and faster
@@ -135,25 +110,6 @@ class ImageBoxObservation(ObservationModel):
     def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:
         b = np.asarray(box_xywh_px, dtype=np.float64)
         return np.array([b[0] + 0.5 * b[2], b[1] + 0.5 * b[3]])
-
-
-@dataclass
-class TrackRecord:
-    """One target's estimate in one frame.
-
-    ``box_xywh_px`` is the image box of the estimate; ``position`` its position in state space
-    (pixels for image-plane models, world metres for ground-plane ones); ``world_m`` the ground
-    position (x, y, z) in metres when the observation model knows one, else None.
-    """
-
-    frame: int
-    id: int
-    box_xywh_px: np.ndarray
-    state: np.ndarray
-    position: np.ndarray
-    extent: np.ndarray
-    confidence: float
-    world_m: np.ndarray | None = None
 
 
 def records_to_mot(records: Iterable[TrackRecord]) -> np.ndarray:
@@ -175,8 +131,15 @@ class _Filter:
     log_weights: np.ndarray  # np.log(weights), kept so a uniform row is not re-logged each frame
 
 
+class ManualTracks(TrackManager):
+    """The default track management: targets are added by the caller
+    (:meth:`MultiTargetTracker.add_target`), end only by the filter's own rules, and every
+    live target's estimate is output. No parameters."""
+
+
 class MultiTargetTracker:
-    """One particle filter per target, with optional detection-driven birth and death.
+    """The tracking engine: one particle filter per target; track management, observation
+    model, motion, likelihood, detector and associator are its replaceable parts.
 
     Parameters
     ----------
@@ -184,6 +147,8 @@ class MultiTargetTracker:
     likelihood : Likelihood
         One likelihood (combine several with a composite likelihood plugin).
     observation : ObservationModel
+    tracks : TrackManager, optional
+        Births, confirmation, merging, ends and output (default :class:`ManualTracks`).
     n_particles : int
         Particles per target.
     resampling : {"systematic", "stratified", "residual", "multinomial"}
@@ -200,8 +165,10 @@ class MultiTargetTracker:
     detector, associator : optional
         When given, detections are computed each frame and matched to targets; the match is put
         in ``target.detection`` (:class:`~pftrack.components.DetectionMatch`) for likelihoods.
-    birth_min_score : float, optional
-        Unmatched detections at least this confident start new targets (no births when None).
+    detection_driven : bool, optional
+        Whether only a matched detection supports a target (then a frame without detections
+        counts as a miss for every target). Default (None): when there is a detector, or
+        detections are handed to :meth:`step`.
     max_misses : int, optional
         A target dies after this many consecutive frames without support.
     min_log_likelihood : float, optional
@@ -224,8 +191,9 @@ class MultiTargetTracker:
                  ess_threshold: float = 1.0, dt: float = 1.0,
                  init_spread: float | np.ndarray = 1.0,
                  recover_spread: float | np.ndarray | None = None,
+                 tracks: TrackManager | None = None,
                  detector: Detector | None = None, associator: Associator | None = None,
-                 birth_min_score: float | None = None, max_misses: int | None = None,
+                 detection_driven: bool | None = None, max_misses: int | None = None,
                  min_log_likelihood: float | None = None, kill_out_of_view: bool = True,
                  valid_region: Callable[[np.ndarray], np.ndarray] | None = None,
                  target_size: float = 1.0, rng: np.random.Generator | None = None) -> None:
@@ -249,9 +217,10 @@ class MultiTargetTracker:
         self.init_spread = init_spread
         self.recover_spread = (np.asarray(init_spread, dtype=np.float64) * 5.0
                                if recover_spread is None else recover_spread)
+        self.tracks = ManualTracks() if tracks is None else tracks
         self.detector = detector
         self.associator = associator
-        self.birth_min_score = birth_min_score
+        self.detection_driven = detection_driven
         self.max_misses = max_misses
         self.min_log_likelihood = min_log_likelihood
         self.kill_out_of_view = kill_out_of_view
@@ -312,10 +281,12 @@ class MultiTargetTracker:
         return target
 
     def remove_target(self, target_id: int) -> None:
+        """End a live target (no-op for an unknown id); every component forgets it."""
         f = self._filters.pop(target_id, None)
         if f is not None:
             self.likelihood.end_target(f.target)
             self.observation.end_target(f.target)
+            self.tracks.end_target(f.target)
 
     # -- one frame ----------------------------------------------------------------------------
 
@@ -324,6 +295,12 @@ class MultiTargetTracker:
 
         ``detections`` overrides the tracker's own detector for this frame.
         """
+        if detections is None and self.detector is not None:
+            detections = self.detector.detect(frame)
+        if detections is None and self.detection_driven:
+            detections = Detections.empty()
+        self.last_detections = detections
+        self.tracks.before_frame(self, frame, detections)
         pos_dims = list(self.motion.position_dims)
         filters = list(self._filters.values())
         observation = self.observation
@@ -337,10 +314,7 @@ class MultiTargetTracker:
             t.particle_boxes_xywh_px = observation.to_boxes(f.particles, t)
             t.age += 1
             t.detection = None
-        # 2. detect and associate
-        if detections is None and self.detector is not None:
-            detections = self.detector.detect(frame)
-        self.last_detections = detections
+        # 2. associate
         unmatched_dets = np.arange(len(detections)) if detections is not None else np.zeros(0, int)
         if detections is not None and self.associator is not None and filters:
             targets = [f.target for f in filters]
@@ -459,16 +433,18 @@ class MultiTargetTracker:
                      "its last estimate", frame.index)
         for tid in dead:
             self.remove_target(tid)
-        # 6. birth
-        if (detections is not None and self.birth_min_score is not None
-                and len(unmatched_dets)):
-            for di in unmatched_dets:
-                if detections.scores[di] >= self.birth_min_score:
-                    box = detections.boxes_xywh_px[di]
-                    t = self.add_target(frame, box_xywh_px=box)
-                    t.frames_tracked = 1
-                    records.append(self._record(frame, t, 0.0))
-        return records
+        # 6. per-target observation parameters from the matched detections (a height factor)
+        if type(observation).update_target is not ObservationModel.update_target:
+            for f in self._filters.values():
+                if f.target.detection is not None:
+                    observation.update_target(f.target, f.target.detection.box_xywh_px)
+        # 7. track management: births, confirmation, merging, ends, output
+        return self.tracks.after_frame(self, frame, detections, records, unmatched_dets)
+
+    def record(self, frame: Frame, target: Target, best_logl: float = 0.0) -> TrackRecord:
+        """``target``'s current estimate as a :class:`TrackRecord` of ``frame`` (confidence
+        ``expit(best_logl)``: 0.5 by default, as for a target born this frame)."""
+        return self._record(frame, target, best_logl)
 
     def _record(self, frame: Frame, t: Target, best_logl: float,
                 pos_dims: list[int] | None = None) -> TrackRecord:

@@ -14,7 +14,8 @@ import sys
 import warnings
 from typing import Any
 
-_KIND_ORDER = ("detector", "likelihood", "motion", "associator", "scene", "preset", "metric",
+_KIND_ORDER = ("detector", "likelihood", "motion", "associator", "scene", "observation", "tracks",
+               "preset", "metric",
                "benchmark", "command", "demo")
 
 

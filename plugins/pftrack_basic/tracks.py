@@ -1,0 +1,294 @@
+"""Track management for detection-driven runs: which detections start targets, when a new
+target is believed, which two targets are one object, and what is output.
+
+* :class:`DetectionBirthTracks` (``births``): every unmatched detection at least ``min_score``
+  confident starts a target, output at once.
+* :class:`ConfirmedTracks` (``confirmed``, seed 001 on real video): an unmatched detection at
+  least ``min_score`` confident, overlapping no live target by more than ``max_iou``, starts a
+  *tentative* target; it is confirmed once ``confirm_hits`` of its first ``confirm_window``
+  frames had a matched detection, and then its records from birth on are output (confirmation
+  costs no frames); otherwise it is dropped unseen. Two confirmed targets that are one object
+  tracked twice (ground positions closer than ``merge_distance_m`` with a world frame, else
+  boxes overlapping by more than ``merge_iou``): the younger is removed. Optionally each target
+  keeps a colour model (Breitenstein et al.'s track-specific appearance) that the associator
+  reads as ``Target.appearance_scores``.
+
+Both run inside the one engine, :class:`pftrack.tracker.MultiTargetTracker`, as its ``tracks``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from pftrack.components import Detections, Frame, Target, TrackManager, TrackRecord
+
+from pftrack_basic.association import box_iou
+
+__all__ = ["ConfirmedTracks", "DetectionBirthTracks"]
+
+APPEARANCE_KEYS = {"bins", "sigma", "update_rate", "region"}
+
+
+class DetectionBirthTracks(TrackManager):
+    """Every unmatched detection scoring at least ``min_score`` starts a target (in detection
+    order), output from its first frame on.
+
+    Parameters
+    ----------
+    min_score : float
+        Least detector score c(det) of a detection that starts a target.
+    """
+
+    def __init__(self, min_score: float = 0.5) -> None:
+        self.min_score = min_score
+
+    def after_frame(self, engine: Any, frame: Frame, detections: Detections | None,
+                    records: list[TrackRecord], unmatched_detections: np.ndarray,
+                    ) -> list[TrackRecord]:
+        if detections is None:
+            return records
+        for di in unmatched_detections:
+            if detections.scores[di] >= self.min_score:
+                t = engine.add_target(frame, box_xywh_px=detections.boxes_xywh_px[di])
+                t.frames_tracked = 1
+                records.append(engine.record(frame, t))
+        return records
+
+
+@dataclass
+class _Tentative:
+    hits: int
+    age: int
+    records: list[TrackRecord] = field(default_factory=list)
+
+
+class ConfirmedTracks(TrackManager):
+    """Births from confirmed detections, duplicate removal, an optional appearance model (see
+    the module docstring).
+
+    Parameters
+    ----------
+    min_score : float
+        Least detector score c(det) of a detection that may start a target.
+    max_iou : float
+        A detection overlapping a live target's box by more than this starts nothing.
+    confirm_hits, confirm_window : int
+        A tentative target is confirmed after ``confirm_hits`` matched detections within its
+        first ``confirm_window`` frames (birth frame included), else dropped.
+    merge_iou : float
+        Confirmed targets overlapping by more than this: the younger is removed (1 or more: no
+        merging by overlap).
+    merge_distance_m : float, optional
+        With a ground-plane observation model: confirmed targets whose ground positions are
+        closer than this (metres) are one object tracked twice and the younger is removed;
+        ``merge_iou`` is then not used. Image overlap is the wrong test on the ground plane:
+        two people one behind the other (a metre or more apart in depth) overlap in the
+        image, and removing one of them loses a correctly tracked person.
+    hide_after_misses : int, optional
+        A live target is not output in frames where it has gone more than this many frames
+        without a matched detection (it keeps being tracked and reappears when matched again).
+    appearance : dict, optional
+        ``{bins, sigma, update_rate, region}``: keep a colour model per target (per-channel BGR
+        histograms of its matched detections, ``bins`` per channel, running mean with
+        ``update_rate``, over the ``region`` fractions of the box) and, before each frame's
+        association, set ``target.appearance_scores`` = ``exp(-d^2 / (2 sigma^2))`` with ``d``
+        the exact per-channel 1-D EMD (bins, / (bins - 1), channel mean) between the target's
+        model and each detection; associators with an appearance term read it.
+
+    Births happen only where the engine's ``valid_region`` (if any) holds.
+
+    Attributes
+    ----------
+    tentative_ : dict[int, _Tentative]
+        Targets not yet confirmed, by id, with their buffered records.
+    appearance_models_ : dict[int, ndarray (3, bins)]
+        Each live target's colour model, by id.
+    """
+
+    def __init__(self, min_score: float = 0.2, max_iou: float = 0.3, confirm_hits: int = 3,
+                 confirm_window: int = 5, merge_iou: float = 0.6,
+                 merge_distance_m: float | None = None, hide_after_misses: int | None = None,
+                 appearance: dict[str, Any] | None = None) -> None:
+        if confirm_hits < 1 or confirm_window < confirm_hits:
+            raise ValueError(f"tracks: need 1 <= confirm_hits <= confirm_window, got "
+                             f"{confirm_hits}, {confirm_window}")
+        if merge_distance_m is not None and not float(merge_distance_m) > 0:
+            raise ValueError(f"tracks.merge_distance_m must be > 0 metres or null, got "
+                             f"{merge_distance_m!r}")
+        if appearance is not None:
+            bad = set(appearance) - APPEARANCE_KEYS
+            if bad:
+                raise ValueError(f"tracks.appearance: unknown options {sorted(bad)}; known: "
+                                 f"{sorted(APPEARANCE_KEYS)}")
+        self.min_score = min_score
+        self.max_iou = max_iou
+        self.confirm_hits = confirm_hits
+        self.confirm_window = confirm_window
+        self.merge_iou = merge_iou
+        self.merge_distance_m = merge_distance_m
+        self.hide_after_misses = hide_after_misses
+        self.appearance = appearance
+
+    # -- per-target state ---------------------------------------------------------------------
+
+    @property
+    def tentative_(self) -> dict[int, _Tentative]:
+        return self.__dict__.setdefault("_tentative", {})
+
+    @property
+    def appearance_models_(self) -> dict[int, np.ndarray]:
+        return self.__dict__.setdefault("_appearance_models", {})
+
+    def end_target(self, target: Target) -> None:
+        self.tentative_.pop(target.id, None)
+        self.appearance_models_.pop(target.id, None)
+
+    # -- appearance ---------------------------------------------------------------------------
+
+    def _histograms(self, frame: Frame, boxes: np.ndarray) -> np.ndarray:
+        """Per-channel normalised histograms (K, 3, bins) of the boxes' regions (every pixel)."""
+        opts = self.appearance or {}
+        bins = int(opts.get("bins", 16))
+        fx0, fy0, fx1, fy1 = opts.get("region", (0.15, 0.1, 0.85, 0.9))
+        img = frame.image
+        H, W = img.shape[:2]
+        out = np.full((len(boxes), 3, bins), 1.0 / bins)
+        for k, (x, y, w, h) in enumerate(np.asarray(boxes, dtype=np.float64)):
+            x0, x1 = int(max(x + fx0 * w, 0)), int(min(x + fx1 * w, W))
+            y0, y1 = int(max(y + fy0 * h, 0)), int(min(y + fy1 * h, H))
+            if x1 <= x0 or y1 <= y0:
+                continue
+            q = (img[y0:y1, x0:x1].reshape(-1, 3).astype(np.int32) * bins) >> 8
+            idx = (np.arange(3)[None, :] * bins + q).ravel()
+            out[k] = np.bincount(idx, minlength=3 * bins).reshape(3, bins) / len(q)
+        return out
+
+    def before_frame(self, engine: Any, frame: Frame, detections: Detections | None) -> None:
+        """Histograms of the frame's detections and each target's appearance scores."""
+        self.hists_ = None
+        if self.appearance is None or detections is None or len(detections) == 0:
+            for t in engine.targets:
+                t.appearance_scores = None
+            return
+        hists = self._histograms(frame, detections.boxes_xywh_px)
+        sigma = float(self.appearance.get("sigma", 0.1))
+        cdf = np.cumsum(hists, axis=-1)
+        bins = hists.shape[-1]
+        for t in engine.targets:
+            model = self.appearance_models_.get(t.id)
+            if model is None:
+                t.appearance_scores = None
+                continue
+            d = np.abs(cdf - np.cumsum(model, axis=-1)[None]).sum(axis=-1).mean(axis=1)
+            d /= bins - 1
+            t.appearance_scores = np.exp(-0.5 * (d / sigma) ** 2)
+        self.hists_ = hists
+
+    def _update_appearance(self, targets: list[Target]) -> None:
+        hists = getattr(self, "hists_", None)
+        if hists is None:
+            return
+        a = float(self.appearance.get("update_rate", 0.1))
+        models = self.appearance_models_
+        for t in targets:
+            if t.detection is None:
+                continue
+            h = hists[t.detection.index]
+            old = models.get(t.id)
+            models[t.id] = h.copy() if old is None else (1 - a) * old + a * h
+
+    # -- duplicates ---------------------------------------------------------------------------
+
+    def _duplicates(self, engine: Any, targets: list[Target]) -> np.ndarray | None:
+        """Boolean (T, T): pairs of targets that are one object (None: no test configured)."""
+        obs = engine.observation
+        if self.merge_distance_m is not None:
+            world = [obs.world_position(t.state) for t in targets]
+            if all(w is not None for w in world):
+                xy = np.array([np.asarray(w, dtype=np.float64)[:2] for w in world])
+                d = np.linalg.norm(xy[:, None, :] - xy[None, :, :], axis=2)
+                return d < float(self.merge_distance_m)
+        if self.merge_iou >= 1.0:
+            return None
+        boxes = np.array([t.box_xywh_px for t in targets])
+        return box_iou(boxes, boxes) > self.merge_iou
+
+    # -- one frame ----------------------------------------------------------------------------
+
+    def after_frame(self, engine: Any, frame: Frame, detections: Detections | None,
+                    records: list[TrackRecord], unmatched_detections: np.ndarray,
+                    ) -> list[TrackRecord]:
+        """Confirm or drop tentative targets, output, remove duplicates, start new targets."""
+        live = {t.id: t for t in engine.targets}
+        self._update_appearance(list(live.values()))
+        tentative = self.tentative_
+        out: list[TrackRecord] = []
+        by_id = {r.id: r for r in records}
+        matched = {t.detection.index for t in live.values() if t.detection is not None}
+        for tid in list(tentative):
+            tent = tentative[tid]
+            if tid not in live:
+                del tentative[tid]
+                continue
+            tent.age += 1
+            tent.hits += int(live[tid].detection is not None)
+            if tid in by_id:
+                tent.records.append(by_id[tid])
+            if tent.hits >= self.confirm_hits:
+                out.extend(tent.records)
+                del tentative[tid]
+            elif tent.age >= self.confirm_window:
+                engine.remove_target(tid)
+                live.pop(tid, None)
+        hide = self.hide_after_misses
+        for r in records:
+            if (r.id in live and r.id not in tentative and r not in out
+                    and (hide is None or live[r.id].misses <= hide)):
+                out.append(r)
+        confirmed = [t for t in live.values() if t.id not in tentative]
+        same = self._duplicates(engine, confirmed) if len(confirmed) > 1 else None
+        if same is not None:
+            gone: set[int] = set()
+            for i, j in zip(*np.nonzero(np.triu(same, 1))):
+                a, b = confirmed[i], confirmed[j]
+                if a.id in gone or b.id in gone:
+                    continue
+                young = a if (a.age, -a.id) < (b.age, -b.id) else b
+                gone.add(young.id)
+            for tid in gone:
+                engine.remove_target(tid)
+                live.pop(tid, None)
+            out = [r for r in out if r.id not in gone or r.frame != frame.index]
+        if detections is not None and len(detections):
+            self._births(engine, frame, detections, matched, live, out)
+        return out
+
+    def _births(self, engine: Any, frame: Frame, detections: Detections, matched: set[int],
+                live: dict[int, Target], out: list[TrackRecord]) -> None:
+        cand = [i for i in range(len(detections))
+                if i not in matched and detections.scores[i] >= self.min_score]
+        cand.sort(key=lambda i: -detections.scores[i])
+        taken = [t.box_xywh_px for t in live.values()]
+        hists = getattr(self, "hists_", None)
+        valid = engine.valid_region
+        for i in cand:
+            box = detections.boxes_xywh_px[i]
+            if taken and box_iou(box, np.array(taken)).max() > self.max_iou:
+                continue
+            pos = engine.observation.position_from_box(box)
+            if not np.all(np.isfinite(pos)):
+                continue
+            if valid is not None and not valid(pos[None])[0]:
+                continue
+            t = engine.add_target(frame, box_xywh_px=box)
+            t.frames_tracked = 1
+            if hists is not None:
+                self.appearance_models_[t.id] = hists[i].copy()
+            taken.append(t.box_xywh_px)
+            rec = engine.record(frame, t)
+            if self.confirm_hits <= 1:
+                out.append(rec)
+            else:
+                self.tentative_[t.id] = _Tentative(hits=1, age=1, records=[rec])
