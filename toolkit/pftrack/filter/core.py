@@ -13,6 +13,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from pftrack.filter import _jit
+
 __all__ = [
     "RESAMPLERS",
     "effective_sample_size",
@@ -175,7 +177,16 @@ def systematic_resample(weights: np.ndarray, rng: np.random.Generator,
     cumulative count is ``ceil(n c_i - u)``: no search, one pass.
     """
     n = len(weights) if n is None else int(n)
-    c = _cumsum_normalised(weights)
+    w = np.asarray(weights, dtype=np.float64)
+    if w.ndim == 1 and _jit.use(max(len(w), n)):
+        # compiled: the running sum, then every count and index in one pass, without the
+        # temporaries; the same operations on the same numbers as below
+        c, nonneg = _jit.cumulative_sum(w)
+        total = float(c[-1]) if len(c) else 0.0
+        if not 0.0 < total < math.inf or not nonneg:
+            _cumsum_normalised(w)  # raises, with the message
+        return _jit.systematic_indices(c, 1.0 / total, n, rng.random())
+    c = _cumsum_normalised(w)
     u = rng.random()
     c *= n
     c -= u
