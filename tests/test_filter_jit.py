@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from pftrack.components import Target
-from pftrack.filter import _jit, systematic_resample
+from pftrack.filter import _jit, normalize_log_weights, systematic_resample
 from pftrack_basic.gaussian import GaussianLikelihood
 from pftrack_basic.motion import ConstantAccelerationMotion
 
@@ -141,6 +141,25 @@ def test_systematic_resample_rejects_bad_weights_like_the_numpy_path(numpy_path)
         with pytest.raises(ValueError, match="non-negative") as e2:
             numpy_path(systematic_resample, bad, rng)
         assert str(e1.value) == str(e2.value)
+
+
+@pytest.mark.parametrize("kind", ["gaussian", "underflow", "with-inf", "nan", "all-inf"])
+def test_normalize_log_weights_equals_the_numpy_path(numpy_path, kind):
+    rng = np.random.default_rng(4)
+    lw = -0.5 * rng.normal(0.0, 3.0, BIG) ** 2 - 7.0
+    if kind == "underflow":  # most arguments below log(2**-1075): exactly 0, not evaluated
+        lw *= 300.0
+    elif kind == "with-inf":
+        lw[::7] = -np.inf
+    elif kind == "nan":
+        lw[5] = np.nan
+    elif kind == "all-inf":
+        lw[:] = -np.inf
+    w, ok = normalize_log_weights(lw)
+    w_ref, ok_ref = numpy_path(normalize_log_weights, lw)
+    assert ok == ok_ref and np.array_equal(w, w_ref)
+    if kind == "underflow":
+        assert 0 < np.count_nonzero(w) < BIG
 
 
 def test_no_jit_environment_variable_selects_the_numpy_path():

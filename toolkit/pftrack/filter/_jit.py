@@ -13,6 +13,8 @@ same numbers bit for bit:
   this path (``np.random.default_rng``'s); any other takes the numpy path;
 * :func:`gaussian_centre_log_likelihood`: the box-centre Gaussian of
   :class:`pftrack_basic.gaussian.GaussianLikelihood` for one observed point;
+* :func:`shifted_exp`: the shift and mask of :func:`pftrack.filter.normalize_log_weights`
+  in one pass; the exponential stays numpy's;
 * :func:`cumulative_sum` and :func:`systematic_indices`: :func:`pftrack.filter.systematic_resample`
   without its temporaries (the running sum is sequential in numpy too).
 
@@ -36,6 +38,7 @@ __all__ = [
     "cumulative_sum",
     "gaussian_centre_log_likelihood",
     "pcg64_standard_normal",
+    "shifted_exp",
     "systematic_indices",
     "use",
 ]
@@ -121,3 +124,15 @@ def systematic_indices(c: np.ndarray, inv_total: float, n: int, u: float) -> np.
     idx = np.empty(n + 1, dtype=np.intp)
     _k().systematic_indices(c, float(inv_total), n, float(u), idx)
     return idx[:n]
+
+
+def shifted_exp(lw: np.ndarray, m: float, zero_below: float) -> np.ndarray:
+    """``exp(lw - m)`` of a 1-D float64 array, 0.0 where ``lw - m <= zero_below`` (not
+    evaluated): the subtraction and the mask in one compiled pass, then numpy's own ``exp``
+    (whose last-bit rounding is numpy's: SIMD or libm by CPU), writing in place."""
+    lw = np.ascontiguousarray(lw, dtype=np.float64)
+    out = np.empty(len(lw))
+    mask = np.empty(len(lw), dtype=bool)
+    _k().shift_for_exp(lw, float(m), float(zero_below), out, mask)
+    np.exp(out, out=out, where=mask)
+    return out

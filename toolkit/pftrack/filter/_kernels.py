@@ -206,3 +206,15 @@ def systematic_indices(c, inv_total, n, u, idx):  # pragma: no cover - compiled
     for j in range(n):
         run += idx[j]
         idx[j] = run
+
+
+@njit(**_JIT)
+def shift_for_exp(lw, m, zero_below, out, mask):  # pragma: no cover - compiled
+    """``d = lw - m``; where ``d > zero_below``: ``out = d``, ``mask = True``; elsewhere
+    ``out = 0.0``, ``mask = False``. ``np.exp(out, out=out, where=mask)`` then gives
+    :func:`pftrack.filter.core._exp_normalised`'s unnormalised weights."""
+    for i in range(lw.shape[0]):
+        d = lw[i] - m
+        keep = d > zero_below
+        mask[i] = keep
+        out[i] = d if keep else 0.0

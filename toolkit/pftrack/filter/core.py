@@ -73,6 +73,11 @@ def normalize_log_weights(log_weights: np.ndarray) -> tuple[np.ndarray, bool]:
         # NaN) and no +inf; the operations are those of the general path, so are the results
         m = float(lw.max())
         if -math.inf < m < math.inf:
+            if _jit.use(lw.size):
+                # the shift and the mask in one compiled pass, one array: the same numbers
+                w = _jit.shifted_exp(lw, m, _EXP_ZERO_BELOW)
+                w /= w.sum()
+                return w, True
             return _exp_normalised(np.subtract(lw, m)), True
     lw = np.where(np.isnan(lw), -np.inf, lw)
     m = np.max(lw, axis=-1, keepdims=True)
