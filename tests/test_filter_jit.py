@@ -12,7 +12,13 @@ import numpy as np
 import pytest
 
 from pftrack.components import Target
-from pftrack.filter import _jit, normalize_log_weights, systematic_resample
+from pftrack.filter import (
+    _jit,
+    normalize_log_weights,
+    systematic_resample,
+    weighted_extent,
+    weighted_mean,
+)
 from pftrack_basic.gaussian import GaussianLikelihood
 from pftrack_basic.motion import ConstantAccelerationMotion
 
@@ -160,6 +166,25 @@ def test_normalize_log_weights_equals_the_numpy_path(numpy_path, kind):
     assert ok == ok_ref and np.array_equal(w, w_ref)
     if kind == "underflow":
         assert 0 < np.count_nonzero(w) < BIG
+
+
+@pytest.mark.parametrize("n", [BIG, 8193, 100_001, 1_000_000])
+@pytest.mark.parametrize("d", [2, 6])
+def test_weighted_mean_equals_einsum(numpy_path, n, d):
+    rng = np.random.default_rng(n + d)
+    states = rng.normal(150.0, 40.0, (n, d))
+    states[::3, 0] *= -1.0
+    w = rng.random(n)
+    w[::11] = 0.0
+    w /= w.sum()
+    got = weighted_mean(states, w)
+    assert np.array_equal(got, numpy_path(weighted_mean, states, w))
+    assert np.array_equal(got, np.einsum("n,nd->d", w, states))
+    # a strided view takes einsum itself; the extent (einsum of a fresh array) agrees too
+    wide = np.zeros((n, d + 1))
+    wide[:, :d] = states
+    assert np.allclose(weighted_mean(wide[:, :d], w), got, rtol=1e-14)
+    assert np.array_equal(weighted_extent(states, w), numpy_path(weighted_extent, states, w))
 
 
 def test_no_jit_environment_variable_selects_the_numpy_path():

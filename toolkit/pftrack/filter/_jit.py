@@ -15,6 +15,9 @@ same numbers bit for bit:
   :class:`pftrack_basic.gaussian.GaussianLikelihood` for one observed point;
 * :func:`shifted_exp`: the shift and mask of :func:`pftrack.filter.normalize_log_weights`
   in one pass; the exponential stays numpy's;
+* :func:`weighted_sum`: :func:`pftrack.filter.weighted_mean`'s einsum, whose sums over a
+  C-contiguous (N, D) array run over the particles in order (numpy's einsum keeps the D axis
+  innermost there), without einsum's iterator;
 * :func:`cumulative_sum` and :func:`systematic_indices`: :func:`pftrack.filter.systematic_resample`
   without its temporaries (the running sum is sequential in numpy too).
 
@@ -41,6 +44,7 @@ __all__ = [
     "shifted_exp",
     "systematic_indices",
     "use",
+    "weighted_sum",
 ]
 
 #: False when ``PFTRACK_NO_JIT`` is set: every function then takes its numpy path.
@@ -135,4 +139,12 @@ def shifted_exp(lw: np.ndarray, m: float, zero_below: float) -> np.ndarray:
     mask = np.empty(len(lw), dtype=bool)
     _k().shift_for_exp(lw, float(m), float(zero_below), out, mask)
     np.exp(out, out=out, where=mask)
+    return out
+
+
+def weighted_sum(w: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """(D,) ``np.einsum("n,nd->d", w, s)`` for float64 ``w`` (N,) and C-contiguous ``s``
+    (N, D)."""
+    out = np.empty(s.shape[1])
+    _k().weighted_sum(np.ascontiguousarray(w), s, out)
     return out

@@ -218,3 +218,16 @@ def shift_for_exp(lw, m, zero_below, out, mask):  # pragma: no cover - compiled
         keep = d > zero_below
         mask[i] = keep
         out[i] = d if keep else 0.0
+
+
+@njit(**_JIT)
+def weighted_sum(w, s, out):  # pragma: no cover - compiled
+    """``out[k] = sum_i w[i] s[i, k]``, each sum running over i in order from 0.0, as
+    ``np.einsum("n,nd->d", w, s)`` sums a C-contiguous ``s`` (the tests check it)."""
+    d = s.shape[1]
+    for k in range(d):
+        out[k] = 0.0
+    for i in range(s.shape[0]):
+        wi = w[i]
+        for k in range(d):
+            out[k] += wi * s[i, k]

@@ -298,7 +298,11 @@ def weighted_mean(states: np.ndarray, weights: np.ndarray) -> np.ndarray:
     # einsum, not BLAS gemv: OpenBLAS threads stall on a loaded machine (16 ms instead of 0.3 ms
     # at 100k particles) and a (D,) reduction gains nothing from them
     w = np.asarray(weights, dtype=np.float64)
-    return np.einsum(_EINSUM[w.ndim], w, np.asarray(states, dtype=np.float64))
+    s = np.asarray(states, dtype=np.float64)
+    if (w.ndim == 1 and s.ndim == 2 and s.flags.c_contiguous and len(s) == len(w)
+            and _jit.use(len(w))):
+        return _jit.weighted_sum(w, s)  # einsum's order of summation, compiled
+    return np.einsum(_EINSUM[w.ndim], w, s)
 
 
 _EINSUM = {1: "n,nd->d", 2: "tn,tnd->td"}
