@@ -147,6 +147,8 @@ def test_systematic_resample_rejects_bad_weights_like_the_numpy_path(numpy_path)
         with pytest.raises(ValueError, match="non-negative") as e2:
             numpy_path(systematic_resample, bad, rng)
         assert str(e1.value) == str(e2.value)
+    with pytest.raises(ValueError, match="at least one weight"):
+        systematic_resample(np.zeros(0), rng, BIG)
 
 
 @pytest.mark.parametrize("kind", ["gaussian", "underflow", "with-inf", "nan", "all-inf"])

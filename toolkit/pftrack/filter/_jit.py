@@ -18,8 +18,9 @@ same numbers bit for bit:
 * :func:`weighted_sum`: :func:`pftrack.filter.weighted_mean`'s einsum, whose sums over a
   C-contiguous (N, D) array run over the particles in order (numpy's einsum keeps the D axis
   innermost there), without einsum's iterator;
-* :func:`cumulative_sum` and :func:`systematic_indices`: :func:`pftrack.filter.systematic_resample`
-  without its temporaries (the running sum is sequential in numpy too).
+* :func:`weight_total` and :func:`systematic_indices`: :func:`pftrack.filter.systematic_resample`
+  without its temporaries: the running sum (sequential in numpy too) is computed twice, once
+  for the total and the checks, once while counting, instead of being stored.
 
 No kernel uses fast-math, so no multiply-add is fused and every operation rounds as numpy's
 does; the tests check the equality against the numpy path. Callers use a kernel only for
@@ -38,12 +39,12 @@ __all__ = [
     "ENABLED",
     "MIN_PARTICLES",
     "constant_acceleration_predict",
-    "cumulative_sum",
     "gaussian_centre_log_likelihood",
     "pcg64_standard_normal",
     "shifted_exp",
     "systematic_indices",
     "use",
+    "weight_total",
     "weighted_sum",
 ]
 
@@ -115,18 +116,17 @@ def gaussian_centre_log_likelihood(boxes: np.ndarray, ox: float, oy: float,
     return out
 
 
-def cumulative_sum(w: np.ndarray) -> tuple[np.ndarray, bool]:
-    """``(np.add.accumulate(w), all(w >= 0))`` of a 1-D float64 array."""
-    w = np.ascontiguousarray(w, dtype=np.float64)
-    c = np.empty(len(w))
-    return c, bool(_k().cumulative_sum(w, c))
+def weight_total(w: np.ndarray) -> tuple[float, bool]:
+    """``(np.add.accumulate(w)[-1], all(w >= 0))`` of a contiguous 1-D float64 array."""
+    total, ok = _k().weight_total(w)
+    return float(total), bool(ok)
 
 
-def systematic_indices(c: np.ndarray, inv_total: float, n: int, u: float) -> np.ndarray:
-    """Systematic resampling indices (n,) from the running sums ``c`` (see the kernel)."""
+def systematic_indices(w: np.ndarray, inv_total: float, n: int, u: float) -> np.ndarray:
+    """Systematic resampling indices (n,) of the weights ``w`` (see the kernel)."""
     n = int(n)
     idx = np.empty(n + 1, dtype=np.intp)
-    _k().systematic_indices(c, float(inv_total), n, float(u), idx)
+    _k().systematic_indices(w, float(inv_total), n, float(u), idx)
     return idx[:n]
 
 

@@ -169,34 +169,35 @@ def gaussian_centre_log_likelihood(boxes, ox, oy, scale, out):  # pragma: no cov
 
 
 @njit(**_JIT)
-def cumulative_sum(w, c):  # pragma: no cover - compiled
-    """``c = np.add.accumulate(w)`` (a sequential running sum, the same numbers); returns
-    whether every weight is >= 0 (False for NaN too)."""
-    n = w.shape[0]
+def weight_total(w):  # pragma: no cover - compiled
+    """The last running sum of ``w`` (``np.add.accumulate(w)[-1]``: summed in order, the same
+    number) and whether every weight is >= 0 (False for NaN too)."""
     s = 0.0
     ok = True
-    for i in range(n):
+    for i in range(w.shape[0]):
         x = w[i]
         if not x >= 0.0:
             ok = False
         s = x if i == 0 else s + x
-        c[i] = s
-    return ok
+    return s, ok
 
 
 @njit(**_JIT)
-def systematic_indices(c, inv_total, n, u, idx):  # pragma: no cover - compiled
-    """Indices of systematic resampling from the running sums ``c`` of the weights: particle i's
-    cumulative count is ``min(ceil((c_i inv_total) n - u), n)`` (``c`` of the last particle
+def systematic_indices(w, inv_total, n, u, idx):  # pragma: no cover - compiled
+    """Indices of systematic resampling of the weights ``w``: with ``c_i`` the running sum
+    (recomputed here in :func:`weight_total`'s order, so without an (N,) array), particle
+    i's cumulative count is ``min(ceil((c_i inv_total) n - u), n)`` (``c`` of the last particle
     taken as exactly 1), and index j is ``#{i : count_i <= j}``, as
     :func:`pftrack.filter.core.systematic_resample` computes them: a count per bin (scattered,
     no branch), then their running sum. ``idx`` (n + 1,) intp is the work space; the indices
     are ``idx[:n]``."""
-    m = c.shape[0]
+    m = w.shape[0]
     for j in range(n + 1):
         idx[j] = 0
+    s = 0.0
     for i in range(m - 1):
-        v = c[i] * inv_total
+        s = w[i] if i == 0 else s + w[i]
+        v = s * inv_total
         v = v * n
         v = v - u
         idx[min(np.intp(np.ceil(v)), n)] += 1

@@ -184,13 +184,13 @@ def systematic_resample(weights: np.ndarray, rng: np.random.Generator,
     n = len(weights) if n is None else int(n)
     w = np.asarray(weights, dtype=np.float64)
     if w.ndim == 1 and _jit.use(max(len(w), n)):
-        # compiled: the running sum, then every count and index in one pass, without the
+        # compiled: the total, then every count and index in one pass, without the
         # temporaries; the same operations on the same numbers as below
-        c, nonneg = _jit.cumulative_sum(w)
-        total = float(c[-1]) if len(c) else 0.0
+        w = np.ascontiguousarray(w)
+        total, nonneg = _jit.weight_total(w) if len(w) else (0.0, True)
         if not 0.0 < total < math.inf or not nonneg:
             _cumsum_normalised(w)  # raises, with the message
-        return _jit.systematic_indices(c, 1.0 / total, n, rng.random())
+        return _jit.systematic_indices(w, 1.0 / total, n, rng.random())
     c = _cumsum_normalised(w)
     u = rng.random()
     c *= n
