@@ -1,9 +1,10 @@
 """Compiled (numba) kernels for the particle-filter step at large particle counts.
 
 At a million particles the numpy step is a dozen passes over memory plus the Gaussian noise,
-and numpy's ``standard_normal`` spends most of its time on a mispredicted branch (the sign of
-each ziggurat draw). The kernels here do the same arithmetic in one pass each and return the
-same numbers bit for bit:
+and numpy's ``standard_normal`` loses much of its time to a branch that mispredicts half the
+time (the sign of each ziggurat draw; the same ziggurat with a multiply by +-1.0 runs twice as
+fast). The kernels here do the same arithmetic in one pass each and return the same numbers
+bit for bit:
 
 * :func:`constant_acceleration_predict`: noise draw and transition of
   :class:`pftrack_basic.motion.ConstantAccelerationMotion` in one pass. The normals are drawn
@@ -26,7 +27,9 @@ No kernel uses fast-math, so no multiply-add is fused and every operation rounds
 does; the tests check the equality against the numpy path. Callers use a kernel only for
 ``n >= MIN_PARTICLES``, so small filters (the tracker's usual hundreds of particles) never load
 numba. The kernels are compiled on first use and cached on disk (``cache=True``); set
-``PFTRACK_NO_JIT=1`` to use the numpy path everywhere. numba is imported on first use.
+``PFTRACK_NO_JIT=1`` to use the numpy path everywhere. numba is imported on first use: the
+first large call in a process pays about a second (numba's import and the cache load; several
+seconds when the cache is cold).
 """
 
 from __future__ import annotations
