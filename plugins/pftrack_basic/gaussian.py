@@ -12,6 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from pftrack.components import Detections, Frame, Likelihood, Target
+from pftrack.filter import _jit
 
 __all__ = ["GaussianLikelihood"]
 
@@ -90,6 +91,10 @@ class GaussianLikelihood(Likelihood):
                 raise ValueError("GaussianLikelihood: missing_log_likelihood must not be NaN or "
                                  f"+inf, got {self.missing_log_likelihood!r}")
             return np.full(len(b), missing)
+        if len(obs) == 1 and _jit.use(len(b)):
+            # one compiled pass, the same operations in the same order as below
+            return _jit.gaussian_centre_log_likelihood(b, obs[0, 0], obs[0, 1],
+                                                       -0.5 / (sigma * sigma))
         cx = b[:, 0] + 0.5 * b[:, 2]
         cy = b[:, 1] + 0.5 * b[:, 3]
         if len(obs) == 1:

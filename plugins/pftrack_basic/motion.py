@@ -29,6 +29,7 @@ from collections.abc import Callable
 import numpy as np
 
 from pftrack.components import MotionModel, Target
+from pftrack.filter import _jit
 
 # below this many particles a (N, D) @ (D, D) product beats column-wise updates; above, the
 # updates run on blocks of this many rows so that a block stays in cache
@@ -329,6 +330,11 @@ class ConstantAccelerationMotion(MotionModel):
             out *= std
             out += s @ self.transition_matrix(dt).T
             return out
+        if _jit.use(len(s)):
+            # one compiled pass: the same draws and the same arithmetic as below
+            out = _jit.constant_acceleration_predict(s, std, dt, rng)
+            if out is not None:
+                return out
         half = 0.5 * dt * dt
 
         def update(o: np.ndarray, x: np.ndarray) -> None:  # C x, written out per column

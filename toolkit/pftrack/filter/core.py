@@ -13,6 +13,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from pftrack.filter import _jit
+
 __all__ = [
     "RESAMPLERS",
     "effective_sample_size",
@@ -71,6 +73,11 @@ def normalize_log_weights(log_weights: np.ndarray) -> tuple[np.ndarray, bool]:
         # NaN) and no +inf; the operations are those of the general path, so are the results
         m = float(lw.max())
         if -math.inf < m < math.inf:
+            if _jit.use(lw.size):
+                # the shift and the mask in one compiled pass, one array: the same numbers
+                w = _jit.shifted_exp(lw, m, _EXP_ZERO_BELOW)
+                w /= w.sum()
+                return w, True
             return _exp_normalised(np.subtract(lw, m)), True
     lw = np.where(np.isnan(lw), -np.inf, lw)
     m = np.max(lw, axis=-1, keepdims=True)
@@ -175,7 +182,16 @@ def systematic_resample(weights: np.ndarray, rng: np.random.Generator,
     cumulative count is ``ceil(n c_i - u)``: no search, one pass.
     """
     n = len(weights) if n is None else int(n)
-    c = _cumsum_normalised(weights)
+    w = np.asarray(weights, dtype=np.float64)
+    if w.ndim == 1 and _jit.use(max(len(w), n)):
+        # compiled: the total, then every count and index in one pass, without the
+        # temporaries; the same operations on the same numbers as below
+        w = np.ascontiguousarray(w)
+        total, nonneg = _jit.weight_total(w) if len(w) else (0.0, True)
+        if not 0.0 < total < math.inf or not nonneg:
+            _cumsum_normalised(w)  # raises, with the message
+        return _jit.systematic_indices(w, 1.0 / total, n, rng.random())
+    c = _cumsum_normalised(w)
     u = rng.random()
     c *= n
     c -= u
@@ -282,7 +298,11 @@ def weighted_mean(states: np.ndarray, weights: np.ndarray) -> np.ndarray:
     # einsum, not BLAS gemv: OpenBLAS threads stall on a loaded machine (16 ms instead of 0.3 ms
     # at 100k particles) and a (D,) reduction gains nothing from them
     w = np.asarray(weights, dtype=np.float64)
-    return np.einsum(_EINSUM[w.ndim], w, np.asarray(states, dtype=np.float64))
+    s = np.asarray(states, dtype=np.float64)
+    if (w.ndim == 1 and s.ndim == 2 and s.flags.c_contiguous and len(s) == len(w)
+            and _jit.use(len(w))):
+        return _jit.weighted_sum(w, s)  # einsum's order of summation, compiled
+    return np.einsum(_EINSUM[w.ndim], w, s)
 
 
 _EINSUM = {1: "n,nd->d", 2: "tn,tnd->td"}

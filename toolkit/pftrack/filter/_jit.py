@@ -1,0 +1,153 @@
+"""Compiled (numba) kernels for the particle-filter step at large particle counts.
+
+At a million particles the numpy step is a dozen passes over memory plus the Gaussian noise,
+and numpy's ``standard_normal`` loses much of its time to a branch that mispredicts half the
+time (the sign of each ziggurat draw; the same ziggurat with a multiply by +-1.0 runs twice as
+fast). The kernels here do the same arithmetic in one pass each and return the same numbers
+bit for bit:
+
+* :func:`constant_acceleration_predict`: noise draw and transition of
+  :class:`pftrack_basic.motion.ConstantAccelerationMotion` in one pass. The normals are drawn
+  by numpy's own algorithm (the ziggurat of ``random_standard_normal``, with its tables) from
+  the Generator's PCG64 state, which is read before and written back after, so the Generator
+  ends where ``standard_normal((N, 6))`` leaves it. Only an exact ``PCG64`` bit generator takes
+  this path (``np.random.default_rng``'s); any other takes the numpy path;
+* :func:`gaussian_centre_log_likelihood`: the box-centre Gaussian of
+  :class:`pftrack_basic.gaussian.GaussianLikelihood` for one observed point;
+* :func:`shifted_exp`: the shift and mask of :func:`pftrack.filter.normalize_log_weights`
+  in one pass; the exponential stays numpy's;
+* :func:`weighted_sum`: :func:`pftrack.filter.weighted_mean`'s einsum, whose sums over a
+  C-contiguous (N, D) array run over the particles in order (numpy's einsum keeps the D axis
+  innermost there), without einsum's iterator;
+* :func:`weight_total` and :func:`systematic_indices`: :func:`pftrack.filter.systematic_resample`
+  without its temporaries: the running sum (sequential in numpy too) is computed twice, once
+  for the total and the checks, once while counting, instead of being stored.
+
+No kernel uses fast-math, so no multiply-add is fused and every operation rounds as numpy's
+does; the tests check the equality against the numpy path. Callers use a kernel only for
+``n >= MIN_PARTICLES``, so small filters (the tracker's usual hundreds of particles) never load
+numba. The kernels are compiled on first use and cached on disk (``cache=True``); set
+``PFTRACK_NO_JIT=1`` to use the numpy path everywhere. numba is imported on first use: the
+first large call in a process pays about a second (numba's import and the cache load; several
+seconds when the cache is cold).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+__all__ = [
+    "ENABLED",
+    "MIN_PARTICLES",
+    "constant_acceleration_predict",
+    "gaussian_centre_log_likelihood",
+    "pcg64_standard_normal",
+    "shifted_exp",
+    "systematic_indices",
+    "use",
+    "weight_total",
+    "weighted_sum",
+]
+
+#: False when ``PFTRACK_NO_JIT`` is set: every function then takes its numpy path.
+ENABLED = os.environ.get("PFTRACK_NO_JIT", "").strip().lower() not in ("1", "true", "yes")
+
+#: Particle count from which the filter functions and the basic plugin use the kernels.
+MIN_PARTICLES = 4097
+
+_M64 = (1 << 64) - 1
+
+
+def use(n: int) -> bool:
+    """Whether a call on ``n`` particles takes the compiled path."""
+    return ENABLED and n >= MIN_PARTICLES
+
+
+def _k():
+    from pftrack.filter import _kernels  # numba: imported on first use
+
+    return _kernels
+
+
+def _with_pcg64(rng: np.random.Generator, kernel, *args) -> bool:
+    """Run ``kernel(*args, state)`` with ``state`` the (4,) uint64 PCG64 state of ``rng``,
+    written back afterwards; False (nothing run) when ``rng`` does not draw from an exact
+    ``PCG64``."""
+    bg = rng.bit_generator
+    if type(bg) is not np.random.PCG64:
+        return False
+    with bg.lock:
+        st = bg.state
+        s, inc = st["state"]["state"], st["state"]["inc"]
+        state = np.array([s >> 64, s & _M64, inc >> 64, inc & _M64], dtype=np.uint64)
+        kernel(*args, state)
+        st["state"]["state"] = (int(state[0]) << 64) | int(state[1])
+        bg.state = st  # has_uint32 / uinteger as they were: next64 leaves them alone
+    return True
+
+
+def pcg64_standard_normal(rng: np.random.Generator, out: np.ndarray) -> bool:
+    """``rng.standard_normal(out=out)`` (same numbers, same Generator state after) for a
+    C-contiguous float64 ``out``; False (nothing drawn) when ``rng`` is not PCG64-based."""
+    flat = out.reshape(-1)  # a view: out is contiguous
+    return _with_pcg64(rng, _k().pcg64_standard_normal, flat)
+
+
+def constant_acceleration_predict(states: np.ndarray, std: np.ndarray, dt: float,
+                                  rng: np.random.Generator) -> np.ndarray | None:
+    """New (N, 6) states, equal bit for bit to the numpy path of
+    ``ConstantAccelerationMotion.predict`` for N > 4096 (blocks of ``standard_normal``, then
+    ``o *= std`` and the column updates); None when ``rng`` is not PCG64-based."""
+    s = np.ascontiguousarray(states, dtype=np.float64)
+    sd = np.ascontiguousarray(std, dtype=np.float64)
+    dt = float(dt)
+    out = np.empty(s.shape)
+    if _with_pcg64(rng, _k().constant_acceleration_predict, s, sd, dt, 0.5 * dt * dt, out):
+        return out
+    return None
+
+
+def gaussian_centre_log_likelihood(boxes: np.ndarray, ox: float, oy: float,
+                                   scale: float) -> np.ndarray:
+    """(N,) ``((cx - ox)^2 + (cy - oy)^2) * scale`` of the box centres, as
+    :meth:`GaussianLikelihood.log_likelihood` computes them with numpy."""
+    b = np.ascontiguousarray(boxes, dtype=np.float64)
+    out = np.empty(len(b))
+    _k().gaussian_centre_log_likelihood(b, float(ox), float(oy), float(scale), out)
+    return out
+
+
+def weight_total(w: np.ndarray) -> tuple[float, bool]:
+    """``(np.add.accumulate(w)[-1], all(w >= 0))`` of a contiguous 1-D float64 array."""
+    total, ok = _k().weight_total(w)
+    return float(total), bool(ok)
+
+
+def systematic_indices(w: np.ndarray, inv_total: float, n: int, u: float) -> np.ndarray:
+    """Systematic resampling indices (n,) of the weights ``w`` (see the kernel)."""
+    n = int(n)
+    idx = np.empty(n + 1, dtype=np.intp)
+    _k().systematic_indices(w, float(inv_total), n, float(u), idx)
+    return idx[:n]
+
+
+def shifted_exp(lw: np.ndarray, m: float, zero_below: float) -> np.ndarray:
+    """``exp(lw - m)`` of a 1-D float64 array, 0.0 where ``lw - m <= zero_below`` (not
+    evaluated): the subtraction and the mask in one compiled pass, then numpy's own ``exp``
+    (whose last-bit rounding is numpy's: SIMD or libm by CPU), writing in place."""
+    lw = np.ascontiguousarray(lw, dtype=np.float64)
+    out = np.empty(len(lw))
+    mask = np.empty(len(lw), dtype=bool)
+    _k().shift_for_exp(lw, float(m), float(zero_below), out, mask)
+    np.exp(out, out=out, where=mask)
+    return out
+
+
+def weighted_sum(w: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """(D,) ``np.einsum("n,nd->d", w, s)`` for float64 ``w`` (N,) and C-contiguous ``s``
+    (N, D)."""
+    out = np.empty(s.shape[1])
+    _k().weighted_sum(np.ascontiguousarray(w), s, out)
+    return out
