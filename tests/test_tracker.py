@@ -7,6 +7,7 @@ import pytest
 
 from pftrack.components import Detections, Detector, Frame, Likelihood, MotionModel, Target
 from pftrack.tracker import ImageBoxObservation, MultiTargetTracker, records_to_mot
+from pftrack_basic.motion import RandomWalkMotion
 from pftrack_basic.tracks import DetectionBirthTracks
 
 
@@ -176,9 +177,11 @@ def test_size_from_box_keeps_each_targets_initial_size():
     assert tuple(recs[2].box_xywh_px[2:]) == (10.0, 10.0)
 
 
-@pytest.mark.parametrize("scheme, ess", [("systematic", 1.0), ("stratified", 1.0),
-                                         ("systematic", 0.5)])
-def test_targets_vectorised_equal_one_at_a_time_bit_for_bit(scheme, ess):
+@pytest.mark.parametrize("scheme, ess, motion", [("systematic", 1.0, "test"),
+                                                 ("stratified", 1.0, "test"),
+                                                 ("systematic", 0.5, "test"),
+                                                 ("systematic", 1.0, "random-walk")])
+def test_targets_vectorised_equal_one_at_a_time_bit_for_bit(scheme, ess, motion):
     """The tracker normalises, estimates and resamples all targets' filters as rows of one
     array; the per-target path (used when filters differ in size) gives the same tracks."""
     truth = {1: lambda k: np.array([20.0 + 2 * k, 50.0]),
@@ -188,7 +191,8 @@ def test_targets_vectorised_equal_one_at_a_time_bit_for_bit(scheme, ess):
     def run(vectorise):
         lik = _TruthLikelihood()
         lik.truth_ = truth
-        tr = MultiTargetTracker(_Walk(), lik, ImageBoxObservation(10, 10), n_particles=200,
+        walk = _Walk() if motion == "test" else RandomWalkMotion(sigma_px=1.0)
+        tr = MultiTargetTracker(walk, lik, ImageBoxObservation(10, 10), n_particles=200,
                                 resampling=scheme, ess_threshold=ess,
                                 rng=np.random.default_rng(5), kill_out_of_view=False)
         tr._vectorise = vectorise
@@ -238,3 +242,18 @@ def test_a_composite_likelihood_prepares_its_terms(monkeypatch):
     MultiTargetTracker(_Walk(), lik, ImageBoxObservation(10, 10), n_particles=10,
                        rng=np.random.default_rng(0))
     assert loaded == [1]  # the integral term loads the kernels; the histogram one needs none
+
+
+def test_image_boxes_of_every_target_in_one_call_equal_one_target_at_a_time():
+    from pftrack.components import ObservationModel
+
+    obs = ImageBoxObservation(30.0, 20.0, size_from_box=True)
+    targets = [Target(id=i, state=np.zeros(2), box_xywh_px=np.zeros(4)) for i in (1, 2, 3)]
+    obs.init_target(targets[1], np.array([0.0, 0.0, 12.0, 7.0]))  # its own size
+    states = np.random.default_rng(0).normal(size=(3, 40, 2)) * 100
+    rows = obs.to_boxes_rows(states, targets)
+    assert rows.shape == (3, 40, 4)
+    for i, t in enumerate(targets):
+        assert np.array_equal(rows[i], obs.to_boxes(states[i], t))
+    assert np.array_equal(rows, ObservationModel.to_boxes_rows(obs, states, targets))
+    assert np.all(rows[1, :, 2:] == [12.0, 7.0]) and np.all(rows[0, :, 2:] == [30.0, 20.0])

@@ -160,6 +160,20 @@ class RandomWalkMotion(MotionModel):
         out += s
         return out
 
+    def predict_rows(self, states: np.ndarray, dt: float, rng: np.random.Generator,
+                     targets=None) -> np.ndarray:
+        """All targets at once: the noise does not depend on the target, and one
+        ``standard_normal((T, N, 2))`` draws the numbers T row-by-row calls would."""
+        s = np.asarray(states, dtype=np.float64)
+        if s.ndim != 3 or s.shape[2] != 2:
+            raise ValueError(f"RandomWalkMotion.predict_rows: states must have shape (T, N, 2), "
+                             f"got {s.shape}")
+        std = _axis_std(self, "sigma_px", 2) * np.sqrt(_check_dt(self, dt))
+        out = rng.standard_normal(s.shape)
+        out *= std
+        out += s
+        return out
+
     def init_states(self, position: np.ndarray, n: int, rng: np.random.Generator,
                     spread: float | np.ndarray = 1.0) -> np.ndarray:
         return _init_states(self, position, n, rng, spread)

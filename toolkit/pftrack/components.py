@@ -374,6 +374,18 @@ class MotionModel(Component):
             New states (a new array; the input is not modified).
         """
 
+    def predict_rows(self, states: np.ndarray, dt: float, rng: np.random.Generator,
+                     targets: Sequence[Target]) -> np.ndarray:
+        """Every target's particles in one call: ``states`` (T, N, D) -> (T, N, D), row ``i``
+        the particles of ``targets[i]``.
+
+        Must equal T successive :meth:`predict` calls, row by row, bit for bit (the same draws
+        in the same order): the engine uses it to predict all targets at once. The default
+        does exactly that; a model whose noise does not depend on the target overrides it with
+        one vectorised call.
+        """
+        return np.array([self.predict(s, dt, rng, target=t) for s, t in zip(states, targets)])
+
     @abstractmethod
     def init_states(self, position: np.ndarray, n: int, rng: np.random.Generator,
                     spread: float | np.ndarray = 1.0) -> np.ndarray:
@@ -544,6 +556,11 @@ class ObservationModel(Component):
         ``target`` lets a model use per-target parameters (``target.box_wh_px``, or its own
         per-target state keyed by ``target.id``).
         """
+
+    def to_boxes_rows(self, states: np.ndarray, targets: Sequence[Target]) -> np.ndarray:
+        """Every target's particles as boxes in one call: ``states`` (T, N, D) -> (T, N, 4),
+        equal to :meth:`to_boxes` row by row (the default does exactly that)."""
+        return np.array([self.to_boxes(s, t) for s, t in zip(states, targets)])
 
     def init_target(self, target: Target, box_xywh_px: np.ndarray | None) -> None:
         """Called when a target is born, with the box it was started from (if any)."""

@@ -107,6 +107,16 @@ class ImageBoxObservation(ObservationModel):
         out[:, 3] = h
         return out
 
+    def to_boxes_rows(self, states: np.ndarray, targets: Sequence[Target]) -> np.ndarray:
+        """(T, N, D) -> (T, N, 4) in one pass, each row's size its target's."""
+        s = np.asarray(states, dtype=np.float64)
+        wh = np.array([t.box_wh_px if t.box_wh_px is not None
+                       else (float(self.width_px), float(self.height_px)) for t in targets])
+        out = np.empty(s.shape[:2] + (4,))
+        out[:, :, 2:] = wh[:, None, :]
+        np.subtract(s[:, :, :2], 0.5 * out[:, :, 2:], out=out[:, :, :2])
+        return out
+
     def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:
         b = np.asarray(box_xywh_px, dtype=np.float64)
         return np.array([b[0] + 0.5 * b[2], b[1] + 0.5 * b[3]])
@@ -306,14 +316,29 @@ class MultiTargetTracker:
         observation = self.observation
         rng = self.rng
         # 1. predict; each target's particle boxes are computed once here and reused by the
-        # associator, the likelihood and callers (``target.particle_boxes_xywh_px``)
-        for f in filters:
-            t = f.target
-            f.particles = self.motion.predict(f.particles, self.dt, rng, target=t)
-            t.particles = f.particles
-            t.particle_boxes_xywh_px = observation.to_boxes(f.particles, t)
-            t.age += 1
-            t.detection = None
+        # associator, the likelihood and callers (``target.particle_boxes_xywh_px``). Several
+        # targets with as many particles each: one (T, N, D) call of each (the same numbers)
+        n = self.n_particles
+        if (self._vectorise and len(filters) > 1
+                and all(len(f.particles) == n for f in filters)):
+            targets = [f.target for f in filters]
+            p = self.motion.predict_rows(np.array([f.particles for f in filters]), self.dt, rng,
+                                         targets)
+            boxes = observation.to_boxes_rows(p, targets)
+            for i, f in enumerate(filters):
+                t = f.target
+                f.particles = t.particles = p[i]
+                t.particle_boxes_xywh_px = boxes[i]
+                t.age += 1
+                t.detection = None
+        else:
+            for f in filters:
+                t = f.target
+                f.particles = self.motion.predict(f.particles, self.dt, rng, target=t)
+                t.particles = f.particles
+                t.particle_boxes_xywh_px = observation.to_boxes(f.particles, t)
+                t.age += 1
+                t.detection = None
         # 2. associate
         unmatched_dets = np.arange(len(detections)) if detections is not None else np.zeros(0, int)
         if detections is not None and self.associator is not None and filters:
@@ -326,7 +351,6 @@ class MultiTargetTracker:
         # 3. weight every target (each sees the others as the frame found them)
         targets = [f.target for f in filters]
         self.likelihood.begin_frame(frame, targets, detections)
-        n = self.n_particles
         logls = []
         for f in filters:
             t = f.target
