@@ -11,7 +11,8 @@ import pytest
 from pftrack.host import get_host
 from pftrack.testing import CHECKS, assert_conforms
 
-_COMPONENT_KINDS = ("detector", "likelihood", "motion", "associator", "scene")
+_COMPONENT_KINDS = ("detector", "likelihood", "motion", "associator", "scene", "observation",
+                    "tracks")
 
 
 def _builtin_entries():
@@ -26,7 +27,8 @@ _ENTRIES = _builtin_entries()
 
 def test_every_kind_has_a_builtin_component():
     kinds = {e.kind for e in _ENTRIES}
-    assert {"detector", "likelihood", "motion", "associator"} <= kinds, kinds
+    assert {"detector", "likelihood", "motion", "associator", "observation", "tracks"} <= kinds, \
+        kinds
 
 
 @pytest.mark.parametrize("entry", _ENTRIES, ids=[f"{e.kind}:{e.name}" for e in _ENTRIES])

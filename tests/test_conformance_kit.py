@@ -10,7 +10,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pftrack.components import Assignment, Associator, Likelihood, MotionModel
+from pftrack.components import (
+    Assignment,
+    Associator,
+    Likelihood,
+    MotionModel,
+    ObservationModel,
+    TrackManager,
+)
 from pftrack.testing import (
     CHECKS,
     ConformanceExample,
@@ -268,3 +275,46 @@ def test_sample_third_party_plugin_components_conform(monkeypatch):
     mod = importlib.import_module("pftrack_sample")
     assert_conforms(mod.DriftMotion)
     assert_conforms(mod.BoxAreaLikelihood(area_px=900.0))
+
+
+class _RowsDifferObservation(ObservationModel):
+    """Its all-targets form does not equal its one-target form: the engine would see other
+    boxes than the likelihood of one target."""
+
+    def to_boxes(self, states, target=None):
+        s = np.asarray(states, dtype=np.float64)
+        return np.column_stack([s[:, :2] - 10.0, np.full((len(s), 2), 20.0)])
+
+    def to_boxes_rows(self, states, targets):
+        return np.array([self.to_boxes(s) + 1.0 for s in states])
+
+    def position_from_box(self, box_xywh_px):
+        return np.asarray(box_xywh_px, dtype=np.float64)[:2] + 10.0
+
+
+class _ListlessTracks(TrackManager):
+    """Returns a tuple of records instead of a list."""
+
+    def after_frame(self, engine, frame, detections, records, unmatched_detections):
+        return tuple(records)
+
+
+class _GoodBirthTracks(TrackManager):
+    def __init__(self, min_score: float = 0.5) -> None:
+        self.min_score = min_score
+
+    def after_frame(self, engine, frame, detections, records, unmatched_detections):
+        for k in unmatched_detections:
+            if detections.scores[k] >= self.min_score:
+                records.append(engine.record(frame, engine.add_target(
+                    frame, box_xywh_px=detections.boxes_xywh_px[k])))
+        return records
+
+
+def test_observation_and_track_manager_workflows_catch_broken_contracts():
+    assert all(r.passed for r in check_component(_GoodBirthTracks))
+    r = _status(_RowsDifferObservation)
+    assert not r["shapes_dtypes"].passed
+    assert "to_boxes_rows differs" in r["shapes_dtypes"].message
+    r = _status(_ListlessTracks)
+    assert not r["shapes_dtypes"].passed and "list of TrackRecord" in r["shapes_dtypes"].message

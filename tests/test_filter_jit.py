@@ -78,7 +78,7 @@ def test_other_bit_generators_are_not_handled():
 def _target(frames=3, size=1.0):
     t = Target(id=1, state=np.zeros(6), box_xywh_px=np.zeros(4), frames_tracked=frames,
                size_m=size)
-    t.extra["observation_px"] = np.array([203.0, 148.0])
+    t.observation_px = np.array([203.0, 148.0])
     return t
 
 

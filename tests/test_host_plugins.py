@@ -63,10 +63,11 @@ def test_installed_plugin_is_listed_as_third_party(sample_site):
     assert s["components"] == {
         "motion": ["sample-drift"], "likelihood": ["sample-box-area", "sample-brightness"],
         "detector": ["sample-bright"], "associator": ["sample-nearest"],
-        "scene": ["sample-dots"], "metric": ["sample-count"], "preset": ["sample-dots"],
+        "scene": ["sample-dots"], "observation": ["sample-square"],
+        "tracks": ["sample-seen-twice"], "metric": ["sample-count"], "preset": ["sample-dots"],
         "command": ["sample-write-dots"], "benchmark": ["sample-brightness"],
         "demo": ["sample-dots"]}
-    assert "pftrack_register_commands" in s["hooks"] and len(s["hooks"]) == 10
+    assert "pftrack_register_commands" in s["hooks"] and len(s["hooks"]) == 12
     assert "error" not in s
     assert all(plugins[n]["builtin"] for n in ("basic", "colour", "world"))
     # third-party plugins are listed after the built-ins
@@ -116,8 +117,9 @@ def test_installed_plugin_builds_runs_and_conforms(sample_site):
 
 def test_a_paper_arrives_as_a_plugin_without_editing_pftrack(sample_site, tmp_path):
     """Every piece the sample plugin registers runs through the ``pftrack`` command line: its
-    command writes its scene as a video, its preset tracks it with its own detector, associator,
-    motion model and likelihood, ``pftrack eval`` reports its metric, ``pftrack bench`` runs its
+    command writes its scene as a video, its preset tracks it with its own observation model,
+    detector, associator, motion model, likelihood and track manager, ``pftrack eval`` reports
+    its metric, ``pftrack bench`` runs its
     benchmark and ``pftrack demo NAME`` its demo."""
     data = tmp_path / "dots"
     _run(sample_site, ["-m", "pftrack", "sample-write-dots", "--out", str(data),

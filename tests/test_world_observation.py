@@ -76,8 +76,19 @@ def test_in_view_and_empty_input(camera, gt):
 
 def test_loads_a_camera_path_and_validates():
     obs = CameraBoxObservation(str(PETS / "View_001.xml"))
-    assert obs.camera.image_size == (768, 576)
+    assert obs.get_camera().image_size == (768, 576)
+    states = np.zeros((2, 6))
+    # __init__ only stores (scikit-learn convention); the first use validates and loads
+    bad = CameraBoxObservation(obs.get_camera(), height_m=0)
     with pytest.raises(ValueError, match="height_m"):
-        CameraBoxObservation(obs.camera, height_m=0)
+        bad.to_boxes(states)
     with pytest.raises(FileNotFoundError):
-        CameraBoxObservation("/nonexistent/camera.xml")
+        CameraBoxObservation("/nonexistent/camera.xml").to_boxes(states)
+    with pytest.raises(ValueError, match="no camera"):
+        CameraBoxObservation().to_boxes(states)
+    # the run's camera, through the context
+    from pftrack.components import RunContext
+
+    late = CameraBoxObservation()
+    late.setup(RunContext(camera=obs.get_camera()))
+    assert np.array_equal(late.to_boxes(states), obs.to_boxes(states), equal_nan=True)

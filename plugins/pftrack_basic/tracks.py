@@ -111,17 +111,6 @@ class ConfirmedTracks(TrackManager):
                  confirm_window: int = 5, merge_iou: float = 0.6,
                  merge_distance_m: float | None = None, hide_after_misses: int | None = None,
                  appearance: dict[str, Any] | None = None) -> None:
-        if confirm_hits < 1 or confirm_window < confirm_hits:
-            raise ValueError(f"tracks: need 1 <= confirm_hits <= confirm_window, got "
-                             f"{confirm_hits}, {confirm_window}")
-        if merge_distance_m is not None and not float(merge_distance_m) > 0:
-            raise ValueError(f"tracks.merge_distance_m must be > 0 metres or null, got "
-                             f"{merge_distance_m!r}")
-        if appearance is not None:
-            bad = set(appearance) - APPEARANCE_KEYS
-            if bad:
-                raise ValueError(f"tracks.appearance: unknown options {sorted(bad)}; known: "
-                                 f"{sorted(APPEARANCE_KEYS)}")
         self.min_score = min_score
         self.max_iou = max_iou
         self.confirm_hits = confirm_hits
@@ -130,6 +119,26 @@ class ConfirmedTracks(TrackManager):
         self.merge_distance_m = merge_distance_m
         self.hide_after_misses = hide_after_misses
         self.appearance = appearance
+
+    def setup(self, context: Any) -> None:
+        """Validate the parameters (``__init__`` only stores them)."""
+        self._check()
+
+    def _check(self) -> None:
+        if "checked_" in self.__dict__:
+            return
+        if self.confirm_hits < 1 or self.confirm_window < self.confirm_hits:
+            raise ValueError(f"tracks: need 1 <= confirm_hits <= confirm_window, got "
+                             f"{self.confirm_hits}, {self.confirm_window}")
+        if self.merge_distance_m is not None and not float(self.merge_distance_m) > 0:
+            raise ValueError(f"tracks.merge_distance_m must be > 0 metres or null, got "
+                             f"{self.merge_distance_m!r}")
+        if self.appearance is not None:
+            bad = set(self.appearance) - APPEARANCE_KEYS
+            if bad:
+                raise ValueError(f"tracks.appearance: unknown options {sorted(bad)}; known: "
+                                 f"{sorted(APPEARANCE_KEYS)}")
+        self.checked_ = True
 
     # -- per-target state ---------------------------------------------------------------------
 
@@ -221,6 +230,7 @@ class ConfirmedTracks(TrackManager):
                     records: list[TrackRecord], unmatched_detections: np.ndarray,
                     ) -> list[TrackRecord]:
         """Confirm or drop tentative targets, output, remove duplicates, start new targets."""
+        self._check()
         live = {t.id: t for t in engine.targets}
         self._update_appearance(list(live.values()))
         tentative = self.tentative_

@@ -65,44 +65,73 @@ class CameraBoxObservation(ObservationModel):
                  width_ratio: float = 0.355, position_dims: tuple[int, int] = (0, 1),
                  min_visible: float = 0.5, adapt_height: bool = False,
                  height_scale_range: tuple[float, float] = (0.85, 1.2)) -> None:
-        if isinstance(camera, (str, os.PathLike)):
-            from pftrack.geometry.formats import load_camera
-
-            camera = load_camera(camera)
-        if not height_m > 0:
-            raise ValueError(f"CameraBoxObservation: height_m must be > 0, got {height_m}")
-        if width_m is not None and not width_m > 0:
-            raise ValueError(f"CameraBoxObservation: width_m must be > 0, got {width_m}")
-        if not width_ratio > 0:
-            raise ValueError(f"CameraBoxObservation: width_ratio must be > 0, got {width_ratio}")
         self.camera = camera
-        self.height_m = float(height_m)
+        self.height_m = height_m
         self.width_m = width_m
-        self.width_ratio = float(width_ratio)
-        self.position_dims = tuple(int(d) for d in position_dims)
-        self.min_visible = float(min_visible)
-        self.adapt_height = bool(adapt_height)
-        lo, hi = (float(v) for v in height_scale_range)
+        self.width_ratio = width_ratio
+        self.position_dims = position_dims
+        self.min_visible = min_visible
+        self.adapt_height = adapt_height
+        self.height_scale_range = height_scale_range
+
+    @classmethod
+    def _conformance_example(cls):
+        """For :mod:`pftrack.testing`: the run's camera (through the context) 5 m up, 10 m
+        back, looking at the origin of the ground, and people standing around the origin."""
+        from pftrack.geometry.camera import Camera
+
+        cam = Camera.look_at((0.0, -10.0, 5.0), (0.0, 0.0, 0.0), (160, 120), fx=150.0)
+        xy = np.linspace(-1.0, 1.0, 32)
+        states = np.column_stack([xy, xy[::-1], np.zeros((32, 4))])
+        return cls(), {"states": states, "context": RunContext(camera=cam)}
+
+    def _checked(self) -> None:
+        """Validate the parameters and load a camera path, once (``camera_``, ``dims_``,
+        ``scale_range_``); called on first use, so that ``__init__`` only stores."""
+        if "dims_" in self.__dict__:
+            return
+        if not float(self.height_m) > 0:
+            raise ValueError(f"CameraBoxObservation: height_m must be > 0, got {self.height_m}")
+        if self.width_m is not None and not float(self.width_m) > 0:
+            raise ValueError(f"CameraBoxObservation: width_m must be > 0, got {self.width_m}")
+        if not float(self.width_ratio) > 0:
+            raise ValueError(f"CameraBoxObservation: width_ratio must be > 0, got "
+                             f"{self.width_ratio}")
+        lo, hi = (float(v) for v in self.height_scale_range)
         if not 0 < lo <= 1 <= hi:
             raise ValueError(f"CameraBoxObservation: height_scale_range must satisfy "
-                             f"0 < low <= 1 <= high, got {height_scale_range}")
-        self.height_scale_range = (lo, hi)
+                             f"0 < low <= 1 <= high, got {self.height_scale_range}")
+        cam = self.__dict__.get("camera_", self.camera)
+        if isinstance(cam, (str, os.PathLike)):
+            from pftrack.geometry.formats import load_camera
+
+            cam = load_camera(cam)
+        self.camera_ = cam
+        self.scale_range_ = (lo, hi)
+        self.dims_ = tuple(int(d) for d in self.position_dims)
 
     def setup(self, context: RunContext) -> None:
         """The run's camera when none was given."""
-        if self.camera is None:
-            self.camera = context.camera
+        if self.camera is None and context.camera is not None:
+            self.__dict__.pop("dims_", None)
+            self.camera_ = context.camera
 
-    def _cam(self) -> Any:
-        if self.camera is None:
+    def get_camera(self) -> Any:
+        """The camera in use (``camera``, loaded when a path, or the run's)."""
+        self._checked()
+        if self.camera_ is None:
             raise ValueError("CameraBoxObservation: no camera; give camera=... or run with a "
                              "camera (pftrack run --camera PATH)")
-        return self.camera
+        return self.camera_
+
+    _cam = get_camera
 
     @property
     def aspect(self) -> float:
         """Box width / height."""
-        return self.width_ratio if self.width_m is None else float(self.width_m) / self.height_m
+        if self.width_m is None:
+            return float(self.width_ratio)
+        return float(self.width_m) / float(self.height_m)
 
     def ground_points(self, states: np.ndarray) -> np.ndarray:
         """States (N, D) -> foot points (N, 3) in world metres (z = 0)."""
@@ -115,8 +144,8 @@ class CameraBoxObservation(ObservationModel):
     def height_of(self, target: Target | None) -> float:
         """The height (m) used for ``target``: ``height_m`` times its height factor."""
         if target is None or not self.adapt_height:
-            return self.height_m
-        return self.height_m * self._scales().get(target.id, 1.0)
+            return float(self.height_m)
+        return float(self.height_m) * self._scales().get(target.id, 1.0)
 
     def foot_head_px(self, states: np.ndarray, height_m: float | None = None
                      ) -> tuple[np.ndarray, np.ndarray]:
@@ -124,7 +153,7 @@ class CameraBoxObservation(ObservationModel):
         g = self.ground_points(states)
         n = len(g)
         pts = np.concatenate([g, g])
-        pts[n:, 2] = self.height_m if height_m is None else height_m
+        pts[n:, 2] = float(self.height_m) if height_m is None else height_m
         px = self._cam().project(pts)
         return px[:n], px[n:]
 
@@ -145,7 +174,8 @@ class CameraBoxObservation(ObservationModel):
         h = float(np.asarray(box_xywh_px, dtype=np.float64)[3])
         if not (np.isfinite(ref) and ref > 0 and h > 0):
             return
-        lo, hi = self.height_scale_range
+        self._checked()
+        lo, hi = self.scale_range_
         old = self._scales().get(target.id, 1.0)
         new = (1.0 - rate) * old + rate * (h / ref)
         self._scales()[target.id] = float(np.clip(new, lo, hi))

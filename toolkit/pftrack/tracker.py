@@ -32,6 +32,7 @@ import logging
 import math
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.special import expit
@@ -81,14 +82,21 @@ class ImageBoxObservation(ObservationModel):
 
     def __init__(self, width_px: float = 30.0, height_px: float = 30.0,
                  size_from_box: bool = False) -> None:
-        if not (width_px > 0 and height_px > 0):
-            raise ValueError(f"ImageBoxObservation: box size must be positive, got "
-                             f"{width_px} x {height_px}")
         self.width_px = width_px
         self.height_px = height_px
         self.size_from_box = size_from_box
 
+    def setup(self, context: Any) -> None:
+        """Validate the box size (``__init__`` only stores it)."""
+        self._check()
+
+    def _check(self) -> None:
+        if not (float(self.width_px) > 0 and float(self.height_px) > 0):
+            raise ValueError(f"ImageBoxObservation: box size must be positive, got "
+                             f"{self.width_px} x {self.height_px}")
+
     def init_target(self, target: Target, box_xywh_px: np.ndarray | None) -> None:
+        self._check()
         if self.size_from_box and box_xywh_px is not None:
             target.box_wh_px = (float(box_xywh_px[2]), float(box_xywh_px[3]))
 
@@ -145,6 +153,9 @@ class ManualTracks(TrackManager):
     """The default track management: targets are added by the caller
     (:meth:`MultiTargetTracker.add_target`), end only by the filter's own rules, and every
     live target's estimate is output. No parameters."""
+
+    def __init__(self) -> None:
+        """No parameters."""
 
 
 class MultiTargetTracker:

@@ -1,7 +1,8 @@
 """Sample third-party pftrack plugin (test fixture).
 
 It shows the whole surface a plugin author needs: components subclassing the contracts in
-:mod:`pftrack.components` (a detector, likelihoods, a motion model, an associator, a scene), a
+:mod:`pftrack.components` (a detector, likelihoods, a motion model, an associator, a scene, an observation model and a
+track manager), a
 preset shipped as package data, a metric, and a command, a benchmark and a demo
 (:mod:`pftrack.extensions`), all registered through ``pftrack_register_*`` hooks and exposed
 through the ``pftrack`` entry-point group in ``pyproject.toml``. The project's tests install it into
@@ -23,8 +24,10 @@ from pftrack.components import (
     Frame,
     Likelihood,
     MotionModel,
+    ObservationModel,
     Scene,
     Target,
+    TrackManager,
 )
 
 __version__ = "0.3.1"
@@ -175,6 +178,47 @@ class DotsScene(Scene):
         return np.asarray(rows, dtype=np.float64)
 
 
+class SquareObservation(ObservationModel):
+    """Image-plane state (x, y): the box centre in pixels; every box a ``side_px`` square."""
+
+    def __init__(self, side_px: float = 20.0):
+        self.side_px = side_px
+
+    def to_boxes(self, states, target=None):
+        s = np.asarray(states, dtype=np.float64).reshape(-1, 2)
+        half = 0.5 * float(self.side_px)
+        return np.column_stack([s - half, np.full((len(s), 2), float(self.side_px))])
+
+    def position_from_box(self, box_xywh_px):
+        b = np.asarray(box_xywh_px, dtype=np.float64)
+        return b[:2] + 0.5 * b[2:]
+
+
+class SeenTwiceTracks(TrackManager):
+    """A detection nobody matched starts a target; the target is output from its second frame
+    with a matched detection on, and ended after ``max_unmatched`` frames without one."""
+
+    def __init__(self, max_unmatched: int = 3):
+        self.max_unmatched = max_unmatched
+
+    def after_frame(self, engine, frame, detections, records, unmatched_detections):
+        hits = self.__dict__.setdefault("hits_", {})
+        for t in engine.targets:
+            if t.detection is not None:
+                hits[t.id] = hits.get(t.id, 0) + 1
+            elif t.misses > self.max_unmatched:
+                engine.remove_target(t.id)
+        out = [r for r in records if hits.get(r.id, 0) >= 2 and r.id in hits]
+        if detections is not None:
+            for k in unmatched_detections:
+                t = engine.add_target(frame, box_xywh_px=detections.boxes_xywh_px[k])
+                hits[t.id] = 1
+        return out
+
+    def end_target(self, target):
+        self.__dict__.setdefault("hits_", {}).pop(target.id, None)
+
+
 def count_metric(gt_rows: np.ndarray, track_rows: np.ndarray) -> dict[str, float]:
     """Rows of tracks per row of ground truth."""
     return {"rows_ratio": len(track_rows) / max(len(gt_rows), 1),
@@ -253,6 +297,16 @@ def pftrack_register_associators(register):
 @hookimpl
 def pftrack_register_scenes(register):
     register("sample-dots", DotsScene)
+
+
+@hookimpl
+def pftrack_register_observation_models(register):
+    register("sample-square", SquareObservation)
+
+
+@hookimpl
+def pftrack_register_track_managers(register):
+    register("sample-seen-twice", SeenTwiceTracks)
 
 
 @hookimpl

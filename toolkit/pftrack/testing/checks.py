@@ -30,8 +30,11 @@ from pftrack.components import (
     Frame,
     Likelihood,
     MotionModel,
+    ObservationModel,
     Scene,
     Target,
+    TrackManager,
+    TrackRecord,
     _plain,
 )
 from pftrack.testing.synthetic import SyntheticScene, synthetic_scene, target_from_box
@@ -107,6 +110,9 @@ class ConformanceExample:
         Ground truth for ``Detector.fit`` by frame index (a detector that learns).
     size_m : float
         ``Target.size_m`` of the target handed to ``MotionModel.predict``.
+    context : RunContext, optional
+        Handed to the component's ``setup`` before each workflow run (a camera, say), as a run
+        would.
     """
 
     component: Component
@@ -119,6 +125,7 @@ class ConformanceExample:
     dt: float = 1.0
     fit_boxes: dict[int, np.ndarray] | None = None
     size_m: float = 1.7
+    context: Any = None
 
 
 CHECKS = (
@@ -502,12 +509,141 @@ def _scene_workflow(ex: ConformanceExample, rng: np.random.Generator, run: _Run)
         run.outputs["ground_truth"] = gt
 
 
+def _observation_workflow(ex: ConformanceExample, rng: np.random.Generator, run: _Run) -> None:
+    obs = ex.component
+    assert isinstance(obs, ObservationModel)
+    sc = _scene(ex)
+    targets = ex.targets if ex.targets is not None else sc.targets()
+    if ex.states is None:  # image-plane states: the targets' box centres, jittered
+        kit_rng = np.random.default_rng(20240607)
+        rows = np.array([t.state + kit_rng.normal(0.0, 2.0, (32, len(t.state)))
+                         for t in targets])
+    else:
+        st = np.asarray(ex.states, dtype=np.float64)
+        rows = np.array([st] * len(targets))
+    for t, r in zip(targets, rows):
+        obs.init_target(t, obs.to_boxes(r[:1], None)[0])
+    saved = rows.copy()
+    boxes = obs.to_boxes(rows[0], targets[0])
+    run.outputs["boxes"] = boxes
+    n = rows.shape[1]
+    _float_array(run, boxes, (n, 4), f"to_boxes((N={n}, D))")
+    run.need(np.array_equal(rows, saved), "inputs_unchanged", "to_boxes modified its states")
+    if isinstance(boxes, np.ndarray) and boxes.shape == (n, 4):
+        run.need(bool(np.isfinite(boxes).any(axis=1).all()), "finite_output",
+                 "to_boxes gave rows that are NaN throughout for states in view")
+    every = obs.to_boxes_rows(rows, targets)
+    run.outputs["boxes_rows"] = every
+    _float_array(run, every, (len(targets), n, 4), "to_boxes_rows((T, N, D))")
+    if isinstance(every, np.ndarray) and every.shape == (len(targets), n, 4):
+        one_by_one = np.array([obs.to_boxes(r, t) for r, t in zip(rows, targets)])
+        run.need(np.array_equal(every, one_by_one, equal_nan=True), "shapes_dtypes",
+                 "to_boxes_rows differs from to_boxes row by row")
+    if isinstance(boxes, np.ndarray) and boxes.shape == (n, 4):
+        pos = np.asarray(obs.position_from_box(boxes[0]), dtype=np.float64)
+        run.outputs["position_from_box"] = pos
+        run.need(pos.ndim == 1 and pos.size >= 1 and bool(np.all(np.isfinite(pos))),
+                 "finite_output", f"position_from_box gave {pos!r} for a box in view")
+    vis = np.asarray(obs.in_view(rows[0], sc.size_wh, targets[0]))
+    run.need(vis.shape == (n,) and vis.dtype == bool, "shapes_dtypes",
+             f"in_view must return bool (N,), got {vis.dtype} {vis.shape}")
+    empty = run.guarded("empty_input", "to_boxes on zero states",
+                        lambda: obs.to_boxes(rows[0, :0], targets[0]))
+    if empty is not None:
+        _float_array(run, empty, (0, 4), "to_boxes on zero states", "empty_input")
+    for t in targets:
+        obs.end_target(t)
+
+
+class _KitWalk(MotionModel):
+    """The tracks workflow's motion: a 2-D random walk of the box centre (px)."""
+
+    @property
+    def state_dim(self) -> int:
+        return 2
+
+    def predict(self, states: np.ndarray, dt: float, rng: np.random.Generator,
+                target: Target | None = None) -> np.ndarray:
+        return states + rng.standard_normal(states.shape) * 2.0
+
+    def init_states(self, position: np.ndarray, n: int, rng: np.random.Generator,
+                    spread: float | np.ndarray = 1.0) -> np.ndarray:
+        return position + rng.standard_normal((n, 2)) * spread
+
+
+class _KitNearest(Likelihood):
+    """The tracks workflow's likelihood: Gaussian in the distance to the nearest detection."""
+
+    def begin_frame(self, frame: Frame, targets: Sequence[Target],
+                    detections: Detections | None = None) -> None:
+        b = detections.boxes_xywh_px if detections is not None else np.zeros((0, 4))
+        self.centres_ = b[:, :2] + b[:, 2:] / 2
+
+    def log_likelihood(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
+        if not len(self.centres_):
+            return np.zeros(len(boxes_xywh_px))
+        c = boxes_xywh_px[:, :2] + boxes_xywh_px[:, 2:] / 2
+        d2 = ((c[:, None, :] - self.centres_[None]) ** 2).sum(axis=2).min(axis=1)
+        return -d2 / 50.0
+
+
+class _KitAssociator(Associator):
+    """The tracks workflow's associator: greedy nearest centres within 15 px."""
+
+    def associate(self, targets: Sequence[Target], detections: Detections) -> Assignment:
+        if not len(targets) or not len(detections):
+            return Assignment.from_matches([], len(targets), len(detections))
+        tb = np.array([t.box_xywh_px for t in targets])
+        db = detections.boxes_xywh_px
+        d = np.linalg.norm((tb[:, None, :2] + tb[:, None, 2:] / 2)
+                           - (db[None, :, :2] + db[None, :, 2:] / 2), axis=2)
+        m = []
+        while np.isfinite(d).any() and d.min() < 15.0:
+            i, j = np.unravel_index(np.argmin(d), d.shape)
+            m.append((int(i), int(j)))
+            d[i, :] = np.inf
+            d[:, j] = np.inf
+        return Assignment.from_matches(m, len(targets), len(detections))
+
+
+def _tracks_workflow(ex: ConformanceExample, rng: np.random.Generator, run: _Run) -> None:
+    from pftrack.tracker import ImageBoxObservation, MultiTargetTracker
+
+    tracks = ex.component
+    assert isinstance(tracks, TrackManager)
+    sc = synthetic_scene(seed=1, n_frames=8) if ex.frames is None else _scene(ex)
+    from pftrack.components import RunContext
+
+    tracks.setup(RunContext())
+    engine = MultiTargetTracker(_KitWalk(), _KitNearest(), ImageBoxObservation(20, 40),
+                                tracks=tracks, associator=_KitAssociator(),
+                                detection_driven=True, n_particles=64, init_spread=2.0,
+                                max_misses=3, rng=rng)
+    rows = []
+    for f in sc.frames:
+        dets = sc.detections(f.index, extra_box=False)
+        out = engine.step(f, dets)
+        run.need(isinstance(out, list) and all(isinstance(r, TrackRecord) for r in out),
+                 "shapes_dtypes", f"frame {f.index}: after_frame must return a list of "
+                 f"TrackRecord, got {type(out).__name__}")
+        for r in out:
+            run.need(1 <= r.frame <= f.index and r.id >= 1, "shapes_dtypes",
+                     f"frame {f.index}: a record of frame {r.frame}, id {r.id}")
+            rows.append([r.frame, r.id, *np.asarray(r.box_xywh_px, dtype=np.float64)])
+        # the engine draws from the Generator, the manager does not: outputs are compared
+        # between runs, but not asked to depend on the seed
+        run.outputs[f"records_{f.index}"] = np.array(rows[-len(out):] if out else [])
+    run.outputs["rows"] = np.array(rows).reshape(-1, 6)
+
+
 _WORKFLOWS: dict[str, Callable[[ConformanceExample, np.random.Generator, _Run], None]] = {
     "motion": _motion_workflow,
     "likelihood": _likelihood_workflow,
     "detector": _detector_workflow,
     "associator": _associator_workflow,
     "scene": _scene_workflow,
+    "observation": _observation_workflow,
+    "tracks": _tracks_workflow,
 }
 
 
@@ -519,6 +655,8 @@ def _execute(factory: Callable[[], ConformanceExample], seed: int,
         ex = factory()
         if component is not None:
             ex.component = component
+        if ex.context is not None:
+            ex.component.setup(ex.context)
         _WORKFLOWS[ex.component.kind](ex, np.random.default_rng(seed), run)
     except Exception as exc:  # noqa: BLE001 - reported as a failed check, not a crash
         run.error = _describe_exc(exc)
@@ -771,7 +909,10 @@ def _check_component(obj: type[Component] | Component, rng_seed: int,
                 msgs.append(f"the unpickled component gives different outputs: "
                             f"{_diff_keys(ref.outputs, again.outputs)}")
         used = factory().component
-        _WORKFLOWS[cls.kind](_with(factory(), used), np.random.default_rng(rng_seed), _Run())
+        ex_used = _with(factory(), used)
+        if ex_used.context is not None:
+            used.setup(ex_used.context)
+        _WORKFLOWS[cls.kind](ex_used, np.random.default_rng(rng_seed), _Run())
         pickle.loads(pickle.dumps(used))  # mid-stream state must pickle too (worker processes)
     except Exception as exc:  # noqa: BLE001
         msgs.append(f"pickle round trip failed: {_describe_exc(exc)}")
