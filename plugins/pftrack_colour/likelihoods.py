@@ -58,7 +58,7 @@ from typing import Any, NamedTuple
 
 import cv2
 import numpy as np
-from pftrack.components import Detections, Frame, Likelihood, Target
+from pftrack.components import Detections, Frame, Likelihood, Param, Target
 
 from pftrack_colour import _jit
 from pftrack_colour.histograms import (
@@ -80,27 +80,12 @@ __all__ = [
 
 _OVERLAP_MODES = ("mixture", "product", "independent")
 
-_COMMON_PARAMS = """bins : int or (int, int, int)
-        Bins per channel (8: 8 x 8 x 8 = 512 bins, the paper).
-    colour_space : {"rgb", "hsv", "lab", "ycrcb", "bgr"}
-        Colour space of the histograms ("rgb": the paper).
-    eps : float
-        Histogram floor (see the module docstring).
-    region : (fx0, fy0, fx1, fy1) or None
-        Part of each box the colour model reads, as fractions of its width and height (e.g.
-        ``(0.15, 0.1, 0.85, 0.9)``); None: the whole box.
-    parts : int
-        Horizontal stripes of the colour box, each with its own template (1: the paper).
-    update_rate : float
-        Template update ``q <- (1 - a) q + a p(estimate)`` once per frame, from the previous
-        frame at the target's last estimate; 0 (the paper): never."""
-
-
 class ColourLikelihood(Likelihood):
     """Shared machinery: binning, templates, per-frame background; not registered itself.
 
-    Subclasses declare their parameters in ``__init__`` (scikit-learn style) and implement
-    :meth:`_log_likelihood`.
+    Declares the parameters every colour likelihood shares (:class:`pftrack.components.Param`);
+    subclasses declare their own the same way (their ``__init__`` and the ``Parameters`` section
+    of their docstring are generated) and implement :meth:`_log_likelihood`.
 
     Attributes
     ----------
@@ -118,6 +103,20 @@ class ColourLikelihood(Likelihood):
 
     uses_background = False
     needs_own_counts = False
+
+    bins: int | tuple[int, int, int] = Param(8, "Bins per channel (8: 8 x 8 x 8 = 512 bins, "
+                                                "the paper).")
+    colour_space: str = Param("rgb", 'Colour space of the histograms, one of "rgb" (the '
+                                     'paper), "hsv", "lab", "ycrcb", "bgr".')
+    eps: float = Param(1e-4, "Histogram floor (see the module docstring).")
+    region: tuple[float, float, float, float] | None = Param(
+        None, "Part of each box the colour model reads, as fractions (fx0, fy0, fx1, fy1) of "
+              "its width and height (e.g. (0.15, 0.1, 0.85, 0.9)); None: the whole box.")
+    parts: int = Param(1, "Horizontal stripes of the colour box, each with its own template "
+                          "(1: the paper).")
+    update_rate: float = Param(0.0, "Template update q <- (1 - a) q + a p(estimate) once per "
+                                    "frame, from the previous frame at the target's last "
+                                    "estimate; 0 (the paper): never.")
 
     # -- set-up -------------------------------------------------------------------------------
 
@@ -405,24 +404,10 @@ class BhattacharyyaLikelihood(ColourLikelihood):
     histogram (eq. 7) built per particle (vectorised gather and bincount) and normalised by its
     in-image pixel count. With ``parts > 1``, B is the mean over the stripes.
 
-    Parameters
-    ----------
-    {common}
-    lam : float
-        λ of eq. 9 (dimensionless).
+    {params}
     """
 
-    def __init__(self, bins: int | tuple[int, int, int] = 8, colour_space: str = "rgb",
-                 lam: float = 20.0, eps: float = 1e-4,
-                 region: tuple[float, float, float, float] | None = None, parts: int = 1,
-                 update_rate: float = 0.0) -> None:
-        self.bins = bins
-        self.colour_space = colour_space
-        self.lam = lam
-        self.eps = eps
-        self.region = region
-        self.parts = parts
-        self.update_rate = update_rate
+    lam: float = Param(20.0, "λ of eq. 9 (dimensionless).")
 
     def _log_likelihood(self, region, q, target_id):
         binner = self.binner_
@@ -444,30 +429,15 @@ class BhattacharyyaBackgroundLikelihood(ColourLikelihood):
     targets' current boxes and the sample's box), ``h_back`` this frame's background histogram
     (outside all targets' current boxes). Both sample histograms are built per particle.
 
-    Parameters
-    ----------
-    {common}
-    lam : float
-        λ of eq. 23 (dimensionless).
-    background_stride : int
-        The background histogram reads every ``background_stride``-th pixel in each direction.
+    {params}
     """
 
     uses_background = True
     needs_own_counts = True
 
-    def __init__(self, bins: int | tuple[int, int, int] = 8, colour_space: str = "rgb",
-                 lam: float = 20.0, eps: float = 1e-4,
-                 region: tuple[float, float, float, float] | None = None, parts: int = 1,
-                 update_rate: float = 0.0, background_stride: int = 3) -> None:
-        self.bins = bins
-        self.colour_space = colour_space
-        self.lam = lam
-        self.eps = eps
-        self.region = region
-        self.parts = parts
-        self.update_rate = update_rate
-        self.background_stride = background_stride
+    lam: float = Param(20.0, "λ of eq. 23 (dimensionless).")
+    background_stride: int = Param(3, "The background histogram reads every "
+                                      "background_stride-th pixel in each direction.")
 
     def _log_likelihood(self, region, q, target_id):
         binner = self.binner_
@@ -503,28 +473,13 @@ class CrossEntropyLikelihood(ColourLikelihood):
     ``log q(bin(x))`` over the region the particles cover. With ``parts > 1`` each stripe's
     pixels use their stripe's template.
 
-    Parameters
-    ----------
-    {common}
-    lam : float or None
-        λ of eq. 13; None: the box's pixel count n (eq. 18).
-    method : {"integral", "histogram"}
-        ``"integral"`` (default): O(1) per particle. ``"histogram"``: build each sample's
-        histogram and take eq. 14 literally (same numbers; for checking and for timing).
+    {params}
     """
 
-    def __init__(self, bins: int | tuple[int, int, int] = 8, colour_space: str = "rgb",
-                 lam: float | None = None, eps: float = 1e-4,
-                 region: tuple[float, float, float, float] | None = None, parts: int = 1,
-                 update_rate: float = 0.0, method: str = "integral") -> None:
-        self.bins = bins
-        self.colour_space = colour_space
-        self.lam = lam
-        self.eps = eps
-        self.region = region
-        self.parts = parts
-        self.update_rate = update_rate
-        self.method = method
+    lam: float | None = Param(None, "λ of eq. 13; None: the box's pixel count n (eq. 18).")
+    method: str = Param("integral", '"integral" (default): O(1) per particle. "histogram": '
+                                    "build each sample's histogram and take eq. 14 literally "
+                                    "(same numbers; for checking and for timing).")
 
     def prepare(self) -> None:
         """Validate the parameters and load the compiled kernels (compiling them on the
@@ -640,35 +595,19 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
     * ``"product"``: eq. 15 read literally (the targets' histograms multiply): ``log q``.
     * ``"independent"``: eq. 22 per target, as if no other target existed: ``log(q / h_back)``.
 
-    Parameters
-    ----------
-    {common}
-    lam : float or None
-        λ of eq. 13; None: the box's pixel count n (eq. 18, 21).
-    method : {"integral", "histogram"}
-        As :class:`CrossEntropyLikelihood` (``"histogram"`` needs ``overlap="independent"``).
-    background_stride : int
-        The background histogram reads every ``background_stride``-th pixel in each direction.
-    overlap : {"mixture", "product", "independent"}
+    {params}
     """
 
     uses_background = True
 
-    def __init__(self, bins: int | tuple[int, int, int] = 8, colour_space: str = "rgb",
-                 lam: float | None = None, eps: float = 1e-4,
-                 region: tuple[float, float, float, float] | None = None, parts: int = 1,
-                 update_rate: float = 0.0, method: str = "integral",
-                 background_stride: int = 3, overlap: str = "mixture") -> None:
-        self.bins = bins
-        self.colour_space = colour_space
-        self.lam = lam
-        self.eps = eps
-        self.region = region
-        self.parts = parts
-        self.update_rate = update_rate
-        self.method = method
-        self.background_stride = background_stride
-        self.overlap = overlap
+    lam: float | None = Param(None, "λ of eq. 13; None: the box's pixel count n (eq. 18, "
+                                    "21).")
+    method: str = Param("integral", 'As CrossEntropyLikelihood ("histogram" needs '
+                                    'overlap="independent").')
+    background_stride: int = Param(3, "The background histogram reads every "
+                                      "background_stride-th pixel in each direction.")
+    overlap: str = Param("mixture", 'How pixels under another target count: "mixture", '
+                                    '"product" or "independent" (above).')
 
     def _check_params(self) -> None:
         super()._check_params()
@@ -781,7 +720,3 @@ def _disjoint(cover: list[tuple[int, int, tuple[slice, slice]]]) -> bool:
     return True
 
 
-for _cls in (BhattacharyyaLikelihood, BhattacharyyaBackgroundLikelihood, CrossEntropyLikelihood,
-             CrossEntropyBackgroundLikelihood):
-    _cls.__doc__ = (_cls.__doc__ or "").replace("{common}", _COMMON_PARAMS)
-del _cls

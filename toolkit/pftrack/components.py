@@ -18,6 +18,7 @@ from __future__ import annotations
 import copy
 import inspect
 import os
+import textwrap
 from abc import ABC, abstractmethod
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
@@ -39,6 +40,7 @@ __all__ = [
     "DetectionMatch",
     "Assignment",
     "KINDS",
+    "Param",
     "ObservationModel",
     "RunContext",
     "TrackManager",
@@ -255,16 +257,105 @@ class RunContext:
 # --------------------------------------------------------------------------------------------
 
 
+_NO_DEFAULT = inspect.Parameter.empty
+
+
+class Param:
+    """A declared parameter of a component (as Stone Soup's ``Property``)::
+
+        class MyLikelihood(Likelihood):
+            sigma: float = Param(1.0, "Noise standard deviation, pixels.")
+
+    A component class that declares parameters this way and defines no ``__init__`` of its own
+    gets one that takes them as keyword arguments (those of its bases first, in declaration
+    order) and stores each unchanged as an attribute of the same name; its docstring gets a
+    numpydoc ``Parameters`` section built from the declarations (types from the annotations).
+    A subclass inherits its bases' declarations and may redeclare one (a new default or doc).
+    """
+
+    def __init__(self, default: Any = _NO_DEFAULT, doc: str = "") -> None:
+        self.default = default
+        self.doc = doc
+        self.name = ""
+        self.type_doc = ""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+        ann = owner.__dict__.get("__annotations__", {}).get(name)
+        self.type_doc = ann if isinstance(ann, str) else getattr(ann, "__name__", "")
+
+    def __repr__(self) -> str:
+        return f"Param({self.default!r})"
+
+
+def _declared(cls: type) -> dict[str, Param]:
+    out: dict[str, Param] = {}
+    for base in reversed(cls.__mro__):
+        for k, v in vars(base).items():
+            if isinstance(v, Param):
+                out[k] = v  # a redeclaration keeps the base's position, with its new default
+    return out
+
+
+def _params_section(params: dict[str, Param]) -> str:
+    lines = ["Parameters", "----------"]
+    for p in params.values():
+        lines.append(f"{p.name} : {p.type_doc}" if p.type_doc else p.name)
+        lines.extend(textwrap.wrap(" ".join(p.doc.split()), 92, initial_indent="    ",
+                                   subsequent_indent="    "))
+    return "\n".join(lines)
+
+
+def _generated_init(cls: type, params: dict[str, Param]) -> Any:
+    names = list(params)
+    defaults = {k: p.default for k, p in params.items()}
+
+    def __init__(self: Any, **kwargs: Any) -> None:
+        unknown = set(kwargs) - set(names)
+        if unknown:
+            raise TypeError(f"{type(self).__name__}() got unexpected parameters "
+                            f"{sorted(unknown)}; parameters: {names}")
+        for k in names:
+            if k in kwargs:
+                v = kwargs[k]
+            elif defaults[k] is _NO_DEFAULT:
+                raise TypeError(f"{type(self).__name__}() missing parameter {k!r}")
+            else:
+                v = defaults[k]
+            setattr(self, k, v)
+
+    __init__.__signature__ = inspect.Signature(  # type: ignore[attr-defined]
+        [inspect.Parameter("self", inspect.Parameter.POSITIONAL_OR_KEYWORD)]
+        + [inspect.Parameter(k, inspect.Parameter.KEYWORD_ONLY, default=defaults[k])
+           for k in names])
+    __init__.__qualname__ = f"{cls.__qualname__}.__init__"
+    __init__.__doc__ = f"Store the parameters of :class:`{cls.__name__}` (declared with Param)."
+    return __init__
+
+
 class Component(ABC):
     """Base of every plugin component.
 
-    Subclasses declare their parameters as keyword arguments of ``__init__`` and store each one,
-    unchanged, as an attribute of the same name. ``kind`` names the plugin kind; ``name`` is filled
-    in by the registry with the name the component was registered under.
+    Subclasses declare their parameters either as keyword arguments of ``__init__``, storing each
+    one unchanged as an attribute of the same name, or as class attributes with :class:`Param`
+    (the ``__init__`` and the docstring's ``Parameters`` section are then generated). ``kind``
+    names the plugin kind; ``name`` is filled in by the registry with the name the component was
+    registered under.
     """
 
     kind: ClassVar[str] = "component"
     name: ClassVar[str | None] = None
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        params = _declared(cls)
+        if not params or "__init__" in vars(cls):
+            return
+        cls.__init__ = _generated_init(cls, params)  # type: ignore[method-assign]
+        doc = cls.__dict__.get("__doc__") or ""
+        if "{params}" in doc:
+            cls.__doc__ = doc.replace("{params}", _params_section(params).replace(
+                "\n", "\n    "))
 
     @classmethod
     def _param_names(cls) -> list[str]:
