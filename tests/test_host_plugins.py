@@ -66,8 +66,8 @@ def test_installed_plugin_is_listed_as_third_party(sample_site):
         "scene": ["sample-dots"], "observation": ["sample-square"],
         "tracks": ["sample-seen-twice"], "metric": ["sample-count"], "preset": ["sample-dots"],
         "command": ["sample-write-dots"], "benchmark": ["sample-brightness"],
-        "demo": ["sample-dots"]}
-    assert "pftrack_register_commands" in s["hooks"] and len(s["hooks"]) == 12
+        "demo": ["sample-dots"], "report": ["sample-boxes"]}
+    assert "pftrack_register_commands" in s["hooks"] and len(s["hooks"]) == 13
     assert "error" not in s
     assert all(plugins[n]["builtin"] for n in ("basic", "colour", "world"))
     # third-party plugins are listed after the built-ins
@@ -132,6 +132,9 @@ def test_a_paper_arrives_as_a_plugin_without_editing_pftrack(sample_site, tmp_pa
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["MOTA"] > 0.9 and metrics["IDSW"] == 0, proc.stdout
     assert metrics["num_tracker_ids"] == 2
+    # its report writer drew the report (the frames kept: the first, and the 51st, beyond
+    # these 40)
+    assert sorted(p.name for p in (out / "report").iterdir()) == ["boxes_000001.png"]
     ev = json.loads(_run(sample_site, ["-m", "pftrack", "eval", str(data / "gt.txt"),
                                        str(out / "tracks.txt"), "--json"]).stdout)
     sample = ev["plugin_metrics"]["sample-count"]

@@ -92,3 +92,35 @@ def test_loads_a_camera_path_and_validates():
     late = CameraBoxObservation()
     late.setup(RunContext(camera=obs.get_camera()))
     assert np.array_equal(late.to_boxes(states), obs.to_boxes(states), equal_nan=True)
+
+
+def test_camera_volume_boxes_enclose_the_projected_cuboid_and_births_rest_on_the_support():
+    from pftrack.components import RunContext
+    from pftrack.geometry.camera import Camera
+    from pftrack.observation_world import CameraVolumeObservation
+
+    cam = Camera.look_at((0.0, -40.0, 20.0), (0.0, 0.0, 0.0), (640, 480), fx=600.0)
+    obs = CameraVolumeObservation(size_m=(4.0, 2.0, 3.0), support_z_m=0.0)
+    obs.setup(RunContext(camera=cam))
+    states = np.array([[0.0, 0.0, 1.5, 0, 0, 0], [3.0, 5.0, 1.5, 0, 0, 0],
+                       [0.0, -60.0, 1.5, 0, 0, 0]])  # the last behind the camera
+    boxes = obs.to_boxes(states)
+    assert boxes.shape == (3, 4) and np.isnan(boxes[2]).all()
+    # every projected corner of the cuboid lies in its box, and some touch each side
+    signs = np.array([[a, b, c] for a in (-1, 1) for b in (-1, 1) for c in (-1, 1)])
+    for s, box in zip(states[:2], boxes[:2]):
+        px = cam.project(s[:3] + signs * [2.0, 1.0, 1.5])
+        assert np.all(px >= box[:2] - 1e-9) and np.all(px <= box[:2] + box[2:] + 1e-9)
+        assert np.isclose(px[:, 0].min(), box[0]) and np.isclose(px[:, 1].max(), box[1] + box[3])
+    assert obs.in_view(states, (640, 480)).tolist() == [True, True, False]
+    # a birth from a box: the object rests on z = 0, its centre half its height up
+    p = obs.position_from_box(boxes[0])
+    assert p.shape == (3,) and np.isclose(p[2], 1.5)
+    # the box's bottom centre is the projection of the cuboid's nearest bottom edge, so the
+    # back-projected point lies on the support plane within the object's depth
+    assert abs(p[0]) < 1e-6 and -1.0 - 1e-6 <= p[1] <= 1.0
+    assert np.array_equal(obs.world_position(states[1]), [3.0, 5.0, 1.5])
+    with pytest.raises(ValueError, match="no camera"):
+        CameraVolumeObservation().to_boxes(states)
+    with pytest.raises(ValueError, match="size_m"):
+        CameraVolumeObservation(camera=cam, size_m=(1.0, 0.0, 1.0)).to_boxes(states)

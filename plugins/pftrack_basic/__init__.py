@@ -14,10 +14,13 @@ Components (registered name -> class):
 * detector: ``mog2`` :class:`~pftrack_basic.background.BackgroundSubtractionDetector`;
 * observation: ``image-box`` :class:`pftrack.tracker.ImageBoxObservation` (image-plane box
   centre), ``camera-box`` :class:`pftrack.observation_world.CameraBoxObservation` (ground-plane
-  position through the run's camera);
+  position through the run's camera), ``camera-volume``
+  :class:`pftrack.observation_world.CameraVolumeObservation` (3-D points in a volume, seed 003);
 * tracks: ``manual`` :class:`pftrack.tracker.ManualTracks` (targets added by the caller),
   ``births`` :class:`~pftrack_basic.tracks.DetectionBirthTracks`, ``confirmed``
   :class:`~pftrack_basic.tracks.ConfirmedTracks` (tentative -> confirmed, merging, appearance);
+* report writer: ``tracks`` (:func:`pftrack.report_world.write_report`: overlays and image
+  trajectories beside the ground-plane top view), ``pftrack run``'s default;
 * benchmark: ``core`` (:mod:`pftrack_basic.bench_core`: the filter step against Stone Soup).
 
 Only this module is imported when the host loads the plugin; the component modules are light
@@ -79,11 +82,12 @@ def pftrack_register_benchmarks(register):
 
 @hookimpl
 def pftrack_register_observation_models(register):
-    from pftrack.observation_world import CameraBoxObservation
+    from pftrack.observation_world import CameraBoxObservation, CameraVolumeObservation
     from pftrack.tracker import ImageBoxObservation
 
     register("image-box", ImageBoxObservation)
     register("camera-box", CameraBoxObservation)
+    register("camera-volume", CameraVolumeObservation)
 
 
 @hookimpl
@@ -95,3 +99,13 @@ def pftrack_register_track_managers(register):
     register("manual", ManualTracks)
     register("births", DetectionBirthTracks)
     register("confirmed", ConfirmedTracks)
+
+
+@hookimpl
+def pftrack_register_report_writers(register):
+    from pftrack.extensions import ReportWriter
+    from pftrack.report_world import write_report
+
+    register("tracks", ReportWriter(
+        summary="overlays (boxes, ids, foot points) and image trajectories beside the top view",
+        write=write_report))

@@ -21,7 +21,7 @@ import os
 import textwrap
 from abc import ABC, abstractmethod
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -684,7 +684,7 @@ class TrackManager(Component):
     """Track management: which targets exist and which estimates are output.
 
     The engine (:class:`pftrack.tracker.MultiTargetTracker`) runs one frame as: detect ->
-    ``before_frame`` -> predict -> detect and associate -> weight -> normalise, estimate, resample -> the
+    ``before_frame`` -> predict -> associate -> weight -> normalise, estimate, resample -> the
     filter's own deaths (misses, out of view, out of the valid region) -> ``after_frame``.
     A track manager decides births (from unmatched detections, or from given boxes), the
     tentative -> confirmed life of a new target, merging duplicates, any other end of a target,

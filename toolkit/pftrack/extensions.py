@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
 
-__all__ = ["Benchmark", "Command", "Demo"]
+__all__ = ["Benchmark", "Command", "Demo", "ReportWriter"]
 
 
 def _nothing(parser: argparse.ArgumentParser) -> None:
@@ -93,6 +93,26 @@ class Command:
     run: Callable[[argparse.Namespace], int]
     add_arguments: Callable[[argparse.ArgumentParser], None] = _nothing
     description: str | None = None
+
+
+@dataclass(frozen=True)
+class ReportWriter:
+    """The report pictures of a run (``pftrack run``'s ``DIR/report/``), chosen by a run
+    configuration's ``report: {writer: NAME}`` (default ``tracks``).
+
+    Attributes
+    ----------
+    summary : str
+        One line for ``pftrack plugins``.
+    write : callable
+        ``write(out_dir, rows, frames, *, camera, gt_rows, title) -> list[Path]``: ``rows`` the
+        run's MOTChallenge rows (M, 10), ``frames`` ``{frame number: image (H, W, 3) BGR}`` of
+        the frames kept for the report, ``camera`` the run's camera or None, ``gt_rows`` the
+        ground truth or None. Writes every file atomically and returns the paths written.
+    """
+
+    summary: str
+    write: Callable[..., list[Any]]
 
 
 @dataclass(frozen=True)

@@ -26,8 +26,8 @@ Groups
   the one tracking engine that vary between papers).
 * **Run configurations**: presets.
 * **Evaluation**: metrics (``pftrack eval`` reports every registered one).
-* **Command line**: benchmarks (``pftrack bench NAME``), commands (``pftrack NAME``) and demos
-  (``pftrack demo``).
+* **Command line and reports**: benchmarks (``pftrack bench NAME``), commands (``pftrack NAME``),
+  demos (``pftrack demo``) and report writers (``pftrack run``'s pictures).
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ if TYPE_CHECKING:  # typing only: the specs import nothing heavy
         Scene,
         TrackManager,
     )
-    from pftrack.extensions import Benchmark, Command, Demo
+    from pftrack.extensions import Benchmark, Command, Demo, ReportWriter
 
 PROJECT = "pftrack"
 hookspec = pluggy.HookspecMarker(PROJECT)
@@ -149,6 +149,12 @@ def pftrack_register_demos(register: Register[Demo]) -> None:
     """Register :class:`pftrack.extensions.Demo` records: ``pftrack demo [NAME]``."""
 
 
+@hookspec
+def pftrack_register_report_writers(register: Register[ReportWriter]) -> None:
+    """Register :class:`pftrack.extensions.ReportWriter` records: the report pictures of a run,
+    chosen by its configuration's ``report: {writer: NAME}``."""
+
+
 __all__ = [
     "MetricFunction",
     "PROJECT",
@@ -165,6 +171,7 @@ __all__ = [
     "pftrack_register_motion_models",
     "pftrack_register_observation_models",
     "pftrack_register_presets",
+    "pftrack_register_report_writers",
     "pftrack_register_scenes",
     "pftrack_register_track_managers",
 ]

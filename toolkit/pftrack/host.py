@@ -32,7 +32,7 @@ import pluggy
 
 from pftrack import hookspecs
 from pftrack.components import KINDS, Component
-from pftrack.extensions import Benchmark, Command, Demo
+from pftrack.extensions import Benchmark, Command, Demo, ReportWriter
 
 ENTRY_POINT_GROUP = "pftrack"
 ENV_DISABLE = "PFTRACK_DISABLE_PLUGINS"
@@ -53,10 +53,12 @@ _REGISTER_HOOKS = {
     "pftrack_register_benchmarks": "benchmark",
     "pftrack_register_commands": "command",
     "pftrack_register_demos": "demo",
+    "pftrack_register_report_writers": "report",
 }
-_RECORD_TYPES: dict[str, type] = {"benchmark": Benchmark, "command": Command, "demo": Demo}
+_RECORD_TYPES: dict[str, type] = {"benchmark": Benchmark, "command": Command, "demo": Demo,
+                                  "report": ReportWriter}
 ALL_KINDS = ("detector", "likelihood", "motion", "associator", "scene", "observation", "tracks",
-             "preset", "metric", "benchmark", "command", "demo")
+             "preset", "metric", "benchmark", "command", "demo", "report")
 
 
 class RegistrationError(ValueError):

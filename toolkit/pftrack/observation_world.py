@@ -11,8 +11,8 @@ The inverse, used for births, back-projects a box's foot point (bottom centre) o
 (:meth:`pftrack.geometry.camera.Camera.image_to_ground`).
 
 People are not all 1.75 m tall: with ``adapt_height`` each target keeps its own height factor in
-the model's ``height_scales_`` (by target id; 1 = ``height_m``), set from the box it was born from and
-moved towards each matched detection's height by :meth:`CameraBoxObservation.update_target`
+the model's ``height_scales_`` (by target id; 1 = ``height_m``), set from the box it was born
+from and moved towards each matched detection's height by :meth:`CameraBoxObservation.update_target`
 (a running mean), within ``height_scale_range``.
 """
 
@@ -25,7 +25,7 @@ import numpy as np
 
 from pftrack.components import ObservationModel, RunContext, Target
 
-__all__ = ["CameraBoxObservation"]
+__all__ = ["CameraBoxObservation", "CameraVolumeObservation"]
 
 
 class CameraBoxObservation(ObservationModel):
@@ -223,14 +223,126 @@ class CameraBoxObservation(ObservationModel):
                 target: Target | None = None) -> np.ndarray:
         """Boolean (N,): at least ``min_visible`` of the box lies inside the image and the foot
         point is in front of the camera."""
-        b = self.to_boxes(states, target)
-        w, h = image_size_wh
-        x0 = np.clip(b[:, 0], 0, w)
-        x1 = np.clip(b[:, 0] + b[:, 2], 0, w)
-        y0 = np.clip(b[:, 1], 0, h)
-        y1 = np.clip(b[:, 1] + b[:, 3], 0, h)
-        area = b[:, 2] * b[:, 3]
-        inside = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            frac = np.where(area > 0, inside / area, 0.0)
-        return np.isfinite(frac) & (frac >= self.min_visible)
+        frac = _visible_fraction(self.to_boxes(states, target), image_size_wh)
+        return np.isfinite(frac) & (frac >= float(self.min_visible))
+
+
+class CameraVolumeObservation(ObservationModel):
+    """Points in a 3-D volume seen through a camera (seed 003: intruders in cuboids over a
+    coast, particles spread through the volume in world metres).
+
+    A state's entries ``position_dims`` are the centre (x, y, z) of an object of size ``size_m``
+    (along world x, y, z); its box is the image bounding box of that axis-aligned cuboid's eight
+    projected corners (NaN when a corner is behind the camera). :meth:`position_from_box`
+    assumes the object rests on the plane ``z = support_z_m`` (sea level, the ground): the
+    box's bottom centre is back-projected onto that plane.
+
+    Parameters
+    ----------
+    camera : Camera or str, optional
+        As :class:`CameraBoxObservation` (None: the run's camera).
+    size_m : (float, float, float)
+        Object size along world x, y and z, metres.
+    position_dims : (int, int, int)
+        Entries of the state vector holding (x, y, z) in metres (default the first three, the
+        layout of ``constant-velocity-3d``).
+    support_z_m : float
+        Height of the plane objects rest on (births from boxes), metres.
+    min_visible : float
+        :meth:`in_view` is true while at least this fraction of the box is inside the image.
+    """
+
+    def __init__(self, camera: Any = None, size_m: tuple[float, float, float] = (1.0, 1.0, 1.0),
+                 position_dims: tuple[int, int, int] = (0, 1, 2), support_z_m: float = 0.0,
+                 min_visible: float = 0.5) -> None:
+        self.camera = camera
+        self.size_m = size_m
+        self.position_dims = position_dims
+        self.support_z_m = support_z_m
+        self.min_visible = min_visible
+
+    @classmethod
+    def _conformance_example(cls):
+        """For :mod:`pftrack.testing`: the run's camera 20 m up, 40 m back, over a 4 x 2 x 3 m
+        object near the origin."""
+        from pftrack.geometry.camera import Camera
+
+        cam = Camera.look_at((0.0, -40.0, 20.0), (0.0, 0.0, 0.0), (160, 120), fx=150.0)
+        xyz = np.linspace(-2.0, 2.0, 32)
+        states = np.column_stack([xyz, xyz[::-1], 1.5 + 0.1 * xyz, np.zeros((32, 3))])
+        return cls(size_m=(4.0, 2.0, 3.0)), {"states": states,
+                                             "context": RunContext(camera=cam)}
+
+    def setup(self, context: RunContext) -> None:
+        """The run's camera when none was given."""
+        if self.camera is None and context.camera is not None:
+            self.camera_ = context.camera
+
+    def get_camera(self) -> Any:
+        """The camera in use (``camera``, loaded when a path, or the run's)."""
+        cam = self.__dict__.get("camera_", self.camera)
+        if isinstance(cam, (str, os.PathLike)):
+            from pftrack.geometry.formats import load_camera
+
+            cam = load_camera(cam)
+        if cam is None:
+            raise ValueError("CameraVolumeObservation: no camera; give camera=... or run with "
+                             "a camera (pftrack run --camera PATH)")
+        size = np.asarray(self.size_m, dtype=np.float64).reshape(-1)
+        if size.shape != (3,) or not np.all(size > 0):
+            raise ValueError(f"CameraVolumeObservation: size_m must be 3 sizes > 0 (x, y, z "
+                             f"metres), got {self.size_m!r}")
+        self.camera_ = cam
+        return cam
+
+    def points(self, states: np.ndarray) -> np.ndarray:
+        """States (N, D) -> object centres (N, 3) in world metres."""
+        s = np.asarray(states, dtype=np.float64)
+        return s[:, list(self.position_dims)]
+
+    def to_boxes(self, states: np.ndarray, target: Target | None = None) -> np.ndarray:
+        """States (N, D) -> boxes (N, 4): the bounding boxes of the projected cuboids, one
+        projection of 8N corners."""
+        cam = self.get_camera()
+        c = self.points(states)
+        half = 0.5 * np.asarray(self.size_m, dtype=np.float64)
+        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)],
+                         dtype=np.float64)
+        corners = (c[:, None, :] + signs[None] * half).reshape(-1, 3)
+        px = cam.project(corners).reshape(len(c), 8, 2)
+        behind = ~cam.in_front(corners).reshape(len(c), 8).all(axis=1)
+        lo, hi = px.min(axis=1), px.max(axis=1)
+        out = np.concatenate([lo, hi - lo], axis=1)
+        out[behind] = np.nan
+        return out
+
+    def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:
+        """The centre (x, y, z) of an object resting on ``z = support_z_m`` whose bottom
+        centre is the box's; NaN when that ray misses the plane in front of the camera."""
+        b = np.asarray(box_xywh_px, dtype=np.float64).reshape(4)
+        g = self.get_camera().image_to_ground(np.array([[b[0] + 0.5 * b[2], b[1] + b[3]]]),
+                                              z_m=float(self.support_z_m))[0]
+        return np.array([g[0], g[1], float(self.support_z_m) + 0.5 * float(self.size_m[2])])
+
+    def world_position(self, state: np.ndarray) -> np.ndarray:
+        """The object's centre (x, y, z) in world metres."""
+        return self.points(np.asarray(state, dtype=np.float64)[None])[0]
+
+    def in_view(self, states: np.ndarray, image_size_wh: tuple[int, int],
+                target: Target | None = None) -> np.ndarray:
+        """Boolean (N,): at least ``min_visible`` of the box lies inside the image."""
+        frac = _visible_fraction(self.to_boxes(states, target), image_size_wh)
+        return np.isfinite(frac) & (frac >= float(self.min_visible))
+
+
+def _visible_fraction(b: np.ndarray, image_size_wh: tuple[int, int]) -> np.ndarray:
+    """Fraction (N,) of each box (N, 4) inside a ``(w, h)`` image (NaN for a NaN box)."""
+    w, h = image_size_wh
+    x0 = np.clip(b[:, 0], 0, w)
+    x1 = np.clip(b[:, 0] + b[:, 2], 0, w)
+    y0 = np.clip(b[:, 1], 0, h)
+    y1 = np.clip(b[:, 1] + b[:, 3], 0, h)
+    area = b[:, 2] * b[:, 3]
+    inside = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(area > 0, inside / area, 0.0)

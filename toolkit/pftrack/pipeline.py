@@ -435,6 +435,8 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     n = 0
     keep_frames: dict[int, np.ndarray] = {}
     want = _report_frames(first, last) if (report and out_dir is not None) else set()
+    if want:
+        report_writer(cfg)  # an unknown writer stops the run before it tracks, not after
     t_start, c_start = time.perf_counter(), time.process_time()
     for frame in frame_iter:
         t0, c0 = time.perf_counter(), time.process_time()
@@ -505,8 +507,19 @@ def write_outputs(out_dir: str | os.PathLike[str], cfg: dict[str, Any], result: 
         atomic_write_text(out / "metrics.json",
                           json.dumps(result.metrics, indent=2, default=float) + "\n")
     if frames:
-        from pftrack.report_world import write_report
-
-        write_report(out / "report", result.rows, frames, camera=camera, gt_rows=gt_rows,
+        writer = report_writer(cfg)
+        writer.write(out / "report", result.rows, frames, camera=camera, gt_rows=gt_rows,
                      title=str(cfg.get("name", "")))
     return out
+
+
+def report_writer(cfg: dict[str, Any], host: Any = None) -> Any:
+    """The :class:`~pftrack.extensions.ReportWriter` a configuration names
+    (``report: {writer: NAME}``, default ``tracks``)."""
+    from pftrack.host import get_host
+
+    opts = cfg.get("report") or {}
+    if not isinstance(opts, dict) or set(opts) - {"writer"}:
+        raise ValueError(f"config {cfg.get('_source', '')}: report must be {{writer: NAME}}, "
+                         f"got {opts!r}")
+    return (host or get_host()).get("report", str(opts.get("writer", "tracks")))

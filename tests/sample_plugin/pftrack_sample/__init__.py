@@ -3,7 +3,7 @@
 It shows the whole surface a plugin author needs: components subclassing the contracts in
 :mod:`pftrack.components` (a detector, likelihoods, a motion model, an associator, a scene, an observation model and a
 track manager), a
-preset shipped as package data, a metric, and a command, a benchmark and a demo
+preset shipped as package data, a metric, a report writer, and a command, a benchmark and a demo
 (:mod:`pftrack.extensions`), all registered through ``pftrack_register_*`` hooks and exposed
 through the ``pftrack`` entry-point group in ``pyproject.toml``. The project's tests install it into
 a temporary folder and check that ``pftrack plugins`` lists it, that every piece runs through the
@@ -268,6 +268,26 @@ def bench_brightness(args) -> dict:
             "seconds": time.perf_counter() - t0, "mean_log_likelihood": float(ll.mean())}
 
 
+def write_box_report(out_dir, rows, frames, *, camera=None, gt_rows=None, title=""):
+    """One PNG per kept frame: the frame with its tracked boxes in green."""
+    from pathlib import Path
+
+    import cv2
+    from pftrack.io.atomic import atomic_write_bytes
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = np.asarray(rows, dtype=np.float64).reshape(-1, 10)
+    written = []
+    for f, img in sorted(frames.items()):
+        pic = img.copy()
+        for x, y, w, h in rows[rows[:, 0] == f, 2:6].astype(int):
+            cv2.rectangle(pic, (x, y), (x + w, y + h), (0, 255, 0), 1)
+        ok, png = cv2.imencode(".png", pic)
+        written.append(atomic_write_bytes(out / f"boxes_{f:06d}.png", png.tobytes()))
+    return written
+
+
 def demo_dots(args) -> int:
     """The dots written by :func:`write_dots`, and nothing else."""
     return write_dots(args)
@@ -337,6 +357,14 @@ def pftrack_register_benchmarks(register):
     register("sample-brightness", Benchmark(
         summary="time the sample brightness likelihood", run=bench_brightness,
         add_arguments=lambda p: p.add_argument("--boxes", type=int, default=1000)))
+
+
+@hookimpl
+def pftrack_register_report_writers(register):
+    from pftrack.extensions import ReportWriter
+
+    register("sample-boxes", ReportWriter(summary="frames with green boxes",
+                                          write=write_box_report))
 
 
 @hookimpl

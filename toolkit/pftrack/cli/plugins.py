@@ -16,7 +16,7 @@ from typing import Any
 
 _KIND_ORDER = ("detector", "likelihood", "motion", "associator", "scene", "observation", "tracks",
                "preset", "metric",
-               "benchmark", "command", "demo")
+               "benchmark", "command", "demo", "report")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
