@@ -258,6 +258,11 @@ class MultiTargetTracker:
         self._uniform.flags.writeable = False
         self._uniform_log.flags.writeable = False
         self._vectorise = True  # False: one target at a time (same numbers; for tests)
+        # predict and box all targets in one call only where the models do it vectorised: the
+        # default row loops would only add the stacking
+        self._rows_pay = (type(motion).predict_rows is not MotionModel.predict_rows
+                          and type(observation).to_boxes_rows
+                          is not ObservationModel.to_boxes_rows)
         likelihood.prepare()  # compiled kernels and the like: before the first frame
 
     # -- targets ------------------------------------------------------------------------------
@@ -330,7 +335,7 @@ class MultiTargetTracker:
         # associator, the likelihood and callers (``target.particle_boxes_xywh_px``). Several
         # targets with as many particles each: one (T, N, D) call of each (the same numbers)
         n = self.n_particles
-        if (self._vectorise and len(filters) > 1
+        if (self._vectorise and len(filters) > 1 and self._rows_pay
                 and all(len(f.particles) == n for f in filters)):
             targets = [f.target for f in filters]
             p = self.motion.predict_rows(np.array([f.particles for f in filters]), self.dt, rng,
