@@ -101,12 +101,7 @@ class CameraBoxObservation(ObservationModel):
         if not 0 < lo <= 1 <= hi:
             raise ValueError(f"CameraBoxObservation: height_scale_range must satisfy "
                              f"0 < low <= 1 <= high, got {self.height_scale_range}")
-        cam = self.__dict__.get("camera_", self.camera)
-        if isinstance(cam, (str, os.PathLike)):
-            from pftrack.geometry.formats import load_camera
-
-            cam = load_camera(cam)
-        self.camera_ = cam
+        self.camera_ = _resolve_camera(self, required=False)
         self.scale_range_ = (lo, hi)
         self.dims_ = tuple(int(d) for d in self.position_dims)
 
@@ -119,10 +114,7 @@ class CameraBoxObservation(ObservationModel):
     def get_camera(self) -> Any:
         """The camera in use (``camera``, loaded when a path, or the run's)."""
         self._checked()
-        if self.camera_ is None:
-            raise ValueError("CameraBoxObservation: no camera; give camera=... or run with a "
-                             "camera (pftrack run --camera PATH)")
-        return self.camera_
+        return _resolve_camera(self)
 
     _cam = get_camera
 
@@ -280,14 +272,7 @@ class CameraVolumeObservation(ObservationModel):
 
     def get_camera(self) -> Any:
         """The camera in use (``camera``, loaded when a path, or the run's)."""
-        cam = self.__dict__.get("camera_", self.camera)
-        if isinstance(cam, (str, os.PathLike)):
-            from pftrack.geometry.formats import load_camera
-
-            cam = load_camera(cam)
-        if cam is None:
-            raise ValueError("CameraVolumeObservation: no camera; give camera=... or run with "
-                             "a camera (pftrack run --camera PATH)")
+        cam = _resolve_camera(self)
         size = np.asarray(self.size_m, dtype=np.float64).reshape(-1)
         if size.shape != (3,) or not np.all(size > 0):
             raise ValueError(f"CameraVolumeObservation: size_m must be 3 sizes > 0 (x, y, z "
@@ -346,3 +331,18 @@ def _visible_fraction(b: np.ndarray, image_size_wh: tuple[int, int]) -> np.ndarr
     inside = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(area > 0, inside / area, 0.0)
+
+
+def _resolve_camera(model: ObservationModel, required: bool = True) -> Any:
+    """``model``'s camera: the one :meth:`setup` took from the run (``camera_``) or its
+    ``camera`` parameter, loaded when a path; ValueError naming the model when there is none
+    and ``required``."""
+    cam = model.__dict__.get("camera_", model.camera)  # type: ignore[attr-defined]
+    if isinstance(cam, (str, os.PathLike)):
+        from pftrack.geometry.formats import load_camera
+
+        cam = load_camera(cam)
+    if cam is None and required:
+        raise ValueError(f"{type(model).__name__}: no camera; give camera=... or run with a "
+                         "camera (pftrack run --camera PATH)")
+    return cam
