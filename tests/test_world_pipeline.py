@@ -209,3 +209,16 @@ def test_pets_run_writes_tracks_metrics_and_report(tmp_path):
     pngs = sorted(p.name for p in (out / "report").glob("*.png"))
     assert "trajectories_000401.png" in pngs and "overlay_000451.png" in pngs
     assert res.n_frames == 60
+
+
+@pytest.mark.skipif(not (PETS / "vtest.avi").is_file(), reason="PETS 2009 data not found")
+def test_an_unknown_report_writer_stops_the_run_before_it_tracks(tmp_path):
+    from pftrack.host import UnknownComponentError
+    from pftrack.pipeline import run_pipeline
+
+    cfg = load_config("pets09-ground")
+    cfg["report"] = {"writer": "nope"}
+    with pytest.raises(UnknownComponentError, match="no report named 'nope'.*known: .*tracks"):
+        run_pipeline(cfg, video=PETS / "vtest.avi", camera=PETS / "View_001.xml",
+                     out_dir=tmp_path / "o", frames="401:402", progress=False)
+    assert not (tmp_path / "o").exists()

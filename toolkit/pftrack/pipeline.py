@@ -409,6 +409,8 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
         Precomputed detections (another run's ``RunResult.detections``): the detector is not run.
     """
     cfg = load_config(config)
+    if report and out_dir is not None:
+        report_writer(cfg)  # an unknown writer stops the run before it tracks, not after
     cam = _load_camera(camera)
     video = Path(video)
     if not video.is_file():
@@ -435,8 +437,6 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     n = 0
     keep_frames: dict[int, np.ndarray] = {}
     want = _report_frames(first, last) if (report and out_dir is not None) else set()
-    if want:
-        report_writer(cfg)  # an unknown writer stops the run before it tracks, not after
     t_start, c_start = time.perf_counter(), time.process_time()
     for frame in frame_iter:
         t0, c0 = time.perf_counter(), time.process_time()
