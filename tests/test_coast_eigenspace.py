@@ -204,6 +204,22 @@ def test_colour_frame_with_equal_channels_scores_as_grey():
         m.relative_variation(np.zeros((48, 64), np.uint8))
 
 
+def test_frame_offset_median_ignores_a_global_level_change(tmp_path):
+    frames = noise_frames(30, sigma=20.0, base=30000.0, dtype=np.uint16)
+    test = noise_frames(1, sigma=20.0, base=30000.0, seed=5, dtype=np.uint16)[0] + 300
+    test[32:40, 8:16] += 400
+    paper = BlockEigenspaceModel().fit(frames)
+    assert paper.score(test).intruder_mask.all()  # +300 counts everywhere: all intruders
+    m = BlockEigenspaceModel(frame_offset="median").fit(frames)
+    res = m.score(test)
+    assert res.intruder_mask[4, 1] and res.intruder_mask.sum() == 1
+    loaded = BlockEigenspaceModel.load(m.save(tmp_path / "m.npz"))
+    assert loaded.frame_offset == "median"
+    np.testing.assert_array_equal(loaded.relative_variation(test), res.r_map)
+    with pytest.raises(ValueError, match="frame_offset"):
+        BlockEigenspaceModel(frame_offset="mean").fit(frames)
+
+
 # -- model files ----------------------------------------------------------------------------------
 
 
@@ -311,6 +327,26 @@ def test_zodiac_frames_give_boxes_on_the_boat():
                             & (b[:, 1] <= cy) & (cy <= b[:, 1] + b[:, 3])))
     # measured: the boat's centre lies in a box in 20 of the 25 test frames
     assert hits >= 18
+
+
+def test_thermal_clip_first_detection_with_frame_offset():
+    cptv = pytest.importorskip("cptv")
+    path = data_dir() / "thermal" / "animal_entry.cptv"
+    if not path.is_file():
+        pytest.skip(f"{path} not found (shared data)")
+    with open(path, "rb") as fh:
+        pix = [f.pix for f in cptv.CPTVReader(fh)]  # uint16 LWIR counts, about 28700-29100
+    n = {}
+    for offset in ("median", "none"):
+        m = BlockEigenspaceModel(frame_offset=offset).fit(pix[1:31])  # no animal in 1-41
+        n[offset] = np.array([m.score(p).intruder_mask.sum() for p in pix])
+    # measured (median): no block in the held-out empty frames 31-41; from frame 43 (the animal
+    # enters at 42) every frame has 1-15 intruder blocks of 300
+    assert n["median"][31:42].max() == 0
+    assert n["median"][43:].min() >= 1 and n["median"][43:].max() <= 20
+    # without it the camera's slow drift makes the whole picture an intruder (measured:
+    # 30-299 blocks from frame 52 on, 299 by the end)
+    assert n["none"][31:42].max() == 0 and n["none"][120:].min() > 250
 
 
 # -- plugin and conformance -----------------------------------------------------------------------

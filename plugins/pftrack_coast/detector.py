@@ -69,13 +69,16 @@ class EigenspaceDetector(Detector):
     min_samples: int = Param(
         10, "A block needs max(min_samples, D + 2) background samples; blocks with fewer are "
             "left untrained (never intruders) and reported.")
+    frame_offset: str = Param(
+        "none", "'median' subtracts each frame's median grey level first (a thermal camera's "
+                "automatic gain or drift); 'none' is the paper's model.")
     model: str | None = Param(None, "A model file written by save() (.npz), loaded on first "
                                     "use when the detector is not fitted.")
 
     def _model_params(self) -> dict[str, Any]:
         return {k: getattr(self, k) for k in (
             "block_size", "threshold_q", "v_low", "v_high", "d_split",
-            "min_background_fraction", "min_samples")}
+            "min_background_fraction", "min_samples", "frame_offset")}
 
     # -- set-up and files ---------------------------------------------------------------------
 

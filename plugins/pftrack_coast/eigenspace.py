@@ -21,6 +21,8 @@ Everything is vectorised over blocks: training accumulates per-block sums with a
 (blocks whose pixels are foreground in a frame do not count in that frame) and diagonalises all
 block covariances in one batched ``numpy.linalg.eigh``; scoring a frame is one batched matrix
 product. Grey levels are float64 throughout, so 16-bit thermal counts keep their full range.
+Optionally (``frame_offset="median"``, not in the paper) each frame's median grey level is
+subtracted first, for cameras whose global level drifts (a thermal camera's automatic gain).
 
 Pixels beyond the last whole block (the right and bottom remainders when the image size is not a
 multiple of ``block_size``) are not modelled; detections never cover them.
@@ -53,6 +55,7 @@ __all__ = [
 MODEL_FORMAT = "pftrack-block-eigenspace"
 MODEL_VERSION = 1
 _END = object()
+FRAME_OFFSETS = ("none", "median")
 
 
 # --------------------------------------------------------------------------------------------
@@ -182,6 +185,11 @@ class BlockEigenspaceModel:
     min_eigenvalue : float
         Floor on the eigenvalues used in eq. 3 (squared grey levels): only guards against a
         division by zero for a block that never varied during training.
+    frame_offset : {"none", "median"}
+        ``"median"`` subtracts each frame's median grey level (of every 4th pixel of every 4th
+        row) before training and scoring, so a global level change (a thermal camera's
+        automatic gain and drift, the paper's "exposure adjustment ON") is not an intruder
+        everywhere; ``"none"`` (default) is the paper's model.
 
     Notes
     -----
@@ -217,7 +225,8 @@ class BlockEigenspaceModel:
 
     def __init__(self, block_size: int = 8, threshold_q: float = 0.8, v_low: float = 15.0,
                  v_high: float = 9.0, d_split: int = 20, min_background_fraction: float = 1.0,
-                 min_samples: int = 10, min_eigenvalue: float = 1e-6) -> None:
+                 min_samples: int = 10, min_eigenvalue: float = 1e-6,
+                 frame_offset: str = "none") -> None:
         self.block_size = block_size
         self.threshold_q = threshold_q
         self.v_low = v_low
@@ -226,6 +235,7 @@ class BlockEigenspaceModel:
         self.min_background_fraction = min_background_fraction
         self.min_samples = min_samples
         self.min_eigenvalue = min_eigenvalue
+        self.frame_offset = frame_offset
 
     def params(self) -> dict[str, Any]:
         return {"block_size": int(self.block_size), "threshold_q": float(self.threshold_q),
@@ -233,7 +243,8 @@ class BlockEigenspaceModel:
                 "d_split": int(self.d_split),
                 "min_background_fraction": float(self.min_background_fraction),
                 "min_samples": int(self.min_samples),
-                "min_eigenvalue": float(self.min_eigenvalue)}
+                "min_eigenvalue": float(self.min_eigenvalue),
+                "frame_offset": str(self.frame_offset)}
 
     def _check_params(self) -> None:
         if int(self.block_size) < 1:
@@ -243,6 +254,16 @@ class BlockEigenspaceModel:
         if not 0.0 <= float(self.min_background_fraction) <= 1.0:
             raise ValueError("min_background_fraction must be in [0, 1], got "
                              f"{self.min_background_fraction}")
+        if self.frame_offset not in FRAME_OFFSETS:
+            raise ValueError(f"frame_offset must be one of {FRAME_OFFSETS}, got "
+                             f"{self.frame_offset!r}")
+
+    def _grey(self, image: np.ndarray) -> np.ndarray:
+        grey = to_grey(image)
+        if self.frame_offset == "median":
+            # a subsample's median: the full one would cost more than scoring the frame
+            grey = grey - np.median(grey[::4, ::4])
+        return grey
 
     # -- training -----------------------------------------------------------------------------
 
@@ -287,7 +308,7 @@ class BlockEigenspaceModel:
         ref = s1 = s2 = count = None
         n_frames = 0
         for img, m in pairs:
-            grey = to_grey(img)
+            grey = self._grey(img)
             if shape is None:
                 shape = grey.shape
                 if shape[0] < bs or shape[1] < bs:
@@ -386,7 +407,7 @@ class BlockEigenspaceModel:
         """r_D(s) (eq. 3) of every block of a frame, as a (rows, cols) float64 grid; 0 for
         untrained blocks."""
         self._fitted()
-        grey = to_grey(image)
+        grey = self._grey(image)
         if grey.shape != self.image_shape_:
             raise ValueError(f"frame of {grey.shape[1]}x{grey.shape[0]} px, the model was "
                              f"trained on {self.image_shape_[1]}x{self.image_shape_[0]} px")
