@@ -1,0 +1,25 @@
+"""Built-in plugin ``coast``: seed 003, coastal surveillance with a thermal camera (Okamura and
+Fujimoto, eigenspace method and particle filter).
+
+Components (registered name -> class):
+
+* detector: ``eigenspace`` :class:`~pftrack_coast.detector.EigenspaceDetector` (block
+  eigenspace background model, :mod:`pftrack_coast.eigenspace`: per-block PCA, relative
+  variation r_D, dimension-dependent threshold v_D, 4-connected intruder blocks -> boxes).
+
+Only this module is imported when the host loads the plugin; the component modules are imported
+inside the hooks.
+"""
+
+from __future__ import annotations
+
+from pftrack import hookimpl
+
+__version__ = "0.1.0"
+
+
+@hookimpl
+def pftrack_register_detectors(register):
+    from pftrack_coast.detector import EigenspaceDetector
+
+    register("eigenspace", EigenspaceDetector)

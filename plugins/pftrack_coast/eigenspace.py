@@ -1,0 +1,543 @@
+"""Block eigenspace background model (seed 003 sec. 2; Mittal's block PCA with a threshold that
+depends on the eigenspace dimension).
+
+The image is cut into ``block_size`` x ``block_size`` pixel blocks; each block ``b`` has its own
+eigenspace learnt by PCA over its background training vectors ``x`` (the block's P = block_size²
+grey levels, row-major):
+
+* eigenvalues ``lambda_1 >= lambda_2 >= ...`` and eigenvectors ``e_i`` of the block's covariance;
+* dimension ``D`` = the smallest with cumulative contribution ``q(D) = sum_{i<=D} lambda_i /
+  sum_i lambda_i >= threshold_q`` (eq. 1);
+* projection ``s = E^T (x - mean)`` with ``E = [e_1 .. e_D]`` (eq. 2, on the mean-subtracted
+  block, see :class:`BlockEigenspaceModel`);
+* relative variation ``r_D(s) = (1/D) sum_{i<=D} s_i² / lambda_i`` (eq. 3);
+* the block is part of an intruder when ``r_D - v_D > 0`` (eq. 4), ``v_D = v_low`` (15) for
+  ``D <= d_split`` (20) and ``v_high`` (9) above.
+
+Intruder blocks are grouped 4-connected (the paper's 4-neighbourhood) and each group's bounding
+rectangle, in pixels, is a detection.
+
+Everything is vectorised over blocks: training accumulates per-block sums with a validity weight
+(blocks whose pixels are foreground in a frame do not count in that frame) and diagonalises all
+block covariances in one batched ``numpy.linalg.eigh``; scoring a frame is one batched matrix
+product. Grey levels are float64 throughout, so 16-bit thermal counts keep their full range.
+Optionally (``frame_offset="median"``, not in the paper) each frame's median grey level is
+subtracted first, for cameras whose global level drifts (a thermal camera's automatic gain).
+
+Pixels beyond the last whole block (the right and bottom remainders when the image size is not a
+multiple of ``block_size``) are not modelled; detections never cover them.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import warnings
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "MODEL_FORMAT",
+    "MODEL_VERSION",
+    "BlockEigenspaceModel",
+    "EigenspaceResult",
+    "block_fractions",
+    "blocks_of",
+    "components_to_boxes",
+    "fit_model",
+    "to_grey",
+]
+
+MODEL_FORMAT = "pftrack-block-eigenspace"
+MODEL_VERSION = 1
+_END = object()
+FRAME_OFFSETS = ("none", "median")
+
+
+# --------------------------------------------------------------------------------------------
+# Pixels -> blocks
+# --------------------------------------------------------------------------------------------
+
+
+def to_grey(image: np.ndarray) -> np.ndarray:
+    """A frame as float64 grey levels, shape (H, W), without loss of range.
+
+    * (H, W) or (H, W, 1) of any integer or float dtype (8-bit grey, 16-bit thermal counts):
+      the values unchanged, as float64 (no scaling, no clipping to 8 bits);
+    * (H, W, 3) BGR (OpenCV order), uint8 or uint16: OpenCV's ``COLOR_BGR2GRAY`` luma
+      ``0.299 R + 0.587 G + 0.114 B`` (rounded to the input's integer type by OpenCV), so a
+      grey picture stored as three equal channels gives back exactly its grey levels;
+      float colour frames: the same weights in float64.
+    """
+    img = np.asarray(image)
+    if img.ndim == 3 and img.shape[2] == 1:
+        img = img[:, :, 0]
+    if img.ndim == 2:
+        return img.astype(np.float64, copy=False)
+    if img.ndim == 3 and img.shape[2] == 3:
+        if img.dtype in (np.uint8, np.uint16):
+            import cv2
+
+            return cv2.cvtColor(img, cv2.COLOR_BGR2GRAY).astype(np.float64)
+        return img.astype(np.float64) @ np.array([0.114, 0.587, 0.299])
+    raise ValueError(f"expected a grey (H, W) or BGR (H, W, 3) frame, got shape {img.shape}")
+
+
+def blocks_of(grey: np.ndarray, block_size: int) -> np.ndarray:
+    """Cut a (H, W) array into blocks: (rows * cols, block_size²), block (r, c) at row
+    ``r * cols + c``, its pixels row-major. The right and bottom remainders are dropped."""
+    bs = int(block_size)
+    rows, cols = grey.shape[0] // bs, grey.shape[1] // bs
+    g = grey[: rows * bs, : cols * bs]
+    return g.reshape(rows, bs, cols, bs).transpose(0, 2, 1, 3).reshape(rows * cols, bs * bs)
+
+
+def block_fractions(mask: np.ndarray, block_size: int) -> np.ndarray:
+    """Fraction of the pixels of each block that are set in a (H, W) boolean mask, as a
+    (rows, cols) float64 grid (the remainders beyond the last whole block are dropped)."""
+    m = np.asarray(mask)
+    if m.ndim == 3:
+        m = m[:, :, 0]
+    bs = int(block_size)
+    rows, cols = m.shape[0] // bs, m.shape[1] // bs
+    return blocks_of(m.astype(np.float64) != 0, bs).mean(axis=1).reshape(rows, cols)
+
+
+# --------------------------------------------------------------------------------------------
+# Result of one frame
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class EigenspaceResult:
+    """What the model finds in one frame.
+
+    Attributes
+    ----------
+    r_map : ndarray, shape (rows, cols), float64
+        Relative variation r_D(s) (eq. 3) of every block; 0 for untrained blocks.
+    excess_map : ndarray, shape (rows, cols), float64
+        ``r_D - v_D`` (eq. 4); ``-inf`` for untrained blocks (never intruders).
+    intruder_mask : ndarray, shape (rows, cols), bool
+        Blocks with ``r_D - v_D > 0``.
+    boxes_xywh_px : ndarray, shape (K, 4), float64
+        Bounding rectangles (left, top, width, height) in image pixels of the 4-connected
+        groups of intruder blocks, in OpenCV's label order (top-left first).
+    scores : ndarray, shape (K,), float64
+        Per box, the largest ``r_D - v_D`` of its blocks (> 0).
+    """
+
+    r_map: np.ndarray
+    excess_map: np.ndarray
+    intruder_mask: np.ndarray
+    boxes_xywh_px: np.ndarray
+    scores: np.ndarray
+
+
+def components_to_boxes(intruder_mask: np.ndarray, excess_map: np.ndarray,
+                        block_size: int) -> tuple[np.ndarray, np.ndarray]:
+    """4-connected groups of a (rows, cols) block mask -> (boxes (K, 4) xywh px, scores (K,)),
+    score = the group's largest ``excess_map`` value."""
+    import cv2
+
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(
+        intruder_mask.astype(np.uint8), connectivity=4, ltype=cv2.CV_32S)
+    if n <= 1:
+        return np.zeros((0, 4)), np.zeros(0)
+    boxes = stats[1:, :4].astype(np.float64) * float(block_size)
+    scores = np.full(n, -np.inf)
+    sel = labels > 0
+    np.maximum.at(scores, labels[sel], excess_map[sel])
+    return boxes, scores[1:]
+
+
+# --------------------------------------------------------------------------------------------
+# The model
+# --------------------------------------------------------------------------------------------
+
+
+class BlockEigenspaceModel:
+    """Per-block PCA background model with the dimension-dependent threshold of seed 003.
+
+    Parameters
+    ----------
+    block_size : int
+        Side of a block, pixels (P = block_size² grey levels per block vector).
+    threshold_q : float
+        Cumulative contribution q(D) that fixes each block's dimension D (eq. 1), in (0, 1].
+    v_low, v_high : float
+        Threshold v_D of eq. 4 for ``D <= d_split`` and ``D > d_split``.
+    d_split : int
+        Largest dimension that gets ``v_low`` (the paper: 20).
+    min_background_fraction : float
+        With masks, a block takes part in a frame's training only when at least this fraction
+        of its pixels is background (1.0: only wholly background blocks).
+    min_samples : int
+        A block needs at least ``max(min_samples, D + 2)`` background samples to be trained
+        (a covariance from fewer vectors than its dimension is degenerate). Blocks with fewer
+        are *untrained*: listed in ``untrained_blocks_``, a warning gives their count, their
+        r_D is 0 and they are never intruders (rather than being judged by a meaningless
+        model).
+    min_eigenvalue : float
+        Floor on the eigenvalues used in eq. 3 (squared grey levels): only guards against a
+        division by zero for a block that never varied during training.
+    frame_offset : {"none", "median"}
+        ``"median"`` subtracts each frame's median grey level (of every 4th pixel of every 4th
+        row) before training and scoring, so a global level change (a thermal camera's
+        automatic gain and drift, the paper's "exposure adjustment ON") is not an intruder
+        everywhere; ``"none"`` (default) is the paper's model.
+
+    Notes
+    -----
+    Eq. 2 of the paper projects the raw block ``x``; here the block's training mean is
+    subtracted first, ``s = E^T (x - mean)``. The eigenvalues ``lambda_i`` are variances about
+    the mean, so only the centred projection makes ``s_i² / lambda_i`` the squared number of
+    standard deviations along ``e_i`` (expected value 1 for a background block): projecting the
+    raw block would add the mean's own projection ``(E^T mean)_i``, large for any bright block,
+    and flag a background that merely has high grey levels.
+
+    Attributes (after :meth:`fit`)
+    ------------------------------
+    grid_shape_ : (int, int)
+        Blocks per column and per row, (rows, cols).
+    image_shape_ : (int, int)
+        (H, W) of the training frames; frames scored must have it.
+    mean_ : ndarray, shape (B, P)
+        Block means (B = rows * cols).
+    components_ : ndarray, shape (B, P, Dmax)
+        Eigenvectors, largest eigenvalue first; columns beyond a block's D are zero.
+    eigenvalues_ : ndarray, shape (B, Dmax)
+        The matching eigenvalues (0 beyond D).
+    dims_ : ndarray, shape (B,), int
+        D per block (0 for an untrained block).
+    v_ : ndarray, shape (B,)
+        v_D per block.
+    n_samples_ : ndarray, shape (B,), int
+        Background samples each block was trained on.
+    trained_ : ndarray, shape (B,), bool
+    untrained_blocks_ : ndarray, shape (U, 2), int
+        (row, col) of the untrained blocks.
+    """
+
+    def __init__(self, block_size: int = 8, threshold_q: float = 0.8, v_low: float = 15.0,
+                 v_high: float = 9.0, d_split: int = 20, min_background_fraction: float = 1.0,
+                 min_samples: int = 10, min_eigenvalue: float = 1e-6,
+                 frame_offset: str = "none") -> None:
+        self.block_size = block_size
+        self.threshold_q = threshold_q
+        self.v_low = v_low
+        self.v_high = v_high
+        self.d_split = d_split
+        self.min_background_fraction = min_background_fraction
+        self.min_samples = min_samples
+        self.min_eigenvalue = min_eigenvalue
+        self.frame_offset = frame_offset
+
+    def params(self) -> dict[str, Any]:
+        return {"block_size": int(self.block_size), "threshold_q": float(self.threshold_q),
+                "v_low": float(self.v_low), "v_high": float(self.v_high),
+                "d_split": int(self.d_split),
+                "min_background_fraction": float(self.min_background_fraction),
+                "min_samples": int(self.min_samples),
+                "min_eigenvalue": float(self.min_eigenvalue),
+                "frame_offset": str(self.frame_offset)}
+
+    def _check_params(self) -> None:
+        if int(self.block_size) < 1:
+            raise ValueError(f"block_size must be >= 1, got {self.block_size}")
+        if not 0.0 < float(self.threshold_q) <= 1.0:
+            raise ValueError(f"threshold_q must be in (0, 1], got {self.threshold_q}")
+        if not 0.0 <= float(self.min_background_fraction) <= 1.0:
+            raise ValueError("min_background_fraction must be in [0, 1], got "
+                             f"{self.min_background_fraction}")
+        if self.frame_offset not in FRAME_OFFSETS:
+            raise ValueError(f"frame_offset must be one of {FRAME_OFFSETS}, got "
+                             f"{self.frame_offset!r}")
+
+    def _grey(self, image: np.ndarray) -> np.ndarray:
+        grey = to_grey(image)
+        if self.frame_offset == "median":
+            # a subsample's median: the full one would cost more than scoring the frame
+            grey = grey - np.median(grey[::4, ::4])
+        return grey
+
+    # -- training -----------------------------------------------------------------------------
+
+    def fit(self, frames: Iterable[np.ndarray],
+            masks: Iterable[np.ndarray | None] | None = None) -> BlockEigenspaceModel:
+        """Learn every block's eigenspace.
+
+        Parameters
+        ----------
+        frames : iterable of ndarray
+            Training pictures (see :func:`to_grey`: grey, BGR or 16-bit), all the same size.
+            Streamed once: only per-block sums are kept, never the frames.
+        masks : iterable of ndarray or None, optional
+            One (H, W) foreground mask per frame (non-zero = foreground), or None for a frame
+            that is all background; without ``masks`` every frame is background only. A block
+            counts in a frame when at least ``min_background_fraction`` of its pixels are
+            background.
+
+        Returns
+        -------
+        self
+        """
+        if masks is None:
+            return self.fit_pairs((img, None) for img in frames)
+        frames, masks = iter(frames), iter(masks)
+
+        def pairs() -> Iterator[tuple[np.ndarray, np.ndarray | None]]:
+            for k, img in enumerate(frames):
+                m = next(masks, _END)
+                if m is _END:
+                    raise ValueError(f"fewer masks than frames ({k})")
+                yield img, m
+
+        return self.fit_pairs(pairs())
+
+    def fit_pairs(self, pairs: Iterable[tuple[np.ndarray, np.ndarray | None]],
+                  ) -> BlockEigenspaceModel:
+        """:meth:`fit` from ``(image, foreground mask or None)`` pairs, streamed once."""
+        self._check_params()
+        bs = int(self.block_size)
+        shape = None
+        ref = s1 = s2 = count = None
+        n_frames = 0
+        for img, m in pairs:
+            grey = self._grey(img)
+            if shape is None:
+                shape = grey.shape
+                if shape[0] < bs or shape[1] < bs:
+                    raise ValueError(f"frames of {shape[1]}x{shape[0]} px are smaller than one "
+                                     f"{bs}x{bs} block")
+            elif grey.shape != shape:
+                raise ValueError(f"training frame {n_frames} is {grey.shape[1]}x{grey.shape[0]}"
+                                 f" px, the first was {shape[1]}x{shape[0]}")
+            x = blocks_of(grey, bs)  # (B, P)
+            if m is None:
+                w = np.ones(len(x))
+            else:
+                m = np.asarray(m)
+                if m.shape[:2] != shape:
+                    raise ValueError(f"mask {n_frames} has shape {m.shape[:2]}, frame {shape}")
+                bg = 1.0 - block_fractions(m, bs).ravel()
+                w = (bg >= float(self.min_background_fraction) - 1e-12).astype(np.float64)
+            if ref is None:
+                # sums are taken about the first frame's blocks: the covariance from raw sums
+                # of squares would lose precision to cancellation with 16-bit grey levels
+                ref = x.copy()
+                s1 = np.zeros_like(x)
+                s2 = np.zeros((x.shape[0], x.shape[1], x.shape[1]))
+                count = np.zeros(len(x))
+            d = (x - ref) * w[:, None]
+            s1 += d
+            # validity weights are 0/1, so d (x - ref)^T already carries w once
+            s2 += d[:, :, None] * (x - ref)[:, None, :]
+            count += w
+            n_frames += 1
+        if shape is None:
+            raise ValueError("BlockEigenspaceModel.fit: no training frames")
+        self._finish(shape, ref, s1, s2, count, n_frames)
+        return self
+
+    def _finish(self, shape: tuple[int, int], ref: np.ndarray, s1: np.ndarray, s2: np.ndarray,
+                count: np.ndarray, n_frames: int) -> None:
+        bs = int(self.block_size)
+        rows, cols = shape[0] // bs, shape[1] // bs
+        n = count
+        safe = np.maximum(n, 1.0)
+        m1 = s1 / safe[:, None]
+        cov = (s2 - safe[:, None, None] * m1[:, :, None] * m1[:, None, :])
+        cov /= np.maximum(n - 1.0, 1.0)[:, None, None]
+        cov = 0.5 * (cov + cov.transpose(0, 2, 1))
+        lam, vec = np.linalg.eigh(cov)  # ascending, batched over blocks
+        lam = np.clip(lam[:, ::-1], 0.0, None)
+        vec = vec[:, :, ::-1]
+        total = lam.sum(axis=1)
+        cum = np.cumsum(lam, axis=1) / np.where(total > 0, total, 1.0)[:, None]
+        # eq. 1: smallest D with q(D) >= threshold (a tiny tolerance for round-off at q = 1)
+        dims = 1 + np.argmax(cum >= float(self.threshold_q) - 1e-12, axis=1)
+        dims = np.where(total > 0, dims, 1)
+        trained = (n >= int(self.min_samples)) & (n >= dims + 2)
+        dims = np.where(trained, dims, 0)
+        dmax = max(int(dims.max()), 1)
+        keep = np.arange(dmax)[None, :] < dims[:, None]  # (B, Dmax)
+        self.mean_ = np.where(trained[:, None], ref + m1, 0.0)
+        self.components_ = np.ascontiguousarray(vec[:, :, :dmax] * keep[:, None, :])
+        self.eigenvalues_ = np.where(keep, np.maximum(lam[:, :dmax],
+                                                      float(self.min_eigenvalue)), 0.0)
+        self.dims_ = dims.astype(np.int64)
+        self.v_ = np.where(dims <= int(self.d_split), float(self.v_low), float(self.v_high))
+        self.n_samples_ = n.astype(np.int64)
+        self.trained_ = trained
+        self.grid_shape_ = (rows, cols)
+        self.image_shape_ = (int(shape[0]), int(shape[1]))
+        self.n_frames_ = int(n_frames)
+        self._prepare()
+        untrained = np.flatnonzero(~trained)
+        self.untrained_blocks_ = np.stack(np.divmod(untrained, cols), axis=1).astype(np.int64)
+        if len(untrained):
+            warnings.warn(
+                f"block eigenspace: {len(untrained)} of {len(trained)} blocks have fewer than "
+                f"max(min_samples={int(self.min_samples)}, D + 2) background samples and are "
+                "left untrained (never intruders); see untrained_blocks_", stacklevel=3)
+
+    def _prepare(self) -> None:
+        """Scoring operators: whitened components W = E / sqrt(lambda) / sqrt(D), so that
+        r_D = |W^T x - W^T mean|² (eq. 3), as (B, P, Dmax) for one batched product (the
+        (B, 1, P) @ (B, P, Dmax) orientation is the faster of the two with NumPy's matmul)."""
+        dims = np.maximum(self.dims_, 1).astype(np.float64)
+        inv = np.where(self.eigenvalues_ > 0, 1.0 / np.sqrt(np.where(
+            self.eigenvalues_ > 0, self.eigenvalues_, 1.0)), 0.0) / np.sqrt(dims)[:, None]
+        w = self.components_ * inv[:, None, :]
+        self.whiten_ = np.ascontiguousarray(w)  # (B, P, Dmax)
+        self.offset_ = np.einsum("bpd,bp->bd", self.whiten_, self.mean_)
+
+    # -- scoring ------------------------------------------------------------------------------
+
+    def _fitted(self) -> None:
+        if not hasattr(self, "whiten_"):
+            raise ValueError("BlockEigenspaceModel: not fitted; call fit() or load() first")
+
+    def relative_variation(self, image: np.ndarray) -> np.ndarray:
+        """r_D(s) (eq. 3) of every block of a frame, as a (rows, cols) float64 grid; 0 for
+        untrained blocks."""
+        self._fitted()
+        grey = self._grey(image)
+        if grey.shape != self.image_shape_:
+            raise ValueError(f"frame of {grey.shape[1]}x{grey.shape[0]} px, the model was "
+                             f"trained on {self.image_shape_[1]}x{self.image_shape_[0]} px")
+        x = blocks_of(grey, int(self.block_size))
+        s = np.matmul(x[:, None, :], self.whiten_)[:, 0, :] - self.offset_  # (B, Dmax)
+        return np.einsum("bd,bd->b", s, s).reshape(self.grid_shape_)
+
+    def score(self, image: np.ndarray) -> EigenspaceResult:
+        """r_D map, intruder blocks and their boxes in one frame (see :class:`EigenspaceResult`)."""
+        r = self.relative_variation(image)
+        trained = self.trained_.reshape(self.grid_shape_)
+        excess = np.where(trained, r - self.v_.reshape(self.grid_shape_), -np.inf)
+        mask = excess > 0
+        boxes, scores = components_to_boxes(mask, excess, int(self.block_size))
+        return EigenspaceResult(r, excess, mask, boxes, scores)
+
+    # -- description and files ----------------------------------------------------------------
+
+    def describe(self) -> dict[str, Any]:
+        """Parameters and a summary of what was learnt (JSON-serialisable)."""
+        out: dict[str, Any] = {"format": MODEL_FORMAT, "version": MODEL_VERSION,
+                               **self.params()}
+        if hasattr(self, "dims_"):
+            d = self.dims_[self.trained_]
+            out.update({
+                "image_hw": list(self.image_shape_), "grid_rows_cols": list(self.grid_shape_),
+                "n_frames": int(self.n_frames_), "n_blocks": len(self.dims_),
+                "n_untrained": int((~self.trained_).sum()),
+                "dims_min": int(d.min()) if len(d) else 0,
+                "dims_median": float(np.median(d)) if len(d) else 0.0,
+                "dims_max": int(d.max()) if len(d) else 0})
+        return out
+
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write the model to ``path`` (``.npz`` of arrays and a JSON parameter string, no
+        pickle), atomically."""
+        from pftrack.io.atomic import atomic_path
+
+        self._fitted()
+        path = Path(path)
+        if path.suffix != ".npz":
+            raise ValueError(f"eigenspace model {path}: the file name must end in .npz")
+        params = {**self.describe(), "n_frames": int(self.n_frames_)}
+        with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+            np.savez(fh, params=np.array(json.dumps(params)), mean=self.mean_,
+                     components=self.components_, eigenvalues=self.eigenvalues_,
+                     dims=self.dims_, n_samples=self.n_samples_)
+        return path
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> BlockEigenspaceModel:
+        """Read and validate a model written by :meth:`save`.
+
+        Raises
+        ------
+        FileNotFoundError
+            No such file.
+        ValueError
+            Not such a model, or arrays inconsistent with its parameters; the message names
+            the file.
+        """
+        import zipfile
+
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(f"eigenspace model {path} not found")
+        if not zipfile.is_zipfile(path):
+            raise ValueError(f"eigenspace model {path}: not an .npz file")
+        names = ("mean", "components", "eigenvalues", "dims", "n_samples")
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                missing = [k for k in ("params", *names) if k not in z.files]
+                if missing:
+                    raise ValueError(f"eigenspace model {path}: missing arrays {missing}")
+                params = json.loads(str(z["params"]))
+                arrays = {k: np.asarray(z[k]) for k in names}
+        except ValueError as exc:
+            if str(path) in str(exc):
+                raise
+            raise ValueError(f"eigenspace model {path}: not a readable model ({exc})") from None
+        except (OSError, EOFError, zipfile.BadZipFile, KeyError) as exc:
+            raise ValueError(f"eigenspace model {path}: not a readable model ({exc})") from None
+        if not isinstance(params, dict) or params.get("format") != MODEL_FORMAT:
+            got = params.get("format") if isinstance(params, dict) else params
+            raise ValueError(f"eigenspace model {path}: format {got!r}, expected "
+                             f"{MODEL_FORMAT!r}")
+        if int(params.get("version", -1)) > MODEL_VERSION:
+            raise ValueError(f"eigenspace model {path}: version {params.get('version')} is newer "
+                             f"than this pftrack reads ({MODEL_VERSION})")
+        try:
+            model = cls(**{k: params[k] for k in cls().params()})
+            model._check_params()
+            h, w = (int(v) for v in params["image_hw"])
+            rows, cols = (int(v) for v in params["grid_rows_cols"])
+            n_frames = int(params["n_frames"])
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"eigenspace model {path}: bad parameters ({exc})") from None
+        bs = int(model.block_size)
+        B, P = rows * cols, bs * bs
+        mean, comp, lam = arrays["mean"], arrays["components"], arrays["eigenvalues"]
+        dims, n = arrays["dims"], arrays["n_samples"]
+        dmax = comp.shape[2] if comp.ndim == 3 else -1
+        ok = (rows == h // bs and cols == w // bs and mean.shape == (B, P)
+              and comp.shape[:2] == (B, P) and lam.shape == (B, dmax) and dims.shape == (B,)
+              and n.shape == (B,) and all(a.dtype.kind == "f" for a in (mean, comp, lam))
+              and dims.dtype.kind in "iu" and n.dtype.kind in "iu"
+              and all(np.all(np.isfinite(a)) for a in (mean, comp, lam))
+              and bool(np.all((dims >= 0) & (dims <= dmax))))
+        if not ok:
+            raise ValueError(f"eigenspace model {path}: arrays do not fit a {rows}x{cols} grid of "
+                             f"{bs}x{bs} blocks (mean {mean.shape}, components {comp.shape}, "
+                             f"eigenvalues {lam.shape}, dims {dims.shape}) or are not finite")
+        model.mean_ = mean.astype(np.float64)
+        model.components_ = np.ascontiguousarray(comp, dtype=np.float64)
+        model.eigenvalues_ = lam.astype(np.float64)
+        model.dims_ = dims.astype(np.int64)
+        model.n_samples_ = n.astype(np.int64)
+        model.trained_ = model.dims_ > 0
+        model.v_ = np.where(model.dims_ <= int(model.d_split), float(model.v_low),
+                            float(model.v_high))
+        model.grid_shape_ = (rows, cols)
+        model.image_shape_ = (h, w)
+        model.n_frames_ = n_frames
+        untrained = np.flatnonzero(~model.trained_)
+        model.untrained_blocks_ = np.stack(np.divmod(untrained, cols), axis=1).astype(np.int64)
+        model._prepare()
+        return model
+
+
+def fit_model(frames: Sequence[np.ndarray], masks: Sequence[np.ndarray | None] | None = None,
+              **params: Any) -> BlockEigenspaceModel:
+    """``BlockEigenspaceModel(**params).fit(frames, masks)``."""
+    return BlockEigenspaceModel(**params).fit(frames, masks)
