@@ -10,7 +10,7 @@ import warnings
 import numpy as np
 import pftrack_coast
 import pytest
-from pftrack.components import Frame, RunContext
+from pftrack.components import Frame, RunContext, Target
 from pftrack.data import data_dir
 from pftrack.host import Host
 from pftrack.testing import check_component, synthetic_scene
@@ -365,3 +365,75 @@ def test_registered_and_conforms():
     assert all(s == "pass" for c, s in status.items() if c != "different_seeds_differ"), results
     # training and detection draw nothing from the Generator: the seed check does not apply
     assert status["different_seeds_differ"] == "skip"
+
+
+# -- the eigenspace likelihood (eq. 12-13) ---------------------------------------------------
+
+
+def test_likelihood_is_the_log_sigmoid_of_the_block_excess_through_the_camera(tmp_path):
+    """Particles in world metres are projected through the run's camera to their block;
+    log f = log sigmoid(alpha (r_D - v_D)) of that block; behind the camera or outside the
+    image: -inf, never NaN; only the touched blocks are scored."""
+    from pftrack.geometry.camera import Camera
+    from pftrack_coast.likelihood import EigenspaceLikelihood
+
+    rng = np.random.default_rng(0)
+    base = np.linspace(40.0, 90.0, 160)[None, :] + np.zeros((120, 1))
+    train = [base + rng.normal(0.0, 3.0, base.shape) for _ in range(30)]
+    model = BlockEigenspaceModel(block_size=8).fit(train)
+    path = model.save(tmp_path / "m.npz")
+    test = base + rng.normal(0.0, 3.0, base.shape)
+    test[40:56, 80:96] = 250.0  # an intruder covering blocks (5..6, 10..11)
+    cam = Camera.look_at((0.0, -10.0, 6.0), (0.0, 0.0, 0.0), (160, 120), fx=120.0)
+    lik = EigenspaceLikelihood(model=str(path), alpha=0.5)
+    lik.setup(RunContext(camera=cam))
+    lik.prepare()
+    frame = Frame(1, test.astype(np.uint8)[:, :, None].repeat(3, axis=2))
+    lik.begin_frame(frame, [])
+    # particles: two on the intruder's pixels, one on water, one behind, one off the image
+    targets_px = np.array([[84.0, 44.0], [90.0, 50.0], [20.0, 100.0]])
+    ground = cam.image_to_ground(targets_px)
+    pts = np.vstack([ground, [[0.0, -20.0, 0.0], [500.0, 40.0, 0.0]]])
+    t = Target(id=1, state=np.zeros(6), box_xywh_px=np.zeros(4),
+               particles=np.column_stack([pts, np.zeros((5, 3))]))
+    ll = lik.log_likelihood(np.zeros((5, 4)), t)
+    assert ll.dtype == np.float64 and not np.isnan(ll).any()
+    assert ll[3] == -np.inf and ll[4] == -np.inf
+    res = model.score(frame.image)
+    for k, (x, y) in enumerate(targets_px):
+        r, c = int(y // 8), int(x // 8)
+        z = 0.5 * res.excess_map[r, c]
+        assert np.isclose(ll[k], -np.log1p(np.exp(-z)), rtol=1e-12, atol=1e-12)
+    assert ll[0] > np.log(0.99) and ll[1] > np.log(0.99) and ll[2] < np.log(0.01)
+    assert np.count_nonzero(~np.isnan(lik.excess_)) == 3  # only the touched blocks scored
+    # without a camera: each particle's box centre pixel
+    plain = EigenspaceLikelihood(model=str(path), alpha=0.5)
+    plain.begin_frame(frame, [])
+    boxes = np.array([[80.0, 40.0, 8.0, 8.0], [16.0, 96.0, 8.0, 8.0]])
+    out = plain.log_likelihood(boxes, Target(id=2, state=np.zeros(2), box_xywh_px=np.zeros(4)))
+    assert np.isclose(out[0], -np.log1p(np.exp(-0.5 * res.excess_map[5, 10])))
+    assert out[1] < np.log(0.01)
+    with pytest.raises(ValueError, match="no model"):
+        EigenspaceLikelihood().prepare()
+
+
+def test_likelihood_prefers_the_boat_on_real_infrared_water():
+    from pftrack_coast.likelihood import EigenspaceLikelihood
+
+    frames, gt = _water("zodiac", 50)
+    m = fit_quiet(BlockEigenspaceModel(), frames[:25], gt[:25])
+    lik = EigenspaceLikelihood().set_model(m)
+    on, off = [], []
+    for img, mask in zip(frames[25:], gt[25:]):
+        lik.begin_frame(Frame(1, img), [])
+        ys, xs = np.nonzero(mask)
+        fg = np.column_stack([xs, ys])[:: max(len(xs) // 50, 1)].astype(float)
+        bg = np.random.default_rng(0).uniform([0, 0], [300, 220], (200, 2))
+        bg = bg[~mask[bg[:, 1].astype(int), bg[:, 0].astype(int)]]
+        tgt = Target(id=1, state=np.zeros(2), box_xywh_px=np.zeros(4))
+        on.append(lik.log_likelihood(np.column_stack([fg - 0.5, np.ones((len(fg), 2))]), tgt))
+        off.append(lik.log_likelihood(np.column_stack([bg - 0.5, np.ones((len(bg), 2))]), tgt))
+    f_on, f_off = np.exp(np.concatenate(on)), np.exp(np.concatenate(off))
+    # measured: mean f 0.438 on 1976 sampled boat pixels, 0.0008 on 4999 water pixels
+    # (frames 26-50; alpha 1, the paper's v_D)
+    assert f_on.mean() > 0.35 and f_off.mean() < 0.005

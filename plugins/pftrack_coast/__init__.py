@@ -5,7 +5,9 @@ Components (registered name -> class):
 
 * detector: ``eigenspace`` :class:`~pftrack_coast.detector.EigenspaceDetector` (block
   eigenspace background model, :mod:`pftrack_coast.eigenspace`: per-block PCA, relative
-  variation r_D, dimension-dependent threshold v_D, 4-connected intruder blocks -> boxes).
+  variation r_D, dimension-dependent threshold v_D, 4-connected intruder blocks -> boxes);
+* likelihood: ``eigenspace`` :class:`~pftrack_coast.likelihood.EigenspaceLikelihood` (eq.
+  12-13: the sigmoid of r_D - v_D of the block each particle projects into).
 
 Only this module is imported when the host loads the plugin; the component modules are imported
 inside the hooks.
@@ -23,3 +25,10 @@ def pftrack_register_detectors(register):
     from pftrack_coast.detector import EigenspaceDetector
 
     register("eigenspace", EigenspaceDetector)
+
+
+@hookimpl
+def pftrack_register_likelihoods(register):
+    from pftrack_coast.likelihood import EigenspaceLikelihood
+
+    register("eigenspace", EigenspaceLikelihood)

@@ -415,6 +415,31 @@ class BlockEigenspaceModel:
         s = np.matmul(x[:, None, :], self.whiten_)[:, 0, :] - self.offset_  # (B, Dmax)
         return np.einsum("bd,bd->b", s, s).reshape(self.grid_shape_)
 
+    def relative_variation_at(self, grey: np.ndarray, blocks: np.ndarray) -> np.ndarray:
+        """r_D (eq. 3) of only the blocks ``blocks`` (K,) (indices ``row * cols + col``) of a
+        grey frame (:meth:`grey`), as (K,) float64; 0 for untrained blocks. One batched product
+        over the K blocks: what a particle likelihood needs when particles touch few blocks."""
+        self._fitted()
+        b = np.asarray(blocks, dtype=np.intp).reshape(-1)
+        bs = int(self.block_size)
+        cols = self.grid_shape_[1]
+        r, c = np.divmod(b, cols)
+        ys = r[:, None] * bs + np.arange(bs)[None, :]  # (K, bs) rows of each block
+        xs = c[:, None] * bs + np.arange(bs)[None, :]
+        x = grey[ys[:, :, None], xs[:, None, :]].reshape(len(b), bs * bs)
+        s = np.matmul(x[:, None, :], self.whiten_[b])[:, 0, :] - self.offset_[b]
+        return np.einsum("bd,bd->b", s, s)
+
+    def grey(self, image: np.ndarray) -> np.ndarray:
+        """A frame as the float64 grey levels the model scores (``frame_offset`` applied),
+        checked against the training size."""
+        self._fitted()
+        grey = self._grey(image)
+        if grey.shape != self.image_shape_:
+            raise ValueError(f"frame of {grey.shape[1]}x{grey.shape[0]} px, the model was "
+                             f"trained on {self.image_shape_[1]}x{self.image_shape_[0]} px")
+        return grey
+
     def score(self, image: np.ndarray) -> EigenspaceResult:
         """r_D map, intruder blocks and their boxes in one frame (see :class:`EigenspaceResult`)."""
         r = self.relative_variation(image)

@@ -1,0 +1,127 @@
+"""Eigenspace likelihood (seed 003 eq. 12-13, sec. 4.1 steps 1-5): a particle is likely where
+the block it projects into leaves its background eigenspace.
+
+For each particle: project its position through the run's camera (world metres, the state's
+``position_dims``), find the block it falls into, and return ``log f`` with
+``f = 1 / (1 + exp(-alpha (r_D - v_D)))`` (eq. 12), ``r_D`` that block's relative variation
+(eq. 3) and ``v_D`` its threshold (eq. 4). Only the blocks that some particle touches are scored
+(one batched product per frame over the blocks not yet scored). A particle behind the camera,
+outside the image or in an untrained block gets likelihood 0 (``log f = -inf``), never NaN.
+
+Without a camera (image-plane tracking), each particle's box centre pixel is used instead.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from pftrack.components import Detections, Frame, Likelihood, Param, RunContext, Target
+
+from pftrack_coast.eigenspace import BlockEigenspaceModel
+
+__all__ = ["EigenspaceLikelihood"]
+
+
+class EigenspaceLikelihood(Likelihood):
+    """Sigmoid of the block eigenspace's relative variation (seed 003 eq. 12-13).
+
+    {params}
+
+    Attributes
+    ----------
+    model_ : BlockEigenspaceModel
+        The background model (loaded from ``model`` or the run's detector model, or given with
+        :meth:`set_model`).
+    camera_ : Camera or None
+        The run's camera (None: box centres are used).
+    """
+
+    model: str | None = Param(None, "A model file (.npz) written by the eigenspace detector's "
+                                    "save(); None: the run's detector model "
+                                    "(pftrack run --detector-model).")
+    alpha: float = Param(1.0, "Slope of the sigmoid (eq. 12), per unit of r_D - v_D.")
+    position_dims: tuple[int, int, int] = Param(
+        (0, 1, 2), "State entries holding a particle's (x, y, z) in world metres.")
+
+    def setup(self, context: RunContext) -> None:
+        """The run's camera, and the run's detector model when ``model`` is not set."""
+        self.camera_ = context.camera
+        if self.model is None and context.detector_model is not None and \
+                "model_" not in self.__dict__:
+            self.set_model(BlockEigenspaceModel.load(context.detector_model))
+
+    def set_model(self, model: BlockEigenspaceModel) -> EigenspaceLikelihood:
+        """Use an in-memory model (a detector's ``model_``)."""
+        self.model_ = model
+        return self
+
+    def _get_model(self) -> BlockEigenspaceModel:
+        if "model_" not in self.__dict__:
+            if self.model is None:
+                raise ValueError("EigenspaceLikelihood: no model; give model=PATH (a file the "
+                                 "eigenspace detector saved) or run with --detector-model")
+            self.model_ = BlockEigenspaceModel.load(self.model)
+        return self.model_
+
+    def prepare(self) -> None:
+        self._get_model()
+        if not float(self.alpha) > 0:
+            raise ValueError(f"EigenspaceLikelihood: alpha must be > 0, got {self.alpha!r}")
+
+    def begin_frame(self, frame: Frame, targets: Sequence[Target],
+                    detections: Detections | None = None) -> None:
+        """The frame's grey levels; no block scored yet."""
+        m = self._get_model()
+        self.grey_ = m.grey(frame.image)
+        self.excess_ = np.full(m.grid_shape_[0] * m.grid_shape_[1], np.nan)  # r_D - v_D
+
+    def _pixels(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
+        cam = self.__dict__.get("camera_")
+        if cam is not None and target is not None and target.particles is not None \
+                and len(target.particles) == len(boxes_xywh_px):
+            pts = np.asarray(target.particles, dtype=np.float64)[:, list(self.position_dims)]
+            return cam.project(pts)  # NaN behind the camera
+        b = np.asarray(boxes_xywh_px, dtype=np.float64)
+        return b[:, :2] + 0.5 * b[:, 2:]
+
+    def log_likelihood(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
+        m = self._get_model()
+        px = self._pixels(boxes_xywh_px, target)
+        n = len(px)
+        out = np.full(n, -np.inf)
+        if n == 0:
+            return out
+        bs = int(m.block_size)
+        rows, cols = m.grid_shape_
+        with np.errstate(invalid="ignore"):
+            c = np.floor(px[:, 0] / bs)
+            r = np.floor(px[:, 1] / bs)
+        ok = np.isfinite(c) & np.isfinite(r) & (c >= 0) & (c < cols) & (r >= 0) & (r < rows)
+        if not ok.any():
+            return out
+        blocks = (r[ok] * cols + c[ok]).astype(np.intp)
+        need = np.unique(blocks)
+        need = need[np.isnan(self.excess_[need])]
+        if len(need):
+            rd = m.relative_variation_at(self.grey_, need)
+            self.excess_[need] = np.where(m.trained_[need], rd - m.v_[need], -np.inf)
+        z = float(self.alpha) * self.excess_[blocks]
+        out[ok] = -np.logaddexp(0.0, -z)  # log sigmoid(z), stable; -inf for untrained blocks
+        return out
+
+    @classmethod
+    def _conformance_example(cls) -> Any:
+        """For :mod:`pftrack.testing`: a 4-pixel-block model of 24 noisy empty frames the size
+        of the kit's synthetic scene, saved to a temporary file (no camera: box centres)."""
+        rng = np.random.default_rng(3)
+        base = np.linspace(60.0, 120.0, 160)[None, :] + np.linspace(0.0, 40.0, 120)[:, None]
+        frames = [np.clip(base + rng.normal(0.0, 6.0, base.shape), 0, 255).astype(np.uint8)
+                  for _ in range(24)]
+        import tempfile
+        from pathlib import Path
+
+        path = Path(tempfile.mkdtemp(prefix="pftrack-eigenspace-")) / "model.npz"
+        BlockEigenspaceModel(block_size=4).fit(frames).save(path)
+        return cls(model=str(path))
