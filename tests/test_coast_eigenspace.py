@@ -18,6 +18,7 @@ from pftrack_coast.detector import EigenspaceDetector, boxes_to_mask
 from pftrack_coast.eigenspace import BlockEigenspaceModel, block_fractions, blocks_of
 
 WATER = data_dir() / "water"
+DATA = data_dir()
 
 
 def image_from_blocks(x: np.ndarray, rows: int, cols: int, bs: int) -> np.ndarray:
@@ -437,3 +438,28 @@ def test_likelihood_prefers_the_boat_on_real_infrared_water():
     # measured: mean f 0.438 on 1976 sampled boat pixels, 0.0008 on 4999 water pixels
     # (frames 26-50; alpha 1, the paper's v_D)
     assert f_on.mean() > 0.35 and f_off.mean() < 0.005
+
+
+def test_background_benchmark_on_water_and_thermal(capsys):
+    """``pftrack bench background`` on the infrared sea and the thermal clip (PETS is left to
+    the full benchmark): its rows, the eigenspace model against MOG2, the thermal entry."""
+    import json
+
+    from pftrack.cli import main
+
+    if not (WATER / "zodiac").is_dir() or not (DATA / "thermal" / "animal_entry.cptv").is_file():
+        pytest.skip("shared data not found")
+    pytest.importorskip("cptv")
+    assert main(["bench", "background", "--sequences", "zodiac,thermal", "--methods",
+                 "eigenspace,mog2", "--json", "--quiet"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    rows = {(r["sequence"], r["method"], r["level"]): r for r in out["rows"]}
+    assert set(rows) == {("zodiac", m, lv) for m in ("eigenspace", "mog2")
+                         for lv in ("pixel", "block")}
+    eig, mog = rows["zodiac", "eigenspace", "block"], rows["zodiac", "mog2", "block"]
+    # measured: eigenspace block F 0.552, MOG2 0.124 (frames 26-50)
+    assert eig["f_measure"] > 0.5 and eig["f_measure"] > 2 * mog["f_measure"]
+    assert all(0 <= r["pwc"] <= 100 and r["frames"] == 25 for r in rows.values())
+    # the animal enters at frame 42: measured first detection 43, no false alarm before
+    t = out["thermal"]
+    assert 42 <= t["first_detection_frame"] <= 45 and t["false_alarm_frames_before"] == 0
