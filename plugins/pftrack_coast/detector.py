@@ -72,13 +72,17 @@ class EigenspaceDetector(Detector):
     frame_offset: str = Param(
         "none", "'median' subtracts each frame's median grey level first (a thermal camera's "
                 "automatic gain or drift); 'none' is the paper's model.")
+    untrained: str = Param(
+        "nearest", "'nearest' (not in the paper): a block without enough background samples "
+                   "uses the nearest trained block's eigenspace; 'ignore': it is never an "
+                   "intruder.")
     model: str | None = Param(None, "A model file written by save() (.npz), loaded on first "
                                     "use when the detector is not fitted.")
 
     def _model_params(self) -> dict[str, Any]:
         return {k: getattr(self, k) for k in (
             "block_size", "threshold_q", "v_low", "v_high", "d_split",
-            "min_background_fraction", "min_samples", "frame_offset")}
+            "min_background_fraction", "min_samples", "frame_offset", "untrained")}
 
     # -- set-up and files ---------------------------------------------------------------------
 

@@ -56,6 +56,7 @@ MODEL_FORMAT = "pftrack-block-eigenspace"
 MODEL_VERSION = 1
 _END = object()
 FRAME_OFFSETS = ("none", "median")
+UNTRAINED = ("nearest", "ignore")
 
 
 # --------------------------------------------------------------------------------------------
@@ -179,9 +180,14 @@ class BlockEigenspaceModel:
     min_samples : int
         A block needs at least ``max(min_samples, D + 2)`` background samples to be trained
         (a covariance from fewer vectors than its dimension is degenerate). Blocks with fewer
-        are *untrained*: listed in ``untrained_blocks_``, a warning gives their count, their
-        r_D is 0 and they are never intruders (rather than being judged by a meaningless
-        model).
+        are *untrained*: listed in ``untrained_blocks_`` and a warning gives their count; what
+        they are judged by is ``untrained``.
+    untrained : {"nearest", "ignore"}
+        ``"nearest"`` (default; not in the paper): an untrained block uses the eigenspace of
+        the nearest trained block (grid distance), the water or ground next to it; for an
+        object that stands in the same blocks through every training frame (the beach
+        sequence's people) this is the difference between finding it and never finding it.
+        ``"ignore"``: an untrained block's r_D is 0 and it is never an intruder.
     min_eigenvalue : float
         Floor on the eigenvalues used in eq. 3 (squared grey levels): only guards against a
         division by zero for a block that never varied during training.
@@ -219,14 +225,17 @@ class BlockEigenspaceModel:
     n_samples_ : ndarray, shape (B,), int
         Background samples each block was trained on.
     trained_ : ndarray, shape (B,), bool
+        Blocks with an eigenspace (their own, or with ``untrained="nearest"`` a borrowed one).
+    source_ : ndarray, shape (B,), int
+        The block whose eigenspace each block uses (itself when it has its own).
     untrained_blocks_ : ndarray, shape (U, 2), int
-        (row, col) of the untrained blocks.
+        (row, col) of the blocks without enough background samples of their own.
     """
 
     def __init__(self, block_size: int = 8, threshold_q: float = 0.8, v_low: float = 15.0,
                  v_high: float = 9.0, d_split: int = 20, min_background_fraction: float = 1.0,
                  min_samples: int = 10, min_eigenvalue: float = 1e-6,
-                 frame_offset: str = "none") -> None:
+                 frame_offset: str = "none", untrained: str = "nearest") -> None:
         self.block_size = block_size
         self.threshold_q = threshold_q
         self.v_low = v_low
@@ -236,6 +245,7 @@ class BlockEigenspaceModel:
         self.min_samples = min_samples
         self.min_eigenvalue = min_eigenvalue
         self.frame_offset = frame_offset
+        self.untrained = untrained
 
     def params(self) -> dict[str, Any]:
         return {"block_size": int(self.block_size), "threshold_q": float(self.threshold_q),
@@ -244,7 +254,7 @@ class BlockEigenspaceModel:
                 "min_background_fraction": float(self.min_background_fraction),
                 "min_samples": int(self.min_samples),
                 "min_eigenvalue": float(self.min_eigenvalue),
-                "frame_offset": str(self.frame_offset)}
+                "frame_offset": str(self.frame_offset), "untrained": str(self.untrained)}
 
     def _check_params(self) -> None:
         if int(self.block_size) < 1:
@@ -257,6 +267,8 @@ class BlockEigenspaceModel:
         if self.frame_offset not in FRAME_OFFSETS:
             raise ValueError(f"frame_offset must be one of {FRAME_OFFSETS}, got "
                              f"{self.frame_offset!r}")
+        if self.untrained not in UNTRAINED:
+            raise ValueError(f"untrained must be one of {UNTRAINED}, got {self.untrained!r}")
 
     def _grey(self, image: np.ndarray) -> np.ndarray:
         grey = to_grey(image)
@@ -371,9 +383,20 @@ class BlockEigenspaceModel:
         self.eigenvalues_ = np.where(keep, np.maximum(lam[:, :dmax],
                                                       float(self.min_eigenvalue)), 0.0)
         self.dims_ = dims.astype(np.int64)
-        self.v_ = np.where(dims <= int(self.d_split), float(self.v_low), float(self.v_high))
         self.n_samples_ = n.astype(np.int64)
-        self.trained_ = trained
+        self.source_ = np.arange(len(trained))
+        if self.untrained == "nearest" and trained.any() and not trained.all():
+            from scipy import ndimage
+
+            _, (ri, ci) = ndimage.distance_transform_edt(~trained.reshape(rows, cols),
+                                                         return_indices=True)
+            src = (ri * cols + ci).ravel()
+            self.mean_, self.components_ = self.mean_[src], self.components_[src]
+            self.eigenvalues_, self.dims_ = self.eigenvalues_[src], self.dims_[src]
+            self.source_ = src
+        self.v_ = np.where(self.dims_ <= int(self.d_split), float(self.v_low),
+                           float(self.v_high))
+        self.trained_ = self.dims_ > 0  # blocks with an eigenspace, their own or borrowed
         self.grid_shape_ = (rows, cols)
         self.image_shape_ = (int(shape[0]), int(shape[1]))
         self.n_frames_ = int(n_frames)
@@ -381,10 +404,12 @@ class BlockEigenspaceModel:
         untrained = np.flatnonzero(~trained)
         self.untrained_blocks_ = np.stack(np.divmod(untrained, cols), axis=1).astype(np.int64)
         if len(untrained):
+            fate = ("use the nearest trained block's eigenspace" if self.trained_.all()
+                    else "are left untrained (never intruders)")
             warnings.warn(
                 f"block eigenspace: {len(untrained)} of {len(trained)} blocks have fewer than "
-                f"max(min_samples={int(self.min_samples)}, D + 2) background samples and are "
-                "left untrained (never intruders); see untrained_blocks_", stacklevel=3)
+                f"max(min_samples={int(self.min_samples)}, D + 2) background samples and "
+                f"{fate}; see untrained_blocks_", stacklevel=3)
 
     def _prepare(self) -> None:
         """Scoring operators: whitened components W = E / sqrt(lambda) / sqrt(D), so that
@@ -460,7 +485,8 @@ class BlockEigenspaceModel:
             out.update({
                 "image_hw": list(self.image_shape_), "grid_rows_cols": list(self.grid_shape_),
                 "n_frames": int(self.n_frames_), "n_blocks": len(self.dims_),
-                "n_untrained": int((~self.trained_).sum()),
+                "n_untrained": len(self.untrained_blocks_),
+                "n_borrowed": int((self.source_ != np.arange(len(self.source_))).sum()),
                 "dims_min": int(d.min()) if len(d) else 0,
                 "dims_median": float(np.median(d)) if len(d) else 0.0,
                 "dims_max": int(d.max()) if len(d) else 0})
@@ -479,7 +505,7 @@ class BlockEigenspaceModel:
         with atomic_path(path) as tmp, open(tmp, "wb") as fh:
             np.savez(fh, params=np.array(json.dumps(params)), mean=self.mean_,
                      components=self.components_, eigenvalues=self.eigenvalues_,
-                     dims=self.dims_, n_samples=self.n_samples_)
+                     dims=self.dims_, n_samples=self.n_samples_, source=self.source_)
         return path
 
     @classmethod
@@ -509,6 +535,7 @@ class BlockEigenspaceModel:
                     raise ValueError(f"eigenspace model {path}: missing arrays {missing}")
                 params = json.loads(str(z["params"]))
                 arrays = {k: np.asarray(z[k]) for k in names}
+                source = np.asarray(z["source"]) if "source" in z.files else None
         except ValueError as exc:
             if str(path) in str(exc):
                 raise
@@ -551,12 +578,20 @@ class BlockEigenspaceModel:
         model.dims_ = dims.astype(np.int64)
         model.n_samples_ = n.astype(np.int64)
         model.trained_ = model.dims_ > 0
+        own = np.arange(B)
+        if source is None:
+            source = own
+        if source.shape != (B,) or source.dtype.kind not in "iu" or \
+                not bool(np.all((source >= 0) & (source < B))):
+            raise ValueError(f"eigenspace model {path}: the source array does not index the "
+                             f"{B} blocks")
+        model.source_ = source.astype(np.intp)
         model.v_ = np.where(model.dims_ <= int(model.d_split), float(model.v_low),
                             float(model.v_high))
         model.grid_shape_ = (rows, cols)
         model.image_shape_ = (h, w)
         model.n_frames_ = n_frames
-        untrained = np.flatnonzero(~model.trained_)
+        untrained = np.flatnonzero(~model.trained_ | (model.source_ != own))
         model.untrained_blocks_ = np.stack(np.divmod(untrained, cols), axis=1).astype(np.int64)
         model._prepare()
         return model
