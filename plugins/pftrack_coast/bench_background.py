@@ -59,6 +59,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 # -- data ------------------------------------------------------------------------------------
 
 
+def load_water(folder: str | Path) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """A water sequence's grey frames (uint8) and foreground masks (bool), in frame order."""
+    return _water(Path(folder))
+
+
 def _water(folder: Path) -> tuple[list[np.ndarray], list[np.ndarray]]:
     import cv2
 
