@@ -262,7 +262,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                 continue
             if seq == "pets09":
                 frames, masks, used = _pets(root / "pets09", args.pets_step, args.pets_margin)
-                train_idx = [k for k in range(400)]
+                train_idx = list(range(400))
                 test_idx = [k for k in range(400, len(frames)) if used[k]]
                 # the eigenspace model learns from every step-th training frame; the OpenCV
                 # models see the whole training stream

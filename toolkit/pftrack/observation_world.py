@@ -268,17 +268,19 @@ class CameraVolumeObservation(ObservationModel):
     def setup(self, context: RunContext) -> None:
         """The run's camera when none was given."""
         if self.camera is None and context.camera is not None:
+            self.__dict__.pop("half_size_", None)
             self.camera_ = context.camera
 
     def get_camera(self) -> Any:
         """The camera in use (``camera``, loaded when a path, or the run's)."""
-        cam = _resolve_camera(self)
-        size = np.asarray(self.size_m, dtype=np.float64).reshape(-1)
-        if size.shape != (3,) or not np.all(size > 0):
-            raise ValueError(f"CameraVolumeObservation: size_m must be 3 sizes > 0 (x, y, z "
-                             f"metres), got {self.size_m!r}")
-        self.camera_ = cam
-        return cam
+        if "half_size_" not in self.__dict__:  # parameters checked once, on first use
+            size = np.asarray(self.size_m, dtype=np.float64).reshape(-1)
+            if size.shape != (3,) or not np.all(size > 0):
+                raise ValueError(f"CameraVolumeObservation: size_m must be 3 sizes > 0 (x, y, "
+                                 f"z metres), got {self.size_m!r}")
+            self.camera_ = _resolve_camera(self)
+            self.half_size_ = 0.5 * size
+        return self.camera_
 
     def points(self, states: np.ndarray) -> np.ndarray:
         """States (N, D) -> object centres (N, 3) in world metres."""
@@ -290,7 +292,7 @@ class CameraVolumeObservation(ObservationModel):
         projection of 8N corners."""
         cam = self.get_camera()
         c = self.points(states)
-        half = 0.5 * np.asarray(self.size_m, dtype=np.float64)
+        half = self.half_size_
         signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)],
                          dtype=np.float64)
         corners = (c[:, None, :] + signs[None] * half).reshape(-1, 3)

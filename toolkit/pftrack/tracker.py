@@ -338,23 +338,19 @@ class MultiTargetTracker:
         if (self._vectorise and len(filters) > 1 and self._rows_pay
                 and all(len(f.particles) == n for f in filters)):
             targets = [f.target for f in filters]
-            p = self.motion.predict_rows(np.array([f.particles for f in filters]), self.dt, rng,
-                                         targets)
-            boxes = observation.to_boxes_rows(p, targets)
-            for i, f in enumerate(filters):
-                t = f.target
-                f.particles = t.particles = p[i]
-                t.particle_boxes_xywh_px = boxes[i]
-                t.age += 1
-                t.detection = None
+            predicted = self.motion.predict_rows(np.array([f.particles for f in filters]),
+                                                 self.dt, rng, targets)
+            boxes = observation.to_boxes_rows(predicted, targets)
         else:
-            for f in filters:
-                t = f.target
-                f.particles = self.motion.predict(f.particles, self.dt, rng, target=t)
-                t.particles = f.particles
-                t.particle_boxes_xywh_px = observation.to_boxes(f.particles, t)
-                t.age += 1
-                t.detection = None
+            predicted = [self.motion.predict(f.particles, self.dt, rng, target=f.target)
+                         for f in filters]
+            boxes = [observation.to_boxes(p, f.target) for p, f in zip(predicted, filters)]
+        for f, p, b in zip(filters, predicted, boxes):
+            t = f.target
+            f.particles = t.particles = p
+            t.particle_boxes_xywh_px = b
+            t.age += 1
+            t.detection = None
         # 2. associate
         unmatched_dets = np.arange(len(detections)) if detections is not None else np.zeros(0, int)
         if detections is not None and self.associator is not None and filters:
@@ -499,28 +495,8 @@ class MultiTargetTracker:
             world_m=None if world is None else np.asarray(world, dtype=np.float64),
         )
 
-    def run(self, frames: Iterable[Frame],
-            initial: Callable[[Frame, MultiTargetTracker], None] | None = None,
-            ) -> Iterator[list[TrackRecord]]:
-        """Stream ``frames`` through :meth:`step`, yielding each frame's records.
-
-        ``initial(frame, tracker)`` is called before each step (add targets from ground truth
-        or a list of boxes, for example).
-        """
+    def run(self, frames: Iterable[Frame]) -> Iterator[list[TrackRecord]]:
+        """Stream ``frames`` through :meth:`step`, yielding each frame's records (targets are
+        started by the track manager, or by :meth:`add_target` between frames)."""
         for frame in frames:
-            if initial is not None:
-                initial(frame, self)
             yield self.step(frame)
-
-
-def boxes_initialiser(boxes_by_frame: dict[int, Sequence[tuple[int, np.ndarray]]],
-                      ) -> Callable[[Frame, MultiTargetTracker], None]:
-    """An ``initial`` callback for :meth:`MultiTargetTracker.run`: at frame index k, start
-    targets ``(id, box_xywh_px)`` from ``boxes_by_frame[k]`` (e.g. each ground-truth id's
-    first box)."""
-
-    def initial(frame: Frame, tracker: MultiTargetTracker) -> None:
-        for tid, box in boxes_by_frame.get(frame.index, ()):
-            tracker.add_target(frame, box_xywh_px=np.asarray(box, float), target_id=int(tid))
-
-    return initial
