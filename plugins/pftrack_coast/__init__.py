@@ -8,6 +8,11 @@ Components (registered name -> class):
   variation r_D, dimension-dependent threshold v_D, 4-connected intruder blocks -> boxes);
 * likelihood: ``eigenspace`` :class:`~pftrack_coast.likelihood.EigenspaceLikelihood` (eq.
   12-13: the sigmoid of r_D - v_D of the block each particle projects into);
+* likelihood: ``mog2-fraction`` :class:`~pftrack_coast.likelihood.ForegroundFractionLikelihood`
+  (the foreground fraction of OpenCV's MOG2 in the particle's block: the comparison);
+* track manager: ``volumes`` :class:`~pftrack_coast.volumes.VolumeTracks` (sec. 3 and 4.2:
+  detection groups in cuboid volumes, entry and exit by particle counts, several intruders at
+  once, size with the support-plane correction);
 * benchmark: ``background`` (:mod:`pftrack_coast.bench_background`: the model against OpenCV's
   background subtractors on real water, campus and thermal video).
 
@@ -31,15 +36,32 @@ def pftrack_register_detectors(register):
 
 @hookimpl
 def pftrack_register_likelihoods(register):
-    from pftrack_coast.likelihood import EigenspaceLikelihood
+    from pftrack_coast.likelihood import EigenspaceLikelihood, ForegroundFractionLikelihood
 
     register("eigenspace", EigenspaceLikelihood)
+    register("mog2-fraction", ForegroundFractionLikelihood)
+
+
+@hookimpl
+def pftrack_register_track_managers(register):
+    from pftrack_coast.volumes import VolumeTracks
+
+    register("volumes", VolumeTracks)
+
+
+@hookimpl
+def pftrack_register_presets(register):
+    from importlib import resources
+
+    presets = resources.files("pftrack_coast") / "presets"
+    register("pets09-volume", str(presets / "pets09-volume.yaml"))
 
 
 @hookimpl
 def pftrack_register_benchmarks(register):
     from pftrack.extensions import Benchmark
 
-    from pftrack_coast import bench_background
+    from pftrack_coast import bench_background, bench_seed003
 
     register("background", Benchmark.from_module(bench_background))
+    register("seed003", Benchmark.from_module(bench_seed003))

@@ -76,6 +76,8 @@ class EigenspaceDetector(Detector):
         "nearest", "'nearest' (not in the paper): a block without enough background samples "
                    "uses the nearest trained block's eigenspace; 'ignore': it is never an "
                    "intruder.")
+    box_margin_px: int = Param(0, "Training with boxes: each box is grown by this many pixels "
+                                  "per side (people's outlines are not background).")
     model: str | None = Param(None, "A model file written by save() (.npz), loaded on first "
                                     "use when the detector is not fitted.")
 
@@ -139,11 +141,17 @@ class EigenspaceDetector(Detector):
         """
         ignore_by_frame = ignore_by_frame or {}
         empty = np.zeros((0, 4))
+        m = float(self.box_margin_px)
+        if not m >= 0:
+            raise ValueError(f"EigenspaceDetector: box_margin_px must be >= 0, got "
+                             f"{self.box_margin_px!r}")
 
         def pairs() -> Iterator[tuple[np.ndarray, np.ndarray | None]]:
             for f in frames:
                 b = np.concatenate([np.asarray(d.get(f.index, empty), float).reshape(-1, 4)
                                     for d in (boxes_by_frame, ignore_by_frame)])
+                if m and len(b):
+                    b = b + np.array([-m, -m, 2 * m, 2 * m])
                 yield f.image, (boxes_to_mask(b, f.image.shape[:2]) if len(b) else None)
 
         self.model_ = BlockEigenspaceModel(**self._model_params()).fit_pairs(pairs())

@@ -445,12 +445,17 @@ class BlockEigenspaceModel:
         if grey.shape != self.image_shape_:
             raise ValueError(f"frame of {grey.shape[1]}x{grey.shape[0]} px, the model was "
                              f"trained on {self.image_shape_[1]}x{self.image_shape_[0]} px")
+        return self.relative_variation_of_grey(grey).reshape(self.grid_shape_)
+
+    def relative_variation_of_grey(self, grey: np.ndarray) -> np.ndarray:
+        """r_D of every block of a grey frame (:meth:`grey`), flat (rows * cols,): one batched
+        product per group of blocks of equal D."""
         x = blocks_of(grey, int(self.block_size))
         out = np.empty(len(x))
         for idx, w, o in self.groups_:
             s = np.matmul(x[idx][:, None, :], w)[:, 0, :] - o  # (B_d, D)
             out[idx] = np.einsum("bd,bd->b", s, s)
-        return out.reshape(self.grid_shape_)
+        return out
 
     def relative_variation_at(self, grey: np.ndarray, blocks: np.ndarray) -> np.ndarray:
         """r_D (eq. 3) of only the blocks ``blocks`` (K,) (indices ``row * cols + col``) of a

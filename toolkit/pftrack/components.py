@@ -20,7 +20,7 @@ import inspect
 import os
 import textwrap
 from abc import ABC, abstractmethod
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
@@ -173,6 +173,15 @@ class Target:
     observation_px : ndarray, shape (2,), or None
         A point measurement of the target in pixels that the caller supplies (synthetic data,
         tests); likelihoods that use points prefer it to the matched detection.
+    log_likelihoods : ndarray, shape (N,), or None
+        This frame's log-likelihood of each particle, in the order of the particles the frame
+        weighted (before resampling), region masks applied; set by the engine after weighting.
+        Track managers count particles above a likelihood with it (seed 003's entry and exit).
+    valid_region : callable or None
+        The target's own region, ``f(positions (N, P)) -> bool (N,)``: particles outside get
+        likelihood zero, as with the engine's ``valid_region`` (seed 003: each particle group
+        in its volume, a detection group kept off the intruders already tracked); unlike the
+        engine's, leaving it does not end the target (its track manager decides).
     """
 
     id: int
@@ -189,6 +198,8 @@ class Target:
     box_wh_px: tuple[float, float] | None = None
     appearance_scores: np.ndarray | None = None
     observation_px: np.ndarray | None = None
+    log_likelihoods: np.ndarray | None = None
+    valid_region: Callable[[np.ndarray], np.ndarray] | None = None
 
 
 @dataclass
@@ -617,7 +628,9 @@ class TrackRecord:
     ``box_xywh_px`` is the image box of the estimate; ``position`` its position in state space
     (pixels for image-plane models, world metres for ground-plane ones); ``world_m`` the ground
     position (x, y, z) in metres when the observation model knows one, else None;
-    ``confidence`` the logistic of the best particle's log-likelihood (0.5 at a birth).
+    ``confidence`` the logistic of the best particle's log-likelihood (0.5 at a birth);
+    ``size_m`` the object's size in metres (width across the view, height, depth along the
+    view) when the track manager estimates one (seed 003), else None.
     """
 
     frame: int
@@ -628,6 +641,7 @@ class TrackRecord:
     extent: np.ndarray
     confidence: float
     world_m: np.ndarray | None = None
+    size_m: np.ndarray | None = None
 
 
 class ObservationModel(Component):

@@ -242,16 +242,22 @@ class CameraVolumeObservation(ObservationModel):
         Height of the plane objects rest on (births from boxes), metres.
     min_visible : float
         :meth:`in_view` is true while at least this fraction of the box is inside the image.
+    particle_box : {"cuboid", "point"}
+        ``"point"``: a state's box is its projected point (width and height 0), one projection
+        per particle instead of eight. For seed 003, where each particle is a point on the
+        intruder and its size comes from the particles' spread (eq. 10), not from a box per
+        particle; likelihoods of points read the box's corner as the pixel.
     """
 
     def __init__(self, camera: Any = None, size_m: tuple[float, float, float] = (1.0, 1.0, 1.0),
                  position_dims: tuple[int, int, int] = (0, 1, 2), support_z_m: float = 0.0,
-                 min_visible: float = 0.5) -> None:
+                 min_visible: float = 0.5, particle_box: str = "cuboid") -> None:
         self.camera = camera
         self.size_m = size_m
         self.position_dims = position_dims
         self.support_z_m = support_z_m
         self.min_visible = min_visible
+        self.particle_box = particle_box
 
     @classmethod
     def _conformance_example(cls):
@@ -278,6 +284,9 @@ class CameraVolumeObservation(ObservationModel):
             if size.shape != (3,) or not np.all(size > 0):
                 raise ValueError(f"CameraVolumeObservation: size_m must be 3 sizes > 0 (x, y, "
                                  f"z metres), got {self.size_m!r}")
+            if self.particle_box not in ("cuboid", "point"):
+                raise ValueError(f"CameraVolumeObservation: particle_box must be 'cuboid' or "
+                                 f"'point', got {self.particle_box!r}")
             self.camera_ = _resolve_camera(self)
             self.half_size_ = 0.5 * size
         return self.camera_
@@ -292,6 +301,10 @@ class CameraVolumeObservation(ObservationModel):
         projection of 8N corners."""
         cam = self.get_camera()
         c = self.points(states)
+        if self.particle_box == "point":
+            out = np.zeros((len(c), 4))
+            out[:, :2] = cam.project(c)  # NaN behind the camera
+            return out
         half = self.half_size_
         signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)],
                          dtype=np.float64)

@@ -8,7 +8,10 @@ a run is replaceable by a third-party plugin::
     observation: {type, params}   a registered observation model (legacy: its parameters only)
     motion: {type, params}        a registered motion model
     likelihood: {type, params}    a registered likelihood (e.g. ``composite``)
-    detector: {type, params, train: {frames, params, seed}}
+    detector: {type, params, train: {frames, params, seed}, detect: true}
+                                  ``detect: false``: trained (``pftrack detector train``) and its
+                                  model handed to the components (``--detector-model``), not run
+                                  per frame (seed 003: the eigenspace likelihood's model)
     associator: {type, params}
     tracks: {type, params}        a registered track manager (default ``confirmed``)
     births: {...}                 legacy: the ``confirmed`` track manager's parameters
@@ -259,12 +262,14 @@ def _spec(value: Any, default_type: str) -> dict[str, Any]:
 
 
 def build_engine(cfg: dict[str, Any], *, camera: Any = None, fps: float = 25.0,
-                 seed: int = 0, host: Any = None) -> MultiTargetTracker:
+                 seed: int = 0, host: Any = None,
+                 detector_model: str | os.PathLike[str] | None = None) -> MultiTargetTracker:
     """The tracking engine of a configuration: observation model, motion, likelihood,
     associator and track management built by name through the host, each set up with the run's
     :class:`~pftrack.components.RunContext` (camera, fps). The detector is built and run
     separately (:func:`build_detector`), so that its time is measured on its own; its detections
-    are handed to :meth:`~pftrack.tracker.MultiTargetTracker.step`.
+    are handed to :meth:`~pftrack.tracker.MultiTargetTracker.step`. ``detector_model`` (a file
+    the detector saved) is in the components' context, for those that read it.
 
     ``observation`` defaults by ``state`` (``world``: ``camera-box``, ``image``:
     ``image-box``); ``tracks`` defaults to ``confirmed`` with the legacy ``births`` options.
@@ -283,7 +288,8 @@ def build_engine(cfg: dict[str, Any], *, camera: Any = None, fps: float = 25.0,
                          "'births', not both")
     tracks_spec = _spec(cfg.get("tracks") if cfg.get("tracks") is not None
                         else cfg.get("births"), "confirmed")
-    context = RunContext(host=host, camera=camera, fps=float(fps))
+    context = RunContext(host=host, camera=camera, fps=float(fps), detector_model=(
+        None if detector_model is None else str(detector_model)))
     parts = {
         "observation": host.build("observation", obs_spec),
         "motion": host.build("motion", cfg["motion"]),
@@ -417,9 +423,10 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
         raise FileNotFoundError(f"video {video} not found")
     first, last = parse_frames(frames)
     fps = video_fps(video)
-    engine = build_engine(cfg, camera=cam, fps=fps, seed=seed)
+    engine = build_engine(cfg, camera=cam, fps=fps, seed=seed, detector_model=detector_model)
     detector = None
-    if detections is None and cfg.get("detector"):
+    if detections is None and cfg.get("detector") and \
+            (cfg["detector"].get("detect", True) if isinstance(cfg["detector"], dict) else True):
         detector = build_detector(cfg, RunContext(camera=cam, fps=fps, detector_model=(
             None if detector_model is None else str(detector_model))))
     frame_iter: Iterable[Frame] = iter_frames(video, first, last)

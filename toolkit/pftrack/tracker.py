@@ -306,6 +306,25 @@ class MultiTargetTracker:
         self.likelihood.init_target(frame, target)
         return target
 
+    def set_particles(self, target_id: int, particles: np.ndarray) -> Target:
+        """Replace a live target's particles (N, D) with equal weights (seed 003's re-spread
+        of a detection group through its volume, a new group taken from another's particles);
+        its estimate and extent become theirs."""
+        f = self._filters.get(int(target_id))
+        if f is None:
+            raise ValueError(f"set_particles: no live target {target_id}")
+        p = np.array(particles, dtype=np.float64)  # a copy: the engine owns its particles
+        if p.shape != (self.n_particles, self.motion.state_dim):
+            raise ValueError(f"set_particles: particles must have shape "
+                             f"({self.n_particles}, {self.motion.state_dim}), got {p.shape}")
+        t = f.target
+        f.particles = t.particles = p
+        f.weights, f.log_weights = self._uniform, self._uniform_log
+        t.state = weighted_mean(p, self._uniform)
+        t.extent = weighted_extent(p, self._uniform, t.state)
+        f.anchor = t.state[list(self.motion.position_dims)]
+        return t
+
     def remove_target(self, target_id: int) -> None:
         """End a live target (no-op for an unknown id); every component forgets it."""
         f = self._filters.pop(target_id, None)
@@ -374,6 +393,9 @@ class MultiTargetTracker:
                                  f"{logl.shape}, expected ({len(f.particles)},)")
             if self.valid_region is not None:
                 logl = np.where(self.valid_region(f.particles[:, pos_dims]), logl, -np.inf)
+            if t.valid_region is not None:
+                logl = np.where(t.valid_region(f.particles[:, pos_dims]), logl, -np.inf)
+            t.log_likelihoods = logl
             logls.append(logl)
         # 4. normalise, estimate, resample: one filter per row, vectorised over the targets
         # (every row equals the single-filter computation bit for bit; the T systematic offsets

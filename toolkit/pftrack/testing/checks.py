@@ -113,6 +113,10 @@ class ConformanceExample:
     context : RunContext, optional
         Handed to the component's ``setup`` before each workflow run (a camera, say), as a run
         would.
+    engine : dict, optional
+        For track managers: the engine the kit runs them in, ``motion``, ``likelihood`` and
+        ``observation`` components and engine options (``n_particles``, ...) that replace the
+        kit's image-plane random walk (a manager of 3-D volumes needs 3-D states and a camera).
     """
 
     component: Component
@@ -126,6 +130,7 @@ class ConformanceExample:
     fit_boxes: dict[int, np.ndarray] | None = None
     size_m: float = 1.7
     context: Any = None
+    engine: dict[str, Any] | None = None
 
 
 CHECKS = (
@@ -614,11 +619,18 @@ def _tracks_workflow(ex: ConformanceExample, rng: np.random.Generator, run: _Run
     sc = synthetic_scene(seed=1, n_frames=8) if ex.frames is None else _scene(ex)
     from pftrack.components import RunContext
 
-    tracks.setup(RunContext())
-    engine = MultiTargetTracker(_KitWalk(), _KitNearest(), ImageBoxObservation(20, 40),
-                                tracks=tracks, associator=_KitAssociator(),
-                                detection_driven=True, n_particles=64, init_spread=2.0,
-                                max_misses=3, rng=rng)
+    context = ex.context if ex.context is not None else RunContext()
+    tracks.setup(context)
+    parts: dict[str, Any] = {"motion": _KitWalk(), "likelihood": _KitNearest(),
+                             "observation": ImageBoxObservation(20, 40),
+                             "associator": _KitAssociator(), "detection_driven": True,
+                             "n_particles": 64, "init_spread": 2.0, "max_misses": 3}
+    parts.update(ex.engine or {})
+    for key in ("motion", "likelihood", "observation", "associator"):
+        if parts.get(key) is not None:
+            parts[key].setup(context)
+    engine = MultiTargetTracker(parts.pop("motion"), parts.pop("likelihood"),
+                                parts.pop("observation"), tracks=tracks, rng=rng, **parts)
     rows = []
     for f in sc.frames:
         dets = sc.detections(f.index, extra_box=False)

@@ -1,0 +1,270 @@
+"""Seed 003 through the one engine: intruders found and tracked in 3-D volumes with no detector.
+
+``pftrack bench seed003 --json`` runs, on real video:
+
+* ``pets09``: PETS 2009 S2.L1 with the preset ``pets09-volume`` -- the block eigenspace model
+  trained on frames 1-400 (people's boxes, grown by 8 px, as foreground) exactly as
+  ``pftrack detector train --config pets09-volume`` trains it, then the people found and tracked in the
+  walkway cuboid (``calib/pets09_walkway.yaml``) on the test frames (default 401-795). Reported:
+
+  - ``MOTA``, ``IDF1``, ``HOTA``: image boxes (each estimate's cuboid projected) at IoU 0.5;
+  - ``MOTA_world``, ``IDF1_world``, ``HOTA_world``: footprints on the ground plane against the
+    ground truth's world positions, matched within 1 m;
+  - ``median_error_m``: ground-plane distance of the track/ground-truth pairs matched within 1 m
+    frame by frame;
+  - ``entry_error_frames``, ``exit_error_frames``: per person, |the first (last) frame a track
+    is matched to them within 1 m - the first (last) frame the ground truth has them inside the
+    volume| (identity is IDF1's business); the medians, and ``entry_exit_within_10`` the
+    fraction of people with both within 10 frames (a person never matched counts as outside);
+  - ``size_error_m``: median |estimated - true| size per axis (x = width across the view, y =
+    depth along the view, z = height; the truth a person's 0.5 x 0.5 x 1.75 m) over the
+    estimates matched within 1 m: after the support-plane correction, and ``size_error_raw_m``
+    the paper's eq. 10 (2 sqrt of the particles' variance along the same axes);
+  - ``frames_per_second``: frames over the time of scoring and tracking (one OpenCV thread;
+    video decoding not included; ``frames_per_second_with_decoding`` includes it);
+  - ``mog2``: the same run and figures with the likelihood ``mog2-fraction`` (OpenCV's MOG2
+    shown the training frames, then learning online) in place of the eigenspace one.
+
+* ``coast``: the paper's coastal scene (not built yet: reported as such).
+
+Tracking parameters were chosen on frames 201-400 (``--frames 201:400``), not on the test frames.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: a person's size (width across the view, height, depth along the view), metres
+PERSON_M = (0.5, 1.75, 0.5)
+
+GOALS = {"MOTA_world": (">=", 0.6), "IDF1_world": (">=", 0.6),
+         "entry_exit_within_10": (">=", 0.8), "frames_per_second": (">=", 100.0)}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--data", default=None,
+                        help="folder holding pets09/ (default: $PFTRACK_DATA or ../shared/data)")
+    parser.add_argument("--parts", default="pets09,coast", help="pets09, coast (default both)")
+    parser.add_argument("--frames", default="401:795", metavar="A:B",
+                        help="PETS test frames, ground-truth numbering (default 401:795)")
+    parser.add_argument("--model", default=None,
+                        help="eigenspace model (.npz) to use instead of training one")
+    parser.add_argument("--particles", type=int, default=None,
+                        help="particles per group (default: the preset's, 5000)")
+    parser.add_argument("--seed", type=int, default=0, help="tracking seed (default 0)")
+    parser.add_argument("--no-mog2", action="store_true", help="skip the MOG2 comparison")
+    parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
+
+
+def _track(cfg: dict[str, Any], frames: list[Any], camera: Any, seed: int,
+           model: str | None, fit_frames: Any = None) -> dict[str, Any]:
+    """Run the configuration over ``frames``: MOT rows, the track manager, timings
+    (``fit_frames``: images the likelihood's ``fit`` is shown first, untimed)."""
+    import cv2
+
+    from pftrack.pipeline import build_engine
+    from pftrack.tracker import records_to_mot
+
+    engine = build_engine(cfg, camera=camera, fps=7.0, seed=seed, detector_model=model)
+    if fit_frames is not None:
+        engine.likelihood.fit(fit_frames)
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+    records = []
+    try:
+        t0, c0 = time.perf_counter(), time.process_time()
+        for f in frames:
+            records.extend(engine.step(f))
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    finally:
+        cv2.setNumThreads(threads)
+    rows = records_to_mot(records)
+    if len(rows):
+        rows = rows[np.lexsort((rows[:, 1], rows[:, 0]))]
+    return {"rows": rows, "records": records, "tracks": engine.tracks, "wall_s": wall,
+            "cpu_s": cpu, "frames": len(frames)}
+
+
+def _inside(volume: Any, gt: np.ndarray) -> np.ndarray:
+    """Ground-truth rows whose world foot point lies in the volume's footprint."""
+    p = np.column_stack([gt[:, 7], gt[:, 8], np.full(len(gt), float(volume.center_m[2]))])
+    return volume.contains(p)
+
+
+def _frame_pairs(gt: np.ndarray, rows: np.ndarray, max_m: float = 1.0
+                 ) -> list[tuple[int, int]]:
+    """(gt row, track row) index pairs matched per frame within ``max_m`` on the ground."""
+    from scipy.optimize import linear_sum_assignment
+
+    out = []
+    tf = rows[:, 0].astype(int)
+    gf = gt[:, 0].astype(int)
+    for f in np.unique(gf):
+        gi = np.flatnonzero(gf == f)
+        ti = np.flatnonzero(tf == f)
+        if not len(ti):
+            continue
+        d = np.hypot(gt[gi, 7][:, None] - rows[ti, 7][None], gt[gi, 8][:, None] - rows[ti, 8][None])
+        r, c = linear_sum_assignment(np.where(d <= max_m, d, 1e6))
+        for a, b in zip(r, c):
+            if d[a, b] <= max_m:
+                out.append((int(gi[a]), int(ti[b])))
+    return out
+
+
+def score_pets(gt: np.ndarray, run: dict[str, Any], volume: Any) -> dict[str, Any]:
+    """The figures of one PETS run (see the module docstring)."""
+    from pftrack.metrics import evaluate
+
+    rows = run["rows"]
+    out: dict[str, Any] = {}
+    mi = evaluate(gt, rows, metric="iou", threshold=0.5)
+    mw = evaluate(gt, rows, metric="world", threshold=1.0)
+    out.update(MOTA=mi["MOTA"], IDF1=mi["IDF1"], HOTA=mi["HOTA"], MOTA_world=mw["MOTA"],
+               IDF1_world=mw["IDF1"], HOTA_world=mw["HOTA"], IDSW_world=mw["IDSW"],
+               FP_world=mw["FP"], FN_world=mw["FN"], tracks=int(len(np.unique(rows[:, 1])))
+               if len(rows) else 0)
+    pairs = _frame_pairs(gt, rows)
+    err = np.array([np.hypot(gt[g, 7] - rows[t, 7], gt[g, 8] - rows[t, 8]) for g, t in pairs])
+    out["median_error_m"] = float(np.median(err)) if len(err) else float("nan")
+    # entry and exit: per person, the first and last frame some track is matched to them
+    # (within 1 m) against the first and last frame the ground truth has them in the volume
+    inside = gt[_inside(volume, gt)]
+    matched: dict[int, list[int]] = {}
+    for g, _ in pairs:
+        matched.setdefault(int(gt[g, 1]), []).append(int(gt[g, 0]))
+    entry, exit_, both = [], [], []
+    for pid in np.unique(inside[:, 1]).astype(int):
+        g = inside[inside[:, 1] == pid, 0]
+        m = matched.get(pid)
+        if not m:
+            entry.append(np.inf)
+            exit_.append(np.inf)
+        else:
+            entry.append(abs(float(min(m)) - float(g.min())))
+            exit_.append(abs(float(max(m)) - float(g.max())))
+        both.append(entry[-1] <= 10 and exit_[-1] <= 10)
+    out["entry_error_frames"] = float(np.median(entry)) if entry else float("nan")
+    out["exit_error_frames"] = float(np.median(exit_)) if exit_ else float("nan")
+    out["entry_exit_within_10"] = float(np.mean(both)) if both else float("nan")
+    out["people_in_volume"] = len(both)
+    # size per axis, after and before the correction, over estimates matched within 1 m
+    est = {(e["frame"], e["id"]): e for e in run["tracks"].estimates_}
+    truth = np.array(PERSON_M)
+    after, before = [], []
+    for _, t in pairs:
+        e = est.get((int(rows[t, 0]), int(rows[t, 1])))
+        if e is None or "size_m" not in e:
+            continue
+        after.append(np.abs(e["size_m"] - truth))
+        before.append(np.abs(e["size_raw_m"] - truth))
+    # estimates are (across, height, along): x = across, y = along, z = height
+    for key, vals in (("size_error_m", after), ("size_error_raw_m", before)):
+        med = np.median(np.array(vals), axis=0) if vals else np.full(3, np.nan)
+        out[key] = {"x": float(med[0]), "y": float(med[2]), "z": float(med[1])}
+    out["frames_per_second"] = run["frames"] / max(run["wall_s"], 1e-12)
+    out["frames_per_second_cpu"] = run["frames"] / max(run["cpu_s"], 1e-12)
+    return out
+
+
+def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
+    import tempfile
+
+    from pftrack.geometry.formats import load_camera
+    from pftrack.geometry.volumes import resolve_volume
+    from pftrack.pipeline import iter_frames, load_config, parse_frames, read_ground_truth, \
+        train_detector
+
+    folder = root / "pets09"
+    video, gt_path, cam_path = folder / "vtest.avi", folder / "gt.txt", folder / "View_001.xml"
+    for p in (video, gt_path, cam_path):
+        if not p.is_file():
+            raise FileNotFoundError(f"seed003: {p} not found (--data or $PFTRACK_DATA)")
+    cfg = load_config("pets09-volume")
+    if args.particles is not None:
+        cfg["tracker"] = {**cfg["tracker"], "n_particles": int(args.particles)}
+    first, last = parse_frames(args.frames)
+    camera = load_camera(cam_path)
+    volume = resolve_volume(cfg["tracks"]["params"]["volumes"])
+    model = args.model
+    tmp = None
+    if model is None:
+        say("seed003: training the eigenspace model on frames 1-400")
+        tmp = tempfile.TemporaryDirectory(prefix="pftrack-seed003-")
+        model = str(Path(tmp.name) / "eigenspace.npz")
+        train_detector(video, gt_path, cfg["detector"]["train"]["frames"], out=model, cfg=cfg,
+                       camera=camera)
+    try:
+        frames = list(iter_frames(video, first, last))
+        gt = read_ground_truth(gt_path, first, last)
+        t0 = time.perf_counter()
+        say(f"seed003: pets09 eigenspace, frames {first}-{last}")
+        run = _track(cfg, frames, camera, args.seed, model)
+        decode = time.perf_counter() - t0 - run["wall_s"]
+        out = score_pets(gt, run, volume)
+        out["frames_per_second_with_decoding"] = run["frames"] / (run["wall_s"] + max(decode, 0))
+        if not args.no_mog2:
+            say("seed003: pets09 mog2-fraction")
+            a, b = parse_frames(cfg["detector"]["train"]["frames"])
+            mcfg = copy.deepcopy(cfg)
+            mcfg["likelihood"] = {"type": "mog2-fraction", "params": {
+                "block_size": int(cfg["detector"]["params"].get("block_size", 8))}}
+            run2 = _track(mcfg, frames, camera, args.seed, model,
+                          fit_frames=(f.image for f in iter_frames(video, a, b)))
+            out["mog2"] = score_pets(gt, run2, volume)
+        out["setup"] = {"frames": f"{first}:{last}", "train_frames": cfg["detector"]["train"][
+            "frames"], "particles_per_group": int(cfg["tracker"]["n_particles"]),
+            "volume": volume.to_dict(), "seed": args.seed,
+            "tuned_on": "frames 201:400 (tracking parameters)"}
+    finally:
+        if tmp is not None:
+            tmp.cleanup()
+    return out
+
+
+def run(args: argparse.Namespace) -> dict[str, Any]:
+    from pftrack.data import data_dir
+
+    root = Path(args.data) if args.data else data_dir()
+    parts = [p.strip() for p in args.parts.split(",") if p.strip()]
+    bad = set(parts) - {"pets09", "coast"}
+    if bad:
+        raise ValueError(f"--parts: unknown {sorted(bad)}; known: pets09, coast")
+    say = (lambda s: None) if args.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
+    out: dict[str, Any] = {}
+    if "pets09" in parts:
+        out["pets09"] = _pets09(args, root, say)
+    if "coast" in parts:
+        out["coast"] = {"status": "not built yet: the coast scene plugin (issue 13, part 2b)"}
+    out["goals"] = {k: list(v) for k, v in GOALS.items()}
+    return out
+
+
+def format_table(result: dict[str, Any]) -> str:
+    lines = ["seed 003: intruders in 3-D volumes (no detector)"]
+    p = result.get("pets09")
+    if p:
+        def row(name: str, r: dict[str, Any]) -> str:
+            s, s0 = r["size_error_m"], r["size_error_raw_m"]
+            return (f"  {name:<11} MOTA {r['MOTA']:.3f} IDF1 {r['IDF1']:.3f} HOTA {r['HOTA']:.3f}"
+                    f" | world MOTA {r['MOTA_world']:.3f} IDF1 {r['IDF1_world']:.3f} HOTA "
+                    f"{r['HOTA_world']:.3f} median {r['median_error_m']:.2f} m | entry "
+                    f"{r['entry_error_frames']:.0f} exit {r['exit_error_frames']:.0f} frames, "
+                    f"{100 * r['entry_exit_within_10']:.0f}% within 10 | size error x/y/z "
+                    f"{s['x']:.2f}/{s['y']:.2f}/{s['z']:.2f} m (eq. 10: {s0['x']:.2f}/"
+                    f"{s0['y']:.2f}/{s0['z']:.2f}) | {r['frames_per_second']:.1f} fps")
+        lines.append(f"PETS 2009 S2.L1 frames {p['setup']['frames']}:")
+        lines.append(row("eigenspace", p))
+        if "mog2" in p:
+            lines.append(row("mog2", p["mog2"]))
+    c = result.get("coast")
+    if c:
+        lines.append(f"coast: {c.get('status', '')}")
+    return "\n".join(lines)

@@ -1,0 +1,736 @@
+"""Intruders in 3-D volumes (seed 003 sec. 3 and 4.2, and its future work: several at once).
+
+:class:`VolumeTracks` (track manager ``volumes``) runs seed 003's detection scheme inside the one
+engine (:class:`pftrack.tracker.MultiTargetTracker`):
+
+* one **detection group** per volume: particles spread uniformly through the cuboid (velocity
+  0); a particle outside its volume gets likelihood 0 (``Target.valid_region``); the group is
+  filtered like any target (predict, weight, resample) so that it gathers on what changed;
+* **entry** when at least ``entry_particles`` (N_m) of the group's particles have likelihood
+  above ``v_pi`` in a frame: a **track** starts from the group's particles (those of the largest
+  connected patch of the image they cover), and the group is spread uniformly again; also
+  after ``idle_frames`` frames without an entry;
+* **several intruders**: the group's particles that project into a tracked intruder's image box
+  (enlarged by ``exclusion_margin``) get likelihood 0, so what a track explains is taken away
+  from the group and the next intruder can be found; two tracks whose boxes overlap by more
+  than ``merge_iou`` are one intruder and the younger ends;
+* **exit** when no more than ``exit_particles`` (N_out) of a track's particles have likelihood
+  above ``v_pi`` for ``exit_frames`` frames in a row (1: the paper): the track ends.
+
+Estimates per frame (each output :class:`~pftrack.components.TrackRecord`):
+
+* the paper's (eq. 8-10): centre = weighted mean of the particles, size l = 2 sqrt(weighted
+  variance) -- kept in :attr:`VolumeTracks.estimates_` as ``centre_raw_m`` and ``size_raw_m``,
+  the variance taken along the view's axes (width across the view, height, depth along it);
+* the **support-plane correction** (``TrackRecord.world_m``, ``size_m``, ``box_xywh_px``): one
+  view cannot place a point along its ray, so the particle cloud of an intruder stretches along
+  the rays through it (seed 003 Table 1: a 2.3 m deep boat estimated 63 m deep). Intruders rest
+  on a support plane (sea level, the ground: ``support_z_m``), so the lowest image row of the
+  cloud is the front of the footprint on that plane: back-projected, it fixes the distance. The
+  cloud's image box then gives the width across the view (its bottom corners on the plane) and
+  the height (the top row on the vertical over the back of the footprint). The depth along the
+  view cannot be seen from one view at a grazing angle (a 2.3 m deep boat at 300 m from 20 m up
+  moves its top edge by a third of a pixel); it comes from a footprint prior: a rectangle whose
+  long side (``footprint_aspect`` times the short one) points along the track's direction of
+  travel on the plane (across the view when it has not moved ``min_travel_m``).
+
+The image box of the cloud spans its 2 % to 98 % quantiles per image axis, widened to the ends
+of a uniform spread with those quantiles.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from pftrack.components import (
+    Detections,
+    Frame,
+    Likelihood,
+    Param,
+    RunContext,
+    Target,
+    TrackManager,
+    TrackRecord,
+)
+
+__all__ = ["InsideBoxesLikelihood", "VolumeTracks", "cuboid_box", "footprint_size",
+           "support_plane_estimate"]
+
+
+def footprint_size(across_m: float, aspect: float, heading_deg: float | None) -> tuple[float,
+                                                                                       float]:
+    """Footprint extents (across the view, along it) of a rectangle whose long side is
+    ``aspect`` times its short one and points ``heading_deg`` from the across-view direction,
+    given its measured extent across the view.
+
+    A rectangle L x W (L = aspect W) turned by phi spans ``L |cos phi| + W |sin phi|`` across
+    the view and ``L |sin phi| + W |cos phi|`` along it. ``heading_deg`` None: phi = 0.
+    """
+    phi = 0.0 if heading_deg is None else math.radians(float(heading_deg))
+    c, s = abs(math.cos(phi)), abs(math.sin(phi))
+    a = float(aspect)
+    w = float(across_m) / (a * c + s)
+    return float(across_m), w * (a * s + c)
+
+
+def _axes(camera: Any, ground_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit vectors (3,) across and along the view on the horizontal plane at ``ground_xy``."""
+    c = camera.center_m
+    along = np.array([ground_xy[0] - c[0], ground_xy[1] - c[1], 0.0])
+    n = float(np.hypot(along[0], along[1]))
+    along = np.array([0.0, 1.0, 0.0]) if n == 0 else along / n
+    across = np.array([along[1], -along[0], 0.0])
+    return across, along
+
+
+def support_plane_estimate(camera: Any, pixels: np.ndarray, *, support_z_m: float = 0.0,
+                           aspect: float = 1.0, heading_deg: float | None = None,
+                           max_height_m: float = 50.0, quantile: float = 0.02,
+                           ) -> dict[str, Any] | None:
+    """An object's footprint centre, size and image box from the image positions of its
+    particles, for an object resting on the plane ``z = support_z_m`` (see the module docstring).
+
+    Parameters
+    ----------
+    camera : Camera
+    pixels : ndarray, shape (N, 2)
+        The particles' image positions (NaN rows ignored), equally weighted.
+    support_z_m, aspect, heading_deg
+        The support plane's height, the footprint's long/short ratio and its heading from the
+        across-view direction (degrees, None: 0).
+    max_height_m : float
+        Heights are searched up to this.
+    quantile : float
+        The cloud's image box spans its ``quantile`` to ``1 - quantile`` quantiles per axis,
+        widened to the ends of a uniform spread with those quantiles (outlying particles do not
+        stretch it).
+
+    Returns
+    -------
+    dict or None
+        ``footprint_m`` (3,) the footprint's centre on the plane, ``centre_m`` (3,) the object's
+        centre, ``size_m`` (3,) width across the view, height, depth along it, ``box_xywh_px``
+        (4,) the cloud's image box, ``across``/``along`` (3,) the view's unit axes; None when
+        the cloud's foot row does not meet the plane in front of the camera.
+    """
+    px = np.asarray(pixels, dtype=np.float64)
+    px = px[np.isfinite(px).all(axis=1)]
+    if len(px) < 2:
+        return None
+    q = float(quantile)
+    lo, hi = np.quantile(px, [q, 1.0 - q], axis=0)
+    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo) / (1.0 - 2.0 * q)  # a uniform spread's ends
+    (u0, v0), (u1, v1) = mid - half, mid + half
+    mu = mid
+    z = float(support_z_m)
+    g = camera.image_to_ground(np.array([[mu[0], v1], [u0, v1], [u1, v1]]), z_m=z)
+    if not np.isfinite(g).all():
+        return None
+    front = g[0]
+    across, along = _axes(camera, front[:2])
+    width = float(abs(np.dot(g[2] - g[1], across)))
+    width, depth = footprint_size(width, aspect, heading_deg)
+    back = front + depth * along
+    # the top row on the vertical over the back of the footprint (the top edge seen last)
+    hz = np.linspace(0.0, float(max_height_m), 65)
+    col = np.repeat(back[None], len(hz), axis=0)
+    col[:, 2] = z + hz
+    vv = camera.project(col)[:, 1]
+    ok = np.isfinite(vv)
+    height = 0.0
+    if ok.sum() >= 2:
+        vs, hs = vv[ok], hz[ok]
+        order = np.argsort(vs)
+        height = float(np.interp(v0, vs[order], hs[order]))
+    foot = front + 0.5 * depth * along
+    centre = foot.copy()
+    centre[2] = z + 0.5 * height
+    return {"footprint_m": foot, "centre_m": centre,
+            "size_m": np.array([width, height, depth]),
+            "box_xywh_px": np.array([u0, v0, u1 - u0, v1 - v0]),
+            "across": across, "along": along}
+
+
+def cuboid_box(camera: Any, centre_m: np.ndarray, size_m: np.ndarray, across: np.ndarray,
+               along: np.ndarray) -> np.ndarray:
+    """Image bounding box (4,) of a cuboid with ``size_m`` (across, height, along) about
+    ``centre_m``, its faces along the view's axes (NaN when a corner is behind the camera)."""
+    s = np.array([[a, b, c] for a in (-0.5, 0.5) for b in (-0.5, 0.5) for c in (-0.5, 0.5)])
+    up = np.array([0.0, 0.0, 1.0])
+    corners = (np.asarray(centre_m, float)[None] + (s[:, 0:1] * size_m[0]) * across
+               + (s[:, 1:2] * size_m[1]) * up + (s[:, 2:3] * size_m[2]) * along)
+    if not camera.in_front(corners).all():
+        return np.full(4, np.nan)
+    p = camera.project(corners)
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    return np.concatenate([lo, hi - lo])
+
+
+class _Region:
+    """A target's ``valid_region`` (a picklable callable): see
+    :meth:`VolumeTracks._in_region`."""
+
+    def __init__(self, manager: VolumeTracks, volume: Any, tid: int, mode: str) -> None:
+        self.manager, self.volume, self.tid, self.mode = manager, volume, tid, mode
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        return self.manager._in_region(self.tid, self.volume, self.mode, points)
+
+
+def _clip_into(volume: Any, points: np.ndarray) -> np.ndarray:
+    """Points (N, 3) moved into a cuboid along its own axes (the nearest inside point)."""
+    local = volume.to_local(points)
+    half = 0.5 * np.asarray(volume.size_m, dtype=np.float64)
+    return volume.to_world(np.clip(local, -half, half))
+
+
+def _iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    from pftrack.metrics.similarity import box_iou
+
+    return box_iou(a[:, None, :], b[None, :, :])
+
+
+class InsideBoxesLikelihood(Likelihood):
+    """A particle's likelihood is ``inside`` when its pixel lies in one of the frame's
+    detection boxes, ``outside`` elsewhere (0 without detections): a perfect foreground mask
+    made of boxes, for tests and the conformance kit's run of :class:`VolumeTracks` (boxes
+    of size 0, ``particle_box="point"``, are read as the particles' pixels).
+
+    {params}
+    """
+
+    inside: float = Param(0.95, "Likelihood inside a box.")
+    outside: float = Param(1e-3, "Likelihood outside every box.")
+
+    def begin_frame(self, frame: Frame, targets: Sequence[Target],
+                    detections: Detections | None = None) -> None:
+        self.boxes_ = detections.boxes_xywh_px if detections is not None else np.zeros((0, 4))
+
+    def log_likelihood(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
+        b = np.asarray(boxes_xywh_px, dtype=np.float64)
+        px = b[:, :2] + 0.5 * b[:, 2:]
+        d = self.boxes_
+        with np.errstate(invalid="ignore"):
+            hit = ((px[:, None, :] >= d[None, :, :2])
+                   & (px[:, None, :] <= d[None, :, :2] + d[None, :, 2:])).all(axis=2).any(axis=1)
+        return np.where(hit, math.log(float(self.inside)), math.log(float(self.outside)))
+
+
+class VolumeTracks(TrackManager):
+    """Seed 003's entry / exit detection in cuboid volumes, for several intruders at once.
+
+    {params}
+
+    Attributes
+    ----------
+    groups_ : dict[int, str]
+        Live detection groups: target id -> volume name.
+    tracks_ : dict[int, str]
+        Live tracks: target id -> volume name.
+    estimates_ : list of dict
+        One per output record: ``frame``, ``id``, ``volume``, ``centre_raw_m`` and
+        ``size_raw_m`` (eq. 8-10; size across, height, along the view), ``footprint_m``,
+        ``size_m`` (the support-plane correction), ``n_above`` (particles above ``v_pi``).
+    events_ : list of dict
+        ``{"frame", "id", "volume", "event": "entry"|"exit"|"merged"}``.
+    """
+
+    volumes: Sequence[str | dict] | str = Param(
+        ("near", "far"), "Detection volumes: names (built in, or defined in the shipped "
+        "calib/*.yaml), 'FILE' (every volume of a volumes YAML) / 'FILE:NAME', or volume "
+        "mappings as in a volumes file.")
+    entry_particles: int = Param(50, "N_m: an entry when at least this many particles of a "
+                                     "detection group have likelihood above v_pi.")
+    exit_particles: int = Param(10, "N_out: a track ends when no more than this many of its "
+                                    "particles have likelihood above v_pi.")
+    v_pi: float = Param(0.5, "Likelihood threshold in (0, 1) of the entry and exit counts.")
+    exit_frames: int = Param(1, "Frames in a row at or below N_out before a track ends "
+                                "(1: the paper).")
+    idle_frames: int = Param(10, "A detection group without an entry for this many frames is "
+                                 "spread uniformly through its volume again.")
+    exclusion_margin: float = Param(0.2, "A tracked intruder's image box, enlarged by this "
+                                         "fraction of its size per side, is taken away from "
+                                         "the detection groups.")
+    merge_iou: float = Param(0.5, "Two tracks whose image boxes overlap by more than this "
+                                  "for merge_frames frames in a row are one intruder: the "
+                                  "younger ends.")
+    merge_distance_m: float | None = Param(
+        None, "Two tracks whose footprints are closer than this (metres) are one intruder too "
+        "(with the same merge_frames); None: only the image overlap.")
+    merge_frames: int = Param(5, "Frames in a row of overlap before two tracks merge (two "
+                                 "intruders crossing overlap for a while and stay two).")
+    confirm_frames: int = Param(3, "A new track is output once it has lived this many frames "
+                                   "(its records from the entry on, so confirmation costs no "
+                                   "frames); one that ends sooner was noise and is never "
+                                   "output (1: every entry is output at once, the paper).")
+    support_z_m: float = Param(0.0, "Height of the plane intruders rest on (sea level, the "
+                                    "ground), metres.")
+    footprint_aspect: float = Param(1.0, "Length / width of an intruder's footprint (1: a "
+                                         "person; about 3 for boats and cars).")
+    min_travel_m: float = Param(2.0, "A track's heading is the direction of its footprint's "
+                                     "travel over the last heading_frames once it exceeds "
+                                     "this distance (before: across the view).")
+    heading_frames: int = Param(15, "Frames over which the heading is measured.")
+    object_size_m: Sequence[float] | None = Param(
+        None, "A typical intruder's size (width across the view, height, depth along it), "
+        "metres: a new track's particles are jittered by half of it (so that a track started "
+        "on part of an intruder soon covers all of it), and each track takes away from the "
+        "detection groups at least the image box of a cuboid this size on its footprint. "
+        "None: neither.")
+    gate_margin: float | None = Param(
+        0.5, "With object_size_m: a track's particles live only where they project into the "
+        "image boxes of a cuboid of that size on its last footprint and where its recent "
+        "motion takes it next, enlarged by this fraction of the size per side (one "
+        "intruder's particles do not spread onto a neighbour). None: no gate.")
+    min_size_fraction: float = Param(
+        0.5, "With object_size_m: an entry whose particles span less than this fraction of the "
+        "typical width or height (on the support plane) is a fringe or noise: no new track.")
+    spawn_overlap: float = Param(0.5, "An entry whose particles' image box lies more than this "
+                                      "fraction inside a tracked intruder's box is that "
+                                      "intruder's fringe: no new track.")
+    blob_block_px: int = Param(8, "Cell size (pixels) of the image grid on which a new track "
+                                  "takes the largest connected patch of the group's particles.")
+
+    @classmethod
+    def _conformance_example(cls) -> Any:
+        """For :mod:`pftrack.testing`: a camera 20 m up over a 60 x 60 x 2 m volume, the kit's
+        synthetic scene's boxes as a perfect foreground (:class:`InsideBoxesLikelihood`)."""
+        from pftrack.geometry.camera import Camera
+        from pftrack.geometry.volumes import CuboidVolume
+        from pftrack.observation_world import CameraVolumeObservation
+        from pftrack.testing import ConformanceExample
+
+        from pftrack_basic.motion import ConstantVelocity3DMotion
+
+        cam = Camera.look_at((0.0, -40.0, 20.0), (0.0, 0.0, 0.0), (160, 120), fx=150.0)
+        vol = CuboidVolume([0.0, 0.0, 1.0], [60.0, 60.0, 2.0], None, "kit")
+        return ConformanceExample(
+            cls(volumes=[vol.to_dict()], entry_particles=3, exit_particles=2, object_size_m=(1, 2, 1)),
+            context=RunContext(camera=cam),
+            engine={"motion": ConstantVelocity3DMotion(position_noise=0.3),
+                    "likelihood": InsideBoxesLikelihood(),
+                    "observation": CameraVolumeObservation(particle_box="point"),
+                    "associator": None, "detection_driven": False, "n_particles": 400,
+                    "max_misses": None, "kill_out_of_view": False})
+
+    def setup(self, context: RunContext) -> None:
+        """The run's camera (else the observation model's, at the first frame) and the
+        volumes, checked."""
+        if context.camera is not None:
+            self.camera_ = context.camera
+        self._check()
+
+    def _check(self) -> None:
+        if "volumes_" in self.__dict__:
+            return
+        from pftrack.geometry.volumes import CuboidVolume, load_volumes, resolve_volume
+
+        specs = [self.volumes] if isinstance(self.volumes, str) or \
+            not isinstance(self.volumes, (list, tuple)) else list(self.volumes)
+        vols: dict[str, Any] = {}
+        from pftrack.geometry.volumes import Volume, _volume_from_dict
+
+        for spec in specs:
+            if isinstance(spec, Volume):
+                vols[getattr(spec, "name", f"volume{len(vols)}")] = spec
+                continue
+            if isinstance(spec, dict):
+                v = _volume_from_dict(spec, "tracks 'volumes'")
+                vols[v.name] = v
+                continue
+            s = str(spec)
+            if s.endswith((".yaml", ".yml")) and ":" not in s:
+                vols.update(load_volumes(s))
+            else:
+                v = resolve_volume(s)
+                vols[getattr(v, "name", s)] = v
+        if not vols:
+            raise ValueError("tracks 'volumes': no volume given")
+        for name, v in vols.items():
+            if not isinstance(v, CuboidVolume):
+                vols[name] = v.as_cuboid() if hasattr(v, "as_cuboid") else v
+        n_m, n_out = int(self.entry_particles), int(self.exit_particles)
+        if n_m < 1 or n_out < 0:
+            raise ValueError(f"tracks 'volumes': need entry_particles >= 1 and exit_particles "
+                             f">= 0, got {self.entry_particles!r}, {self.exit_particles!r}")
+        if not 0.0 < float(self.v_pi) < 1.0:
+            raise ValueError(f"tracks 'volumes': v_pi must be in (0, 1), got {self.v_pi!r}")
+        for k in ("exit_frames", "idle_frames", "heading_frames", "blob_block_px",
+                  "merge_frames", "confirm_frames"):
+            if int(getattr(self, k)) < 1:
+                raise ValueError(f"tracks 'volumes': {k} must be >= 1, got "
+                                 f"{getattr(self, k)!r}")
+        if not float(self.footprint_aspect) > 0:
+            raise ValueError(f"tracks 'volumes': footprint_aspect must be > 0, got "
+                             f"{self.footprint_aspect!r}")
+        if self.object_size_m is not None:
+            size = np.asarray(self.object_size_m, dtype=np.float64).reshape(-1)
+            if size.shape != (3,) or not np.all(size > 0):
+                raise ValueError(f"tracks 'volumes': object_size_m must be 3 sizes > 0 "
+                                 f"(across, height, along; metres), got {self.object_size_m!r}")
+        self.volumes_ = vols
+        self.groups_: dict[int, str] = {}
+        self.tracks_: dict[int, str] = {}
+        self.idle_: dict[int, int] = {}
+        self.low_: dict[int, int] = {}
+        self.boxes_: dict[int, np.ndarray] = {}
+        self.paths_: dict[int, deque] = {}
+        self.overlaps_: dict[tuple[int, int], int] = {}
+        self.gates_: dict[int, np.ndarray] = {}
+        self.targets_: dict[int, Target] = {}
+        self.pending_: dict[int, list[TrackRecord]] = {}
+        self.estimates_: list[dict[str, Any]] = []
+        self.events_: list[dict[str, Any]] = []
+
+    # -- helpers ------------------------------------------------------------------------------
+
+    def _camera(self, engine: Any) -> Any:
+        cam = self.__dict__.get("camera_")
+        if cam is None:
+            get = getattr(engine.observation, "get_camera", None)
+            cam = get() if get is not None else None
+            if cam is None:
+                raise ValueError("tracks 'volumes': needs a camera (the run's, or the "
+                                 "observation model's)")
+            self.camera_ = cam
+        return cam
+
+    def _spread(self, engine: Any, tid: int, volume: Any) -> None:
+        """Particles uniform in ``volume``, velocity 0."""
+        n, d = engine.n_particles, engine.motion.state_dim
+        p = np.zeros((n, d))
+        p[:, list(engine.motion.position_dims)] = volume.sample(n, engine.rng)
+        engine.set_particles(tid, p)
+        self.idle_[tid] = 0
+
+    def _pixels(self, tid: int, points: np.ndarray) -> np.ndarray:
+        """Image positions (N, 2) of a target's particles: the engine's particle boxes when they
+        are points of this frame (``particle_box="point"``), else projected."""
+        t = self.targets_.get(tid)
+        b = None if t is None else t.particle_boxes_xywh_px
+        if b is not None and len(b) == len(points) and not b[:, 2:].any():
+            return b[:, :2]
+        return self.camera_.project(points)
+
+    def _group_region(self, volume: Any, tid: int) -> Any:
+        return _Region(self, volume, tid, "exclude")
+
+    def _in_region(self, tid: int, volume: Any, mode: str, points: np.ndarray) -> np.ndarray:
+        """Where particles of target ``tid`` may be: in ``volume``, and (``"exclude"``, a
+        detection group) outside every tracked intruder's box enlarged by
+        ``exclusion_margin`` and outside its gate, or (``"gate"``, a track) inside its gate."""
+        inside = volume.contains(points)
+        if not inside.any():
+            return inside
+        if mode == "gate":
+            gate = self.gates_.get(tid)
+            if gate is None:
+                return inside
+            px = self._pixels(tid, points)
+            with np.errstate(invalid="ignore"):
+                hit = ((px >= gate[:2]) & (px <= gate[:2] + gate[2:])).all(axis=1)
+            return inside & hit
+        boxes = list(self.boxes_.values())
+        if not boxes:
+            return inside
+        b = np.array(boxes)
+        m = float(self.exclusion_margin)
+        lo = b[:, :2] - m * b[:, 2:]
+        hi = b[:, :2] + (1.0 + m) * b[:, 2:]
+        gates = [self.gates_.get(k) for k in self.boxes_]
+        if any(g is not None for g in gates):  # a track's gate is taken away too
+            g = np.array([x if x is not None else np.full(4, np.nan) for x in gates])
+            has = np.isfinite(g).all(axis=1)
+            lo[has] = np.minimum(lo[has], g[has, :2])
+            hi[has] = np.maximum(hi[has], g[has, :2] + g[has, 2:])
+        px = self._pixels(tid, points)
+        with np.errstate(invalid="ignore"):
+            hit = ((px[:, None, :] >= lo[None]) & (px[:, None, :] <= hi[None])).all(axis=2)
+        return inside & ~hit.any(axis=1)
+
+    def _track_region(self, tid: int, volume: Any) -> Any:
+        return _Region(self, volume, tid, "gate")
+
+    def _start_groups(self, engine: Any, frame: Frame) -> None:
+        for name, vol in self.volumes_.items():
+            t = engine.add_target(frame, position=np.asarray(vol.center_m, float))
+            self.groups_[t.id] = name
+            self.targets_[t.id] = t
+            t.valid_region = self._group_region(vol, t.id)
+            self._spread(engine, t.id, vol)
+
+    def _blob(self, engine: Any, particles: np.ndarray, frame: Frame) -> np.ndarray:
+        """The particles of the largest 8-connected patch (in cells of ``blob_block_px``) of
+        the image they cover, resampled to the engine's count."""
+        import cv2
+
+        pos = particles[:, list(engine.motion.position_dims)]
+        px = self.camera_.project(pos)
+        w, h = frame.size_wh
+        bs = int(self.blob_block_px)
+        gw, gh = -(-w // bs), -(-h // bs)
+        with np.errstate(invalid="ignore"):
+            c = np.floor(px[:, 0] / bs)
+            r = np.floor(px[:, 1] / bs)
+        ok = np.isfinite(c) & np.isfinite(r) & (c >= 0) & (c < gw) & (r >= 0) & (r < gh)
+        if not ok.any():
+            return particles
+        cell = np.full(len(px), -1, dtype=np.intp)
+        cell[ok] = (r[ok] * gw + c[ok]).astype(np.intp)
+        counts = np.bincount(cell[ok], minlength=gw * gh).reshape(gh, gw)
+        n_lab, labels = cv2.connectedComponents((counts > 0).astype(np.uint8), connectivity=8)
+        if n_lab <= 2:
+            chosen = ok
+        else:
+            lab = labels.ravel()
+            per = np.bincount(lab, weights=counts.ravel(), minlength=n_lab)
+            per[0] = -1
+            best = int(np.argmax(per))
+            chosen = ok.copy()
+            chosen[ok] = lab[cell[ok]] == best
+        sel = particles[chosen]
+        n = engine.n_particles
+        if len(sel) == n:
+            return sel
+        return sel[engine.rng.integers(0, len(sel), size=n)]
+
+    def _heading(self, tid: int, across: np.ndarray) -> float | None:
+        path = self.paths_.get(tid)
+        if not path or len(path) < 2:
+            return None
+        d = path[-1] - path[0]
+        if float(np.hypot(d[0], d[1])) < float(self.min_travel_m):
+            return None
+        along = np.array([-across[1], across[0]])
+        return math.degrees(math.atan2(float(np.dot(d, along)), float(np.dot(d, across[:2]))))
+
+    def _estimate(self, engine: Any, frame: Frame, t: Target, record: TrackRecord,
+                  n_above: int) -> TrackRecord:
+        cam = self.camera_
+        pos_dims = list(engine.motion.position_dims)
+        pos = t.particles[:, pos_dims]
+        px = cam.project(pos)
+        fine = np.isfinite(px).all(axis=1)
+        raw_centre = t.state[pos_dims].copy()
+        across, along = _axes(cam, raw_centre[:2])
+        est = None
+        if fine.sum() >= 2:
+            est = support_plane_estimate(cam, px[fine], support_z_m=float(self.support_z_m))
+            if est is not None:
+                across, along = est["across"], est["along"]
+                heading = self._heading(t.id, across)
+                if float(self.footprint_aspect) != 1.0:  # (a square: the heading is moot)
+                    est = support_plane_estimate(
+                        cam, px[fine], support_z_m=float(self.support_z_m),
+                        aspect=float(self.footprint_aspect), heading_deg=heading)
+        cov = np.cov(pos.T, bias=True) if len(pos) > 1 else np.zeros((3, 3))
+        up = np.array([0.0, 0.0, 1.0])
+        size_raw = np.array([2.0 * math.sqrt(max(float(a @ cov @ a), 0.0))
+                             for a in (across, up, along)])
+        entry = {"frame": frame.index, "id": t.id, "volume": self.tracks_[t.id],
+                 "centre_raw_m": raw_centre, "size_raw_m": size_raw, "n_above": int(n_above)}
+        if est is not None:
+            box = cuboid_box(cam, est["centre_m"], est["size_m"], est["across"], est["along"])
+            if np.isfinite(box).all():
+                record.box_xywh_px = box
+            record.world_m = est["footprint_m"].copy()
+            record.size_m = est["size_m"].copy()
+            self.paths_.setdefault(t.id, deque(maxlen=int(self.heading_frames))).append(
+                est["footprint_m"][:2].copy())
+            entry.update(footprint_m=est["footprint_m"], size_m=est["size_m"])
+        box = record.box_xywh_px.copy()
+        if self.object_size_m is not None and est is not None:
+            size = np.asarray(self.object_size_m, dtype=np.float64)
+            c = est["footprint_m"].copy()
+            c[2] += 0.5 * size[1]
+            prior = cuboid_box(cam, c, size, est["across"], est["along"])
+            if np.isfinite(prior).all():
+                if self.gate_margin is not None:
+                    # the gate: the prior cuboid where the footprint will be next frame (its
+                    # mean displacement over the last few frames ahead), with the margin
+                    path = self.paths_.get(t.id)
+                    nxt = c.copy()
+                    if path is not None and len(path) >= 2:
+                        k = min(len(path), 4)
+                        nxt[:2] += (path[-1] - path[-k]) / (k - 1)
+                    ahead = cuboid_box(cam, nxt, size, est["across"], est["along"])
+                    if not np.isfinite(ahead).all():
+                        ahead = prior
+                    lo = np.minimum(prior[:2], ahead[:2])
+                    hi = np.maximum(prior[:2] + prior[2:], ahead[:2] + ahead[2:])
+                    g = float(self.gate_margin)
+                    self.gates_[t.id] = np.concatenate([lo - g * prior[2:],
+                                                        hi - lo + 2.0 * g * prior[2:]])
+                lo = np.minimum(box[:2], prior[:2])
+                hi = np.maximum(box[:2] + box[2:], prior[:2] + prior[2:])
+                box = np.concatenate([lo, hi - lo])
+        self.boxes_[t.id] = box
+        self.estimates_.append(entry)
+        return record
+
+    # -- the hooks ----------------------------------------------------------------------------
+
+    def before_frame(self, engine: Any, frame: Frame, detections: Detections | None) -> None:
+        """Start the detection groups on the first frame."""
+        self._check()
+        self._camera(engine)
+        if not self.groups_:
+            self._start_groups(engine, frame)
+
+    def end_target(self, target: Target) -> None:
+        tid = target.id
+        for d in (self.groups_, self.tracks_, self.idle_, self.low_, self.boxes_, self.paths_,
+                  self.pending_, self.gates_, self.targets_):
+            d.pop(tid, None)
+
+    def after_frame(self, engine: Any, frame: Frame, detections: Detections | None,
+                    records: list[TrackRecord], unmatched_detections: np.ndarray,
+                    ) -> list[TrackRecord]:
+        log_v = math.log(float(self.v_pi))
+        live = {t.id: t for t in engine.targets}
+        by_id = {r.id: r for r in records}
+
+        def above(t: Target) -> int:
+            ll = t.log_likelihoods
+            return 0 if ll is None else int(np.count_nonzero(ll > log_v))
+
+        out: list[TrackRecord] = []
+        # exits and estimates of the tracks
+        for tid in list(self.tracks_):
+            t = live.get(tid)
+            if t is None:
+                continue
+            n_above = above(t)
+            self.low_[tid] = self.low_.get(tid, 0) + 1 if n_above <= int(self.exit_particles) \
+                else 0
+            if self.low_[tid] >= int(self.exit_frames) or tid not in by_id:
+                self.events_.append({"frame": frame.index, "id": tid,
+                                     "volume": self.tracks_[tid], "event": "exit"})
+                engine.remove_target(tid)
+                continue
+            out.append(self._estimate(engine, frame, t, by_id[tid], n_above))
+        # one intruder tracked twice (overlapping for merge_frames frames): the younger ends
+        overlaps: dict[tuple[int, int], int] = {}
+        if len(out) > 1:
+            boxes = np.array([r.box_xywh_px for r in out])
+            same = _iou(boxes, boxes) > float(self.merge_iou)
+            if self.merge_distance_m is not None:
+                xy = np.array([r.world_m[:2] if r.world_m is not None else (np.nan, np.nan)
+                               for r in out])
+                d = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
+                same |= d < float(self.merge_distance_m)
+            drop: set[int] = set()
+            order = sorted(range(len(out)), key=lambda i: out[i].id)  # older first
+            for a_i, i in enumerate(order):
+                if out[i].id in drop:
+                    continue
+                for j in order[a_i + 1:]:
+                    if out[j].id in drop or not same[i, j]:
+                        continue
+                    key = (out[i].id, out[j].id)
+                    overlaps[key] = self.overlaps_.get(key, 0) + 1
+                    if overlaps[key] >= int(self.merge_frames):
+                        drop.add(out[j].id)
+            for tid in drop:
+                self.events_.append({"frame": frame.index, "id": tid,
+                                     "volume": self.tracks_[tid], "event": "merged"})
+                engine.remove_target(tid)
+            out = [r for r in out if r.id not in drop]
+        self.overlaps_ = overlaps
+        # entries: each detection group with enough particles above v_pi starts a track
+        for gid, name in list(self.groups_.items()):
+            g = live.get(gid)
+            vol = self.volumes_[name]
+            if g is None:
+                continue
+            ll = g.log_likelihoods
+            if ll is None or not np.isfinite(ll).any():
+                self._spread(engine, gid, vol)
+                continue
+            if above(g) >= int(self.entry_particles):
+                parts = self._blob(engine, g.particles, frame)
+                if self._explained(parts, engine):
+                    self._spread(engine, gid, vol)  # a tracked intruder's fringe, not a new one
+                    continue
+                pos_dims = list(engine.motion.position_dims)
+                if self.object_size_m is not None:
+                    a = np.asarray(self.object_size_m, dtype=np.float64)
+                    jitter = engine.rng.standard_normal((len(parts), 3)) * (0.25 * a[[0, 2, 1]])
+                    parts = parts.copy()
+                    parts[:, pos_dims] += jitter
+                    parts[:, pos_dims] = _clip_into(vol, parts[:, pos_dims])
+                pos = parts[:, pos_dims].mean(axis=0)
+                t = engine.add_target(frame, position=pos)
+                engine.set_particles(t.id, parts)
+                t.valid_region = self._track_region(t.id, vol)
+                self.targets_[t.id] = t
+                self.tracks_[t.id] = name
+                self.low_[t.id] = 0
+                if int(self.confirm_frames) > 1:
+                    self.pending_[t.id] = []
+                self.events_.append({"frame": frame.index, "id": t.id, "volume": name,
+                                     "event": "entry"})
+                out.append(self._estimate(engine, frame, t, engine.record(frame, t),
+                                          above(g)))
+                self._spread(engine, gid, vol)
+                continue
+            self.idle_[gid] = self.idle_.get(gid, 0) + 1
+            if self.idle_[gid] >= int(self.idle_frames):
+                self._spread(engine, gid, vol)
+        for tid in list(self.boxes_):
+            if tid not in self.tracks_:
+                del self.boxes_[tid]
+        return self._confirmed(out)
+
+    def _confirmed(self, out: list[TrackRecord]) -> list[TrackRecord]:
+        """The records to output: a track's from its entry on once it has lived
+        ``confirm_frames`` frames."""
+        n = int(self.confirm_frames)
+        if n <= 1:
+            return out
+        shown = []
+        for r in out:
+            buf = self.pending_.get(r.id)
+            if buf is None:
+                shown.append(r)
+                continue
+            buf.append(r)
+            if len(buf) >= n:
+                shown.extend(buf)
+                del self.pending_[r.id]
+        return shown
+
+    def _explained(self, particles: np.ndarray, engine: Any) -> bool:
+        """Whether ``particles`` are not a new intruder: too small for one (``object_size_m``,
+        ``min_size_fraction``), on a tracked one's footprint (``merge_distance_m``) or mostly
+        (``spawn_overlap``) inside a tracked intruder's image box."""
+        px = self.camera_.project(particles[:, list(engine.motion.position_dims)])
+        px = px[np.isfinite(px).all(axis=1)]
+        if not len(px):
+            return True
+        if self.object_size_m is not None or self.merge_distance_m is not None:
+            est = support_plane_estimate(self.camera_, px, support_z_m=float(self.support_z_m))
+            if est is None:
+                return True
+            if self.object_size_m is not None:
+                size = np.asarray(self.object_size_m, dtype=np.float64)
+                f = float(self.min_size_fraction)
+                if est["size_m"][0] < f * size[0] or est["size_m"][1] < f * size[1]:
+                    return True
+            if self.merge_distance_m is not None and self.paths_:
+                xy = np.array([p[-1] for p in self.paths_.values() if p])
+                if len(xy) and np.hypot(*(xy - est["footprint_m"][:2]).T).min() \
+                        < float(self.merge_distance_m):
+                    return True
+        if not self.boxes_:
+            return False
+        mu, half = px.mean(axis=0), math.sqrt(3.0) * px.std(axis=0)
+        lo, hi = mu - half, mu + half
+        area = max(float(np.prod(hi - lo)), 1e-9)
+        b = np.array(list(self.boxes_.values()))
+        ov = np.clip(np.minimum(hi, b[:, :2] + b[:, 2:]) - np.maximum(lo, b[:, :2]), 0, None)
+        return bool((ov.prod(axis=1) / area > float(self.spawn_overlap)).any())
