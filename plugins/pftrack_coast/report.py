@@ -10,7 +10,7 @@ import numpy as np
 
 from pftrack_coast.eigenspace import BlockEigenspaceModel, block_fractions
 
-__all__ = ["dims_png", "frame_png"]
+__all__ = ["dims_png", "frame_png", "intruders_image"]
 
 
 def _png(fig) -> bytes:
@@ -76,3 +76,55 @@ def dims_png(model: BlockEigenspaceModel, title: str = "") -> bytes:
     ax.set_xticks([])
     ax.set_yticks([])
     return _png(fig)
+
+
+def _cuboid_edges(centre_m: np.ndarray, size_m: np.ndarray, across: np.ndarray,
+                  along: np.ndarray) -> np.ndarray:
+    """The 12 edges (12, 2, 3) of a cuboid ``size_m`` (across, height, along) about
+    ``centre_m`` with faces along the view's axes."""
+    from pftrack.geometry.volumes import _BOX_EDGES
+
+    up = np.array([0.0, 0.0, 1.0])
+    bits = (np.arange(8)[:, None] >> np.arange(3)[None, :]) & 1  # corner k: bit j -> axis j
+    signs = bits - 0.5
+    corners = (np.asarray(centre_m, float)[None] + (signs[:, 0:1] * size_m[0]) * across
+               + (signs[:, 2:3] * size_m[1]) * up + (signs[:, 1:2] * size_m[2]) * along)
+    return corners[_BOX_EDGES]
+
+
+def intruders_image(image_bgr: np.ndarray, camera, volumes, engine, estimates,
+                    frame_index: int, *, groups: bool = True) -> np.ndarray:
+    """Seed 003's figures 2-3 on a frame: the volumes (yellow), each track's particles (white),
+    the detection groups' particles (red, ``groups``), each estimate's corrected cuboid
+    projected (green) with its id. ``estimates`` is :attr:`VolumeTracks.estimates_`;
+    ``engine`` the engine right after ``frame_index`` was tracked. Returns a BGR copy."""
+    import cv2
+
+    from pftrack.render.overlay import draw_points, draw_volume, draw_world_polylines
+
+    img = np.ascontiguousarray(image_bgr).copy()
+    for v in volumes:
+        img = draw_volume(img, camera, v, ground_lines=False, thickness=1)
+    tracks = engine.tracks
+    for t in engine.targets:
+        is_group = t.id in tracks.groups_
+        if is_group and not groups:
+            continue
+        px = camera.project(t.particles[:, :3])
+        colour = np.array([[0, 0, 255]] if is_group else [[255, 255, 255]], np.uint8)
+        img = draw_points(img, px[::2], np.repeat(colour, len(px[::2]), axis=0), 1)
+    for e in estimates:
+        if e["frame"] != frame_index or "size_m" not in e:
+            continue
+        from pftrack_coast.volumes import _axes
+
+        across, along = _axes(camera, e["footprint_m"][:2])
+        centre = e["footprint_m"] + np.array([0.0, 0.0, 0.5 * e["size_m"][1]])
+        img = draw_world_polylines(img, camera, list(_cuboid_edges(centre, e["size_m"], across,
+                                                                   along)), (0, 255, 0), 2,
+                                   step_m=0.05)
+        u, v = camera.project(centre[None] + np.array([[0, 0, 0.5 * e["size_m"][1]]]))[0]
+        if np.isfinite(u):
+            cv2.putText(img, str(e["id"]), (int(u) - 6, int(v) - 4), cv2.FONT_HERSHEY_SIMPLEX,
+                        0.5, (0, 255, 0), 1, cv2.LINE_AA)
+    return img

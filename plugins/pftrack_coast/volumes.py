@@ -130,6 +130,7 @@ def support_plane_estimate(camera: Any, pixels: np.ndarray, *, support_z_m: floa
     g = camera.image_to_ground(np.array([[mu[0], v1], [u0, v1], [u1, v1]]), z_m=z)
     if not np.isfinite(g).all():
         return None
+    g[:, 2] = z  # on the plane exactly (the intersection leaves rounding)
     front = g[0]
     across, along = _axes(camera, front[:2])
     width = float(abs(np.dot(g[2] - g[1], across)))
@@ -542,6 +543,8 @@ class VolumeTracks(TrackManager):
             self.paths_.setdefault(t.id, deque(maxlen=int(self.heading_frames))).append(
                 est["footprint_m"][:2].copy())
             entry.update(footprint_m=est["footprint_m"], size_m=est["size_m"])
+        if est is None:  # no footprint: the particles' mean, put on the support plane
+            record.world_m = np.array([raw_centre[0], raw_centre[1], float(self.support_z_m)])
         box = record.box_xywh_px.copy()
         if self.object_size_m is not None and est is not None:
             size = np.asarray(self.object_size_m, dtype=np.float64)
