@@ -57,7 +57,7 @@ from pftrack.components import (
     TrackRecord,
 )
 
-__all__ = ["InsideBoxesLikelihood", "VolumeTracks", "cuboid_box", "footprint_size",
+__all__ = ["InsideBoxesLikelihood", "VolumeTracks", "cuboid_box", "cuboid_boxes", "footprint_size",
            "support_plane_estimate"]
 
 
@@ -160,15 +160,26 @@ def cuboid_box(camera: Any, centre_m: np.ndarray, size_m: np.ndarray, across: np
                along: np.ndarray) -> np.ndarray:
     """Image bounding box (4,) of a cuboid with ``size_m`` (across, height, along) about
     ``centre_m``, its faces along the view's axes (NaN when a corner is behind the camera)."""
+    return cuboid_boxes(camera, np.asarray(centre_m, float)[None],
+                        np.asarray(size_m, float)[None], across, along)[0]
+
+
+def cuboid_boxes(camera: Any, centres_m: np.ndarray, sizes_m: np.ndarray, across: np.ndarray,
+                 along: np.ndarray) -> np.ndarray:
+    """:func:`cuboid_box` of K cuboids (K, 3) at once: (K, 4), one projection."""
     s = np.array([[a, b, c] for a in (-0.5, 0.5) for b in (-0.5, 0.5) for c in (-0.5, 0.5)])
     up = np.array([0.0, 0.0, 1.0])
-    corners = (np.asarray(centre_m, float)[None] + (s[:, 0:1] * size_m[0]) * across
-               + (s[:, 1:2] * size_m[1]) * up + (s[:, 2:3] * size_m[2]) * along)
-    if not camera.in_front(corners).all():
-        return np.full(4, np.nan)
-    p = camera.project(corners)
-    lo, hi = p.min(axis=0), p.max(axis=0)
-    return np.concatenate([lo, hi - lo])
+    c = np.asarray(centres_m, dtype=np.float64)
+    z = np.asarray(sizes_m, dtype=np.float64)
+    corners = (c[:, None, :] + (s[None, :, 0:1] * z[:, None, 0:1]) * across
+               + (s[None, :, 1:2] * z[:, None, 1:2]) * up
+               + (s[None, :, 2:3] * z[:, None, 2:3]) * along).reshape(-1, 3)
+    p = camera.project(corners).reshape(len(c), 8, 2)
+    behind = ~camera.in_front(corners).reshape(len(c), 8).all(axis=1)
+    lo, hi = p.min(axis=1), p.max(axis=1)
+    out = np.concatenate([lo, hi - lo], axis=1)
+    out[behind] = np.nan
+    return out
 
 
 class _Region:
@@ -534,43 +545,46 @@ class VolumeTracks(TrackManager):
                              for a in (across, up, along)])
         entry = {"frame": frame.index, "id": t.id, "volume": self.tracks_[t.id],
                  "centre_raw_m": raw_centre, "size_raw_m": size_raw, "n_above": int(n_above)}
-        if est is not None:
-            box = cuboid_box(cam, est["centre_m"], est["size_m"], est["across"], est["along"])
-            if np.isfinite(box).all():
-                record.box_xywh_px = box
-            record.world_m = est["footprint_m"].copy()
-            record.size_m = est["size_m"].copy()
-            self.paths_.setdefault(t.id, deque(maxlen=int(self.heading_frames))).append(
-                est["footprint_m"][:2].copy())
-            entry.update(footprint_m=est["footprint_m"], size_m=est["size_m"])
         if est is None:  # no footprint: the particles' mean, put on the support plane
             record.world_m = np.array([raw_centre[0], raw_centre[1], float(self.support_z_m)])
-        box = record.box_xywh_px.copy()
-        if self.object_size_m is not None and est is not None:
+            self.boxes_[t.id] = record.box_xywh_px.copy()
+            self.estimates_.append(entry)
+            return record
+        record.world_m = est["footprint_m"].copy()
+        record.size_m = est["size_m"].copy()
+        path = self.paths_.setdefault(t.id, deque(maxlen=int(self.heading_frames)))
+        path.append(est["footprint_m"][:2].copy())
+        entry.update(footprint_m=est["footprint_m"], size_m=est["size_m"])
+        # the estimate's cuboid, and with a typical size: the one on the footprint and where
+        # the footprint goes next (its mean displacement over the last few frames), one call
+        centres, sizes = [est["centre_m"]], [est["size_m"]]
+        if self.object_size_m is not None:
             size = np.asarray(self.object_size_m, dtype=np.float64)
             c = est["footprint_m"].copy()
             c[2] += 0.5 * size[1]
-            prior = cuboid_box(cam, c, size, est["across"], est["along"])
-            if np.isfinite(prior).all():
-                if self.gate_margin is not None:
-                    # the gate: the prior cuboid where the footprint will be next frame (its
-                    # mean displacement over the last few frames ahead), with the margin
-                    path = self.paths_.get(t.id)
-                    nxt = c.copy()
-                    if path is not None and len(path) >= 2:
-                        k = min(len(path), 4)
-                        nxt[:2] += (path[-1] - path[-k]) / (k - 1)
-                    ahead = cuboid_box(cam, nxt, size, est["across"], est["along"])
-                    if not np.isfinite(ahead).all():
-                        ahead = prior
-                    lo = np.minimum(prior[:2], ahead[:2])
-                    hi = np.maximum(prior[:2] + prior[2:], ahead[:2] + ahead[2:])
-                    g = float(self.gate_margin)
-                    self.gates_[t.id] = np.concatenate([lo - g * prior[2:],
-                                                        hi - lo + 2.0 * g * prior[2:]])
-                lo = np.minimum(box[:2], prior[:2])
-                hi = np.maximum(box[:2] + box[2:], prior[:2] + prior[2:])
-                box = np.concatenate([lo, hi - lo])
+            nxt = c.copy()
+            if len(path) >= 2:
+                k = min(len(path), 4)
+                nxt[:2] += (path[-1] - path[-k]) / (k - 1)
+            centres += [c, nxt]
+            sizes += [size, size]
+        boxes = cuboid_boxes(cam, np.array(centres), np.array(sizes), est["across"],
+                             est["along"])
+        if np.isfinite(boxes[0]).all():
+            record.box_xywh_px = boxes[0]
+        box = record.box_xywh_px.copy()
+        if self.object_size_m is not None and np.isfinite(boxes[1]).all():
+            prior = boxes[1]
+            ahead = boxes[2] if np.isfinite(boxes[2]).all() else prior
+            if self.gate_margin is not None:
+                lo = np.minimum(prior[:2], ahead[:2])
+                hi = np.maximum(prior[:2] + prior[2:], ahead[:2] + ahead[2:])
+                g = float(self.gate_margin)
+                self.gates_[t.id] = np.concatenate([lo - g * prior[2:],
+                                                    hi - lo + 2.0 * g * prior[2:]])
+            lo = np.minimum(box[:2], prior[:2])
+            hi = np.maximum(box[:2] + box[2:], prior[:2] + prior[2:])
+            box = np.concatenate([lo, hi - lo])
         self.boxes_[t.id] = box
         self.estimates_.append(entry)
         return record
