@@ -42,8 +42,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--subnetworks", type=int, default=100,
                         help="Table 1's S, sub-networks (default 100)")
     parser.add_argument("--path-cost", type=float, default=None,
-                        help="trajectory break cost of every linker (default "
+                        help="trajectory break cost of min-cost flow and the ensemble (default "
                              "pftrack_network.linkers.DEFAULT_PATH_COST)")
+    parser.add_argument("--greedy-path-cost", type=float, default=None,
+                        help="the greedy linker's (default GREEDY_PATH_COST)")
+    parser.add_argument("--tuned-dropped", type=int, default=3,
+                        help="C_d of Table 1's extra ensemble row, chosen on the tuning "
+                             "seeds 1000-1002 (default 3); 0 skips the row")
     parser.add_argument("--transit-sum", choices=("parameters", "moments"), default="parameters",
                         help="how Camera Dropout joins two edges (default: parameters, the "
                              "paper's; Table 1 also reports the other as a second row)")
@@ -124,24 +129,36 @@ def _grid(spec: str) -> list[tuple[int, int]]:
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
-    from pftrack_network.linkers import DEFAULT_PATH_COST, GreedyLinker, MinCostFlowLinker
+    from pftrack_network.linkers import (
+        DEFAULT_PATH_COST,
+        GREEDY_PATH_COST,
+        GreedyLinker,
+        MinCostFlowLinker,
+    )
 
     if args.datasets < 1 or args.runs < 1:
         raise ValueError("--datasets and --runs must be >= 1")
     grid = _grid(args.table3)
     say = (lambda s: None) if args.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     pc = DEFAULT_PATH_COST if args.path_cost is None else args.path_cost
+    gpc = GREEDY_PATH_COST if args.greedy_path_cost is None else args.greedy_path_cost
     other = "moments" if args.transit_sum == "parameters" else "parameters"
     seconds: dict[str, float] = {}
+    tuned = f"trajectory-ensemble (C_d={args.tuned_dropped}, tuned)"
     per: dict[str, list[float]] = {"greedy": [], "min-cost-flow": [],
                                    "trajectory-ensemble": [], f"trajectory-ensemble ({other})": []}
+    ensembles = [("trajectory-ensemble", args.transit_sum, args.dropped),
+                 (f"trajectory-ensemble ({other})", other, args.dropped)]
+    if args.tuned_dropped > 0:
+        per[tuned] = []
+        ensembles.append((tuned, args.transit_sum, args.tuned_dropped))
     table2, te_secs = [], []
     t_all = time.perf_counter()
     t0 = time.perf_counter()
     for d in range(args.datasets):
         dataset(args.seed + d, args.data)
     seconds["datasets_and_appearance"] = time.perf_counter() - t0
-    for name, linker in (("greedy", GreedyLinker(pc)), ("min-cost-flow", MinCostFlowLinker(pc))):
+    for name, linker in (("greedy", GreedyLinker(gpc)), ("min-cost-flow", MinCostFlowLinker(pc))):
         t0 = time.perf_counter()
         for d in range(args.datasets):
             ds, app = dataset(args.seed + d, args.data)
@@ -149,14 +166,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                                                         appearance=app)))
         seconds[name] = time.perf_counter() - t0
         say(f"seed004: {name} {np.round(per[name], 3).tolist()}")
-    for label, how in (("trajectory-ensemble", args.transit_sum),
-                       (f"trajectory-ensemble ({other})", other)):
+    for label, how, cd in ensembles:
         t0 = time.perf_counter()
         for d in range(args.datasets):
-            res = ensemble_runs(args.seed + d, args.dropped, args.subnetworks, args.runs,
+            res = ensemble_runs(args.seed + d, cd, args.subnetworks, args.runs,
                                 path_cost=pc, transit_sum=how, data=args.data)
             per[label].append(float(np.mean(res["ari"])))
-            if how == args.transit_sum:
+            if label == "trajectory-ensemble":
                 te_secs += res["seconds"]
                 table2.append({"dataset": d, "ari_mean": float(np.mean(res["ari"])),
                                "ari_var": float(np.var(res["ari"]))})
@@ -181,6 +197,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "table1": table1, "table2": table2, "table3": table3, "seconds": seconds,
         "setup": {"datasets": args.datasets, "runs": args.runs, "seed": args.seed,
                   "dropped": args.dropped, "subnetworks": args.subnetworks, "path_cost": pc,
+                  "greedy_path_cost": gpc, "tuned_dropped": args.tuned_dropped,
                   "transit_sum": args.transit_sum, "cameras": len(ds0.network.cameras),
                   "people": int(ds0.truth.max() + 1),
                   "tracklets_per_dataset": [len(dataset(args.seed + d, args.data)[0].tracklets)

@@ -227,12 +227,15 @@ class CameraNetwork:
     # -- picture ----------------------------------------------------------------------------
 
     def draw(self, ax: Any = None, *, title: str | None = None,
-             dropped: Iterable[str] = (), reference: CameraNetwork | None = None) -> Any:
+             dropped: Iterable[str] = (), reference: CameraNetwork | None = None,
+             edge_labels: bool | None = None) -> Any:
         """Draw the network on a matplotlib axes (a new figure when ``ax`` is None).
 
         Cameras sit at their floor-plan positions, edges are labelled with their mean transit
         ``k * theta_s`` in seconds, and parallel edges are drawn as separate arcs. ``dropped``
         cameras of ``reference`` (a sub-network's parent) are drawn as dashed circles.
+        Edges of ``reference`` are blue, edges it lacks (added by dropout) orange.
+        ``edge_labels``: write the mean transits (default: when there are at most 40 edges).
 
         Returns
         -------
@@ -249,20 +252,24 @@ class CameraNetwork:
             ax.scatter([x], [y], s=420, facecolors="none", edgecolors="0.5", linestyles="--",
                        zorder=3)
             ax.annotate(c, (x, y), ha="center", va="center", fontsize=7, color="0.5", zorder=4)
+        if edge_labels is None:
+            edge_labels = self.number_of_edges() <= 40
         seen: dict[tuple[str, str], int] = {}
         for u, v, d in self.graph.edges(data=True):
             key = (min(u, v), max(u, v))
             n = seen.get(key, 0)
             seen[key] = n + 1
+            original = (d["k"], d["theta_s"]) in ref.edge_params(u, v)
             rad = 0.0 if n == 0 else 0.18 * (1 + (n - 1) // 2) * (1 if n % 2 else -1)
             (x0, y0), (x1, y1) = self.position_m(key[0]), self.position_m(key[1])
             ax.add_patch(FancyArrowPatch((x0, y0), (x1, y1), arrowstyle="-",
                                          connectionstyle=f"arc3,rad={rad}",
-                                         color="tab:blue" if n == 0 else "tab:orange",
+                                         color="tab:blue" if original else "tab:orange",
                                          lw=1.2, zorder=1, shrinkA=9, shrinkB=9))
             mx, my = (x0 + x1) / 2 - rad * (y1 - y0) / 2, (y0 + y1) / 2 + rad * (x1 - x0) / 2
-            ax.annotate(f"{d['k'] * d['theta_s']:.0f}s", (mx, my), fontsize=6, ha="center",
-                        va="center", color="0.25", zorder=2)
+            if edge_labels:
+                ax.annotate(f"{d['k'] * d['theta_s']:.0f}s", (mx, my), fontsize=6, ha="center",
+                            va="center", color="0.25", zorder=2)
         xy = np.array([self.position_m(c) for c in self.cameras]).reshape(-1, 2)
         ax.scatter(xy[:, 0], xy[:, 1], s=420, c="white", edgecolors="k", zorder=3)
         for c, (x, y) in zip(self.cameras, xy):
