@@ -256,3 +256,21 @@ def test_trajectory_ensemble_is_seeded_and_records_runs():
         assert ((runs[:, s] == NA) == np.array([t.camera in dropped for t in tr])).all()
     with pytest.raises(ValueError, match="rng"):
         te.link(tr, big)
+
+
+def test_min_cost_flow_candidates_keep_the_next_tracklets_of_each_camera():
+    from pftrack_network.linkers import _next_in_camera
+
+    cams = np.array(["a", "b", "b", "b", "c"])
+    start = np.array([0.0, 20.0, 30.0, 40.0, 25.0])
+    end = start + 5
+    keep = _next_in_camera(cams, start, end, 2)
+    assert np.flatnonzero(keep[0]).tolist() == [1, 2, 4]  # b's first two after 5 s, c's one
+    assert np.flatnonzero(keep[1]).tolist() == [2, 3]  # after 25 s: b at 30 and 40, not c (25)
+    # two people, the second half a minute behind: one candidate per camera leaves the second
+    # person only the first one's tracklets to follow (all refused), two recover both
+    net, tr = _two_people()
+    assert MinCostFlowLinker(candidates=1).link(tr, net).tolist() == [0, 1, 0, 2, 0, 3]
+    assert MinCostFlowLinker(candidates=2).link(tr, net).tolist() == [0, 1, 0, 1, 0, 1]
+    with pytest.raises(ValueError, match="candidates"):
+        MinCostFlowLinker(candidates=0).link(tr, net)

@@ -99,8 +99,16 @@ class TrackletLinker(ABC):
         from pftrack_network.similarity import similarity_matrix
 
         sim = similarity_matrix(tracklets, network, appearance)
+        mask = self.candidate_mask(tracklets)
+        if mask is not None:
+            sim = sim * mask
         start = np.array([t.t_start_s for t in tracklets], dtype=float)
         return self.link_matrix(sim, start, _active(tracklets, network))
+
+    def candidate_mask(self, tracklets: Sequence[Tracklet]) -> np.ndarray | None:
+        """(n, n) bool of the pairs this linker may link, or None for all (the default);
+        applied to the similarity before :meth:`link_matrix`."""
+        return None
 
     @abstractmethod
     def link_matrix(self, similarity: np.ndarray, t_start_s: np.ndarray,
@@ -176,11 +184,26 @@ class MinCostFlowLinker(TrackletLinker):
         Cost of starting plus ending a trajectory.
     scale : float
         Costs are multiplied by this before rounding (1000: 1e-3 resolution in -log S).
+    candidates : int or None
+        "Each tracklet linked to the latest tracklets of adjacent cameras" (sec. 3.3): i -> j
+        is a candidate only when j is among the first ``candidates`` tracklets of its camera
+        that start after i ends. None: every pair with a positive similarity.
     """
 
-    def __init__(self, path_cost: float = DEFAULT_PATH_COST, scale: float = 1000.0) -> None:
+    def __init__(self, path_cost: float = DEFAULT_PATH_COST, scale: float = 1000.0,
+                 candidates: int | None = None) -> None:
         self.path_cost = path_cost
         self.scale = scale
+        self.candidates = candidates
+
+    def candidate_mask(self, tracklets: Sequence[Tracklet]) -> np.ndarray | None:
+        if self.candidates is None:
+            return None
+        if int(self.candidates) < 1:
+            raise ValueError(f"candidates must be >= 1 or None, got {self.candidates}")
+        return _next_in_camera(np.array([t.camera for t in tracklets]),
+                               np.array([t.t_start_s for t in tracklets]),
+                               np.array([t.t_end_s for t in tracklets]), int(self.candidates))
 
     def link_matrix(self, similarity: np.ndarray, t_start_s: np.ndarray,
                     active: np.ndarray) -> np.ndarray:
@@ -218,6 +241,22 @@ class MinCostFlowLinker(TrackletLinker):
         flows = smcf.flows(arcs[3 * m: 3 * m + len(li)])
         used = flows > 0
         return labels_from_links(n, idx[li[used]], idx[lj[used]], active)
+
+
+def _next_in_camera(cameras: np.ndarray, t_start_s: np.ndarray, t_end_s: np.ndarray,
+                    k: int) -> np.ndarray:
+    """(n, n) bool: j is among the first ``k`` tracklets of its camera starting after i ends."""
+    n = len(cameras)
+    keep = np.zeros((n, n), dtype=bool)
+    for c in np.unique(cameras):
+        js = np.flatnonzero(cameras == c)
+        js = js[np.argsort(t_start_s[js], kind="stable")]
+        first = np.searchsorted(t_start_s[js], t_end_s, side="right")  # per i
+        for r in range(k):
+            pos = first + r
+            ok = pos < len(js)
+            keep[np.flatnonzero(ok), js[pos[ok]]] = True
+    return keep
 
 
 def ensemble_distance(labels: np.ndarray) -> np.ndarray:
@@ -309,6 +348,9 @@ class TrajectoryEnsemble(TrackletLinker):
         start = np.array([t.t_start_s for t in tracklets], dtype=float)
         n = len(tracklets)
         runs = np.full((n, int(self.n_subnetworks)), NA, dtype=int)
+        mask = linker.candidate_mask(tracklets)
+        if mask is not None:
+            appearance = appearance * mask
         self.dropped_ = []
         for s in range(int(self.n_subnetworks)):
             sub, dropped = camera_dropout(network, int(self.n_dropped), rng,
