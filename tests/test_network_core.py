@@ -274,3 +274,14 @@ def test_min_cost_flow_candidates_keep_the_next_tracklets_of_each_camera():
     assert MinCostFlowLinker(candidates=2).link(tr, net).tolist() == [0, 1, 0, 1, 0, 1]
     with pytest.raises(ValueError, match="candidates"):
         MinCostFlowLinker(candidates=0).link(tr, net)
+
+
+@pytest.mark.parametrize("linker", [GreedyLinker(path_cost=3.0), MinCostFlowLinker(path_cost=3.0)])
+def test_linkers_only_link_forward_in_time(linker):
+    # a symmetric similarity (a cycle 0 <-> 1) still gives one forward link
+    sim = np.array([[0.0, 0.9], [0.9, 0.0]])
+    labels = linker.link_matrix(sim, np.array([0.0, 5.0]), np.ones(2, bool))
+    assert labels.tolist() == [0, 0]
+    # equal start times: never linked
+    labels = linker.link_matrix(sim, np.array([0.0, 0.0]), np.ones(2, bool))
+    assert labels.tolist() == [0, 1]

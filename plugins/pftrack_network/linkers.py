@@ -118,7 +118,8 @@ class TrackletLinker(ABC):
         Parameters
         ----------
         similarity : ndarray (n, n)
-            ``S[i, j] >= 0``: how likely tracklet j follows tracklet i (0: impossible).
+            ``S[i, j] >= 0``: how likely tracklet j follows tracklet i (0: impossible). Only
+            pairs where j starts after i are ever linked.
         t_start_s : ndarray (n,)
             First time of each tracklet, seconds.
         active : ndarray (n,) bool
@@ -153,7 +154,7 @@ class GreedyLinker(TrackletLinker):
         for j in np.argsort(t_start_s, kind="stable"):
             if not active[j]:
                 continue
-            col = np.where(free, sim[:, j], 0.0)
+            col = np.where(free & (t_start_s < t_start_s[j]), sim[:, j], 0.0)
             i = int(np.argmax(col))
             if col[i] > threshold:
                 pred.append(i)
@@ -217,7 +218,9 @@ class MinCostFlowLinker(TrackletLinker):
         sub = similarity[np.ix_(idx, idx)]
         with np.errstate(divide="ignore"):
             cost = -np.log(sub)
-        li, lj = np.nonzero(cost < self.path_cost)
+        t = np.asarray(t_start_s, dtype=float)[idx]
+        # links only forward in time: the graph stays acyclic whatever the matrix holds
+        li, lj = np.nonzero((cost < self.path_cost) & (t[None, :] > t[:, None]))
         half = round(self.path_cost * self.scale / 2)
         cover = 4 * half + 1 + int(self.scale)
         src, snk = 0, 1
