@@ -362,7 +362,9 @@ def camera_dropout(network: CameraNetwork, n_dropped: int, rng: np.random.Genera
                     g.add_edge(ck, cl, k=k, theta_s=theta)
         g.remove_node(j)
         dropped.append(j)
-    return CameraNetwork(g), dropped
+    sub = CameraNetwork()
+    sub.graph = g  # already a private copy: no second one
+    return sub, dropped
 
 
 def _combine(p: tuple[float, float], q: tuple[float, float], how: str) -> tuple[float, float]:

@@ -156,7 +156,12 @@ def transit_matrix(tracklets: Sequence[Tracklet], network: CameraNetwork) -> np.
     j = order[bounds[ev][edge_of] + local % width]
     dt = start[j] - end[i]
     pdf = np.where(dt > 0, gamma.pdf(np.maximum(dt, 1e-12), ek[edge_of], scale=et[edge_of]), 0.0)
-    np.maximum.at(out, (i, j), pdf)
+    # the maximum over parallel edges: sorted by pair then pdf, the last of each pair wins
+    flat = i * n + j
+    order = np.lexsort((pdf, flat))
+    flat, pdf = flat[order], pdf[order]
+    last = np.append(flat[1:] != flat[:-1], True)
+    out.ravel()[flat[last]] = pdf[last]
     return out
 
 
