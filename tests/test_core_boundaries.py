@@ -12,7 +12,7 @@ from pathlib import Path
 import pftrack
 
 CORE = Path(pftrack.__file__).parent
-PLUGINS = ("pftrack_basic", "pftrack_coast", "pftrack_colour", "pftrack_world")
+PLUGINS = ("pftrack_basic", "pftrack_coast", "pftrack_colour", "pftrack_network", "pftrack_world")
 
 
 def _imports(path: Path) -> list[tuple[int, str]]:
