@@ -188,6 +188,7 @@ def test_engine_target_region_masks_likelihood_and_set_particles_checks_shape():
         engine.set_particles(t.id, np.zeros((3, 6)))
 
 
+@pytest.mark.slow
 def test_pets09_volume_preset_trains_and_runs_from_the_command_line(tmp_path, capsys):
     """The preset's two-command path on a short PETS slice: the eigenspace model trained with
     ``detector train --config pets09-volume``, then ``run pets09-volume`` with it; people are
@@ -212,3 +213,18 @@ def test_pets09_volume_preset_trains_and_runs_from_the_command_line(tmp_path, ca
     assert len(rows) > 0 and np.all(rows[:, 9] == 0.0)  # footprints on the ground
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["MOTA"] > 0.0, metrics
+    # the benchmark on the same model and a few frames: its figures and its pictures
+    images = tmp_path / "img"
+    assert main(["bench", "seed003", "--parts", "pets09", "--frames", "401:425", "--no-mog2",
+                 "--model", str(model), "--images", str(images), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)["pets09"]
+    for key in ("MOTA", "IDF1", "HOTA", "MOTA_world", "IDF1_world", "median_error_m",
+                "entry_error_frames", "exit_error_frames", "frames_per_second"):
+        assert isinstance(res[key], float), key
+    assert set(res["size_error_m"]) == {"x", "y", "z"}
+    assert res["size_error_raw_m"]["y"] > res["size_error_m"]["y"]  # the correction's point
+    import cv2
+
+    for name in ("pets09_volume_frame.png", "pets09_volume_3d.png", "pets09_volume_topview.png"):
+        img = cv2.imread(str(images / name))
+        assert img is not None and img.shape[0] > 200 and img.std() > 10, name

@@ -60,13 +60,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="particles per group (default: the preset's, 5000)")
     parser.add_argument("--seed", type=int, default=0, help="tracking seed (default 0)")
     parser.add_argument("--no-mog2", action="store_true", help="skip the MOG2 comparison")
+    parser.add_argument("--images", default=None, metavar="DIR",
+                        help="write the report pictures here: the PETS frame 160 frames into "
+                             "the test (particles, corrected cuboids, the volume), a 3-D view "
+                             "of the particle clouds in the volume, the top view of the tracks")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
 def _track(cfg: dict[str, Any], frames: list[Any], camera: Any, seed: int,
-           model: str | None, fit_frames: Any = None) -> dict[str, Any]:
+           model: str | None, fit_frames: Any = None,
+           snapshot: tuple[int, Any] | None = None) -> dict[str, Any]:
     """Run the configuration over ``frames``: MOT rows, the track manager, timings
-    (``fit_frames``: images the likelihood's ``fit`` is shown first, untimed)."""
+    (``fit_frames``: images the likelihood's ``fit`` is shown first, untimed; ``snapshot``:
+    ``(frame, f(engine, frame))`` called after that frame, its time not counted)."""
     import cv2
 
     from pftrack.pipeline import build_engine
@@ -80,9 +86,16 @@ def _track(cfg: dict[str, Any], frames: list[Any], camera: Any, seed: int,
     records = []
     try:
         t0, c0 = time.perf_counter(), time.process_time()
+        paused = paused_cpu = 0.0
         for f in frames:
             records.extend(engine.step(f))
-        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+            if snapshot is not None and f.index == snapshot[0]:
+                p0, q0 = time.perf_counter(), time.process_time()
+                snapshot[1](engine, f)
+                paused += time.perf_counter() - p0
+                paused_cpu += time.process_time() - q0
+        wall = time.perf_counter() - t0 - paused
+        cpu = time.process_time() - c0 - paused_cpu
     finally:
         cv2.setNumThreads(threads)
     rows = records_to_mot(records)
@@ -206,7 +219,14 @@ def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
         gt = read_ground_truth(gt_path, first, last)
         t0 = time.perf_counter()
         say(f"seed003: pets09 eigenspace, frames {first}-{last}")
-        run = _track(cfg, frames, camera, args.seed, model)
+        snap = None
+        if args.images:
+            at = min(max(first + 160, first), last if last is not None else first + 160)
+            snap = (at, lambda engine, frame: _pets_images(Path(args.images), engine, frame,
+                                                           camera, volume))
+        run = _track(cfg, frames, camera, args.seed, model, snapshot=snap)
+        if args.images:
+            _pets_topview(Path(args.images), run, gt, volume)
         decode = time.perf_counter() - t0 - run["wall_s"]
         out = score_pets(gt, run, volume)
         out["frames_per_second_with_decoding"] = run["frames"] / (run["wall_s"] + max(decode, 0))
@@ -227,6 +247,43 @@ def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
         if tmp is not None:
             tmp.cleanup()
     return out
+
+
+def _pets_images(folder: Path, engine: Any, frame: Any, camera: Any, volume: Any) -> None:
+    """The frame with particles and corrected cuboids (seed 003 figs. 2-3), and the particle
+    clouds in the volume in 3-D (off-screen)."""
+    import cv2
+
+    from pftrack.geometry.clouds import ParticleCloud
+    from pftrack.io.atomic import atomic_write_bytes
+    from pftrack.render.view3d import render_view3d
+
+    from pftrack_coast.report import intruders_image
+
+    folder.mkdir(parents=True, exist_ok=True)
+    img = intruders_image(frame.image, camera, [volume], engine, engine.tracks.estimates_,
+                          frame.index)
+    ok, png = cv2.imencode(".png", img)
+    if ok:
+        atomic_write_bytes(folder / "pets09_volume_frame.png", png.tobytes())
+    groups = engine.tracks.groups_
+    clouds = []
+    for t in engine.targets:
+        w = np.full(len(t.particles), 0.2 if t.id in groups else 1.0)
+        clouds.append(ParticleCloud(t.particles[:, :3], w))
+    render_view3d(folder / "pets09_volume_3d.png", volumes=[volume], clouds=clouds,
+                  cameras=[camera], title=f"PETS frame {frame.index}: group (dark), people (bright)")
+
+
+def _pets_topview(folder: Path, run: dict[str, Any], gt: np.ndarray, volume: Any) -> None:
+    """Footprint trajectories against the ground truth's, with the volume, from above."""
+    from pftrack.render.topview import render_topview
+
+    rows = run["rows"]
+    tracks = {int(i): rows[rows[:, 1] == i][:, 7:10] for i in np.unique(rows[:, 1])}
+    truth = {int(i): gt[gt[:, 1] == i][:, 7:10] for i in np.unique(gt[:, 1])}
+    render_topview(folder / "pets09_volume_topview.png", tracks=tracks, ground_truth=truth,
+                   volume=volume, title="PETS09 S2.L1: volume tracks' footprints")
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
