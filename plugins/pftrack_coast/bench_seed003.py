@@ -52,6 +52,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--data", default=None,
                         help="folder holding pets09/ (default: $PFTRACK_DATA or ../shared/data)")
     parser.add_argument("--parts", default="pets09,coast", help="pets09, coast (default both)")
+    parser.add_argument("--config", default="pets09-volume",
+                        help="PETS configuration: preset name or YAML (default pets09-volume)")
     parser.add_argument("--frames", default="401:795", metavar="A:B",
                         help="PETS test frames, ground-truth numbering (default 401:795)")
     parser.add_argument("--model", default=None,
@@ -200,7 +202,7 @@ def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
     for p in (video, gt_path, cam_path):
         if not p.is_file():
             raise FileNotFoundError(f"seed003: {p} not found (--data or $PFTRACK_DATA)")
-    cfg = load_config("pets09-volume")
+    cfg = load_config(args.config)
     if args.particles is not None:
         cfg["tracker"] = {**cfg["tracker"], "n_particles": int(args.particles)}
     first, last = parse_frames(args.frames)
