@@ -16,7 +16,7 @@ import pytest
 from pftrack.components import Frame
 from pftrack.geometry.volumes import seed003_volumes
 from pftrack_coast.eigenspace import BlockEigenspaceModel
-from pftrack_coast.scene import CLIPS, CoastScene
+from pftrack_coast.scene import CoastScene
 
 BS = 8  # eigenspace block size, pixels at 768 x 576
 # Rows 232..352 (block rows 29..43): the far volume's sea (y 145..455 m lies in rows ~235..290)

@@ -163,8 +163,8 @@ class CoastObject:
         First and last clip frame (1-based, as :class:`Frame.index`) in which the centre is
         inside the volume (None if never).
     faces : dict
-        Grey level of each face before gain: ``side`` (x faces), ``front`` (-y, towards the
-        camera), ``back`` (+y), ``top``.
+        Grey level of each face before exposure: ``front`` (-y, towards the camera), ``back``
+        (+y), ``left`` (-x), ``right`` (+x), ``top`` (the bottom is never seen).
     """
 
     id: int
@@ -363,8 +363,8 @@ class CoastScene(Scene):
             patch, ((sx + 600.0) / 1200.0 * 63).astype(np.float32).reshape(1, -1),
             (np.clip(sy, 0, 2000) / 2000.0 * 63).astype(np.float32).reshape(1, -1),
             cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT).ravel()).astype(np.float32)
-        self.land_ = _land(rng, gx, gy, ground, cam)
-        self.sky_ = _sky(rng, ground, cam)
+        self.land_ = _land(rng, gx, gy, ground)
+        self.sky_ = _sky(rng, ground)
         # the moored boat: a hull and a cabin, background
         self.moored_ = [(np.array([-55.0, 185.0, 0.8]), np.array([6.0, 1.6, 2.2]),
                          {"front": 118.0, "back": 112.0, "left": 114.0, "right": 114.0,
@@ -625,7 +625,7 @@ def _smooth(rng: np.random.Generator, cells: tuple[int, int], shape: tuple[int, 
 
 
 def _land(rng: np.random.Generator, gx: np.ndarray, gy: np.ndarray, ground: np.ndarray,
-          cam: Any) -> np.ndarray:
+          ) -> np.ndarray:
     """Static land (H, W) float32: warm ground textured in world coordinates (0.5 m texels over
     x -200..200, y 0..160 m), a promenade, the slipway, grass, and image grain."""
     h, w = gx.shape
@@ -638,8 +638,8 @@ def _land(rng: np.random.Generator, gx: np.ndarray, gy: np.ndarray, ground: np.n
     tx = (np.arange(tex_w) + 0.5) * 0.5 - 200.0
     ty = (np.arange(tex_h) + 0.5) * 0.5
     TX, TY = np.meshgrid(tx, ty)
-    grass = (coarse > 0.5) & (TY < 100)
-    tex[grass] -= 14.0
+    # grass (cooler) in soft-edged patches where the coarse field is high
+    tex -= 14.0 * np.clip((coarse - 0.3) / 0.6, 0, 1) * (TY < 100)
     promenade = (TY > 62) & (TY < 68)
     tex[promenade] = 150.0 - _LAND + 2.0 * fine[promenade]
     slip = np.abs(TX - SLIPWAY_X_M) < SLIPWAY_HALF_M
@@ -656,7 +656,7 @@ def _land(rng: np.random.Generator, gx: np.ndarray, gy: np.ndarray, ground: np.n
     return np.where(ground, land, 0).astype(np.float32)
 
 
-def _sky(rng: np.random.Generator, ground: np.ndarray, cam: Any) -> np.ndarray:
+def _sky(rng: np.random.Generator, ground: np.ndarray) -> np.ndarray:
     """Static sky (H, W) float32: cool, brighter towards the horizon, faint clouds."""
     h, w = ground.shape
     sky_rows = ~ground.all(axis=1)
