@@ -54,6 +54,11 @@ def test_same_seed_same_frames_other_seed_differs():
     t2 = [f.image for f in CoastScene(n_training=6).training_frames(3)]
     assert len(t1) == 6 and len(t2) == 3
     assert all(np.array_equal(x, y) for x, y in zip(t1, t2))
+    # the training frames as a clip, streamed or random-access
+    tc = CoastScene(clip="training", n_training=6, n_frames=4)
+    assert tc.clip_frames == 4 and len(tc.ground_truth()) == 0
+    assert all(np.array_equal(f.image, x) for f, x in zip(tc.frames(), t1))
+    assert np.array_equal(tc.render(5), t1[5])
     # the frames differ from one another (moving sea, sparkles, noise)
     assert not np.array_equal(t1[0], t1[1]) and not np.array_equal(a[0], a[1])
 

@@ -36,7 +36,8 @@ super-sampled coverage, far objects first (painter's order), so silhouettes matc
 Clips (``clip=``): ``boat`` (a 7.5 x 1.8 x 2.3 m boat crosses the far volume along x at 5 m/s,
 entering and leaving it), ``car`` (a 1.7 x 1.5 x 4.7 m car drives up the slipway along y at
 3 m/s through the near volume), ``multi`` (two boats and the car, entering at different times),
-``empty`` (background only, the clip's conditions). Sizes are (w, h, d): across x, height, along
+``empty`` (background only, the clip's conditions), ``training`` (the training frames as a
+clip, for code that trains from a scene's frames). Sizes are (w, h, d): across x, height, along
 y, metres. ``training_frames()`` gives 400 background-only frames spread over three "days"
 (sea state, glint, tide, gain, offset, temperatures differ between days and over each day).
 
@@ -73,9 +74,10 @@ CLIPS: dict[str, str] = {
            "100 frames",
     "multi": "two boats and the car, entering at different times, 200 frames",
     "empty": "background only, the clip's conditions, 100 frames",
+    "training": "the background-only training frames (training_frames()) as the clip",
 }
 _CLIP_INDEX = {name: i for i, name in enumerate(CLIPS)}
-_CLIP_FRAMES = {"boat": 200, "car": 100, "multi": 200, "empty": 100}
+_CLIP_FRAMES = {"boat": 200, "car": 100, "multi": 200, "empty": 100, "training": 0}
 
 RENDER_WH = (384, 288)  # the thermal sensor
 OUTPUT_WH = (768, 576)  # upscaled 2x, the camera file's size
@@ -267,7 +269,11 @@ class CoastScene(Scene):
     @property
     def clip_frames(self) -> int:
         """Number of frames of the clip."""
-        return int(_CLIP_FRAMES[self._clip_name()] if self.n_frames is None else self.n_frames)
+        name = self._clip_name()
+        if name == "training":
+            n = int(self.n_training)
+            return n if self.n_frames is None else min(int(self.n_frames), n)
+        return int(_CLIP_FRAMES[name] if self.n_frames is None else self.n_frames)
 
     def _clip_name(self) -> str:
         if self.clip not in CLIPS:
@@ -283,7 +289,7 @@ class CoastScene(Scene):
             return self
         name = self._clip_name()
         n = self.clip_frames
-        if n < 1:
+        if n < 1 and name != "training":
             raise ValueError(f"coast scene: n_frames must be >= 1, got {self.n_frames!r}")
         if not float(self.fps) > 0:
             raise ValueError(f"coast scene: fps must be > 0, got {self.fps!r}")
@@ -436,8 +442,11 @@ class CoastScene(Scene):
 
     def render(self, k: int, with_objects: bool = True, noise: bool = True) -> np.ndarray:
         """Clip frame ``k`` (0-based) as (576, 768, 3) uint8 BGR. ``with_objects=False`` draws
-        the same frame (same conditions, sparkles and noise) without the intruders."""
+        the same frame (same conditions, sparkles and noise) without the intruders. For
+        ``clip="training"``, training frame ``k``."""
         self.prepare()
+        if self.clip == "training":
+            return self._training_image(k)
         cond = self.clip_conditions_[k]
         objs = [(o.centres_m[k], o.size_m, o.faces) for o in self.objects_] if with_objects \
             else []
@@ -446,8 +455,12 @@ class CoastScene(Scene):
         return self.render_conditions(cond, objs, rng)
 
     def frames(self) -> Iterator[Frame]:
-        """The clip's frames (index 1-based, BGR uint8 768 x 576, time_s = (index - 1) / fps)."""
+        """The clip's frames (index 1-based, BGR uint8 768 x 576, time_s = (index - 1) / fps);
+        for ``clip="training"`` the training frames (:meth:`training_frames`)."""
         self.prepare()
+        if self.clip == "training":
+            yield from self.training_frames(self.clip_frames)
+            return
         for k in range(self.clip_frames):
             yield Frame(index=k + 1, image=self.render(k), time_s=k / float(self.fps))
 
@@ -458,9 +471,11 @@ class CoastScene(Scene):
         conds = self.training_conditions_
         m = len(conds) if n is None else min(int(n), len(conds))
         for j in range(m):
-            rng = np.random.default_rng([int(self.seed), 4, j])
-            yield Frame(index=j + 1, image=self.render_conditions(conds[j], [], rng),
-                        time_s=float(conds[j].time_s))
+            yield Frame(index=j + 1, image=self._training_image(j), time_s=float(conds[j].time_s))
+
+    def _training_image(self, j: int) -> np.ndarray:
+        rng = np.random.default_rng([int(self.seed), 4, j])
+        return self.render_conditions(self.training_conditions_[j], [], rng)
 
     # -- ground truth --------------------------------------------------------------------------
 
