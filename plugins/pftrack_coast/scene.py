@@ -27,9 +27,10 @@ then upscaled 2x bilinearly to 768 x 576, returned as BGR uint8 with three equal
 * a thermal camera's automatic exposure: gain and offset that change slowly over a clip (gain
   +-2 %, offset +-2.5 grey levels) and more between training days (gain +-6 %, offset +-5,
   land temperature +-6, sea +-3); Gaussian sensor noise at 384 x 288 (so it is 2 x 2
-  correlated after the upscale). Wider global swings make every block's eigenspace one
-  dimensional (D = 1: the global level) and the block eigenspace model blind to anything but a
-  level change, so they are kept to what an automatic gain leaves after normalising.
+  correlated after the upscale). The swings are kept to what an automatic gain leaves after
+  normalising: with about twice these (and a car 10-15 grey levels cooler) the global level
+  dominated every block's eigenspace (D = 1 to 3), and the block eigenspace model found only
+  43 % of the car's blocks.
 
 Rendering costs about 6 ms per frame on one core (vectorised; no loop over pixels).
 
