@@ -13,6 +13,8 @@ Components (registered name -> class):
 * track manager: ``volumes`` :class:`~pftrack_coast.volumes.VolumeTracks` (sec. 3 and 4.2:
   detection groups in cuboid volumes, entry and exit by particle counts, several intruders at
   once, size with the support-plane correction);
+* scene: ``coast`` :class:`~pftrack_coast.scene.CoastScene` (the paper's coast, synthetic,
+  through ``calib/coast_seed003.yaml``: sea, shore, land, boats and a car, training frames);
 * benchmark: ``background`` (:mod:`pftrack_coast.bench_background`: the model against OpenCV's
   background subtractors on real water, campus and thermal video).
 
@@ -47,6 +49,13 @@ def pftrack_register_track_managers(register):
     from pftrack_coast.volumes import VolumeTracks
 
     register("volumes", VolumeTracks)
+
+
+@hookimpl
+def pftrack_register_scenes(register):
+    from pftrack_coast.scene import CoastScene
+
+    register("coast", CoastScene)
 
 
 @hookimpl
