@@ -64,6 +64,7 @@ def pftrack_register_presets(register):
 
     presets = resources.files("pftrack_coast") / "presets"
     register("pets09-volume", str(presets / "pets09-volume.yaml"))
+    register("coast-volumes", str(presets / "coast-volumes.yaml"))
 
 
 @hookimpl

@@ -287,6 +287,9 @@ class VolumeTracks(TrackManager):
                                      "travel over the last heading_frames once it exceeds "
                                      "this distance (before: across the view).")
     heading_frames: int = Param(15, "Frames over which the heading is measured.")
+    min_speed: float = Param(0.3, "Before the footprint has travelled min_travel_m: the heading "
+                                  "is the particles' mean horizontal velocity once faster than "
+                                  "this (metres per time step; state entries 3, 4).")
     object_size_m: Sequence[float] | None = Param(
         None, "A typical intruder's size (width across the view, height, depth along it), "
         "metres: a new track's particles are jittered by half of it (so that a track started "
@@ -304,6 +307,11 @@ class VolumeTracks(TrackManager):
     spawn_overlap: float = Param(0.5, "An entry whose particles' image box lies more than this "
                                       "fraction inside a tracked intruder's box is that "
                                       "intruder's fringe: no new track.")
+    footprint_inside: bool = Param(
+        True, "Output a track only while its footprint (the support-plane correction) lies "
+        "inside its volume's ground footprint: one view sees an intruder through the volume "
+        "before it enters and after it leaves; its footprint says where it is (False: the "
+        "paper, output while the particles see it).")
     blob_block_px: int = Param(8, "Cell size (pixels) of the image grid on which a new track "
                                   "takes the largest connected patch of the group's particles.")
 
@@ -510,12 +518,21 @@ class VolumeTracks(TrackManager):
             return sel
         return sel[engine.rng.integers(0, len(sel), size=n)]
 
-    def _heading(self, tid: int, across: np.ndarray) -> float | None:
+    def _heading(self, tid: int, across: np.ndarray, velocity: np.ndarray | None = None,
+                 ) -> float | None:
+        """Degrees from the across-view direction to the track's travel: its footprint's
+        over the last heading_frames once it exceeds min_travel_m, else its particles' mean
+        horizontal velocity once faster than min_speed, else None."""
         path = self.paths_.get(tid)
-        if not path or len(path) < 2:
-            return None
-        d = path[-1] - path[0]
-        if float(np.hypot(d[0], d[1])) < float(self.min_travel_m):
+        d = None
+        if path and len(path) >= 2:
+            d = path[-1] - path[0]
+            if float(np.hypot(d[0], d[1])) < float(self.min_travel_m):
+                d = None
+        if d is None and velocity is not None and \
+                float(np.hypot(velocity[0], velocity[1])) >= float(self.min_speed):
+            d = np.asarray(velocity[:2], dtype=np.float64)
+        if d is None:
             return None
         along = np.array([-across[1], across[0]])
         return math.degrees(math.atan2(float(np.dot(d, along)), float(np.dot(d, across[:2]))))
@@ -534,7 +551,8 @@ class VolumeTracks(TrackManager):
             est = support_plane_estimate(cam, px[fine], support_z_m=float(self.support_z_m))
             if est is not None:
                 across, along = est["across"], est["along"]
-                heading = self._heading(t.id, across)
+                vel = t.state[3:5] if len(t.state) >= 6 else None
+                heading = self._heading(t.id, across, vel)
                 if float(self.footprint_aspect) != 1.0:  # (a square: the heading is moot)
                     est = support_plane_estimate(
                         cam, px[fine], support_z_m=float(self.support_z_m),
@@ -701,7 +719,19 @@ class VolumeTracks(TrackManager):
         for tid in list(self.boxes_):
             if tid not in self.tracks_:
                 del self.boxes_[tid]
-        return self._confirmed(out)
+        return self._confirmed([r for r in out if self._shown(r)])
+
+    def _shown(self, record: TrackRecord) -> bool:
+        """With ``footprint_inside``: whether the record's footprint lies inside its volume's
+        ground footprint (a track whose particles see an intruder through the volume while
+        the intruder is still outside it is not yet an entry)."""
+        if not self.footprint_inside or record.world_m is None:
+            return True
+        vol = self.volumes_[self.tracks_[record.id]] if record.id in self.tracks_ else None
+        if vol is None:
+            return True
+        p = np.array([[record.world_m[0], record.world_m[1], float(vol.center_m[2])]])
+        return bool(vol.contains(p)[0])
 
     def _confirmed(self, out: list[TrackRecord]) -> list[TrackRecord]:
         """The records to output: a track's from its entry on once it has lived
