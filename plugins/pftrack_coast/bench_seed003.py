@@ -52,9 +52,6 @@ import numpy as np
 #: a person's size (width across the view, height, depth along the view), metres
 PERSON_M = (0.5, 1.75, 0.5)
 
-GOALS = {"MOTA_world": (">=", 0.6), "IDF1_world": (">=", 0.6),
-         "entry_exit_within_10": (">=", 0.8), "frames_per_second": (">=", 100.0)}
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--data", default=None,
@@ -146,6 +143,10 @@ def _frame_pairs(gt: np.ndarray, rows: np.ndarray, max_m: float = 1.0
     return out
 
 
+def _finite(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
 def score_pets(gt: np.ndarray, run: dict[str, Any], volume: Any) -> dict[str, Any]:
     """The figures of one PETS run (see the module docstring)."""
     from pftrack.metrics import evaluate
@@ -178,8 +179,9 @@ def score_pets(gt: np.ndarray, run: dict[str, Any], volume: Any) -> dict[str, An
             entry.append(abs(float(min(m)) - float(g.min())))
             exit_.append(abs(float(max(m)) - float(g.max())))
         both.append(entry[-1] <= 10 and exit_[-1] <= 10)
-    out["entry_error_frames"] = float(np.median(entry)) if entry else float("nan")
-    out["exit_error_frames"] = float(np.median(exit_)) if exit_ else float("nan")
+    # a person never matched counts as an infinite error (reported as null when the median is)
+    out["entry_error_frames"] = _finite(np.median(entry)) if entry else None
+    out["exit_error_frames"] = _finite(np.median(exit_)) if exit_ else None
     out["entry_exit_within_10"] = float(np.mean(both)) if both else float("nan")
     out["people_in_volume"] = len(both)
     # size per axis, after and before the correction, over estimates matched within 1 m
@@ -334,16 +336,18 @@ def _coast_objects(res: dict[str, Any]) -> list[dict[str, Any]]:
                 corr.append(e["size_m"])
         first, last, volume = events[oid]
         frames = [int(gt[g, 0]) for g, _ in mine]
-        entry = abs(min(frames) - first) if frames and first is not None else float("inf")
-        exit_ = abs(max(frames) - last) if frames and last is not None else float("inf")
+        entry = abs(min(frames) - first) if frames and first is not None else None
+        exit_ = abs(max(frames) - last) if frames and last is not None else None
         # sizes as (width across the view, height, depth along the view)
         out.append({"object": str(obj.kind), "volume": volume,
                     "real_m": [float(x) for x in obj.size_m],
                     "estimated_m": [float(x) for x in np.median(raw, axis=0)] if raw else None,
                     "depth_corrected_m": [float(x) for x in np.median(corr, axis=0)]
                     if corr else None,
-                    "frames_matched": len(mine), "entry_error_frames": float(entry),
-                    "exit_error_frames": float(exit_), "first_inside": first,
+                    "frames_matched": len(mine),
+                    "entry_error_frames": None if entry is None else float(entry),
+                    "exit_error_frames": None if exit_ is None else float(exit_),
+                    "first_inside": first,
                     "last_inside": last})
     return out
 
@@ -385,8 +389,12 @@ def _coast(args: argparse.Namespace, say: Any) -> dict[str, Any]:
                 entry.append(o["entry_error_frames"])
                 exit_.append(o["exit_error_frames"])
         out["table1"] = table
-        out["entry_error_frames"] = float(np.median(entry)) if entry else float("nan")
-        out["exit_error_frames"] = float(np.median(exit_)) if exit_ else float("nan")
+        # objects never found have no error (None); the medians are over those found
+        found_e = [e for e in entry if e is not None]
+        found_x = [e for e in exit_ if e is not None]
+        out["entry_error_frames"] = float(np.median(found_e)) if found_e else None
+        out["exit_error_frames"] = float(np.median(found_x)) if found_x else None
+        out["objects_found"] = f"{len(found_e)} of {len(entry)}"
         say("seed003: coast, clip multi")
         res = _coast_clip("multi", cfg, model, args.seed, args.scene_seed)
         seconds += res["run"]["cpu_s"]
@@ -420,8 +428,53 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         out["pets09"] = _pets09(args, root, say)
     if "coast" in parts:
         out["coast"] = _coast(args, say)
-    out["goals"] = {k: list(v) for k, v in GOALS.items()}
+    out["goals"] = _goals(out)
     return out
+
+
+#: why a goal is not met, as measured (said in the output, not hidden)
+WHY_NOT = {
+    "pets09 IDF1_world >= 0.6": "tracks break at occlusions and crossings (exit by particle "
+    "count) and restart under new ids; two people standing together on the lawn are never "
+    "taken (their blob's few uniform particles look smaller than a person)",
+    "pets09 entry and exit within 10 frames for >= 80 % of people": "the same breaks: a "
+    "person first found late, or lost before leaving, is outside",
+    "pets09 frames_per_second >= 100": "about 30 ms of CPU per frame with one detection group "
+    "and 3-8 people of 5000 particles each: projecting particles through the Tsai lens "
+    "(Newton on the cubic), scoring, the per-track estimates",
+    "coast depth error < 2 m (car)": "the car drives along the line of sight; its track breaks "
+    "before its footprint has travelled far enough to give a heading, so the footprint prior "
+    "lays its length across the view",
+    "coast frames_per_second >= 100 (3 groups)": "measured on a shared, loaded machine",
+}
+
+
+def _goals(out: dict[str, Any]) -> list[dict[str, Any]]:
+    """Each goal of the issue with its measured value, met or not, and why not."""
+    rows: list[tuple[str, Any, bool]] = []
+    p = out.get("pets09")
+    if p:
+        rows += [("pets09 MOTA_world >= 0.6", p["MOTA_world"], p["MOTA_world"] >= 0.6),
+                 ("pets09 IDF1_world >= 0.6", p["IDF1_world"], p["IDF1_world"] >= 0.6),
+                 ("pets09 entry and exit within 10 frames for >= 80 % of people",
+                  p["entry_exit_within_10"], p["entry_exit_within_10"] >= 0.8),
+                 ("pets09 eigenspace better than mog2-fraction (MOTA_world)",
+                  p.get("mog2", {}).get("MOTA_world"),
+                  "mog2" in p and p["MOTA_world"] > p["mog2"]["MOTA_world"]),
+                 ("pets09 frames_per_second >= 100", p["frames_per_second_cpu"],
+                  p["frames_per_second_cpu"] >= 100)]
+    c = out.get("coast")
+    if c:
+        for o in c["table1"]:
+            corr = o["depth_corrected_m"]
+            err = None if corr is None else abs(corr[2] - o["real_m"][2])
+            rows.append((f"coast depth error < 2 m ({o['object']})", err,
+                         err is not None and err < 2.0))
+        fps = c.get("frames_per_second_boat_clip")
+        rows.append(("coast frames_per_second >= 100 (3 groups)", fps,
+                     fps is not None and fps >= 100))
+    return [{"goal": g, "value": v, "met": bool(m), **({} if m else
+             {"why_not": WHY_NOT.get(g, "not met as measured")})} for g, v, m in rows]
 
 
 def format_table(result: dict[str, Any]) -> str:
@@ -433,7 +486,7 @@ def format_table(result: dict[str, Any]) -> str:
             return (f"  {name:<11} MOTA {r['MOTA']:.3f} IDF1 {r['IDF1']:.3f} HOTA {r['HOTA']:.3f}"
                     f" | world MOTA {r['MOTA_world']:.3f} IDF1 {r['IDF1_world']:.3f} HOTA "
                     f"{r['HOTA_world']:.3f} median {r['median_error_m']:.2f} m | entry "
-                    f"{r['entry_error_frames']:.0f} exit {r['exit_error_frames']:.0f} frames, "
+                    f"{r['entry_error_frames']} exit {r['exit_error_frames']} frames, "
                     f"{100 * r['entry_exit_within_10']:.0f}% within 10 | size error x/y/z "
                     f"{s['x']:.2f}/{s['y']:.2f}/{s['z']:.2f} m (eq. 10: {s0['x']:.2f}/"
                     f"{s0['y']:.2f}/{s0['z']:.2f}) | {r['frames_per_second']:.1f} fps")
@@ -450,10 +503,15 @@ def format_table(result: dict[str, Any]) -> str:
         for o in c["table1"]:
             lines.append(f"  {o['object']:<5} real {fmt(o['real_m'])}  eq. 10 "
                          f"{fmt(o['estimated_m'])}  corrected {fmt(o['depth_corrected_m'])}  "
-                         f"entry {o['entry_error_frames']:.0f} exit "
-                         f"{o['exit_error_frames']:.0f} frames")
+                         f"entry {o['entry_error_frames']} exit "
+                         f"{o['exit_error_frames']} frames")
         mm = c["multi"]
         lines.append(f"  multi: MOTA_world {mm['MOTA_world']:.3f} IDF1_world "
                      f"{mm['IDF1_world']:.3f} (match {mm['match_m']:.0f} m) | "
                      f"{c['frames_per_second']:.1f} fps (CPU)")
+    for g in result.get("goals", []):
+        v = g["value"]
+        val = f"{v:.3f}" if isinstance(v, float) else str(v)
+        lines.append(f"  [{'met' if g['met'] else 'NOT met'}] {g['goal']}: {val}"
+                     + ("" if g["met"] else f" -- {g['why_not']}"))
     return "\n".join(lines)
