@@ -219,8 +219,10 @@ def test_pets09_volume_preset_trains_and_runs_from_the_command_line(tmp_path, ca
                  "--model", str(model), "--images", str(images), "--json"]) == 0
     res = json.loads(capsys.readouterr().out)["pets09"]
     for key in ("MOTA", "IDF1", "HOTA", "MOTA_world", "IDF1_world", "median_error_m",
-                "entry_error_frames", "exit_error_frames", "frames_per_second"):
+                "frames_per_second"):
         assert isinstance(res[key], float), key
+    for key in ("entry_error_frames", "exit_error_frames"):  # null: most people never matched
+        assert res[key] is None or res[key] >= 0.0, key
     assert set(res["size_error_m"]) == {"x", "y", "z"}
     assert res["size_error_raw_m"]["y"] > res["size_error_m"]["y"]  # the correction's point
     import cv2
