@@ -196,7 +196,8 @@ def parse_jobs(doc: Any, *, base: str | os.PathLike[str] = ".", where: str = "jo
     if isinstance(doc, list):
         doc = {"jobs": doc}
     if not isinstance(doc, dict):
-        raise ValueError(f"{where}: expected a mapping with 'jobs' (and optional 'defaults')")  # noqa: TRY004
+        raise ValueError(  # noqa: TRY004 - a user's input error, reported as one line
+            f"{where}: expected a mapping with 'jobs' (and optional 'defaults')")
     unknown = set(doc) - {"jobs", "defaults"}
     if unknown:
         raise ValueError(f"{where}: unknown top-level keys {sorted(unknown)}; known: "
@@ -214,7 +215,8 @@ def parse_jobs(doc: Any, *, base: str | os.PathLike[str] = ".", where: str = "jo
     jobs: list[Job] = []
     for i, entry in enumerate(entries):
         if not isinstance(entry, dict):
-            raise ValueError(f"{where}: job {i + 1} must be a mapping, got {entry!r}")  # noqa: TRY004
+            raise ValueError(  # noqa: TRY004
+                f"{where}: job {i + 1} must be a mapping, got {entry!r}")
         label = f"{where}: job {entry.get('name', i + 1)!r}"
         kind = next((k for k in KINDS if entry.get(k) is not None), None)
         fits = RUN_FIELDS if kind == "config" else TOOL_FIELDS  # defaults a job's kind takes
@@ -352,7 +354,8 @@ def _set_dotted(cfg: dict[str, Any], path: str, value: Any, label: str) -> None:
         if nxt is None:
             nxt = node[k] = {}
         if not isinstance(nxt, dict):
-            raise ValueError(f"{label}: field 'set': {path!r}: {k!r} is not a mapping")  # noqa: TRY004
+            raise ValueError(  # noqa: TRY004
+                f"{label}: field 'set': {path!r}: {k!r} is not a mapping")
         node = nxt
     node[keys[-1]] = value
 
