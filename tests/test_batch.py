@@ -239,7 +239,7 @@ def test_a_scheduler_by_address_survives_a_killed_worker(tmp_path):
             c.wait_for_workers(2, timeout=120)
         victim = procs[1]
         out = tmp_path / "out"
-        jobs = parse_jobs({"jobs": [{**WALKERS, "args": ["--frames", "40", "--particles", "150",
+        jobs = parse_jobs({"jobs": [{**WALKERS, "args": ["--frames", "30", "--particles", "100",
                                                          "--no-baseline"],
                                      "matrix": {"seed": [0, 1, 2, 3, 4, 5]}}]})
         result: dict = {}

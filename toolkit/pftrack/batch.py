@@ -77,10 +77,12 @@ __all__ = [
     "BatchResult",
     "Job",
     "aggregate_rows",
+    "cpu_count",
     "execute_job",
     "expand_matrix",
     "load_jobs",
     "parse_jobs",
+    "require_dask",
     "run_batch",
 ]
 
@@ -97,7 +99,8 @@ PATH_FIELDS = ("video", "camera", "gt", "detector_model")
 RUN_FIGURES = ("MOTA", "IDF1", "HOTA", "IDSW", "FP", "FN", "median_error_m", "p90_error_m",
                "accuracy_5px")
 TIMING_FIGURES = ("frames_per_second", "tracking_s_per_frame", "detection_s_per_frame")
-ROW_FIRST = ("job", "group", "kind", "seed", "status", "time_s", "worker", "resumed", "error")
+ROW_FIRST = ("job", "group", "kind", "seed", "status", "time_s", "cpu_s", "worker", "resumed",
+             "error")
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._=-]*$")
 
 
@@ -494,6 +497,16 @@ def execute_job(job: Job, out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     ``traceback``), and no folder is left. A job whose folder already holds this job's result
     (a rerun after its worker died having finished it) returns the recorded row and writes
     nothing. This is the function Dask runs on the workers.
+
+    Returns
+    -------
+    dict
+        ``job``, ``group``, ``kind``, ``seed``, ``status`` (``ok``/``failed``), ``error``,
+        ``time_s`` (wall seconds of the job), ``cpu_s`` (CPU seconds of the process during it),
+        ``worker`` (``HOST:PID``), ``resumed``, and the job's figures: for a run job ``frames``,
+        ``rows``, ``ids``, ``tracks_sha256``, frames per second and, with ground truth, MOTA,
+        IDF1, HOTA, IDSW, FP, FN, ground-plane errors; for a demo or benchmark the numbers of
+        its ``metrics.json`` or result (nested keys joined by dots).
     """
     out = Path(out_dir)
     final = out / job.name
@@ -504,14 +517,15 @@ def execute_job(job: Job, out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     if done is not None:
         return done
     tmp = out / f".tmp-{job.name}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     try:
         tmp.mkdir(parents=True)
         log = tmp / "log.txt"
         with _one_thread(), open(log, "w") as fh, contextlib.redirect_stdout(fh), \
                 contextlib.redirect_stderr(fh):
             figures = _run_job(job, tmp)
-        row.update(status="ok", time_s=time.perf_counter() - t0, error="", **figures)
+        row.update(status="ok", time_s=time.perf_counter() - t0,
+                   cpu_s=time.process_time() - c0, error="", **figures)
         from pftrack.io.atomic import atomic_write_text
 
         atomic_write_text(tmp / "job.json", json.dumps(
@@ -606,7 +620,15 @@ def _write_summary(out: Path, jobs: Sequence[Job], rows: dict[str, dict[str, Any
 # --------------------------------------------------------------------------------------------
 
 
-def _dask():
+def cpu_count() -> int:
+    """The cores this process may use (its affinity where the system has one)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def require_dask() -> Any:
+    """``dask.distributed``; ImportError saying what to install when Dask is missing."""
     try:
         import distributed
     except ImportError:
@@ -696,13 +718,13 @@ def run_batch(jobs: Sequence[Job] | str | os.PathLike[str], out_dir: str | os.Pa
             for job in todo:
                 finished(execute_job(job, out))
         elif todo:
-            distributed = _dask()
+            distributed = require_dask()
             with contextlib.ExitStack() as stack:
                 if client is None:
                     if scheduler is not None:
                         client = stack.enter_context(distributed.Client(scheduler))
                     else:
-                        n = workers or len(os.sched_getaffinity(0))
+                        n = workers or cpu_count()
                         cluster = stack.enter_context(distributed.LocalCluster(
                             n_workers=n, threads_per_worker=1, processes=True,
                             dashboard_address=None))
