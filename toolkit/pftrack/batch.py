@@ -722,7 +722,11 @@ def run_batch(jobs: Sequence[Job] | str | os.PathLike[str], out_dir: str | os.Pa
             with contextlib.ExitStack() as stack:
                 if client is None:
                     if scheduler is not None:
-                        client = stack.enter_context(distributed.Client(scheduler))
+                        try:
+                            client = stack.enter_context(distributed.Client(scheduler))
+                        except OSError as exc:
+                            raise ValueError(f"--scheduler {scheduler}: cannot connect: "
+                                             f"{exc}") from None
                     else:
                         n = workers or cpu_count()
                         cluster = stack.enter_context(distributed.LocalCluster(
