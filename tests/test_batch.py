@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from pftrack.batch import load_jobs, parse_jobs, run_batch
+from pftrack.batch import load_jobs, local_cluster, parse_jobs, run_batch
 from pftrack.cli import main
 from pftrack.data import data_dir
 
@@ -180,9 +180,10 @@ def test_a_local_cluster_gives_the_serial_bits(tmp_path, svm):
     ]})
     serial = run_batch(jobs, tmp_path / "serial", workers=1, progress=False)
     assert serial.n_failed == 0 and len(serial.rows) == 7
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster, \
-            distributed.Client(cluster) as client:
+    with local_cluster(2) as cluster, distributed.Client(cluster) as client:
+        if "MALLOC_TRIM_THRESHOLD_" not in os.environ:
+            # glibc's own malloc thresholds in the workers (Dask's default would fix them)
+            assert set(client.run(os.environ.get, "MALLOC_TRIM_THRESHOLD_").values()) == {None}
         par = run_batch(jobs, tmp_path / "dask", client=client, progress=False)
         assert client.status == "running"  # the caller's client is left open
     assert par.n_failed == 0

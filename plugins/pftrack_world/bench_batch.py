@@ -7,8 +7,9 @@ numbering) through :func:`pftrack.batch.run_batch` twice:
 * ``serial_s``: ``workers=1``, the jobs one after another in this process (after one untimed
   5-frame job, so that imports and compilation are not counted against the serial run);
 * ``parallel_s``: what ``pftrack batch --workers 2`` costs: start a ``LocalCluster`` of
-  ``--workers`` processes, run the jobs, stop the cluster (the workers import pftrack and
-  compile their kernels during their first job: that is part of it);
+  ``--workers`` processes (:func:`pftrack.batch.local_cluster`), run the jobs, stop the
+  cluster (the workers import pftrack and compile their kernels during their first job: that is
+  part of it);
 * ``speedup``: ``serial_s / parallel_s``;
 * ``overhead_per_job_s``: ``(parallel_s - max over workers of the summed in-job wall time of
   the jobs it ran) / jobs``: the time of the parallel run that no job accounts for on the busiest
@@ -67,7 +68,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     import tempfile
     from pathlib import Path
 
-    from pftrack.batch import cpu_count, parse_jobs, require_dask, run_batch
+    from pftrack.batch import cpu_count, local_cluster, parse_jobs, require_dask, run_batch
     from pftrack.data import data_dir
     from pftrack.pipeline import load_config, train_detector
 
@@ -110,9 +111,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         serial_s = time.perf_counter() - t0
         log(f"batch: the same on a local cluster of {args.workers} workers ...")
         t0 = time.perf_counter()
-        with distributed.LocalCluster(n_workers=args.workers, threads_per_worker=1,
-                                      processes=True, dashboard_address=None) as cluster, \
-                distributed.Client(cluster) as client:
+        with local_cluster(args.workers) as cluster, distributed.Client(cluster) as client:
             start_s = time.perf_counter() - t0
             par = run_batch(jobs, tmp / "parallel", client=client, progress=not args.quiet)
             t_jobs = time.perf_counter()

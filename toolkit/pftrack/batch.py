@@ -81,6 +81,7 @@ __all__ = [
     "execute_job",
     "expand_matrix",
     "load_jobs",
+    "local_cluster",
     "parse_jobs",
     "require_dask",
     "run_batch",
@@ -627,6 +628,26 @@ def cpu_count() -> int:
     return os.cpu_count() or 1
 
 
+def local_cluster(n_workers: int) -> Any:
+    """A ``dask.distributed.LocalCluster`` of ``n_workers`` single-threaded worker processes, as
+    :func:`run_batch` starts one (no dashboard).
+
+    Its workers keep glibc's own malloc thresholds: Dask's default sets
+    ``MALLOC_TRIM_THRESHOLD_=65536`` in its workers' environment, which also fixes glibc's mmap
+    threshold at 128 KiB, so that every frame-sized array is a fresh ``mmap`` with its page
+    faults; measured on PETS slices, a job then costs about 1.4x the CPU time it costs in the
+    calling process (4.0 against 2.85 s for 30 frames). ``MALLOC_TRIM_THRESHOLD_: null`` under
+    ``distributed.nanny.pre-spawn-environ`` is Dask's documented way to leave it unset (the
+    README shows the same for workers started with ``dask worker``).
+    """
+    import dask
+
+    distributed = require_dask()
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+        return distributed.LocalCluster(n_workers=n_workers, threads_per_worker=1,
+                                        processes=True, dashboard_address=None)
+
+
 def require_dask() -> Any:
     """``dask.distributed``; ImportError saying what to install when Dask is missing."""
     try:
@@ -728,10 +749,7 @@ def run_batch(jobs: Sequence[Job] | str | os.PathLike[str], out_dir: str | os.Pa
                             raise ValueError(f"--scheduler {scheduler}: cannot connect: "
                                              f"{exc}") from None
                     else:
-                        n = workers or cpu_count()
-                        cluster = stack.enter_context(distributed.LocalCluster(
-                            n_workers=n, threads_per_worker=1, processes=True,
-                            dashboard_address=None))
+                        cluster = stack.enter_context(local_cluster(workers or cpu_count()))
                         client = stack.enter_context(distributed.Client(cluster))
                 _submit_all(distributed, client, todo, out, retries, finished)
     finally:
