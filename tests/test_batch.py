@@ -183,7 +183,7 @@ def test_a_local_cluster_gives_the_serial_bits(tmp_path, svm):
     with local_cluster(2) as cluster, distributed.Client(cluster) as client:
         if "MALLOC_TRIM_THRESHOLD_" not in os.environ:
             # glibc's own malloc thresholds in the workers (Dask's default would fix them)
-            assert set(client.run(os.environ.get, "MALLOC_TRIM_THRESHOLD_").values()) == {None}
+            assert set(client.run(os.getenv, "MALLOC_TRIM_THRESHOLD_").values()) == {None}
         par = run_batch(jobs, tmp_path / "dask", client=client, progress=False)
         assert client.status == "running"  # the caller's client is left open
     assert par.n_failed == 0
