@@ -67,7 +67,7 @@ import socket
 import time
 import traceback
 import uuid
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -461,7 +461,7 @@ def _run_job(job: Job, tmp: Path) -> dict[str, Any]:
 
 
 @contextlib.contextmanager
-def _one_thread() -> Iterable[None]:
+def _one_thread() -> Iterator[None]:
     """One OpenCV and one BLAS thread while a job runs: the same bits on any worker, and one
     core per job."""
     import cv2
