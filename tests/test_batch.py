@@ -151,6 +151,22 @@ def test_a_bad_job_fails_alone_and_resume_skips_the_complete_ones(tmp_path, caps
     assert not list(out.glob(".tmp-*"))
 
 
+def test_a_job_run_twice_is_written_once(tmp_path):
+    """What a rerun after a worker died past its rename meets: the folder is kept as it is and
+    the recorded row comes back."""
+    from pftrack.batch import execute_job
+
+    job = parse_jobs({"jobs": [{**WALKERS, "args": ["--frames", "5", "--particles", "20",
+                                                    "--no-baseline"]}]})[0]
+    first = execute_job(job, tmp_path)
+    assert first["status"] == "ok"
+    stamps = {p.name: p.stat().st_mtime_ns for p in (tmp_path / job.name).iterdir()}
+    again = execute_job(job, tmp_path)
+    assert again == json.loads(json.dumps(first))  # the row read back from job.json
+    assert {p.name: p.stat().st_mtime_ns for p in (tmp_path / job.name).iterdir()} == stamps
+    assert [p.name for p in tmp_path.iterdir()] == [job.name]
+
+
 def test_without_dask_it_says_what_to_install_and_runs_serially(tmp_path):
     jobs = _write(tmp_path / "jobs.yaml", {"jobs": [
         {**WALKERS, "args": ["--frames", "5", "--particles", "20", "--no-baseline"]}]})

@@ -17,10 +17,11 @@ A batch is a list of jobs, read from a YAML file (:func:`load_jobs`) or built in
 
 A JOBS file::
 
-    defaults:                      # optional: fields every job inherits
+    defaults:                      # optional: fields every job of a kind taking them inherits
       video: ../shared/data/pets09/vtest.avi
     jobs:
-      - name: pets                 # the job's folder under --out (letters, digits, . _ - =)
+      - name: pets                 # the job's folder under --out (letters, digits, . _ - =);
+                                   # optional ``group``: the aggregates' group (default: name)
         config: pets09-ground
         camera: ../shared/data/pets09/View_001.xml
         gt: ../shared/data/pets09/gt.txt
