@@ -83,7 +83,8 @@ def pftrack_register_presets(register):
 def pftrack_register_benchmarks(register):
     from pftrack.extensions import Benchmark
 
-    from pftrack_world import bench_pets09_ground, bench_soccer
+    from pftrack_world import bench_batch, bench_pets09_ground, bench_soccer
 
+    register("batch", Benchmark.from_module(bench_batch))
     register("pets09-ground", Benchmark.from_module(bench_pets09_ground))
     register("soccer", Benchmark.from_module(bench_soccer))
