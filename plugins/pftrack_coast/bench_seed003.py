@@ -78,7 +78,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
-def _track(cfg: dict[str, Any], frames: list[Any], camera: Any, seed: int,
+def track_frames(cfg: dict[str, Any], frames: list[Any], camera: Any, seed: int,
            model: str | None, fit_frames: Any = None,
            snapshot: tuple[int, Any] | None = None) -> dict[str, Any]:
     """Run the configuration over ``frames``: MOT rows, the track manager, timings
@@ -238,11 +238,11 @@ def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
         snap = None
         if args.images:
             at = min(max(first + 160, first), last if last is not None else first + 160)
-            snap = (at, lambda engine, frame: _pets_images(Path(args.images), engine, frame,
+            snap = (at, lambda engine, frame: pets_images(Path(args.images), engine, frame,
                                                            camera, volume))
-        run = _track(cfg, frames, camera, args.seed, model, snapshot=snap)
+        run = track_frames(cfg, frames, camera, args.seed, model, snapshot=snap)
         if args.images:
-            _pets_topview(Path(args.images), run, gt, volume)
+            pets_topview(Path(args.images), run, gt, volume)
         decode = time.perf_counter() - t0 - run["wall_s"]
         out = score_pets(gt, run, volume)
         out["frames_per_second_with_decoding"] = run["frames"] / (run["wall_s"] + max(decode, 0))
@@ -252,7 +252,7 @@ def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
             mcfg = copy.deepcopy(cfg)
             mcfg["likelihood"] = {"type": "mog2-fraction", "params": {
                 "block_size": int(cfg["detector"]["params"].get("block_size", 8))}}
-            run2 = _track(mcfg, frames, camera, args.seed, model,
+            run2 = track_frames(mcfg, frames, camera, args.seed, model,
                           fit_frames=(f.image for f in iter_frames(video, a, b)))
             out["mog2"] = score_pets(gt, run2, volume)
         out["setup"] = {"frames": f"{first}:{last}", "train_frames": cfg["detector"]["train"][
@@ -265,7 +265,7 @@ def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
     return out
 
 
-def _pets_images(folder: Path, engine: Any, frame: Any, camera: Any, volume: Any) -> None:
+def pets_images(folder: Path, engine: Any, frame: Any, camera: Any, volume: Any) -> None:
     """The frame with particles and corrected cuboids (seed 003 figs. 2-3), and the particle
     clouds in the volume in 3-D (off-screen)."""
     import cv2
@@ -291,7 +291,7 @@ def _pets_images(folder: Path, engine: Any, frame: Any, camera: Any, volume: Any
                   cameras=[camera], title=f"PETS frame {frame.index}: group (dark), people (bright)")
 
 
-def _pets_topview(folder: Path, run: dict[str, Any], gt: np.ndarray, volume: Any) -> None:
+def pets_topview(folder: Path, run: dict[str, Any], gt: np.ndarray, volume: Any) -> None:
     """Footprint trajectories against the ground truth's, with the volume, from above."""
     from pftrack.render.topview import render_topview
 
@@ -307,17 +307,17 @@ def _pets_topview(folder: Path, run: dict[str, Any], gt: np.ndarray, volume: Any
 COAST_MATCH_M = 20.0
 
 
-def _coast_clip(clip: str, cfg: dict[str, Any], model: str, seed: int, scene_seed: int,
+def coast_clip(clip: str, cfg: dict[str, Any], model: str, seed: int, scene_seed: int,
                 ) -> dict[str, Any]:
     from pftrack_coast.scene import CoastScene
 
     scene = CoastScene(seed=scene_seed, clip=clip).prepare()
     frames = list(scene.frames())
-    run = _track(cfg, frames, scene.camera_, seed, model)
+    run = track_frames(cfg, frames, scene.camera_, seed, model)
     return {"scene": scene, "run": run, "gt": scene.ground_truth()}
 
 
-def _coast_objects(res: dict[str, Any]) -> list[dict[str, Any]]:
+def coast_objects(res: dict[str, Any]) -> list[dict[str, Any]]:
     """Per object of a clip: the sizes (eq. 10 and corrected) of the estimates matched to it
     within COAST_MATCH_M, and its entry / exit frame errors."""
     gt, rows, scene = res["gt"], res["run"]["rows"], res["scene"]
@@ -378,13 +378,13 @@ def _coast(args: argparse.Namespace, say: Any) -> dict[str, Any]:
         seconds = frames = 0.0
         for clip in ("boat", "car"):
             say(f"seed003: coast, clip {clip}")
-            res = _coast_clip(clip, cfg, model, args.seed, args.scene_seed)
+            res = coast_clip(clip, cfg, model, args.seed, args.scene_seed)
             seconds += res["run"]["cpu_s"]
             frames += res["run"]["frames"]
             if clip == "boat":
                 out["frames_per_second_boat_clip"] = res["run"]["frames"] / max(
                     res["run"]["cpu_s"], 1e-12)
-            for o in _coast_objects(res):
+            for o in coast_objects(res):
                 table.append(o)
                 entry.append(o["entry_error_frames"])
                 exit_.append(o["exit_error_frames"])
@@ -396,13 +396,13 @@ def _coast(args: argparse.Namespace, say: Any) -> dict[str, Any]:
         out["exit_error_frames"] = float(np.median(found_x)) if found_x else None
         out["objects_found"] = f"{len(found_e)} of {len(entry)}"
         say("seed003: coast, clip multi")
-        res = _coast_clip("multi", cfg, model, args.seed, args.scene_seed)
+        res = coast_clip("multi", cfg, model, args.seed, args.scene_seed)
         seconds += res["run"]["cpu_s"]
         frames += res["run"]["frames"]
         rows = res["run"]["rows"]
         m = evaluate(res["gt"], rows, metric="world", threshold=COAST_MATCH_M)
         out["multi"] = {"MOTA_world": m["MOTA"], "IDF1_world": m["IDF1"], "IDSW": m["IDSW"],
-                        "FP": m["FP"], "FN": m["FN"], "objects": _coast_objects(res),
+                        "FP": m["FP"], "FN": m["FN"], "objects": coast_objects(res),
                         "match_m": COAST_MATCH_M}
         out["frames_per_second"] = frames / max(seconds, 1e-12)
         out["setup"] = {"scene_seed": args.scene_seed, "seed": args.seed,
