@@ -120,3 +120,23 @@ def test_trajectory_ensemble_of_s100_runs_in_about_a_second():
     TrajectoryEnsemble(9, 100).link(ds.tracklets, ds.network, appearance=app,
                                     rng=np.random.default_rng(0))
     assert time.perf_counter() - t0 < 10
+
+
+def test_seed004_table3_on_two_dask_workers_equals_in_process():
+    """Table 3's cells mapped over a real 2-worker local Dask cluster give the in-process
+    figures exactly (each cell is seeded)."""
+    pytest.importorskip("distributed")
+    from pftrack_network import bench_seed004
+
+    parser = argparse.ArgumentParser()
+    bench_seed004.add_arguments(parser)
+    common = ["--datasets", "1", "--runs", "2", "--subnetworks", "10", "--tuned-dropped", "0",
+              "--table3", "5,9:5,10", "--quiet"]
+    serial = bench_seed004.run(parser.parse_args(common))
+    dask = bench_seed004.run(parser.parse_args(common + ["--workers", "2"]))
+    assert dask["setup"]["table3_workers"] == 2
+    key = [(c["dropped"], c["subnetworks"], c["ari_mean"], c["ari_var"])
+           for c in serial["table3"]]
+    assert key == [(c["dropped"], c["subnetworks"], c["ari_mean"], c["ari_var"])
+                   for c in dask["table3"]]
+    assert [c[:2] for c in key] == [(5, 5), (5, 10), (9, 5), (9, 10)]

@@ -11,7 +11,8 @@ ensemble runs ``--runs`` times per dataset, run r drawing its sub-networks from
 datasets of the per-dataset mean ARI, as the paper's. ARI: :func:`pftrack.metrics.
 adjusted_rand_index` over every tracklet. Timing: one core, ``time.perf_counter``.
 
-The unit of work is :func:`table3_cell` (one C_d, S over every dataset and run), so a
+The unit of work is :func:`table3_cell` (one C_d, S over every dataset and run; ``--workers N``
+or ``--scheduler ADDRESS`` maps the cells over Dask, as ``pftrack batch`` does), so a
 scale-out engine can map the grid cell by cell.
 """
 
@@ -56,6 +57,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         + ",".join(map(str, SUBNETWORKS)),
                         help="Table 3's grid 'C_d,...:S,...' (default 5,7,9,11,13:50,100,150); "
                              "'none' skips it")
+    parser.add_argument("--workers", type=int, default=1,
+                        help="Table 3's cells on a local Dask cluster of this many worker "
+                             "processes (pftrack.batch.local_cluster; default 1: in this "
+                             "process, no Dask)")
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                        help="Table 3's cells on the Dask scheduler at ADDRESS instead")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
@@ -128,6 +135,41 @@ def _grid(spec: str) -> list[tuple[int, int]]:
         raise ValueError(f"--table3 must be 'C_d,...:S,...' or 'none', got {spec!r}") from None
 
 
+def _table3(grid: list[tuple[int, int]], args: argparse.Namespace, pc: float,
+            say: Any) -> list[dict[str, Any]]:
+    """Table 3's cells in grid order: in this process, or mapped over Dask workers (the
+    scale-out engine of ``pftrack batch``; each cell is seeded, so the figures are the same)."""
+    kw = {"seed": args.seed, "datasets": args.datasets, "runs": args.runs, "path_cost": pc,
+          "transit_sum": args.transit_sum, "data": args.data}
+    workers = int(getattr(args, "workers", 1) or 1)
+    scheduler = getattr(args, "scheduler", None)
+    if workers < 1:
+        raise ValueError(f"--workers must be >= 1, got {workers}")
+    if not grid or (workers == 1 and scheduler is None):
+        out = []
+        for cd, s in grid:
+            out.append(table3_cell(cd, s, **kw))
+            say(f"seed004: table3 C_d={cd} S={s} ARI {out[-1]['ari_mean']:.3f} "
+                f"({out[-1]['seconds']:.1f} s)")
+        return out
+    from pftrack.batch import local_cluster, require_dask
+
+    distributed = require_dask()
+    cluster = None if scheduler is not None else local_cluster(workers)
+    client = distributed.Client(scheduler if scheduler is not None else cluster)
+    try:
+        futures = [client.submit(table3_cell, cd, s, pure=False, **kw) for cd, s in grid]
+        out = client.gather(futures)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    for c in out:
+        say(f"seed004: table3 C_d={c['dropped']} S={c['subnetworks']} ARI "
+            f"{c['ari_mean']:.3f} ({c['seconds']:.1f} s on a worker)")
+    return list(out)
+
+
 def run(args: argparse.Namespace) -> dict[str, Any]:
     from pftrack_network.linkers import (
         DEFAULT_PATH_COST,
@@ -180,14 +222,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         say(f"seed004: {label} {np.round(per[label], 3).tolist()}")
     table1 = [{"method": m, "ari_mean": float(np.mean(v)), "ari_var": float(np.var(v)),
                "per_dataset": [float(x) for x in v]} for m, v in per.items()]
-    table3 = []
     t0 = time.perf_counter()
-    for cd, s in grid:
-        cell = table3_cell(cd, s, seed=args.seed, datasets=args.datasets, runs=args.runs,
-                           path_cost=pc, transit_sum=args.transit_sum, data=args.data)
-        table3.append(cell)
-        say(f"seed004: table3 C_d={cd} S={s} ARI {cell['ari_mean']:.3f} "
-            f"({cell['seconds']:.1f} s)")
+    table3 = _table3(grid, args, pc, say)
     seconds["table3"] = time.perf_counter() - t0
     seconds["trajectory_ensemble_one_run_median"] = float(np.median(te_secs))
     seconds["trajectory_ensemble_one_run_max"] = float(np.max(te_secs))
@@ -196,6 +232,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     return {
         "table1": table1, "table2": table2, "table3": table3, "seconds": seconds,
         "setup": {"datasets": args.datasets, "runs": args.runs, "seed": args.seed,
+                  "table3_workers": int(getattr(args, "workers", 1) or 1),
+                  "table3_scheduler": getattr(args, "scheduler", None),
                   "dropped": args.dropped, "subnetworks": args.subnetworks, "path_cost": pc,
                   "greedy_path_cost": gpc, "tuned_dropped": args.tuned_dropped,
                   "transit_sum": args.transit_sum, "cameras": len(ds0.network.cameras),
