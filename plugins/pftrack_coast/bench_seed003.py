@@ -160,7 +160,8 @@ def score_pets(gt: np.ndarray, run: dict[str, Any], volume: Any) -> dict[str, An
                FP_world=mw["FP"], FN_world=mw["FN"], tracks=int(len(np.unique(rows[:, 1])))
                if len(rows) else 0)
     pairs = _frame_pairs(gt, rows)
-    err = np.array([np.hypot(gt[g, 7] - rows[t, 7], gt[g, 8] - rows[t, 8]) for g, t in pairs])
+    gi, ti = np.array(pairs, dtype=np.intp).reshape(-1, 2).T
+    err = np.hypot(gt[gi, 7] - rows[ti, 7], gt[gi, 8] - rows[ti, 8])
     out["median_error_m"] = float(np.median(err)) if len(err) else float("nan")
     # entry and exit: per person, the first and last frame some track is matched to them
     # (within 1 m) against the first and last frame the ground truth has them in the volume
@@ -211,11 +212,9 @@ def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
     from pftrack.pipeline import iter_frames, load_config, parse_frames, read_ground_truth, \
         train_detector
 
-    folder = root / "pets09"
-    video, gt_path, cam_path = folder / "vtest.avi", folder / "gt.txt", folder / "View_001.xml"
-    for p in (video, gt_path, cam_path):
-        if not p.is_file():
-            raise FileNotFoundError(f"seed003: {p} not found (--data or $PFTRACK_DATA)")
+    from pftrack.data import pets09_files
+
+    video, gt_path, cam_path = pets09_files(root)
     cfg = load_config(args.config)
     if args.particles is not None:
         cfg["tracker"] = {**cfg["tracker"], "n_particles": int(args.particles)}

@@ -25,6 +25,18 @@ from pftrack_coast.eigenspace import BlockEigenspaceModel
 __all__ = ["EigenspaceLikelihood", "ForegroundFractionLikelihood"]
 
 
+def _blocks_of_pixels(px: np.ndarray, block_size: int, grid_shape: tuple[int, int],
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Pixels (N, 2) -> which fall in the block grid (bool (N,)) and their block indices
+    ``row * cols + col`` (for those that do); NaN pixels fall outside."""
+    rows, cols = grid_shape
+    with np.errstate(invalid="ignore"):
+        c = np.floor(px[:, 0] / block_size)
+        r = np.floor(px[:, 1] / block_size)
+    ok = np.isfinite(c) & np.isfinite(r) & (c >= 0) & (c < cols) & (r >= 0) & (r < rows)
+    return ok, (r[ok] * cols + c[ok]).astype(np.intp)
+
+
 def _engine_points(boxes_xywh_px: np.ndarray, target: Target | None) -> bool:
     """Whether ``boxes_xywh_px`` are the engine's particle boxes of this frame and points (an
     observation with ``particle_box="point"`` projected the particles already)."""
@@ -104,15 +116,9 @@ class EigenspaceLikelihood(Likelihood):
         out = np.full(n, -np.inf)
         if n == 0:
             return out
-        bs = int(m.block_size)
-        rows, cols = m.grid_shape_
-        with np.errstate(invalid="ignore"):
-            c = np.floor(px[:, 0] / bs)
-            r = np.floor(px[:, 1] / bs)
-        ok = np.isfinite(c) & np.isfinite(r) & (c >= 0) & (c < cols) & (r >= 0) & (r < rows)
+        ok, blocks = _blocks_of_pixels(px, int(m.block_size), m.grid_shape_)
         if not ok.any():
             return out
-        blocks = (r[ok] * cols + c[ok]).astype(np.intp)
         need = np.unique(blocks)
         need = need[np.isnan(self.excess_[need])]
         if len(need) > 0.2 * len(self.excess_):
@@ -221,11 +227,6 @@ class ForegroundFractionLikelihood(Likelihood):
             else:
                 px = b[:, :2] + 0.5 * b[:, 2:]
         out = np.full(len(px), -np.inf)
-        bs = int(self.block_size)
-        rows, cols = self.grid_
-        with np.errstate(invalid="ignore"):
-            c = np.floor(px[:, 0] / bs)
-            r = np.floor(px[:, 1] / bs)
-        ok = np.isfinite(c) & np.isfinite(r) & (c >= 0) & (c < cols) & (r >= 0) & (r < rows)
-        out[ok] = self.log_f_[(r[ok] * cols + c[ok]).astype(np.intp)]
+        ok, blocks = _blocks_of_pixels(px, int(self.block_size), self.grid_)
+        out[ok] = self.log_f_[blocks]
         return out

@@ -78,20 +78,6 @@ def dims_png(model: BlockEigenspaceModel, title: str = "") -> bytes:
     return _png(fig)
 
 
-def _cuboid_edges(centre_m: np.ndarray, size_m: np.ndarray, across: np.ndarray,
-                  along: np.ndarray) -> np.ndarray:
-    """The 12 edges (12, 2, 3) of a cuboid ``size_m`` (across, height, along) about
-    ``centre_m`` with faces along the view's axes."""
-    from pftrack.geometry.volumes import _BOX_EDGES
-
-    up = np.array([0.0, 0.0, 1.0])
-    bits = (np.arange(8)[:, None] >> np.arange(3)[None, :]) & 1  # corner k: bit j -> axis j
-    signs = bits - 0.5
-    corners = (np.asarray(centre_m, float)[None] + (signs[:, 0:1] * size_m[0]) * across
-               + (signs[:, 2:3] * size_m[1]) * up + (signs[:, 1:2] * size_m[2]) * along)
-    return corners[_BOX_EDGES]
-
-
 def intruders_image(image_bgr: np.ndarray, camera, volumes, engine, estimates,
                     frame_index: int, *, groups: bool = True) -> np.ndarray:
     """Seed 003's figures 2-3 on a frame: the volumes (yellow), each track's particles (white),
@@ -116,12 +102,14 @@ def intruders_image(image_bgr: np.ndarray, camera, volumes, engine, estimates,
     for e in estimates:
         if e["frame"] != frame_index or "size_m" not in e:
             continue
-        from pftrack_coast.volumes import _axes
+        from pftrack.geometry.volumes import _BOX_EDGES
+
+        from pftrack_coast.volumes import _axes, cuboid_corners
 
         across, along = _axes(camera, e["footprint_m"][:2])
         centre = e["footprint_m"] + np.array([0.0, 0.0, 0.5 * e["size_m"][1]])
-        img = draw_world_polylines(img, camera, list(_cuboid_edges(centre, e["size_m"], across,
-                                                                   along)), (0, 255, 0), 2,
+        corners = cuboid_corners(centre[None], e["size_m"][None], across, along)[0]
+        img = draw_world_polylines(img, camera, list(corners[_BOX_EDGES]), (0, 255, 0), 2,
                                    step_m=0.05)
         u, v = camera.project(centre[None] + np.array([[0, 0, 0.5 * e["size_m"][1]]]))[0]
         if np.isfinite(u):

@@ -57,7 +57,10 @@ from pftrack.components import (
     TrackRecord,
 )
 
-__all__ = ["InsideBoxesLikelihood", "VolumeTracks", "cuboid_box", "cuboid_boxes", "footprint_size",
+from pftrack_coast.likelihood import _blocks_of_pixels
+
+__all__ = ["InsideBoxesLikelihood", "VolumeTracks", "cloud_box", "cuboid_box", "cuboid_boxes",
+           "cuboid_corners", "footprint_size",
            "support_plane_estimate"]
 
 
@@ -121,13 +124,9 @@ def support_plane_estimate(camera: Any, pixels: np.ndarray, *, support_z_m: floa
     px = px[np.isfinite(px).all(axis=1)]
     if len(px) < 2:
         return None
-    q = float(quantile)
-    lo, hi = np.quantile(px, [q, 1.0 - q], axis=0)
-    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo) / (1.0 - 2.0 * q)  # a uniform spread's ends
-    (u0, v0), (u1, v1) = mid - half, mid + half
-    mu = mid
+    (u0, v0), (u1, v1), mid = _cloud_ends(px, quantile)
     z = float(support_z_m)
-    g = camera.image_to_ground(np.array([[mu[0], v1], [u0, v1], [u1, v1]]), z_m=z)
+    g = camera.image_to_ground(np.array([[mid[0], v1], [u0, v1], [u1, v1]]), z_m=z)
     if not np.isfinite(g).all():
         return None
     g[:, 2] = z  # on the plane exactly (the intersection leaves rounding)
@@ -164,16 +163,44 @@ def cuboid_box(camera: Any, centre_m: np.ndarray, size_m: np.ndarray, across: np
                         np.asarray(size_m, float)[None], across, along)[0]
 
 
+def cuboid_corners(centres_m: np.ndarray, sizes_m: np.ndarray, across: np.ndarray,
+                   along: np.ndarray) -> np.ndarray:
+    """The 8 corners (K, 8, 3) of K cuboids with sizes (K, 3) (across, height, along) about
+    centres (K, 3), faces along the view's axes; corner k has + half-size along across / along
+    / up where bit 0 / 1 / 2 of k is set (the order of
+    :meth:`pftrack.geometry.volumes.CuboidVolume.corners`, so its edge list applies)."""
+    bits = (np.arange(8)[:, None] >> np.arange(3)[None, :]) & 1
+    s = bits - 0.5  # (8, 3): across, along, up
+    c = np.asarray(centres_m, dtype=np.float64)
+    z = np.asarray(sizes_m, dtype=np.float64)
+    up = np.array([0.0, 0.0, 1.0])
+    return (c[:, None, :] + (s[None, :, 0:1] * z[:, None, 0:1]) * across
+            + (s[None, :, 2:3] * z[:, None, 1:2]) * up
+            + (s[None, :, 1:2] * z[:, None, 2:3]) * along)
+
+
+def cloud_box(pixels: np.ndarray, quantile: float = 0.02) -> np.ndarray:
+    """The image box (4,) of a particle cloud's pixels (N, 2), finite rows: its ``quantile``
+    to ``1 - quantile`` quantiles per axis, widened to the ends of a uniform spread with those
+    quantiles (outlying particles do not stretch it)."""
+    lo, hi, _ = _cloud_ends(pixels, quantile)
+    return np.concatenate([lo, hi - lo])
+
+
+def _cloud_ends(pixels: np.ndarray, quantile: float,
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`cloud_box`'s (left, top), (right, bottom) and middle."""
+    q = float(quantile)
+    lo, hi = np.quantile(pixels, [q, 1.0 - q], axis=0)
+    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo) / (1.0 - 2.0 * q)  # a uniform spread's ends
+    return mid - half, mid + half, mid
+
+
 def cuboid_boxes(camera: Any, centres_m: np.ndarray, sizes_m: np.ndarray, across: np.ndarray,
                  along: np.ndarray) -> np.ndarray:
     """:func:`cuboid_box` of K cuboids (K, 3) at once: (K, 4), one projection."""
-    s = np.array([[a, b, c] for a in (-0.5, 0.5) for b in (-0.5, 0.5) for c in (-0.5, 0.5)])
-    up = np.array([0.0, 0.0, 1.0])
     c = np.asarray(centres_m, dtype=np.float64)
-    z = np.asarray(sizes_m, dtype=np.float64)
-    corners = (c[:, None, :] + (s[None, :, 0:1] * z[:, None, 0:1]) * across
-               + (s[None, :, 1:2] * z[:, None, 1:2]) * up
-               + (s[None, :, 2:3] * z[:, None, 2:3]) * along).reshape(-1, 3)
+    corners = cuboid_corners(c, sizes_m, across, along).reshape(-1, 3)
     p = camera.project(corners).reshape(len(c), 8, 2)
     behind = ~camera.in_front(corners).reshape(len(c), 8).all(axis=1)
     lo, hi = p.min(axis=1), p.max(axis=1)
@@ -493,14 +520,11 @@ class VolumeTracks(TrackManager):
         w, h = frame.size_wh
         bs = int(self.blob_block_px)
         gw, gh = -(-w // bs), -(-h // bs)
-        with np.errstate(invalid="ignore"):
-            c = np.floor(px[:, 0] / bs)
-            r = np.floor(px[:, 1] / bs)
-        ok = np.isfinite(c) & np.isfinite(r) & (c >= 0) & (c < gw) & (r >= 0) & (r < gh)
+        ok, cells = _blocks_of_pixels(px, bs, (gh, gw))
         if not ok.any():
             return particles
         cell = np.full(len(px), -1, dtype=np.intp)
-        cell[ok] = (r[ok] * gw + c[ok]).astype(np.intp)
+        cell[ok] = cells
         counts = np.bincount(cell[ok], minlength=gw * gh).reshape(gh, gw)
         n_lab, labels = cv2.connectedComponents((counts > 0).astype(np.uint8), connectivity=8)
         if n_lab <= 2:
@@ -775,8 +799,8 @@ class VolumeTracks(TrackManager):
                     return True
         if not self.boxes_:
             return False
-        mu, half = px.mean(axis=0), math.sqrt(3.0) * px.std(axis=0)
-        lo, hi = mu - half, mu + half
+        box = cloud_box(px) if len(px) >= 2 else np.concatenate([px[0], np.zeros(2)])
+        lo, hi = box[:2], box[:2] + box[2:]
         area = max(float(np.prod(hi - lo)), 1e-9)
         b = np.array(list(self.boxes_.values()))
         ov = np.clip(np.minimum(hi, b[:, :2] + b[:, 2:]) - np.maximum(lo, b[:, :2]), 0, None)

@@ -114,19 +114,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     from pathlib import Path
 
     from pftrack.batch import cpu_count, parse_jobs, require_dask, run_batch
-    from pftrack.data import data_dir
+    from pftrack.data import pets09_files
     from pftrack.pipeline import load_config, train_detector
 
     if args.jobs < 1 or args.frames_per_job < 1 or args.workers < 2 or args.repeats < 1:
         raise ValueError("--jobs, --frames-per-job and --repeats must be >= 1, --workers >= 2")
-    root = Path(args.data) if args.data else data_dir() / "pets09"
-    if args.data and (Path(args.data) / "pets09").is_dir():
-        root = Path(args.data) / "pets09"
-    video, gt, cam = root / "vtest.avi", root / "gt.txt", root / "View_001.xml"
-    for p in (video, gt, cam):
-        if not p.is_file():
-            raise FileNotFoundError(f"{p} not found: set PFTRACK_DATA or --data to the folder "
-                                    "holding pets09/")
+    video, gt, cam = pets09_files(args.data)
     require_dask()  # before training: say what to install at once
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, file=sys.stderr,
                                                                   flush=True))

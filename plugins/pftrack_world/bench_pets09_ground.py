@@ -121,21 +121,13 @@ def _variants(cfg: dict[str, Any]) -> dict[str, dict[str, Any]]:
 def run(args: argparse.Namespace) -> dict[str, Any]:
     import os
     import tempfile
-    from pathlib import Path
 
     import cv2
 
-    from pftrack.data import data_dir
+    from pftrack.data import pets09_files
     from pftrack.pipeline import load_config, run_pipeline, train_detector
 
-    root = Path(args.data) if args.data else data_dir() / "pets09"
-    if args.data and (Path(args.data) / "pets09").is_dir():
-        root = Path(args.data) / "pets09"
-    video, gt, cam = root / "vtest.avi", root / "gt.txt", root / "View_001.xml"
-    for p in (video, gt, cam):
-        if not p.is_file():
-            raise FileNotFoundError(f"{p} not found: set PFTRACK_DATA or --data to the folder "
-                                    "holding pets09/")
+    video, gt, cam = pets09_files(args.data)
     cfg = load_config(args.preset)
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, file=sys.stderr,
                                                                   flush=True))

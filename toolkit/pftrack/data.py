@@ -27,3 +27,18 @@ def data_path(*parts: str) -> Path:
             "(default: ../shared/data beside the repository)"
         )
     return p
+
+
+def pets09_files(data: str | os.PathLike[str] | None = None) -> tuple[Path, Path, Path]:
+    """PETS 2009 S2.L1's video, ground truth and Tsai camera (``vtest.avi``, ``gt.txt``,
+    ``View_001.xml``) in ``data`` (the pets09 folder itself or the folder holding it; default
+    :func:`data_dir`'s pets09); FileNotFoundError naming the first file missing."""
+    root = Path(data) if data is not None else data_dir() / "pets09"
+    if data is not None and (root / "pets09").is_dir():
+        root = root / "pets09"
+    files = (root / "vtest.avi", root / "gt.txt", root / "View_001.xml")
+    for p in files:
+        if not p.is_file():
+            raise FileNotFoundError(f"{p} not found: set PFTRACK_DATA or --data to the folder "
+                                    "holding pets09/")
+    return files
