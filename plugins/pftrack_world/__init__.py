@@ -7,6 +7,8 @@ Components (registered name -> class):
 * detector: ``svm`` :class:`~pftrack_world.detector.SVMDetector` (linear SVM on HOG or grey
   levels, sliding windows over camera-chosen scales, score c(det)); ``pitch-blob``
   :class:`~pftrack_world.soccer.PitchBlobDetector` (foreground blobs on the pitch);
+  ``hog-people`` :class:`~pftrack_world.people.HOGPeopleDetector` (OpenCV's INRIA HOG people
+  detector, no training: tightened boxes, camera-limited scales, calibrated scores);
 * associator: ``greedy-score`` :class:`~pftrack_world.association.GreedyScoreAssociator`
   (eq. 3-4, greedy as the paper), ``hungarian-score``
   :class:`~pftrack_world.association.HungarianScoreAssociator` (same scores, optimal);
@@ -37,6 +39,9 @@ def pftrack_register_detectors(register):
     from pftrack_world.detector import SVMDetector
 
     register("svm", SVMDetector)
+    from pftrack_world.people import HOGPeopleDetector
+
+    register("hog-people", HOGPeopleDetector)
     register("pitch-blob", soccer.PitchBlobDetector)
 
 

@@ -1,0 +1,332 @@
+"""``hog-people``: a person detector that needs no training (OpenCV's HOG people detector).
+
+OpenCV ships a linear SVM on HOG features trained on the INRIA person set
+(``cv2.HOGDescriptor_getDefaultPeopleDetector``, a 64 x 128 window). This module wraps it as a
+pftrack detector with three additions:
+
+* **Boxes tightened to the person.** An INRIA window holds the person with a margin. The
+  margin was measured on PETS 2009 S2.L1's ground truth, frames 1-200 only (every 10th frame,
+  111 fully visible people): the window was run over the frame scaled by 1.5, each ground-truth
+  box was paired with the highest-scoring window whose centre lies within 0.15 of the box height
+  of the box's centre, and the box was expressed in window units; the medians are
+  :data:`HOG_PEOPLE_BOX` = left 0.25, top 0.12, width 0.51, height 0.74 of the window (the
+  interquartile ranges: 0.19-0.32, 0.09-0.14, 0.47-0.56, 0.71-0.77). The height agrees with
+  the INRIA protocol (a 96 px person in a 128 px window, 0.75); the width is wider than a
+  PETS ground-truth box's median aspect (0.36) because the ground truth's boxes include the arms
+  only when spread. Reproduce with ``python -m pftrack_world.people --measure-margin GT VIDEO``.
+* **Scale search limited by the camera.** With a camera (the run's, or ``camera=``), a person
+  of ``height_m`` standing at a foot row has a known image height, so each search scale only
+  scans the band of rows where such a person can stand (:func:`pftrack_world.detector.
+  scale_plan`). Without a camera the first ``learn_scales`` frames are searched over the whole
+  pyramid; then the (foot row, height) relation is fitted to their confident detections
+  (:func:`~pftrack_world.detector.heights_from_boxes`, a plane valid for a flat ground) and the
+  search is limited by it as by a camera.
+* **Calibrated scores.** The SVM margin ``m`` (raw ``w . x + b`` of OpenCV's model) is mapped to
+  ``score = 1 / (1 + exp(-(m - score_offset) / score_scale))``, a logistic (Platt) map whose
+  two constants were fitted once (frames 1-200 of PETS, detections after suppression, label =
+  IoU >= 0.5 with a ground-truth box) and are fixed for every video: a score is the probability
+  that a detection is a person's box, so a threshold of 0.5 means "more likely right than wrong"
+  whatever the video. The map is monotone: ranking and suppression are those of the margin.
+
+Speed: one grey conversion, one resize and one ``HOGDescriptor.detect`` per scale band, the
+windows' boxes and scores as arrays; non-maximum suppression in OpenCV. The search is limited by
+``min_height_px`` / ``max_height_px`` and ``scale_step``; ``upscale_max`` bounds the upscaling of
+the image for people smaller than the window's 94 px.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from pftrack.components import Detections, Frame, RunContext
+
+from .detector import SVMDetector, SVMModel, heights_from_boxes, merge_clusters, nms
+
+__all__ = ["HOG_PEOPLE_BOX", "HOGPeopleDetector", "default_people_model", "measure_margin"]
+
+#: Person box inside OpenCV's 64 x 128 default people window, as fractions of the window
+#: (left, top, width, height); measured as the module docstring says.
+HOG_PEOPLE_BOX = (0.26, 0.12, 0.50, 0.73)
+WINDOW_WH = (64, 128)
+
+
+def default_people_model(box_fraction: Sequence[float] = HOG_PEOPLE_BOX) -> SVMModel:
+    """OpenCV's default HOG people detector as an :class:`SVMModel` (raw weights, not
+    normalised: its scores are OpenCV's margins)."""
+    import cv2
+
+    coef = np.asarray(cv2.HOGDescriptor_getDefaultPeopleDetector(), dtype=np.float32).ravel()
+    W, H = WINDOW_WH
+    fl, ft, fw, fh = (float(v) for v in box_fraction)
+    return SVMModel(coef[:-1].copy(), float(coef[-1]), "hog", WINDOW_WH,
+                    (fl * W, ft * H, fw * W, fh * H), {"source": "cv2 default people detector"})
+
+
+class HOGPeopleDetector(SVMDetector):
+    """OpenCV's INRIA HOG people detector with tightened boxes, camera-limited scales and a
+    calibrated score (see the module docstring). Needs no training.
+
+    Parameters
+    ----------
+    camera : str or Camera, optional
+        A ground-plane camera (path or object); default: the run's camera. Limits each scale to
+        the rows where a ``height_m`` person has that size, and gives detections their ground
+        point (foot back-projected to z = 0).
+    height_m : float
+        Mean person height with the camera, metres.
+    threshold : float
+        Minimum calibrated score (0-1, a probability of being a person's box) of a detection.
+    nms_iou : float
+        Detections overlapping a better one by more than this IoU are suppressed.
+    merge_tau : float or None
+        Each kept window is refined to the mean of the windows overlapping it by IoU >= 0.5,
+        weighted ``exp((m - m_best) / merge_tau)`` with ``m`` the raw margin; None: no
+        refinement.
+    scale_step : float
+        Ratio between consecutive search scales.
+    min_height_px, max_height_px : float
+        Person heights (image pixels) searched; with a camera they clip its expected range.
+    box_fraction : (float, float, float, float)
+        Person box inside the 64 x 128 window as fractions (left, top, width, height).
+    score_offset, score_scale : float
+        The logistic map of the margin ``m``: ``1 / (1 + exp(-(m - score_offset) /
+        score_scale))``.
+    learn_scales : int
+        Without a camera: frames searched over the whole pyramid before the search is limited
+        by the height-row relation of their detections (0: never limit).
+    tolerance : float
+        A scale is searched at a row when the expected person height there is within this
+        factor (times sqrt(scale_step)) of the scale's height.
+    """
+
+    def __init__(self, camera: Any = None, height_m: float = 1.7, threshold: float = 0.5,
+                 nms_iou: float = 0.3, merge_tau: float | None = 0.3, scale_step: float = 1.2,
+                 min_height_px: float = 48.0, max_height_px: float = 480.0,
+                 box_fraction: Sequence[float] = HOG_PEOPLE_BOX,
+                 score_offset: float = 0.46, score_scale: float = 0.32, learn_scales: int = 10,
+                 tolerance: float = 1.1) -> None:
+        self.camera = camera
+        self.height_m = height_m
+        self.threshold = threshold
+        self.nms_iou = nms_iou
+        self.merge_tau = merge_tau
+        self.scale_step = scale_step
+        self.min_height_px = min_height_px
+        self.max_height_px = max_height_px
+        self.box_fraction = box_fraction
+        self.score_offset = score_offset
+        self.score_scale = score_scale
+        self.learn_scales = learn_scales
+        self.tolerance = tolerance
+
+    # the SVM detector's training parameters do not apply
+    model = None
+
+    def setup(self, context: RunContext) -> None:
+        """The run's camera when ``camera`` is not set. A ``--detector-model`` is refused:
+        this detector has no model to load."""
+        if not 0.0 < float(self.threshold) < 1.0:
+            raise ValueError(f"detector hog-people: threshold is a calibrated score in (0, 1), "
+                             f"got {self.threshold}")
+        if self.camera is None and context.camera is not None:
+            self.camera_ = context.camera
+        if context.detector_model is not None:
+            raise ValueError(f"detector hog-people needs no model; --detector-model "
+                             f"{context.detector_model} is not used by it (drop the option, or "
+                             "use the svm detector)")
+
+    def save(self, path: str | os.PathLike[str]):  # noqa: D102 - nothing learnt
+        raise NotImplementedError("detector 'hog-people' learns nothing to save")
+
+    def load(self, path: str | os.PathLike[str]):  # noqa: D102
+        raise NotImplementedError("detector 'hog-people' has no model to load")
+
+    def fit(self, frames, boxes_by_frame, rng=None, ignore_by_frame=None):
+        """Nothing to learn: returns ``self``."""
+        return self
+
+    def describe(self) -> dict[str, Any]:
+        """The parameters and the window geometry."""
+        m = self._model()
+        return {**self.get_params(), "window_wh": list(m.window_wh),
+                "box_in_window": [float(v) for v in m.box_in_window]}
+
+    def _model(self) -> SVMModel:
+        if not hasattr(self, "model_"):
+            self.model_ = default_people_model(self.box_fraction)
+        return self.model_
+
+    def _prepare(self, image_size_wh: tuple[int, int]) -> None:
+        import cv2
+
+        m = self._model()
+        if getattr(self, "plan_size_", None) != image_size_wh:
+            from .detector import scale_plan
+
+            _, bt, _, bh = m.box_in_window
+            self.plan_ = scale_plan(bh, m.window_wh[1], bt + bh, image_size_wh,
+                                    scale_step=self.scale_step, min_height_px=self.min_height_px,
+                                    max_height_px=self.max_height_px, camera=self._camera(),
+                                    height_m=self.height_m, tolerance=self.tolerance,
+                                    expected=getattr(self, "expected_heights_", None))
+            self.plan_size_ = image_size_wh
+        if not hasattr(self, "hog_"):
+            hog = cv2.HOGDescriptor()
+            hog.setSVMDetector(cv2.HOGDescriptor_getDefaultPeopleDetector())
+            self.hog_ = hog
+
+    # -- scores ---------------------------------------------------------------------------
+
+    def calibrate(self, margins: np.ndarray) -> np.ndarray:
+        """Calibrated scores (0-1) of raw SVM margins (the logistic map)."""
+        z = (np.asarray(margins, dtype=np.float64) - float(self.score_offset))
+        return 1.0 / (1.0 + np.exp(-z / float(self.score_scale)))
+
+    def margin_of(self, score: float) -> float:
+        """The raw margin whose calibrated score is ``score`` (inverse of :meth:`calibrate`)."""
+        s = float(np.clip(score, 1e-9, 1 - 1e-9))
+        return float(self.score_offset) + float(self.score_scale) * float(np.log(s / (1 - s)))
+
+    # -- detection ------------------------------------------------------------------------
+
+    def detect_margins(self, grey: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Person boxes (K, 4) and raw margins (K,) after suppression and refinement, down to
+        the margin of ``threshold``."""
+        thr = self.margin_of(self.threshold)
+        tau = self.merge_tau
+        low = thr - (3.0 * float(tau) if tau is not None else 0.0)
+        boxes, m = self.score_windows(grey, threshold=low)
+        keep = nms(boxes, m, self.nms_iou)
+        keep = keep[m[keep] >= thr]
+        if tau is not None and len(keep):
+            boxes = merge_clusters(boxes, m, keep, tau=float(tau))
+        else:
+            boxes = boxes[keep]
+        return boxes, m[keep]
+
+    def detect(self, frame: Frame) -> Detections:
+        """Detections in ``frame``: person boxes (xywh px), calibrated scores, ground points
+        (m) with a camera."""
+        import cv2
+
+        img = frame.image
+        grey = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+        boxes, margins = self.detect_margins(grey)
+        scores = self.calibrate(margins)
+        cam = self._camera()
+        if cam is None and int(self.learn_scales) > 0 and \
+                not hasattr(self, "expected_heights_"):
+            self._learn_scales(boxes, scores, (grey.shape[1], grey.shape[0]))
+        points = None
+        if cam is not None:
+            feet = np.stack([boxes[:, 0] + 0.5 * boxes[:, 2], boxes[:, 1] + boxes[:, 3]], axis=1)
+            points = cam.image_to_ground(feet) if len(feet) else np.zeros((0, 3))
+        return Detections(boxes, scores, points)
+
+    def _learn_scales(self, boxes: np.ndarray, scores: np.ndarray,
+                      size_wh: tuple[int, int]) -> None:
+        """Collect confident boxes over the first ``learn_scales`` frames, then limit the
+        search to the fitted height-row plane (rows with a positive height only)."""
+        seen = self.__dict__.setdefault("learn_boxes_", [])
+        seen.append(boxes[scores >= max(0.5, float(self.threshold))])
+        self.__dict__["learn_frames_"] = self.__dict__.get("learn_frames_", 0) + 1
+        if self.learn_frames_ < int(self.learn_scales):
+            return
+        b = np.concatenate(seen) if seen else np.zeros((0, 4))
+        if len(b) >= 8:
+            feet, heights = heights_from_boxes(b, size_wh)
+            # the plane is only trusted within the heights seen (with the tolerance's slack)
+            lo, hi = np.percentile(b[:, 3], [2, 98])
+            heights = np.clip(heights, lo / 1.5, hi * 1.5)
+            if np.any(np.isfinite(heights)):
+                self.expected_heights_ = (feet, heights)
+                self.__dict__.pop("plan_size_", None)
+                return
+        self.expected_heights_ = None  # too few people: keep the whole pyramid
+
+    def __getstate__(self) -> dict[str, Any]:
+        d = dict(self.__dict__)
+        d.pop("hog_", None)
+        return d
+
+    @classmethod
+    def _conformance_example(cls):
+        """For :mod:`pftrack.testing`: the kit's synthetic frames, all scales of 48-120 px."""
+        from pftrack.testing import ConformanceExample, synthetic_scene
+
+        sc = synthetic_scene(seed=0, n_frames=4)
+        det = cls(threshold=0.05, min_height_px=48.0, max_height_px=120.0, learn_scales=0)
+        return ConformanceExample(det, frames=sc.frames, fit_boxes={})
+
+
+# --------------------------------------------------------------------------------------------
+# Measuring the window margin (documentation and reproduction)
+# --------------------------------------------------------------------------------------------
+
+
+def measure_margin(video: str, gt: str, frames: tuple[int, int] = (1, 200), every: int = 10,
+                   upscale: float = 1.5) -> dict[str, Any]:
+    """Measure where a ground-truth person lies inside OpenCV's people window.
+
+    Every ``every``-th frame of ``frames`` (MOT numbering) is scaled by ``upscale`` and
+    searched over OpenCV's own pyramid (scale 1.05, stride 8, no grouping); each fully visible
+    ground-truth box is paired with the best-scoring window whose centre lies within 0.15 box
+    heights of the box's centre, and expressed as fractions of that window.
+
+    Returns
+    -------
+    dict
+        ``median`` (left, top, width, height fractions), ``q25``, ``q75``, ``n_pairs``,
+        ``n_boxes``.
+    """
+    import cv2
+
+    from pftrack.pipeline import iter_frames, read_ground_truth
+
+    a, b = frames
+    g = read_ground_truth(gt, a, b)
+    hog = cv2.HOGDescriptor()
+    hog.setSVMDetector(cv2.HOGDescriptor_getDefaultPeopleDetector())
+    rel, n_boxes = [], 0
+    for frame in iter_frames(video, a, b):
+        if (frame.index - a) % every:
+            continue
+        grey = cv2.cvtColor(frame.image, cv2.COLOR_BGR2GRAY)
+        big = cv2.resize(grey, None, fx=upscale, fy=upscale)
+        r, w = hog.detectMultiScale(big, hitThreshold=-0.5, winStride=(8, 8), scale=1.05,
+                                    groupThreshold=0)
+        r = np.asarray(r, np.float64).reshape(-1, 4) / upscale
+        w = np.asarray(w, np.float64).reshape(-1)
+        gb = g[(g[:, 0] == frame.index) & (g[:, 6] == 1)][:, 2:6]
+        n_boxes += len(gb)
+        if not len(r) or not len(gb):
+            continue
+        c = r[:, :2] + r[:, 2:] / 2
+        gc = gb[:, :2] + gb[:, 2:] / 2
+        d = np.linalg.norm(c[None] - gc[:, None], axis=2) / gb[:, 3:4]
+        score = np.where(d < 0.15, w[None], -np.inf)
+        j = np.argmax(score, axis=1)
+        ok = np.isfinite(score[np.arange(len(gb)), j])
+        win = r[j[ok]]
+        bb = gb[ok]
+        rel.append(np.stack([(bb[:, 0] - win[:, 0]) / win[:, 2], (bb[:, 1] - win[:, 1]) / win[:, 3],
+                             bb[:, 2] / win[:, 2], bb[:, 3] / win[:, 3]], axis=1))
+    rel = np.concatenate(rel) if rel else np.zeros((0, 4))
+    return {"median": np.median(rel, 0).tolist(), "q25": np.percentile(rel, 25, 0).tolist(),
+            "q75": np.percentile(rel, 75, 0).tolist(), "n_pairs": len(rel), "n_boxes": n_boxes}
+
+
+if __name__ == "__main__":  # pragma: no cover
+    import argparse
+    import json
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--measure-margin", nargs=2, metavar=("GT", "VIDEO"), required=True)
+    ap.add_argument("--frames", default="1:200")
+    ns = ap.parse_args()
+    fa, fb = (int(v) for v in ns.frames.split(":"))
+    print(json.dumps(measure_margin(ns.measure_margin[1], ns.measure_margin[0], (fa, fb)),
+                     indent=2))
