@@ -82,6 +82,8 @@ def pftrack_register_presets(register):
     presets = resources.files("pftrack_world") / "presets"
     register("pets09-ground", str(presets / "pets09-ground.yaml"))
     register("soccer-ground", str(presets / "soccer-ground.yaml"))
+    register("people-ground", str(presets / "people-ground.yaml"))
+    register("people-image", str(presets / "people-image.yaml"))
 
 
 @hookimpl

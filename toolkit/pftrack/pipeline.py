@@ -17,6 +17,8 @@ a run is replaceable by a third-party plugin::
     births: {...}                 legacy: the ``confirmed`` track manager's parameters
     tracker: {...}                engine options (n_particles, max_misses, dt, ...)
     valid_region_m: [x0, x1, y0, y1]   optional ground rectangle (metres) people live in
+    detections: FILE              optional MOTChallenge det.txt (relative to the YAML file):
+                                  these detections are tracked and the detector is not run
 
 Data flow per frame: video frame -> detector (timed on its own) -> the one engine,
 :meth:`pftrack.tracker.MultiTargetTracker.step` (predict, associate, weight, estimate, resample,
@@ -54,7 +56,8 @@ __all__ = [
 ]
 
 CONFIG_KEYS = {"name", "description", "state", "observation", "motion", "likelihood", "detector",
-               "associator", "tracker", "tracks", "births", "valid_region_m", "report"}
+               "associator", "tracker", "tracks", "births", "valid_region_m", "report",
+               "detections"}
 TRACKER_KEYS = {"n_particles", "resampling", "ess_threshold", "dt", "init_spread",
                 "recover_spread", "max_misses", "min_log_likelihood", "kill_out_of_view",
                 "target_size"}
@@ -100,6 +103,8 @@ def load_config(spec: str | os.PathLike[str] | dict[str, Any]) -> dict[str, Any]
             raise ValueError(f"config {where}: not valid YAML: {exc}") from None
         if not isinstance(cfg, dict):
             raise ValueError(f"config {where}: expected a mapping at the top level")  # noqa: TRY004
+        if isinstance(cfg.get("detections"), str) and not Path(cfg["detections"]).is_absolute():
+            cfg["detections"] = str(path.parent / cfg["detections"])
     unknown = set(cfg) - CONFIG_KEYS
     if unknown:
         raise ValueError(f"config {where}: unknown keys {sorted(unknown)}; known: "
@@ -411,10 +416,14 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
 
     Parameters
     ----------
-    detections : dict {frame: Detections}, optional
-        Precomputed detections (another run's ``RunResult.detections``): the detector is not run.
+    detections : dict {frame: Detections} or path, optional
+        Precomputed detections (another run's ``RunResult.detections``, or a MOTChallenge
+        ``det.txt`` file, :func:`pftrack.io.detections.read_detections`): the detector is not
+        run. Default: the configuration's ``detections`` file, if any.
     """
     cfg = load_config(config)
+    if detections is None and cfg.get("detections") is not None:
+        detections = cfg["detections"]
     if report and out_dir is not None:
         report_writer(cfg)  # an unknown writer stops the run before it tracks, not after
     cam = _load_camera(camera)
@@ -424,6 +433,10 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     first, last = parse_frames(frames)
     fps = video_fps(video)
     engine = build_engine(cfg, camera=cam, fps=fps, seed=seed, detector_model=detector_model)
+    if isinstance(detections, (str, os.PathLike)):
+        from pftrack.io.detections import read_detections
+
+        detections = read_detections(detections, camera=cam)
     detector = None
     if detections is None and cfg.get("detector") and \
             (cfg["detector"].get("detect", True) if isinstance(cfg["detector"], dict) else True):

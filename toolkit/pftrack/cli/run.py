@@ -31,6 +31,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="frames A..B inclusive, ground-truth numbering (1-based); default all")
     p.add_argument("--detector-model", default=None, metavar="MODEL",
                    help="detector model file (pftrack detector train)")
+    p.add_argument("--detections", default=None, metavar="FILE",
+                   help="MOTChallenge det.txt (frame,id,left,top,width,height,conf): track these "
+                        "detections instead of running the configuration's detector")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--no-report", action="store_true", help="do not draw report images")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
@@ -42,7 +45,8 @@ def handler(args: argparse.Namespace) -> int:
 
     result = run_pipeline(args.config, video=args.video, camera=args.camera, out_dir=args.out,
                           gt=args.gt, frames=args.frames, detector_model=args.detector_model,
-                          seed=args.seed, progress=not args.quiet, report=not args.no_report)
+                          seed=args.seed, progress=not args.quiet, report=not args.no_report,
+                          detections=args.detections)
     if not args.quiet:
         summary = {"tracks": str(result.out_dir / "tracks.txt"), "frames": result.n_frames,
                    "rows": len(result.rows),
