@@ -1,0 +1,185 @@
+"""A ground-plane camera from person boxes (pftrack.geometry.people)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from pftrack.data import data_path
+from pftrack.geometry.formats import load_camera
+from pftrack.geometry.people import (
+    PRIOR_HFOV_DEG,
+    camera_from_parameters,
+    compare_with_reference,
+    estimate_camera_from_people,
+    horizon_row,
+    predicted_box_heights,
+    rigid_align_2d,
+)
+
+SIZE = (768, 576)
+
+
+def _people(cam, n, rng, height_sd=0.07, n_false=0):
+    """Boxes of people standing on z = 0, seen by ``cam``, plus uniform false positives."""
+    X = rng.uniform(-12, 12, 4 * n)
+    Y = rng.uniform(6, 40, 4 * n)
+    H = rng.normal(1.7, height_sd, 4 * n)
+    foot = cam.project(np.column_stack([X, Y, np.zeros_like(X)]))
+    head = cam.project(np.column_stack([X, Y, H]))
+    ok = cam.in_image(foot, margin_px=3) & cam.in_image(head, margin_px=3)
+    foot, head = foot[ok][:n], head[ok][:n]
+    hh = foot[:, 1] - head[:, 1]
+    boxes = np.column_stack([foot[:, 0] - 0.2 * hh, head[:, 1], 0.4 * hh, hh])
+    if n_false:
+        fb = np.column_stack([rng.uniform(0, 700, n_false), rng.uniform(5, 400, n_false),
+                              rng.uniform(10, 60, n_false), rng.uniform(20, 160, n_false)])
+        boxes = np.vstack([boxes, fb])
+    return boxes, len(foot)
+
+
+def test_parametrisation_matches_its_description():
+    cam = camera_from_parameters(800.0, 20.0, 4.0, 5.0, SIZE)
+    assert np.allclose(cam.center_m, [0, 0, 5.0])
+    ax = cam.optical_axis
+    assert math.degrees(math.asin(-ax[2])) == pytest.approx(20.0, abs=1e-9)
+    assert ax[0] == pytest.approx(0.0, abs=1e-12) and ax[1] > 0
+    # horizon: above the centre row by f tan(tilt), falling to the right for positive roll
+    assert horizon_row(camera_from_parameters(800.0, 20.0, 0.0, 5.0, SIZE)) == pytest.approx(
+        287.5 - 800 * math.tan(math.radians(20)), abs=1e-6)
+    assert horizon_row(cam, 700) - horizon_row(cam, 0) == pytest.approx(
+        700 * math.tan(math.radians(4.0)), rel=1e-6)
+    # level camera: h = (v_foot - v_horizon) * H_p / H_c exactly
+    lvl = camera_from_parameters(700.0, 0.0, 0.0, 4.0, SIZE)
+    feet = np.array([[100.0, 300.0], [400.0, 450.0], [700.0, 560.0]])
+    assert np.allclose(predicted_box_heights(lvl, feet, 1.7),
+                       (feet[:, 1] - 287.5) * 1.7 / 4.0)
+
+
+def test_recovers_a_known_camera_with_false_positives():
+    rng = np.random.default_rng(3)
+    cam = camera_from_parameters(900.0, 15.0, 3.0, 6.0, SIZE)
+    boxes, n_true = _people(cam, 300, rng, n_false=40)
+    fit = estimate_camera_from_people(boxes, SIZE, 1.7, rng=np.random.default_rng(0),
+                                      fit_focal=True, n_bootstrap=30)
+    assert fit.horizon_row == pytest.approx(horizon_row(cam), abs=6.0)
+    assert fit.camera_height_m == pytest.approx(6.0, rel=0.05)
+    assert fit.tilt_deg == pytest.approx(15.0, abs=3.0)
+    assert fit.roll_deg == pytest.approx(3.0, abs=0.5)
+    assert fit.focal_px == pytest.approx(900.0, rel=0.25)
+    assert fit.focal_identified
+    # the false positives: most rejected, the people kept
+    assert fit.inliers[:n_true].mean() > 0.95
+    assert fit.inliers[n_true:].mean() < 0.35
+    # the 1-sigma values are finite, positive and cover the errors within 3 sigma
+    for key, truth in [("horizon_row", horizon_row(cam)), ("camera_height_m", 6.0),
+                       ("tilt_deg", 15.0), ("roll_deg", 3.0), ("focal_px", 900.0)]:
+        sd = fit.uncertainty[key]
+        assert 0 < sd < np.inf
+        assert abs(getattr(fit, key) - truth) < 3 * sd + 1e-9, key
+    # ground positions through the estimate agree with the truth after a rigid alignment
+    feet = np.column_stack([boxes[:n_true, 0] + boxes[:n_true, 2] / 2,
+                            boxes[:n_true, 1] + boxes[:n_true, 3]])
+    truth_xy = cam.image_to_ground(feet)[:, :2]
+    r = compare_with_reference(fit, cam, boxes[:n_true], truth_xy)
+    assert r["median_error_m"] < 0.5
+    assert r["horizon_error_px"] == pytest.approx(abs(fit.horizon_row - horizon_row(cam)),
+                                                  abs=1e-6)
+
+
+def test_known_focal_length_gives_the_camera_closely():
+    rng = np.random.default_rng(5)
+    cam = camera_from_parameters(1100.0, 18.0, -2.0, 8.0, SIZE)
+    boxes, _ = _people(cam, 200, rng, height_sd=0.0)
+    fit = estimate_camera_from_people(boxes, SIZE, focal_px=1100.0, n_bootstrap=0)
+    assert fit.uncertainty_method == "jacobian"
+    assert fit.focal_px == pytest.approx(1100.0) and fit.uncertainty["focal_px"] == 0.0
+    assert fit.camera_height_m == pytest.approx(8.0, rel=1e-3)
+    assert fit.tilt_deg == pytest.approx(18.0, abs=0.05)
+    assert fit.roll_deg == pytest.approx(-2.0, abs=0.05)
+    assert fit.inliers.all()
+    # person height is a scale: 10 % taller people, 10 % higher camera, same angles
+    fit2 = estimate_camera_from_people(boxes, SIZE, person_height_m=1.87, focal_px=1100.0,
+                                       n_bootstrap=0)
+    assert fit2.camera_height_m == pytest.approx(1.1 * fit.camera_height_m, rel=1e-3)
+    assert fit2.tilt_deg == pytest.approx(fit.tilt_deg, abs=0.01)
+
+
+def test_default_focal_is_the_documented_prior_and_says_so():
+    rng = np.random.default_rng(7)
+    cam = camera_from_parameters(927.0, 12.0, 0.0, 5.0, SIZE)
+    boxes, _ = _people(cam, 150, rng)
+    a = estimate_camera_from_people(boxes, SIZE, rng=np.random.default_rng(1), n_bootstrap=20)
+    b = estimate_camera_from_people(boxes, SIZE, rng=np.random.default_rng(1), n_bootstrap=20)
+    f0 = 384 / math.tan(math.radians(PRIOR_HFOV_DEG / 2))
+    assert a.focal_px == pytest.approx(f0)
+    assert not a.focal_identified
+    assert any("prior" in n for n in a.notes)
+    assert a.uncertainty["focal_px"] == pytest.approx(0.4 * f0)
+    # with the prior the truth here, the rest comes back; same seed, same numbers
+    assert a.camera_height_m == pytest.approx(5.0, rel=0.05)
+    assert a.tilt_deg == pytest.approx(12.0, abs=1.5)
+    assert a.summary() == b.summary()
+    # the prior's spread is in the tilt's uncertainty: larger than the fixed-focal bootstrap's
+    c = estimate_camera_from_people(boxes, SIZE, focal_px=f0, rng=np.random.default_rng(1),
+                                    n_bootstrap=20)
+    assert a.uncertainty["tilt_deg"] > 3 * c.uncertainty["tilt_deg"]
+
+
+def test_few_clicked_boxes_fix_roll_and_still_give_a_camera():
+    cam = camera_from_parameters(927.0, 14.0, 0.0, 6.0, SIZE)
+    boxes, _ = _people(cam, 5, np.random.default_rng(11), height_sd=0.03)
+    boxes[:, 0] = np.clip(boxes[:, 0], 300, 400)  # all near the middle column
+    fit = estimate_camera_from_people(boxes, SIZE, n_bootstrap=20)
+    assert fit.roll_deg == 0.0 and fit.uncertainty["roll_deg"] == 0.0
+    assert any("roll not fitted" in n for n in fit.notes)
+    assert fit.camera_height_m == pytest.approx(6.0, rel=0.15)
+
+
+@pytest.mark.parametrize("boxes,match", [
+    (np.zeros((5, 3)), "shape"),
+    ([[10, 10, 20, 50], [100, 100, 20, 60]], "at least 3"),
+    ([[10, 100, 20, 50], [100, 101, 20, 50], [200, 100, 20, 50], [300, 100, 20, 51]],
+     "several distances"),
+    ([[10, 0, 20, 50], [100, 200, 20, 100], [200, 400, 20, 176]], "usable boxes"),
+])
+def test_bad_boxes_are_named(boxes, match):
+    with pytest.raises(ValueError, match=match):
+        estimate_camera_from_people(boxes, SIZE)
+
+
+def test_rigid_align_2d_recovers_a_motion():
+    rng = np.random.default_rng(2)
+    src = rng.normal(size=(50, 2)) * 5
+    a = math.radians(37.0)
+    R = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+    dst = src @ R.T + [3.0, -4.0]
+    R2, t2 = rigid_align_2d(src, dst)
+    assert np.allclose(R2, R) and np.allclose(t2, [3.0, -4.0])
+    # a mirror image is not a rigid motion: no reflection is used
+    R3, _ = rigid_align_2d(src * [1, -1], dst)
+    assert np.linalg.det(R3) == pytest.approx(1.0)
+
+
+def _pets_gt(a, b):
+    gt = np.loadtxt(data_path("pets09", "gt.txt"), delimiter=",")
+    return gt[(gt[:, 0] >= a) & (gt[:, 0] <= b) & (gt[:, 6] != 0)]
+
+
+def test_pets_ground_truth_boxes_against_the_tsai_camera():
+    # frames 1-100 of PETS 2009 S2.L1, boxes from the ground truth (an upper bound of quality);
+    # measured: see README "A camera from the people in the video"
+    ref = load_camera(data_path("pets09", "View_001.xml"))
+    gt = _pets_gt(1, 100)
+    fit = estimate_camera_from_people(gt[:, 2:6], SIZE, 1.7, n_bootstrap=20)
+    r = compare_with_reference(fit, ref, gt[:, 2:6], gt[:, 7:9])
+    assert r["points"] == len(gt)
+    assert r["median_error_m"] < 0.9
+    assert r["horizon_error_px"] < 40
+    assert fit.camera_height_m == pytest.approx(7.07, rel=0.15)
+    # given the true focal length the same boxes come within 0.3 m
+    fit_f = estimate_camera_from_people(gt[:, 2:6], SIZE, 1.7, focal_px=ref.fx, n_bootstrap=0)
+    rf = compare_with_reference(fit_f, ref, gt[:, 2:6], gt[:, 7:9])
+    assert rf["median_error_m"] < 0.3
+    assert rf["horizon_error_px"] < 25
