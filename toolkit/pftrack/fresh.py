@@ -1,0 +1,328 @@
+"""Someone else's video: people tracked with no training, no calibration, no ground truth.
+
+What ``pftrack track VIDEO --out DIR`` does (:func:`track_video`):
+
+1. **Detect** people in every frame once with the configuration's detector (the ``people-*``
+   presets: ``hog-people``, needing no training), without a camera: its scale search learns the
+   height-row relation from its own first frames. ``--detections FILE`` (MOTChallenge
+   ``det.txt``) replaces this step.
+2. **A camera from the people** (when ``--camera`` is not given):
+   :func:`pftrack.geometry.people.estimate_camera_from_people` on the confident detections
+   (score >= ``calib_min_score``) assuming a mean person height. It is written to
+   ``DIR/camera.yaml`` (reusable as ``--camera``). When it cannot be estimated (too few people,
+   a fit that fails) the run falls back to the image plane (preset ``people-image``) and says so.
+3. **Track** the same detections (given their ground points through the camera) with
+   ``people-ground`` (or ``--preset``) through :func:`pftrack.pipeline.run_pipeline`, which
+   writes ``DIR/tracks.txt`` (MOTChallenge, the video's frame numbers from 1) and report images
+   ``DIR/report/*.png``.
+4. **Summarise** in ``DIR/summary.json`` (frames, tracks, the camera and how it was obtained, the
+   time per frame) and **say why** when nothing came out (:func:`explain_no_tracks`).
+
+Frames per second count the whole work: decoding, detection, the camera fit and tracking.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pftrack.components import Detections
+
+__all__ = [
+    "FreshResult",
+    "check_thresholds",
+    "detect_video",
+    "estimate_camera",
+    "explain_no_tracks",
+    "track_video",
+    "with_ground_points",
+]
+
+
+def _tracks_params(cfg: dict[str, Any]) -> dict[str, Any]:
+    spec = cfg.get("tracks") if cfg.get("tracks") is not None else cfg.get("births")
+    spec = dict(spec or {})
+    return dict(spec.get("params") or {}) if "type" in spec else spec
+
+
+def _detector_params(cfg: dict[str, Any]) -> tuple[str | None, dict[str, Any]]:
+    det = cfg.get("detector")
+    if not det:
+        return None, {}
+    if isinstance(det, str):
+        return det, {}
+    return det.get("type"), dict(det.get("params") or {})
+
+
+#: Detectors whose scores are calibrated probabilities, bounded by 1.
+_CALIBRATED = {"hog-people"}
+
+
+def check_thresholds(cfg: dict[str, Any]) -> list[str]:
+    """Thresholds of a configuration that can never start a track, as messages naming the
+    parameter to change (empty when none)."""
+    out = []
+    kind, params = _detector_params(cfg)
+    tp = _tracks_params(cfg)
+    start = tp.get("min_score")
+    src = cfg.get("_source", "config")
+    if kind in _CALIBRATED and start is not None and float(start) >= 1.0:
+        out.append(f"config {src}: tracks.params.min_score = {start} but the {kind} detector's "
+                   "scores are probabilities below 1: no track can ever start; set "
+                   "tracks.params.min_score below 1 (0.5 in the people-* presets)")
+    thr = params.get("threshold")
+    if kind in _CALIBRATED and thr is not None and not 0.0 < float(thr) < 1.0:
+        out.append(f"config {src}: detector.params.threshold = {thr} is outside (0, 1), the "
+                   f"range of the {kind} detector's calibrated scores")
+    return out
+
+
+def explain_no_tracks(cfg: dict[str, Any], rows: np.ndarray,
+                      detections: dict[int, Detections] | None, n_frames: int) -> list[str]:
+    """Why a run produced no track, and which parameter to change (empty when it has tracks).
+
+    Parameters
+    ----------
+    cfg : dict
+        The run's configuration.
+    rows : ndarray (M, 10)
+        The run's MOT rows.
+    detections : dict {frame: Detections} or None
+        The detections the run tracked (None: the configuration has no detector).
+    n_frames : int
+        Frames processed.
+    """
+    if len(rows):
+        return []
+    msgs = list(check_thresholds(cfg))
+    if n_frames == 0:
+        return msgs + ["no frame was read: check the video and --frames"]
+    if detections is None:
+        return msgs + ["no track: the configuration has no detector and its track manager "
+                       "started none (check the `tracks` section)"]
+    scores = np.concatenate([d.scores for d in detections.values()] or [np.zeros(0)])
+    kind, params = _detector_params(cfg)
+    tp = _tracks_params(cfg)
+    start = float(tp.get("min_score", 0.0))
+    if len(scores) == 0:
+        thr = params.get("threshold")
+        msgs.append(f"no track: the detector ({kind or 'given detections'}) found nothing in "
+                    f"{n_frames} frames; lower detector.params.threshold (now {thr}) or, for "
+                    "small people, detector.params.min_height_px; or give --detections")
+        return msgs
+    best = float(scores.max())
+    if best < start:
+        msgs.append(f"no track: no detection reached tracks.params.min_score = {start:g} (the "
+                    f"best of {len(scores)} scored {best:.3g}); lower tracks.params.min_score "
+                    "below the detections' scores")
+        return msgs
+    n_ok = int((scores >= start).sum())
+    hits = tp.get("confirm_hits")
+    msgs.append(f"no track: {n_ok} detections scored >= tracks.params.min_score = {start:g} but "
+                f"none became a confirmed track; a track needs tracks.params.confirm_hits = "
+                f"{hits} matched detections within tracks.params.confirm_window frames: lower "
+                "confirm_hits, or raise associator.params.max_distance if people move fast")
+    return msgs
+
+
+def detect_video(video: str | os.PathLike[str], cfg: dict[str, Any], frames: Any = None,
+                 camera: Any = None, progress: bool = False
+                 ) -> tuple[dict[int, Detections], tuple[int, int], dict[str, float]]:
+    """Run the configuration's detector over the frames once.
+
+    Returns
+    -------
+    detections : dict {frame: Detections}
+    image_size : (int, int)
+        (width, height) of the frames.
+    timing : dict
+        ``wall_s``, ``cpu_s``, ``frames``.
+    """
+    from pftrack.components import RunContext
+    from pftrack.pipeline import build_detector, iter_frames, parse_frames
+
+    first, last = parse_frames(frames)
+    det = build_detector(cfg, RunContext(camera=camera))
+    if det is None:
+        raise ValueError(f"config {cfg.get('_source', '')}: no detector to find people with; "
+                         "give --detections FILE or a configuration with a detector")
+    it = iter_frames(video, first, last)
+    if progress:
+        from tqdm.auto import tqdm
+
+        it = tqdm(it, total=None if last is None else last - first + 1, desc="detecting",
+                  unit="frame", leave=False)
+    out: dict[int, Detections] = {}
+    size = (0, 0)
+    t0, c0 = time.perf_counter(), time.process_time()
+    for frame in it:
+        out[frame.index] = det.detect(frame)
+        size = (frame.image.shape[1], frame.image.shape[0])
+    timing = {"wall_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0,
+              "frames": len(out)}
+    return out, size, timing
+
+
+def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, int], *,
+                    person_height_m: float = 1.7, min_score: float = 0.5, min_boxes: int = 20,
+                    seed: int = 0) -> tuple[Any, str]:
+    """A ground-plane camera from the detected people, or ``(None, why)``.
+
+    Uses the detections scoring at least ``min_score`` (at least ``min_boxes`` of them).
+    Returns ``(PeopleCameraFit, description)`` or ``(None, reason)``.
+    """
+    from pftrack.geometry.people import estimate_camera_from_people
+
+    boxes = [d.boxes_xywh_px[d.scores >= min_score] for d in detections.values()]
+    b = np.concatenate(boxes) if boxes else np.zeros((0, 4))
+    if len(b) < min_boxes:
+        return None, (f"only {len(b)} person boxes scored >= {min_score} (need {min_boxes}) to "
+                      "estimate a camera")
+    try:
+        fit = estimate_camera_from_people(b, image_size=image_size,
+                                          person_height_m=person_height_m,
+                                          rng=np.random.default_rng(seed))
+    except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
+        return None, f"the camera could not be estimated from {len(b)} person boxes: {exc}"
+    if not (np.isfinite(fit.camera_height_m) and fit.camera_height_m > 0):
+        return None, f"the estimated camera height {fit.camera_height_m} is not usable"
+    return fit, (f"estimated from {int(np.sum(fit.inliers))} of {len(b)} person boxes "
+                 f"(mean height {person_height_m} m)")
+
+
+def with_ground_points(detections: dict[int, Detections], camera: Any
+                       ) -> dict[int, Detections]:
+    """The same detections with their foot points back-projected to the ground (z = 0)."""
+    out = {}
+    for f, d in detections.items():
+        b = d.boxes_xywh_px
+        feet = np.stack([b[:, 0] + 0.5 * b[:, 2], b[:, 1] + b[:, 3]], axis=1)
+        pts = camera.image_to_ground(feet) if len(b) else np.zeros((0, 3))
+        out[f] = Detections(b, d.scores, pts)
+    return out
+
+
+@dataclass
+class FreshResult:
+    """What :func:`track_video` did: ``summary`` (also in ``DIR/summary.json``), the
+    pipeline's :class:`~pftrack.pipeline.RunResult`, the camera fit (or None) and the
+    messages printed."""
+
+    summary: dict[str, Any]
+    run: Any
+    fit: Any = None
+    messages: list[str] = field(default_factory=list)
+
+
+def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] | None, *,
+                camera: Any = None, detections: Any = None, preset: Any = None,
+                frames: Any = None, seed: int = 0, person_height_m: float = 1.7,
+                calib_min_score: float = 0.5, gt: Any = None, progress: bool = False,
+                report: bool = True) -> FreshResult:
+    """Track the people of ``video`` with no training: see the module docstring.
+
+    Parameters
+    ----------
+    video : path
+    out_dir : path or None
+        Output folder (None: nothing written).
+    camera : path or Camera, optional
+        A ground-plane camera; default: estimated from the people.
+    detections : path or dict {frame: Detections}, optional
+        Detections to track instead of running the detector (MOTChallenge ``det.txt``).
+    preset : str, path or dict, optional
+        Configuration; default ``people-ground`` with a camera, ``people-image`` without.
+    frames : "A:B", optional
+        Frames (MOT numbering, from 1).
+    seed : int
+    person_height_m : float
+        Mean person height for the camera estimate, metres.
+    calib_min_score : float
+        Detections scoring at least this are used for the camera estimate.
+    gt : path, optional
+        Ground truth: metrics in the summary and ``metrics.json``.
+    """
+    from pftrack.io.detections import read_detections
+    from pftrack.pipeline import _load_camera, load_config, run_pipeline
+
+    video = Path(video)
+    if not video.is_file():
+        raise FileNotFoundError(f"video {video} not found")
+    messages: list[str] = []
+    t0, c0 = time.perf_counter(), time.process_time()
+    cam = _load_camera(camera)
+    cfg_ground = load_config(preset if preset is not None else "people-ground")
+    # 1. detections, once
+    if detections is None:
+        dets, size, _ = detect_video(video, cfg_ground, frames, progress=progress)
+        det_source = f"detector {_detector_params(cfg_ground)[0]}"
+    else:
+        det_source = (f"file {detections}" if isinstance(detections, (str, os.PathLike))
+                      else "given")
+        dets = (read_detections(detections) if isinstance(detections, (str, os.PathLike))
+                else detections)
+        from pftrack.scenes.video import VideoScene
+
+        size = tuple(int(v) for v in VideoScene(str(video)).size_wh)
+    # 2. the camera
+    fit = None
+    if cam is not None:
+        cam_source = f"given ({camera})" if isinstance(camera, (str, os.PathLike)) else "given"
+    else:
+        fit, why = estimate_camera(dets, size, person_height_m=person_height_m,
+                                   min_score=calib_min_score, seed=seed)
+        if fit is None:
+            cam_source = f"none: {why}"
+            messages.append(f"no camera: {why}; tracking in the image plane (preset "
+                            "people-image). Give --camera to track on the ground plane.")
+        else:
+            cam = fit.camera
+            cam_source = why
+    if preset is not None:
+        cfg = cfg_ground
+        if cfg.get("state", "world") == "world" and cam is None:
+            raise ValueError(f"preset {preset}: state 'world' needs a camera and none could be "
+                             "estimated; give --camera, or --preset people-image")
+    else:
+        cfg = cfg_ground if cam is not None else load_config("people-image")
+    if cfg.get("state", "world") == "world" and cam is not None:
+        dets = with_ground_points(dets, cam)
+    messages.extend(check_thresholds(cfg))
+    # 3. track
+    run = run_pipeline(cfg, video=video, camera=cam, out_dir=out_dir, gt=gt, frames=frames,
+                       seed=seed, detections=dets, progress=progress, report=report)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    n = max(run.n_frames, 1)
+    messages.extend(explain_no_tracks(cfg, run.rows, dets, run.n_frames))
+    ids = np.unique(run.rows[:, 1]).size if len(run.rows) else 0
+    summary: dict[str, Any] = {
+        "video": str(video), "frames": run.n_frames, "tracks": int(ids),
+        "rows": len(run.rows), "preset": cfg.get("name", str(preset)),
+        "state": cfg.get("state", "world"), "detections": det_source,
+        "n_detections": int(sum(len(d.scores) for d in dets.values())),
+        "camera": cam_source,
+        "camera_fit": None if fit is None else fit.summary(),
+        "frames_per_second": n / max(wall, 1e-12), "frames_per_second_cpu": n / max(cpu, 1e-12),
+        "messages": messages,
+    }
+    if run.metrics is not None:
+        summary["metrics"] = {k: run.metrics.get(k) for k in ("MOTA", "IDF1", "HOTA")}
+    if out_dir is not None:
+        from pftrack.io.atomic import atomic_write_text
+
+        out = Path(out_dir)
+        summary["tracks_file"] = str(out / "tracks.txt")
+        if fit is not None:
+            from pftrack.geometry.formats import save_camera
+
+            save_camera(fit.camera, out / "camera.yaml")
+            summary["camera_file"] = str(out / "camera.yaml")
+        atomic_write_text(out / "summary.json",
+                          json.dumps(summary, indent=2, default=float) + "\n")
+    return FreshResult(summary, run, fit, messages)
