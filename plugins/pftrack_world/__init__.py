@@ -15,8 +15,9 @@ Components (registered name -> class):
 * likelihood: ``detection`` (eq. 6), ``emd`` (eq. 7), ``ncc`` (eq. 8), ``composite`` (eq. 5, 9:
   any likelihood plugins weighted by numbers, beta or 1 - beta);
 * scene: ``soccer`` :class:`~pftrack_world.soccer.SoccerScene`;
-* preset: ``pets09-ground`` and ``soccer-ground`` (package data, ``pftrack_world/presets``);
-* benchmark: ``pets09-ground`` (:mod:`pftrack_world.bench_pets09_ground`) and ``soccer``
+* preset: ``pets09-ground``, ``soccer-ground``, ``people-ground`` and ``people-image`` (package data, ``pftrack_world/presets``);
+* benchmark: ``fresh-video`` (:mod:`pftrack_world.bench_fresh_video`: PETS with nothing learnt
+  from its labels or camera, against norfair), ``pets09-ground`` (:mod:`pftrack_world.bench_pets09_ground`) and ``soccer``
   (:mod:`pftrack_world.bench_soccer`).
 
 The ground-plane observation model (particles -> image boxes through the camera) is core:
@@ -90,8 +91,9 @@ def pftrack_register_presets(register):
 def pftrack_register_benchmarks(register):
     from pftrack.extensions import Benchmark
 
-    from pftrack_world import bench_batch, bench_pets09_ground, bench_soccer
+    from pftrack_world import bench_batch, bench_fresh_video, bench_pets09_ground, bench_soccer
 
     register("batch", Benchmark.from_module(bench_batch))
+    register("fresh-video", Benchmark.from_module(bench_fresh_video))
     register("pets09-ground", Benchmark.from_module(bench_pets09_ground))
     register("soccer", Benchmark.from_module(bench_soccer))
