@@ -47,8 +47,8 @@ GOALS = {"MOTA": (">=", 0.6), "IDF1": (">=", 0.6), "camera_median_error_m": ("<=
          "frames_per_second_cpu": (">=", 10.0)}
 
 #: The peer's settings (norfair): IoU distance (1 - IoU) below which a detection matches.
-PEER_DISTANCE_THRESHOLD = 0.7
-PEER_HIT_COUNTER_MAX = 15
+PEER_DISTANCE_THRESHOLD = 0.9
+PEER_HIT_COUNTER_MAX = 10
 PEER_INITIALIZATION_DELAY = 3
 
 

@@ -45,6 +45,7 @@ __all__ = [
     "SVMDetector",
     "SVMModel",
     "ScaleBand",
+    "TrainingRecallWarning",
     "box_iou_matrix",
     "heights_from_boxes",
     "load_model",
@@ -55,6 +56,14 @@ __all__ = [
 ]
 
 MODEL_FORMAT = "pftrack-svm-detector"
+#: :func:`train_svm_model` warns (:class:`TrainingRecallWarning`) when the trained model finds
+#: fewer of its own positives than this at the detector's threshold.
+MIN_TRAIN_RECALL = 0.5
+
+
+class TrainingRecallWarning(UserWarning):
+    """A trained detector cannot separate its own training positives."""
+
 MODEL_VERSION = 1
 FEATURES = ("hog", "grey")
 
@@ -896,4 +905,19 @@ def train_svm_model(frames: Iterable[Frame], boxes_by_frame: dict[int, np.ndarra
         model = SVMModel(w, b, feature, (W, H), box_in_window, info)
     info["n_hard_negative"] = int(hard_total)
     info["train_accuracy"] = acc
+    # accuracy is dominated by the many negatives: a model that rejects everything scores
+    # 99 %; what matters is whether it finds its own positives at the detection threshold
+    thr = float(detector.threshold) if detector is not None else 0.0
+    recall = float(np.mean(Xp @ model.weights.astype(np.float64) + model.bias >= thr))
+    info["train_recall_positives"] = recall
+    if recall < MIN_TRAIN_RECALL:
+        import warnings
+
+        warnings.warn(
+            f"svm detector: the trained model finds only {100 * recall:.1f} % of its own "
+            f"{len(Xp)} training positives at threshold {thr:g} (training accuracy "
+            f"{100 * acc:.2f} % is dominated by the {len(Xn)} negatives): it cannot separate "
+            "people from background here. Train on more frames/boxes (--frames), raise C, "
+            "or use the training-free hog-people detector", TrainingRecallWarning,
+            stacklevel=2)
     return model
