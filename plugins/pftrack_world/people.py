@@ -138,6 +138,11 @@ class HOGPeopleDetector(SVMDetector):
                              f"{context.detector_model} is not used by it (drop the option, or "
                              "use the svm detector)")
 
+    @property
+    def learns(self) -> bool:
+        """False: nothing to train, save or load."""
+        return False
+
     def save(self, path: str | os.PathLike[str]):  # noqa: D102 - nothing learnt
         raise NotImplementedError("detector 'hog-people' learns nothing to save")
 
