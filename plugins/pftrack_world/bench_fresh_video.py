@@ -117,7 +117,8 @@ def norfair_tracks(detections: dict, frames: range, min_score: float) -> np.ndar
                     dets.append(Detection(np.array([[x, y], [x + w, y + h]]),
                                           scores=np.array([s, s])))
         for obj in tracker.update(detections=dets):
-            (x0, y0), (x1, y1) = obj.estimate
+            # its Kalman filter moves the two corners independently: they can cross
+            (x0, y0), (x1, y1) = np.sort(np.asarray(obj.estimate, dtype=np.float64), axis=0)
             rows.append([f, obj.id, x0, y0, x1 - x0, y1 - y0, 1.0, -1, -1, -1])
     return np.asarray(rows, dtype=np.float64).reshape(-1, 10)
 

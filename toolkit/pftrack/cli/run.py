@@ -47,6 +47,7 @@ def handler(args: argparse.Namespace) -> int:
                           gt=args.gt, frames=args.frames, detector_model=args.detector_model,
                           seed=args.seed, progress=not args.quiet, report=not args.no_report,
                           detections=args.detections)
+    _say_why(args, result)
     if not args.quiet:
         summary = {"tracks": str(result.out_dir / "tracks.txt"), "frames": result.n_frames,
                    "rows": len(result.rows),
@@ -58,3 +59,15 @@ def handler(args: argparse.Namespace) -> int:
         print(json.dumps(summary, indent=2, default=float))
         sys.stdout.flush()
     return 0
+
+
+def _say_why(args: argparse.Namespace, result) -> None:
+    """A run with no track says why and which parameter to change (stderr)."""
+    from pftrack.fresh import explain_no_tracks
+    from pftrack.pipeline import load_config
+
+    cfg = load_config(args.config)
+    dets = result.detections if (result.detections or cfg.get("detector")
+                                 or args.detections) else None
+    for msg in explain_no_tracks(cfg, result.rows, dets, result.n_frames):
+        print(f"pftrack run: {msg}", file=sys.stderr)
