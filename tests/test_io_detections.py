@@ -86,7 +86,6 @@ def test_run_tracks_a_det_file_from_the_cli_and_from_yaml(tmp_path):
     assert m["MOTA"] > 0.7 and m["IDF1"] > 0.7, m
     assert m["detection_s_per_frame"] < 0.01  # no detector ran
     import yaml
-
     from pftrack.pipeline import load_config
 
     cfg = load_config("people-image")

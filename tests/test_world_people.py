@@ -42,7 +42,7 @@ def test_registered_and_scores_are_calibrated():
     assert det.margin_of(0.8) == pytest.approx(
         det.score_offset + det.score_scale * np.log(4.0))
     # the window geometry: the tightened person box inside OpenCV's 64 x 128 window
-    left, top, w, h = det._model().box_in_window
+    _, _, w, h = det._model().box_in_window
     assert 0.7 * 128 < h < 0.76 * 128 and 0.3 < w / h < 0.4
     assert not det.learns
 

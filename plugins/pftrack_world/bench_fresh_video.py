@@ -125,13 +125,17 @@ def norfair_tracks(detections: dict, frames: range, min_score: float) -> np.ndar
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
     import cv2
-
     from pftrack.data import pets09_files
     from pftrack.fresh import detect_video, estimate_camera, with_ground_points
     from pftrack.geometry.formats import load_camera
     from pftrack.geometry.people import compare_with_reference
-    from pftrack.pipeline import (evaluate_tracks, load_config, parse_frames, read_ground_truth,
-                                  run_pipeline)
+    from pftrack.pipeline import (
+        evaluate_tracks,
+        load_config,
+        parse_frames,
+        read_ground_truth,
+        run_pipeline,
+    )
 
     video, gt, cam_path = pets09_files(args.data)
     first, last = parse_frames(args.frames)
@@ -169,7 +173,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     result: dict[str, Any] = {
         "MOTA": m.get("MOTA"), "IDF1": m.get("IDF1"), "HOTA": m.get("HOTA"),
         **{k: v for k, v in detector_recall_precision(gt_rows, dets, threshold).items()
-           if k.startswith("detector_r") or k.startswith("detector_p")},
+           if k.startswith(("detector_r", "detector_p"))},
         "camera_median_error_m": ref["median_error_m"],
         "horizon_error_px": ref["horizon_error_px"],
         "frames_per_second": n / max(t_all, 1e-12),
@@ -216,8 +220,8 @@ def format_table(result: dict[str, Any]) -> str:
     def f(x: Any, nd: int = 3) -> str:
         return "-" if x is None else (f"{x:.{nd}f}" if isinstance(x, float) else str(x))
 
-    lines = [f"PETS 2009 S2.L1 frames {result['frames']}, preset {result['preset']}, nothing "
-             "learnt from PETS labels (tuned on 1-200)"]
+    lines = [(f"PETS 2009 S2.L1 frames {result['frames']}, preset {result['preset']}, nothing "
+              "learnt from PETS labels (tuned on 1-200)")]
     for k in ("MOTA", "IDF1", "HOTA", "detector_recall", "detector_precision",
               "camera_median_error_m", "horizon_error_px", "frames_per_second",
               "frames_per_second_cpu"):

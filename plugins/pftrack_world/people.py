@@ -143,10 +143,10 @@ class HOGPeopleDetector(SVMDetector):
         """False: nothing to train, save or load."""
         return False
 
-    def save(self, path: str | os.PathLike[str]):  # noqa: D102 - nothing learnt
+    def save(self, path: str | os.PathLike[str]):
         raise NotImplementedError("detector 'hog-people' learns nothing to save")
 
-    def load(self, path: str | os.PathLike[str]):  # noqa: D102
+    def load(self, path: str | os.PathLike[str]):
         raise NotImplementedError("detector 'hog-people' has no model to load")
 
     def fit(self, frames, boxes_by_frame, rng=None, ignore_by_frame=None):
@@ -288,7 +288,6 @@ def measure_margin(video: str, gt: str, frames: tuple[int, int] = (1, 200), ever
         ``n_boxes``.
     """
     import cv2
-
     from pftrack.pipeline import iter_frames, read_ground_truth
 
     a, b = frames

@@ -104,8 +104,8 @@ def explain_no_tracks(cfg: dict[str, Any], rows: np.ndarray,
     if n_frames == 0:
         return msgs + ["no frame was read: check the video and --frames"]
     if detections is None:
-        return msgs + ["no track: the configuration has no detector and its track manager "
-                       "started none (check the `tracks` section)"]
+        return [*msgs, ("no track: the configuration has no detector and its track manager "
+                        "started none (check the `tracks` section)")]
     scores = np.concatenate([d.scores for d in detections.values()] or [np.zeros(0)])
     kind, params = _detector_params(cfg)
     tp = _tracks_params(cfg)
