@@ -93,3 +93,19 @@ def test_too_few_people_falls_back_to_the_image_plane(tmp_path):
     assert res.summary["camera"].startswith("none: only 10 person boxes")
     assert any("tracking in the image plane" in m for m in res.messages)
     assert res.summary["tracks"] == 1
+
+
+@needs_pets
+def test_pitch_blob_takes_the_run_camera_file(tmp_path):
+    """Issue 16 item 7: ``pftrack run soccer-ground --camera calib/soccer_seed001.yaml`` stopped
+    with ``TypeError: expected str ... not Camera`` in pitch-blob; the run's camera object is
+    used as is (on any video: the camera is resized to its frames)."""
+    from pathlib import Path
+
+    from pftrack.cli import main
+
+    cam = Path(__file__).resolve().parents[1] / "calib" / "soccer_seed001.yaml"
+    assert main(["run", "soccer-ground", "--video", str(PETS / "vtest.avi"), "--camera",
+                 str(cam), "--frames", "1:3", "--out", str(tmp_path / "s"), "--no-report",
+                 "--quiet"]) == 0
+    assert (tmp_path / "s" / "tracks.txt").is_file()
