@@ -183,3 +183,78 @@ def test_pets_ground_truth_boxes_against_the_tsai_camera():
     rf = compare_with_reference(fit_f, ref, gt[:, 2:6], gt[:, 7:9])
     assert rf["median_error_m"] < 0.3
     assert rf["horizon_error_px"] < 25
+
+
+# --------------------------------------------------------------------------------------------
+# pftrack calib people
+# --------------------------------------------------------------------------------------------
+
+
+def _cli(capsys, *argv):
+    import json
+
+    from pftrack.cli import main
+
+    capsys.readouterr()
+    code = main(list(argv))
+    out = capsys.readouterr()
+    return code, (json.loads(out.out) if code == 0 and "--json" in argv else out)
+
+
+def test_cli_people_from_a_detection_file_writes_the_camera(capsys, tmp_path):
+    # the ground truth's boxes of frames 1-100 given as a MOTChallenge det file
+    gt = _pets_gt(1, 100)
+    det = tmp_path / "det.txt"
+    det.write_text("".join(f"{int(r[0])},-1,{r[2]},{r[3]},{r[4]},{r[5]},1\n" for r in gt))
+    out = tmp_path / "cam.yaml"
+    code, r = _cli(capsys, "calib", "people", "--video", str(data_path("pets09", "vtest.avi")),
+                   "--detections", str(det), "--frames", "1:100", "--bootstrap", "20",
+                   "--out", str(out), "--reference", str(data_path("pets09", "View_001.xml")),
+                   "--gt", str(data_path("pets09", "gt.txt")), "--json")
+    assert code == 0
+    assert r["boxes"] == len(gt) and r["inliers"] >= 0.95 * len(gt)
+    assert r["reference"]["points"] == len(gt)
+    assert r["reference"]["median_error_m"] < 0.9 and r["reference"]["horizon_error_px"] < 40
+    assert set(r["uncertainty"]) == {"horizon_row", "camera_height_m", "tilt_deg", "roll_deg",
+                                     "focal_px"}
+    # the file is the project's camera format and holds the same camera
+    cam = load_camera(out)
+    assert cam.image_size == (768, 576)
+    assert cam.center_m[2] == pytest.approx(r["camera_height_m"])
+    assert horizon_row(cam, 383.5) == pytest.approx(r["horizon_row"])
+    assert cam.metadata["people_fit"]["inliers"] == r["inliers"]
+
+
+def test_cli_people_from_clicked_boxes(capsys, tmp_path):
+    cam = camera_from_parameters(927.0, 14.0, 0.0, 6.0, SIZE)
+    boxes, _ = _people(cam, 8, np.random.default_rng(4), height_sd=0.03)
+    csv = tmp_path / "clicked.csv"
+    csv.write_text("x,y,w,h\n" + "".join(f"{b[0]:.1f},{b[1]:.1f},{b[2]:.1f},{b[3]:.1f}\n"
+                                         for b in boxes))
+    code, r = _cli(capsys, "calib", "people", "--image-size", "768x576", "--boxes", str(csv),
+                   "--bootstrap", "0", "--json")
+    assert code == 0 and r["boxes"] == 8 and r["uncertainty_method"] == "jacobian"
+    assert r["camera_height_m"] == pytest.approx(6.0, rel=0.1)
+    assert r["horizon_row"] == pytest.approx(horizon_row(cam), abs=15)
+    # a bad line is named with its file and line number
+    csv.write_text("x,y,w,h\n10,20,30,40\n10,20,abc,40\n")
+    code, out = _cli(capsys, "calib", "people", "--image-size", "768x576", "--boxes", str(csv))
+    assert code == 2 and "line 3" in out.err and "clicked.csv" in out.err
+    code, out = _cli(capsys, "calib", "people", "--boxes", str(csv))
+    assert code == 2 and "--video" in out.err
+
+
+@pytest.mark.slow
+def test_cli_people_hog_detections_on_pets(capsys, tmp_path):
+    # no labels: OpenCV's HOG people detector over frames 1-200 (every 8th), camera compared
+    # with the real Tsai camera on the ground truth's feet of those frames
+    code, r = _cli(capsys, "calib", "people", "--video", str(data_path("pets09", "vtest.avi")),
+                   "--frames", "1:200", "--stride", "8", "--bootstrap", "20",
+                   "--out", str(tmp_path / "cam.yaml"),
+                   "--reference", str(data_path("pets09", "View_001.xml")),
+                   "--gt", str(data_path("pets09", "gt.txt")), "--json")
+    assert code == 0
+    assert "HOG" in r["source"]
+    assert r["inliers"] >= 80
+    assert r["reference"]["median_error_m"] < 0.8
+    assert r["reference"]["horizon_error_px"] < 60
