@@ -225,6 +225,24 @@ def test_cli_people_from_a_detection_file_writes_the_camera(capsys, tmp_path):
     assert cam.metadata["people_fit"]["inliers"] == r["inliers"]
 
 
+def test_cli_people_with_the_lens_field_of_view_known(capsys, tmp_path):
+    # the same boxes with the real camera's horizontal field of view (2 atan(384 / 1185) =
+    # 35.9 deg): the focal length is then no prior and the ground error drops
+    gt = _pets_gt(1, 100)
+    det = tmp_path / "det.txt"
+    det.write_text("".join(f"{int(r[0])},-1,{r[2]},{r[3]},{r[4]},{r[5]},1\n" for r in gt))
+    ref = str(data_path("pets09", "View_001.xml"))
+    code, r = _cli(capsys, "calib", "people", "--image-size", "768x576", "--detections",
+                   str(det), "--hfov", "35.9", "--bootstrap", "0", "--reference", ref,
+                   "--gt", str(data_path("pets09", "gt.txt")), "--frames", "1:100", "--json")
+    assert code == 0 and r["focal_identified"]
+    assert r["focal_px"] == pytest.approx(384 / math.tan(math.radians(35.9 / 2)))
+    assert r["reference"]["median_error_m"] < 0.3
+    code, out = _cli(capsys, "calib", "people", "--image-size", "768x576", "--detections",
+                     str(det), "--hfov", "35.9", "--focal", "1000")
+    assert code == 2 and "--hfov" in out.err
+
+
 def test_cli_people_from_clicked_boxes(capsys, tmp_path):
     cam = camera_from_parameters(927.0, 14.0, 0.0, 6.0, SIZE)
     boxes, _ = _people(cam, 8, np.random.default_rng(4), height_sd=0.03)

@@ -123,6 +123,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="mean person height in metres (default 1.7)")
     e.add_argument("--focal", type=float, default=None,
                    help="known focal length in pixels (else the prior, or --fit-focal)")
+    e.add_argument("--hfov", type=float, default=None, metavar="DEG",
+                   help="known horizontal field of view in degrees (sets --focal)")
     e.add_argument("--fit-focal", action="store_true",
                    help="fit the focal length from the boxes (undistorted video, tight boxes)")
     e.add_argument("--bootstrap", type=int, default=100,
@@ -268,6 +270,15 @@ def _people(args: argparse.Namespace) -> int:
     else:
         raise ValueError("calib people: give --video (or --image-size with --boxes or "
                          "--detections)")
+    focal = args.focal
+    if args.hfov is not None:
+        if focal is not None:
+            raise ValueError("calib people: give --focal or --hfov, not both")
+        if not 0 < args.hfov < 180:
+            raise ValueError(f"calib people: --hfov must be in (0, 180) degrees, got {args.hfov}")
+        import math
+
+        focal = (size[0] / 2) / math.tan(math.radians(args.hfov) / 2)
     if args.reference and not args.gt:
         raise ValueError("calib people: --reference needs --gt (world positions to compare)")
     if args.boxes:
@@ -291,7 +302,7 @@ def _people(args: argparse.Namespace) -> int:
                          "widen --frames or give --boxes")
     fit = pp.estimate_camera_from_people(
         rows[:, :4], size, person_height_m=args.person_height,
-        rng=np.random.default_rng(args.seed), focal_px=args.focal, fit_focal=args.fit_focal,
+        rng=np.random.default_rng(args.seed), focal_px=focal, fit_focal=args.fit_focal,
         n_bootstrap=args.bootstrap)
     out = fit.summary()
     out["source"] = source
