@@ -276,3 +276,41 @@ def test_cli_people_hog_detections_on_pets(capsys, tmp_path):
     assert r["inliers"] >= 80
     assert r["reference"]["median_error_m"] < 0.8
     assert r["reference"]["horizon_error_px"] < 60
+
+
+def test_detect_people_uses_a_registered_hog_people_detector(tmp_path):
+    from pftrack import hookimpl
+    from pftrack.components import Detections, Detector
+    from pftrack.geometry.people import detect_people
+    from pftrack.host import Host
+    from pftrack.scenes.video import write_test_clip
+
+    class _Fixed(Detector):
+        def __init__(self, score: float = 2.0) -> None:
+            self.score = score
+
+        def detect(self, frame):
+            return Detections([[frame.index, 5.0, 10.0, 30.0], [0.0, 0.0, 4.0, 8.0]],
+                              [self.score, -1.0])
+
+    class _Plugin:
+        @hookimpl
+        def pftrack_register_detectors(self, register):
+            register("hog-people", _Fixed)
+
+    video = tmp_path / "clip.avi"
+    write_test_clip(video, tmp_path / "gt.txt", n_frames=7, size_wh=(80, 72))
+    host = Host(load_entry_points=False, plugins=[("fake", _Plugin())])
+    rows, name = detect_people(video, 2, 7, stride=2, host=host, min_score=0.0)
+    assert name.startswith("hog-people")
+    # frames 2, 4, 6; the negative-score box dropped; x holds the frame to show the order
+    assert rows[:, 4].tolist() == [2, 4, 6] and rows[:, 0].tolist() == [2, 4, 6]
+    assert np.allclose(rows[:, 1:4], [5.0, 10.0, 30.0]) and np.allclose(rows[:, 5], 2.0)
+    # without one: OpenCV's HOG on the same clip (a white square: nobody)
+    rows, name = detect_people(video, 1, 3, host=Host(load_entry_points=False))
+    assert "OpenCV HOG" in name and rows.shape == (0, 6)
+    with pytest.raises(ValueError, match="stride"):
+        detect_people(video, 1, 3, stride=0, host=host)
+    # frames smaller than HOG's window (OpenCV would crash): named, with the way out
+    with pytest.raises(ValueError, match="smaller than the HOG window.*raise upscale"):
+        detect_people(video, 1, 3, host=Host(load_entry_points=False), upscale=1.0)

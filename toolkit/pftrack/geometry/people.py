@@ -760,6 +760,11 @@ def detect_people(video: Any, first: int = 1, last: int | None = None, stride: i
         else:
             img = frame.image if upscale == 1 else cv2.resize(
                 frame.image, None, fx=upscale, fy=upscale, interpolation=cv2.INTER_LINEAR)
+            if img.shape[0] < 128 or img.shape[1] < 64:
+                # OpenCV's HOG crashes (segfault) on images smaller than its window
+                raise ValueError(f"detect_people: {video}: frames of {frame.size_wh[0]}x"
+                                 f"{frame.size_wh[1]} px are smaller than the HOG window "
+                                 f"(64x128) even enlarged {upscale:g} times; raise upscale")
             b, s = hog.detectMultiScale(img, winStride=(8, 8), padding=(8, 8), scale=1.05)
             boxes = np.asarray(b, dtype=np.float64).reshape(-1, 4) / upscale
             scores = np.asarray(s, dtype=np.float64).reshape(-1)
