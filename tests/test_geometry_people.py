@@ -14,6 +14,7 @@ from pftrack.geometry.people import (
     compare_with_reference,
     estimate_camera_from_people,
     horizon_row,
+    measure_slants,
     predicted_box_heights,
     rigid_align_2d,
 )
@@ -127,6 +128,41 @@ def test_default_focal_is_the_documented_prior_and_says_so():
     assert a.uncertainty["tilt_deg"] > 3 * c.uncertainty["tilt_deg"]
 
 
+def test_people_lean_identifies_the_focal_length():
+    # a long lens (HFOV 33 deg) the prior (45 deg) is 29 % off; the leans towards the vertical
+    # vanishing point (as measure_slants reports them: du/dv, noisy, some missing) bring it back
+    rng = np.random.default_rng(8)
+    cam = camera_from_parameters(1300.0, 17.0, -3.0, 7.0, SIZE)
+    boxes, n = _people(cam, 400, rng)
+    feet = np.column_stack([boxes[:, 0] + boxes[:, 2] / 2, boxes[:, 1] + boxes[:, 3]])
+    ground = cam.image_to_ground(feet)
+    # lean of the upper 70 % of each person, from the projected body axis
+    lo = cam.project(ground + [0, 0, 0.3 * 1.7])
+    hi = cam.project(ground + [0, 0, 1.7])
+    lean = (hi[:, 0] - lo[:, 0]) / (hi[:, 1] - lo[:, 1])
+    slants = lean + rng.normal(0, 0.03, n)
+    slants[rng.random(n) < 0.2] = np.nan
+    fit = estimate_camera_from_people(boxes, SIZE, slants=slants, n_bootstrap=20,
+                                      rng=np.random.default_rng(0))
+    assert fit.slants_used == np.isfinite(slants[fit.inliers]).sum() > 250
+    assert fit.focal_identified
+    assert fit.focal_px == pytest.approx(1300.0, rel=0.08)
+    assert fit.horizon_row == pytest.approx(horizon_row(cam), abs=8)
+    assert fit.tilt_deg == pytest.approx(17.0, abs=1.0)
+    assert abs(fit.focal_px - 1300.0) < 3 * fit.uncertainty["focal_px"] + 1e-9
+    assert any("lean" in t for t in fit.notes)
+    # without the leans the same boxes give the prior's focal length, 29 % off
+    plain = estimate_camera_from_people(boxes, SIZE, n_bootstrap=0)
+    assert plain.slants_used == 0 and plain.focal_px == pytest.approx(927.06, abs=0.01)
+    # too few leans are not used, and say so
+    few = np.full(n, np.nan)
+    few[:10] = slants[:10]
+    fit_few = estimate_camera_from_people(boxes, SIZE, slants=few, n_bootstrap=0)
+    assert fit_few.slants_used == 0 and any("min_slants" in t for t in fit_few.notes)
+    with pytest.raises(ValueError, match="slants has 3 values"):
+        estimate_camera_from_people(boxes, SIZE, slants=[0.0, 0.1, 0.2])
+
+
 def test_few_clicked_boxes_fix_roll_and_still_give_a_camera():
     cam = camera_from_parameters(927.0, 14.0, 0.0, 6.0, SIZE)
     boxes, _ = _people(cam, 5, np.random.default_rng(11), height_sd=0.03)
@@ -178,6 +214,13 @@ def test_pets_ground_truth_boxes_against_the_tsai_camera():
     assert r["median_error_m"] < 0.9
     assert r["horizon_error_px"] < 40
     assert fit.camera_height_m == pytest.approx(7.07, rel=0.15)
+    # the people's lean measured in the video (MOG2 foreground) gives the focal length
+    sl = measure_slants(data_path("pets09", "vtest.avi"), gt[:, 2:6], gt[:, 0])
+    assert np.isfinite(sl).sum() > 300
+    fit_l = estimate_camera_from_people(gt[:, 2:6], SIZE, 1.7, slants=sl, n_bootstrap=0)
+    rl = compare_with_reference(fit_l, ref, gt[:, 2:6], gt[:, 7:9])
+    assert fit_l.focal_px == pytest.approx(ref.fx, rel=0.25)
+    assert rl["median_error_m"] < 0.3
     # given the true focal length the same boxes come within 0.3 m
     fit_f = estimate_camera_from_people(gt[:, 2:6], SIZE, 1.7, focal_px=ref.fx, n_bootstrap=0)
     rf = compare_with_reference(fit_f, ref, gt[:, 2:6], gt[:, 7:9])
@@ -214,7 +257,9 @@ def test_cli_people_from_a_detection_file_writes_the_camera(capsys, tmp_path):
     assert code == 0
     assert r["boxes"] == len(gt) and r["inliers"] >= 0.95 * len(gt)
     assert r["reference"]["points"] == len(gt)
-    assert r["reference"]["median_error_m"] < 0.9 and r["reference"]["horizon_error_px"] < 40
+    # with the video the people's lean is measured and gives the focal length
+    assert r["slants_used"] > 300 and r["focal_identified"]
+    assert r["reference"]["median_error_m"] < 0.3 and r["reference"]["horizon_error_px"] < 50
     assert set(r["uncertainty"]) == {"horizon_row", "camera_height_m", "tilt_deg", "roll_deg",
                                      "focal_px"}
     # the file is the project's camera format and holds the same camera
@@ -223,6 +268,13 @@ def test_cli_people_from_a_detection_file_writes_the_camera(capsys, tmp_path):
     assert cam.center_m[2] == pytest.approx(r["camera_height_m"])
     assert horizon_row(cam, 383.5) == pytest.approx(r["horizon_row"])
     assert cam.metadata["people_fit"]["inliers"] == r["inliers"]
+    # --no-lean: the focal-length prior
+    code, r2 = _cli(capsys, "calib", "people", "--video", str(data_path("pets09", "vtest.avi")),
+                    "--detections", str(det), "--frames", "1:100", "--bootstrap", "0",
+                    "--no-lean", "--reference", str(data_path("pets09", "View_001.xml")),
+                    "--gt", str(data_path("pets09", "gt.txt")), "--json")
+    assert code == 0 and r2["slants_used"] == 0 and not r2["focal_identified"]
+    assert r2["reference"]["median_error_m"] < 0.9 and r2["reference"]["horizon_error_px"] < 40
 
 
 def test_cli_people_with_the_lens_field_of_view_known(capsys, tmp_path):

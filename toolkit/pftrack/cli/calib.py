@@ -103,8 +103,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     e = csub.add_parser(
         "people", help="estimate a ground-plane camera from the people in a video",
         description="Estimate a pinhole ground-plane camera (horizon, height, tilt, roll; focal "
-                    "length from a 45 deg field-of-view prior unless --focal or --fit-focal) from "
-                    "person boxes, assuming a mean person height. Boxes: --boxes (a CSV of "
+                    "length from the people's lean in the video when boxes have frames, else a "
+                    "45 deg field-of-view prior, unless --focal/--hfov) from person boxes, "
+                    "assuming a mean person height. Boxes: --boxes (a CSV of "
                     "x,y,w,h[,frame] you clicked), --detections (MOTChallenge det.txt), or, "
                     "with neither, people detected over the video (a registered 'hog-people' "
                     "detector if there is one, else OpenCV's HOG people detector).")
@@ -127,6 +128,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="known horizontal field of view in degrees (sets --focal)")
     e.add_argument("--fit-focal", action="store_true",
                    help="fit the focal length from the boxes (undistorted video, tight boxes)")
+    e.add_argument("--no-lean", action="store_true",
+                   help="do not measure people's lean in the video (the focal length then "
+                        "comes from the prior unless --focal/--hfov)")
     e.add_argument("--bootstrap", type=int, default=100,
                    help="bootstrap refits for the uncertainty (0: from the Jacobian)")
     e.add_argument("--seed", type=int, default=0, help="seed of the RANSAC and bootstrap")
@@ -300,10 +304,13 @@ def _people(args: argparse.Namespace) -> int:
     if len(rows) == 0:
         raise ValueError(f"calib people: no person boxes from {source}; lower --min-score, "
                          "widen --frames or give --boxes")
+    slants = None
+    if args.video and not args.no_lean and focal is None and np.all(rows[:, 4] >= 1):
+        slants = pp.measure_slants(args.video, rows[:, :4], rows[:, 4])
     fit = pp.estimate_camera_from_people(
         rows[:, :4], size, person_height_m=args.person_height,
         rng=np.random.default_rng(args.seed), focal_px=focal, fit_focal=args.fit_focal,
-        n_bootstrap=args.bootstrap)
+        n_bootstrap=args.bootstrap, slants=slants)
     out = fit.summary()
     out["source"] = source
     out["image_size"] = list(size)
@@ -338,7 +345,8 @@ def _people(args: argparse.Namespace) -> int:
              f"  tilt          {fit.tilt_deg:9.2f} +- {u['tilt_deg']:.2f} deg",
              f"  roll          {fit.roll_deg:9.2f} +- {u['roll_deg']:.2f} deg",
              f"  focal length  {fit.focal_px:9.1f} +- {u['focal_px']:.1f} px"
-             + ("" if fit.focal_identified else " (prior)"),
+             + ("" if fit.focal_identified else " (prior)")
+             + (f" (from {fit.slants_used} people's lean)" if fit.slants_used else ""),
              (f"  box height spread (1-sigma, relative) {fit.residual_sd:.3f}; "
              f"1-sigma by {fit.uncertainty_method}")]
     lines += [f"  note: {n}" for n in fit.notes]
