@@ -14,6 +14,7 @@ from pftrack.geometry.people import (
     compare_with_reference,
     estimate_camera_from_people,
     horizon_row,
+    measure_slants,
     predicted_box_heights,
     rigid_align_2d,
 )
@@ -127,6 +128,41 @@ def test_default_focal_is_the_documented_prior_and_says_so():
     assert a.uncertainty["tilt_deg"] > 3 * c.uncertainty["tilt_deg"]
 
 
+def test_people_lean_identifies_the_focal_length():
+    # a long lens (HFOV 33 deg) the prior (45 deg) is 29 % off; the leans towards the vertical
+    # vanishing point (as measure_slants reports them: du/dv, noisy, some missing) bring it back
+    rng = np.random.default_rng(8)
+    cam = camera_from_parameters(1300.0, 17.0, -3.0, 7.0, SIZE)
+    boxes, n = _people(cam, 400, rng)
+    feet = np.column_stack([boxes[:, 0] + boxes[:, 2] / 2, boxes[:, 1] + boxes[:, 3]])
+    ground = cam.image_to_ground(feet)
+    # lean of the upper 70 % of each person, from the projected body axis
+    lo = cam.project(ground + [0, 0, 0.3 * 1.7])
+    hi = cam.project(ground + [0, 0, 1.7])
+    lean = (hi[:, 0] - lo[:, 0]) / (hi[:, 1] - lo[:, 1])
+    slants = lean + rng.normal(0, 0.03, n)
+    slants[rng.random(n) < 0.2] = np.nan
+    fit = estimate_camera_from_people(boxes, SIZE, slants=slants, n_bootstrap=20,
+                                      rng=np.random.default_rng(0))
+    assert fit.slants_used == np.isfinite(slants[fit.inliers]).sum() > 250
+    assert fit.focal_identified
+    assert fit.focal_px == pytest.approx(1300.0, rel=0.08)
+    assert fit.horizon_row == pytest.approx(horizon_row(cam), abs=8)
+    assert fit.tilt_deg == pytest.approx(17.0, abs=1.0)
+    assert abs(fit.focal_px - 1300.0) < 3 * fit.uncertainty["focal_px"] + 1e-9
+    assert any("lean" in t for t in fit.notes)
+    # without the leans the same boxes give the prior's focal length, 29 % off
+    plain = estimate_camera_from_people(boxes, SIZE, n_bootstrap=0)
+    assert plain.slants_used == 0 and plain.focal_px == pytest.approx(927.06, abs=0.01)
+    # too few leans are not used, and say so
+    few = np.full(n, np.nan)
+    few[:10] = slants[:10]
+    fit_few = estimate_camera_from_people(boxes, SIZE, slants=few, n_bootstrap=0)
+    assert fit_few.slants_used == 0 and any("min_slants" in t for t in fit_few.notes)
+    with pytest.raises(ValueError, match="slants has 3 values"):
+        estimate_camera_from_people(boxes, SIZE, slants=[0.0, 0.1, 0.2])
+
+
 def test_few_clicked_boxes_fix_roll_and_still_give_a_camera():
     cam = camera_from_parameters(927.0, 14.0, 0.0, 6.0, SIZE)
     boxes, _ = _people(cam, 5, np.random.default_rng(11), height_sd=0.03)
@@ -178,8 +214,155 @@ def test_pets_ground_truth_boxes_against_the_tsai_camera():
     assert r["median_error_m"] < 0.9
     assert r["horizon_error_px"] < 40
     assert fit.camera_height_m == pytest.approx(7.07, rel=0.15)
+    # the people's lean measured in the video (MOG2 foreground) gives the focal length
+    sl = measure_slants(data_path("pets09", "vtest.avi"), gt[:, 2:6], gt[:, 0])
+    assert np.isfinite(sl).sum() > 300
+    fit_l = estimate_camera_from_people(gt[:, 2:6], SIZE, 1.7, slants=sl, n_bootstrap=0)
+    rl = compare_with_reference(fit_l, ref, gt[:, 2:6], gt[:, 7:9])
+    assert fit_l.focal_px == pytest.approx(ref.fx, rel=0.25)
+    assert rl["median_error_m"] < 0.3
     # given the true focal length the same boxes come within 0.3 m
     fit_f = estimate_camera_from_people(gt[:, 2:6], SIZE, 1.7, focal_px=ref.fx, n_bootstrap=0)
     rf = compare_with_reference(fit_f, ref, gt[:, 2:6], gt[:, 7:9])
     assert rf["median_error_m"] < 0.3
     assert rf["horizon_error_px"] < 25
+
+
+# --------------------------------------------------------------------------------------------
+# pftrack calib people
+# --------------------------------------------------------------------------------------------
+
+
+def _cli(capsys, *argv):
+    import json
+
+    from pftrack.cli import main
+
+    capsys.readouterr()
+    code = main(list(argv))
+    out = capsys.readouterr()
+    return code, (json.loads(out.out) if code == 0 and "--json" in argv else out)
+
+
+def test_cli_people_from_a_detection_file_writes_the_camera(capsys, tmp_path):
+    # the ground truth's boxes of frames 1-100 given as a MOTChallenge det file
+    gt = _pets_gt(1, 100)
+    det = tmp_path / "det.txt"
+    det.write_text("".join(f"{int(r[0])},-1,{r[2]},{r[3]},{r[4]},{r[5]},1\n" for r in gt))
+    out = tmp_path / "cam.yaml"
+    code, r = _cli(capsys, "calib", "people", "--video", str(data_path("pets09", "vtest.avi")),
+                   "--detections", str(det), "--frames", "1:100", "--bootstrap", "20",
+                   "--out", str(out), "--reference", str(data_path("pets09", "View_001.xml")),
+                   "--gt", str(data_path("pets09", "gt.txt")), "--json")
+    assert code == 0
+    assert r["boxes"] == len(gt) and r["inliers"] >= 0.95 * len(gt)
+    assert r["reference"]["points"] == len(gt)
+    # with the video the people's lean is measured and gives the focal length
+    assert r["slants_used"] > 300 and r["focal_identified"]
+    assert r["reference"]["median_error_m"] < 0.3 and r["reference"]["horizon_error_px"] < 50
+    assert set(r["uncertainty"]) == {"horizon_row", "camera_height_m", "tilt_deg", "roll_deg",
+                                     "focal_px"}
+    # the file is the project's camera format and holds the same camera
+    cam = load_camera(out)
+    assert cam.image_size == (768, 576)
+    assert cam.center_m[2] == pytest.approx(r["camera_height_m"])
+    assert horizon_row(cam, 383.5) == pytest.approx(r["horizon_row"])
+    assert cam.metadata["people_fit"]["inliers"] == r["inliers"]
+    # --no-lean: the focal-length prior
+    code, r2 = _cli(capsys, "calib", "people", "--video", str(data_path("pets09", "vtest.avi")),
+                    "--detections", str(det), "--frames", "1:100", "--bootstrap", "0",
+                    "--no-lean", "--reference", str(data_path("pets09", "View_001.xml")),
+                    "--gt", str(data_path("pets09", "gt.txt")), "--json")
+    assert code == 0 and r2["slants_used"] == 0 and not r2["focal_identified"]
+    assert r2["reference"]["median_error_m"] < 0.9 and r2["reference"]["horizon_error_px"] < 40
+
+
+def test_cli_people_with_the_lens_field_of_view_known(capsys, tmp_path):
+    # the same boxes with the real camera's horizontal field of view (2 atan(384 / 1185) =
+    # 35.9 deg): the focal length is then no prior and the ground error drops
+    gt = _pets_gt(1, 100)
+    det = tmp_path / "det.txt"
+    det.write_text("".join(f"{int(r[0])},-1,{r[2]},{r[3]},{r[4]},{r[5]},1\n" for r in gt))
+    ref = str(data_path("pets09", "View_001.xml"))
+    code, r = _cli(capsys, "calib", "people", "--image-size", "768x576", "--detections",
+                   str(det), "--hfov", "35.9", "--bootstrap", "0", "--reference", ref,
+                   "--gt", str(data_path("pets09", "gt.txt")), "--frames", "1:100", "--json")
+    assert code == 0 and r["focal_identified"]
+    assert r["focal_px"] == pytest.approx(384 / math.tan(math.radians(35.9 / 2)))
+    assert r["reference"]["median_error_m"] < 0.3
+    code, out = _cli(capsys, "calib", "people", "--image-size", "768x576", "--detections",
+                     str(det), "--hfov", "35.9", "--focal", "1000")
+    assert code == 2 and "--hfov" in out.err
+
+
+def test_cli_people_from_clicked_boxes(capsys, tmp_path):
+    cam = camera_from_parameters(927.0, 14.0, 0.0, 6.0, SIZE)
+    boxes, _ = _people(cam, 8, np.random.default_rng(4), height_sd=0.03)
+    csv = tmp_path / "clicked.csv"
+    csv.write_text("x,y,w,h\n" + "".join(f"{b[0]:.1f},{b[1]:.1f},{b[2]:.1f},{b[3]:.1f}\n"
+                                         for b in boxes))
+    code, r = _cli(capsys, "calib", "people", "--image-size", "768x576", "--boxes", str(csv),
+                   "--bootstrap", "0", "--json")
+    assert code == 0 and r["boxes"] == 8 and r["uncertainty_method"] == "jacobian"
+    assert r["camera_height_m"] == pytest.approx(6.0, rel=0.1)
+    assert r["horizon_row"] == pytest.approx(horizon_row(cam), abs=15)
+    # a bad line is named with its file and line number
+    csv.write_text("x,y,w,h\n10,20,30,40\n10,20,abc,40\n")
+    code, out = _cli(capsys, "calib", "people", "--image-size", "768x576", "--boxes", str(csv))
+    assert code == 2 and "line 3" in out.err and "clicked.csv" in out.err
+    code, out = _cli(capsys, "calib", "people", "--boxes", str(csv))
+    assert code == 2 and "--video" in out.err
+
+
+@pytest.mark.slow
+def test_cli_people_hog_detections_on_pets(capsys, tmp_path):
+    # no labels: OpenCV's HOG people detector over frames 1-200 (every 8th), camera compared
+    # with the real Tsai camera on the ground truth's feet of those frames
+    code, r = _cli(capsys, "calib", "people", "--video", str(data_path("pets09", "vtest.avi")),
+                   "--frames", "1:200", "--stride", "8", "--bootstrap", "20",
+                   "--out", str(tmp_path / "cam.yaml"),
+                   "--reference", str(data_path("pets09", "View_001.xml")),
+                   "--gt", str(data_path("pets09", "gt.txt")), "--json")
+    assert code == 0
+    assert "HOG" in r["source"]
+    assert r["inliers"] >= 80
+    assert r["reference"]["median_error_m"] < 0.8
+    assert r["reference"]["horizon_error_px"] < 60
+
+
+def test_detect_people_uses_a_registered_hog_people_detector(tmp_path):
+    from pftrack import hookimpl
+    from pftrack.components import Detections, Detector
+    from pftrack.geometry.people import detect_people
+    from pftrack.host import Host
+    from pftrack.scenes.video import write_test_clip
+
+    class _Fixed(Detector):
+        def __init__(self, score: float = 2.0) -> None:
+            self.score = score
+
+        def detect(self, frame):
+            return Detections([[frame.index, 5.0, 10.0, 30.0], [0.0, 0.0, 4.0, 8.0]],
+                              [self.score, -1.0])
+
+    class _Plugin:
+        @hookimpl
+        def pftrack_register_detectors(self, register):
+            register("hog-people", _Fixed)
+
+    video = tmp_path / "clip.avi"
+    write_test_clip(video, tmp_path / "gt.txt", n_frames=7, size_wh=(80, 72))
+    host = Host(load_entry_points=False, plugins=[("fake", _Plugin())])
+    rows, name = detect_people(video, 2, 7, stride=2, host=host, min_score=0.0)
+    assert name.startswith("hog-people")
+    # frames 2, 4, 6; the negative-score box dropped; x holds the frame to show the order
+    assert rows[:, 4].tolist() == [2, 4, 6] and rows[:, 0].tolist() == [2, 4, 6]
+    assert np.allclose(rows[:, 1:4], [5.0, 10.0, 30.0]) and np.allclose(rows[:, 5], 2.0)
+    # without one: OpenCV's HOG on the same clip (a white square: nobody)
+    rows, name = detect_people(video, 1, 3, host=Host(load_entry_points=False))
+    assert "OpenCV HOG" in name and rows.shape == (0, 6)
+    with pytest.raises(ValueError, match="stride"):
+        detect_people(video, 1, 3, stride=0, host=host)
+    # frames smaller than HOG's window (OpenCV would crash): named, with the way out
+    with pytest.raises(ValueError, match="smaller than the HOG window.*raise upscale"):
+        detect_people(video, 1, 3, host=Host(load_entry_points=False), upscale=1.0)

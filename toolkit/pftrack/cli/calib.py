@@ -8,6 +8,10 @@
 * ``calib convert IN OUT [--format F]`` -- says what the target format cannot hold and the
   residual of any refit.
 * ``calib show CAMERA`` -- the camera's parameters.
+* ``calib people --video V [--boxes CSV | --detections det.txt] [--frames A:B]
+  [--person-height 1.7] --out CAMERA`` -- a ground-plane camera from person boxes (clicked,
+  a MOTChallenge detection file, or found by the HOG people detector over the video), with the
+  1-sigma of each figure; ``--reference CAM --gt GT`` compares it with a known camera.
 
 With ``--json`` each prints one JSON object (the figures checks read).
 """
@@ -95,6 +99,48 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--format")
     s.add_argument("--json", action="store_true")
     s.set_defaults(func=_show)
+
+    e = csub.add_parser(
+        "people", help="estimate a ground-plane camera from the people in a video",
+        description="Estimate a pinhole ground-plane camera (horizon, height, tilt, roll; focal "
+                    "length from the people's lean in the video when boxes have frames, else a "
+                    "45 deg field-of-view prior, unless --focal/--hfov) from person boxes, "
+                    "assuming a mean person height. Boxes: --boxes (a CSV of "
+                    "x,y,w,h[,frame] you clicked), --detections (MOTChallenge det.txt), or, "
+                    "with neither, people detected over the video (a registered 'hog-people' "
+                    "detector if there is one, else OpenCV's HOG people detector).")
+    e.add_argument("--video", help="the video (its frame size; the frames to detect in)")
+    e.add_argument("--image-size", type=_size, help="WxH when no --video is given")
+    src = e.add_mutually_exclusive_group()
+    src.add_argument("--boxes", help="CSV of person boxes x,y,w,h[,frame] (pixels)")
+    src.add_argument("--detections", help="MOTChallenge det.txt (frame,id,x,y,w,h,score,...)")
+    e.add_argument("--frames", default=None, metavar="A:B",
+                   help="frames A..B inclusive (1-based) to use or detect in; default all")
+    e.add_argument("--stride", type=int, default=4,
+                   help="detect in every Nth frame (default 4)")
+    e.add_argument("--min-score", type=float, default=None,
+                   help="drop detections scoring below this (default: keep all)")
+    e.add_argument("--person-height", type=float, default=1.7,
+                   help="mean person height in metres (default 1.7)")
+    e.add_argument("--focal", type=float, default=None,
+                   help="known focal length in pixels (else the prior, or --fit-focal)")
+    e.add_argument("--hfov", type=float, default=None, metavar="DEG",
+                   help="known horizontal field of view in degrees (sets --focal)")
+    e.add_argument("--fit-focal", action="store_true",
+                   help="fit the focal length from the boxes (undistorted video, tight boxes)")
+    e.add_argument("--no-lean", action="store_true",
+                   help="do not measure people's lean in the video (the focal length then "
+                        "comes from the prior unless --focal/--hfov)")
+    e.add_argument("--bootstrap", type=int, default=100,
+                   help="bootstrap refits for the uncertainty (0: from the Jacobian)")
+    e.add_argument("--seed", type=int, default=0, help="seed of the RANSAC and bootstrap")
+    e.add_argument("--out", help="write the camera here (pftrack YAML unless --format)")
+    e.add_argument("--format", help="output format: pftrack, tsai, opencv, open3d")
+    e.add_argument("--save-boxes", help="write the boxes used (x,y,w,h,frame,score,inlier) here")
+    e.add_argument("--reference", help="a known camera to compare with (needs --gt)")
+    e.add_argument("--gt", help="MOTChallenge ground truth with world x,y (m) for --reference")
+    e.add_argument("--json", action="store_true")
+    e.set_defaults(func=_people)
 
     p.set_defaults(func=lambda a: (p.print_help(), 2)[1])
 
@@ -205,3 +251,111 @@ def _show(args: argparse.Namespace) -> int:
     d["center_m"] = cam.center_m.tolist()
     d["optical_axis"] = cam.optical_axis.tolist()
     return _emit(d, args.json, repr(cam))
+
+
+def _people(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from pftrack.geometry import people as pp
+    from pftrack.pipeline import parse_frames
+
+    first, last = parse_frames(args.frames)
+    if args.video:
+        from pftrack.scenes.video import VideoScene
+
+        frame = next(iter(VideoScene(args.video, first=first, last=first).frames()), None)
+        if frame is None:
+            raise ValueError(f"--video {args.video}: no frame {first} could be read")
+        size = frame.size_wh
+        if args.image_size and tuple(args.image_size) != size:
+            raise ValueError(f"--image-size {args.image_size} differs from --video's {size}")
+    elif args.image_size:
+        size = tuple(args.image_size)
+    else:
+        raise ValueError("calib people: give --video (or --image-size with --boxes or "
+                         "--detections)")
+    focal = args.focal
+    if args.hfov is not None:
+        if focal is not None:
+            raise ValueError("calib people: give --focal or --hfov, not both")
+        if not 0 < args.hfov < 180:
+            raise ValueError(f"calib people: --hfov must be in (0, 180) degrees, got {args.hfov}")
+        import math
+
+        focal = (size[0] / 2) / math.tan(math.radians(args.hfov) / 2)
+    if args.reference and not args.gt:
+        raise ValueError("calib people: --reference needs --gt (world positions to compare)")
+    if args.boxes:
+        rows = pp.read_boxes_csv(args.boxes)
+        if args.frames is not None and np.any(rows[:, 4] > 0):
+            keep = (rows[:, 4] >= first) & ((rows[:, 4] <= last) if last else True)
+            rows = rows[keep]
+        rows = np.column_stack([rows, np.ones(len(rows))])
+        source = f"boxes {args.boxes}"
+    elif args.detections:
+        rows = pp.read_detection_boxes(args.detections, first, last, args.min_score)
+        source = f"detections {args.detections}"
+    else:
+        if not args.video:
+            raise ValueError("calib people: detecting people needs --video")
+        rows, name = pp.detect_people(args.video, first, last, args.stride,
+                                      min_score=args.min_score or 0.0)
+        source = f"{name} over frames {first}..{last or 'end'} every {args.stride}"
+    if len(rows) == 0:
+        raise ValueError(f"calib people: no person boxes from {source}; lower --min-score, "
+                         "widen --frames or give --boxes")
+    slants = None
+    if args.video and not args.no_lean and focal is None and np.all(rows[:, 4] >= 1):
+        slants = pp.measure_slants(args.video, rows[:, :4], rows[:, 4])
+    fit = pp.estimate_camera_from_people(
+        rows[:, :4], size, person_height_m=args.person_height,
+        rng=np.random.default_rng(args.seed), focal_px=focal, fit_focal=args.fit_focal,
+        n_bootstrap=args.bootstrap, slants=slants)
+    out = fit.summary()
+    out["source"] = source
+    out["image_size"] = list(size)
+    out["saved"] = _save(fit.camera, args.out, args.format)
+    if args.save_boxes:
+        from pftrack.io.atomic import atomic_write_text
+
+        lines = ["x,y,w,h,frame,score,inlier"] + [
+            f"{r[0]:.2f},{r[1]:.2f},{r[2]:.2f},{r[3]:.2f},{int(r[4])},{r[5]:.4f},{int(k)}"
+            for r, k in zip(rows, fit.inliers)]
+        atomic_write_text(args.save_boxes, "\n".join(lines) + "\n")
+        out["boxes_file"] = args.save_boxes
+    if args.reference:
+        from pftrack.geometry.formats import load_camera
+        from pftrack.io.mot import read_mot
+
+        ref = load_camera(args.reference)
+        gt = read_mot(args.gt)
+        gt = gt[gt[:, 6] != 0]
+        if args.frames is not None:
+            gt = gt[(gt[:, 0] >= first) & ((gt[:, 0] <= last) if last else True)]
+        if not np.all(np.isfinite(gt[:, 7:9])) or np.all(gt[:, 7:9] == -1):
+            raise ValueError(f"--gt {args.gt}: no world x,y columns (8-9) to compare with")
+        out["reference"] = {"camera": args.reference, "gt": args.gt,
+                            **pp.compare_with_reference(fit, ref, gt[:, 2:6], gt[:, 7:9])}
+    u = fit.uncertainty
+    lines = [(f"{fit.inliers.sum()} of {len(rows)} boxes used ({source}), "
+             f"person height {fit.person_height_m:g} m"),
+             (f"  horizon row   {fit.horizon_row:9.1f} +- {u['horizon_row']:.1f} px "
+             "(at the centre column)"),
+             f"  camera height {fit.camera_height_m:9.2f} +- {u['camera_height_m']:.2f} m",
+             f"  tilt          {fit.tilt_deg:9.2f} +- {u['tilt_deg']:.2f} deg",
+             f"  roll          {fit.roll_deg:9.2f} +- {u['roll_deg']:.2f} deg",
+             f"  focal length  {fit.focal_px:9.1f} +- {u['focal_px']:.1f} px"
+             + ("" if fit.focal_identified else " (prior)")
+             + (f" (from {fit.slants_used} people's lean)" if fit.slants_used else ""),
+             (f"  box height spread (1-sigma, relative) {fit.residual_sd:.3f}; "
+             f"1-sigma by {fit.uncertainty_method}")]
+    lines += [f"  note: {n}" for n in fit.notes]
+    if args.reference:
+        r = out["reference"]
+        lines.append(f"  vs {args.reference}: ground error median {r['median_error_m']:.3f} m, "
+                     f"p90 {r['p90_error_m']:.3f} m over {r['points']} ground-truth feet "
+                     f"(after the best 2-D rigid alignment, no scale); horizon error "
+                     f"{r['horizon_error_px']:.1f} px")
+    if args.out:
+        lines.append(f"  written to {args.out}")
+    return _emit(out, args.json, "\n".join(lines))
