@@ -5,7 +5,8 @@
 
 * the built-in ``hog-people`` detector (OpenCV's INRIA people model, no training), run once;
 * a camera estimated from those detections alone
-  (:func:`pftrack.geometry.people.estimate_camera_from_people`, mean person height 1.7 m);
+  (:func:`pftrack.geometry.people.estimate_camera_from_people`, mean person height 1.7 m, the
+  focal length from the people's lean, :func:`~pftrack.geometry.people.measure_slants`);
 * the ``people-ground`` preset on the same detections, their ground points through that camera;
 * the same detections (score >= the detector's threshold) tracked by a peer a user would pick:
   norfair (``norfair-enough``, the ``bench`` extra) with IoU distance, its constant-velocity
@@ -152,7 +153,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         t_det, c_det = time.perf_counter() - t0, time.process_time() - c0
         log("fresh-video: estimating the camera from the detected people ...")
         fit, why = estimate_camera(dets, size, person_height_m=args.person_height,
-                                   seed=args.seed)
+                                   seed=args.seed, video=video)
         if fit is None:
             raise ValueError(f"fresh-video: {why}")
         t1, c1 = time.perf_counter(), time.process_time()

@@ -8,7 +8,8 @@ What ``pftrack track VIDEO --out DIR`` does (:func:`track_video`):
    ``det.txt``) replaces this step.
 2. **A camera from the people** (when ``--camera`` is not given):
    :func:`pftrack.geometry.people.estimate_camera_from_people` on the confident detections
-   (score >= ``calib_min_score``) assuming a mean person height. It is written to
+   (score >= ``calib_min_score``) assuming a mean person height, with each person's lean
+   (:func:`~pftrack.geometry.people.measure_slants`) for the focal length. It is written to
    ``DIR/camera.yaml`` (reusable as ``--camera``). When it cannot be estimated (too few people,
    a fit that fails) the run falls back to the image plane (preset ``people-image``) and says so.
 3. **Track** the same detections (given their ground points through the camera) with
@@ -171,29 +172,48 @@ def detect_video(video: str | os.PathLike[str], cfg: dict[str, Any], frames: Any
 
 def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, int], *,
                     person_height_m: float = 1.7, min_score: float = 0.5, min_boxes: int = 20,
-                    seed: int = 0) -> tuple[Any, str]:
+                    seed: int = 0, video: str | os.PathLike[str] | None = None,
+                    max_frames: int | None = 200) -> tuple[Any, str]:
     """A ground-plane camera from the detected people, or ``(None, why)``.
 
-    Uses the detections scoring at least ``min_score`` (at least ``min_boxes`` of them).
+    Uses the detections scoring at least ``min_score`` (at least ``min_boxes`` of them). With
+    ``video`` (the one the detections come from), each person's lean is measured
+    (:func:`pftrack.geometry.people.measure_slants`, one more pass over the frames with a
+    background subtractor) so that the focal length is fitted from the vertical vanishing point
+    instead of taken from the prior: on PETS frames 1-200 the ground error of the estimate falls
+    from 0.77 m to 0.22 m (the horizon row's error grows from 39 to 72 px).
+    Only the first ``max_frames`` frames' detections are used (None: all): the lean's pass
+    over the video then costs a bounded time however long the video is.
     Returns ``(PeopleCameraFit, description)`` or ``(None, reason)``.
     """
-    from pftrack.geometry.people import estimate_camera_from_people
+    from pftrack.geometry.people import estimate_camera_from_people, measure_slants
 
-    boxes = [d.boxes_xywh_px[d.scores >= min_score] for d in detections.values()]
+    boxes, frames = [], []
+    use = sorted(detections)
+    if max_frames is not None:
+        use = use[: int(max_frames)]
+    for f in use:
+        d = detections[f]
+        keep = d.scores >= min_score
+        boxes.append(d.boxes_xywh_px[keep])
+        frames.append(np.full(int(keep.sum()), f))
     b = np.concatenate(boxes) if boxes else np.zeros((0, 4))
+    fr = np.concatenate(frames) if frames else np.zeros(0)
     if len(b) < min_boxes:
         return None, (f"only {len(b)} person boxes scored >= {min_score} (need {min_boxes}) to "
                       "estimate a camera")
     try:
+        slants = measure_slants(video, b, fr) if video is not None else None
         fit = estimate_camera_from_people(b, image_size=image_size,
                                           person_height_m=person_height_m,
-                                          rng=np.random.default_rng(seed))
+                                          rng=np.random.default_rng(seed), slants=slants)
     except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
         return None, f"the camera could not be estimated from {len(b)} person boxes: {exc}"
     if not (np.isfinite(fit.camera_height_m) and fit.camera_height_m > 0):
         return None, f"the estimated camera height {fit.camera_height_m} is not usable"
-    return fit, (f"estimated from {int(np.sum(fit.inliers))} of {len(b)} person boxes "
-                 f"(mean height {person_height_m} m)")
+    lean = "" if slants is None else ", focal length from their lean"
+    return fit, (f"estimated from {int(np.sum(fit.inliers))} of {len(b)} person boxes in "
+                 f"frames {use[0]}-{use[-1]} (mean height {person_height_m} m{lean})")
 
 
 def with_ground_points(detections: dict[int, Detections], camera: Any
@@ -276,7 +296,7 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
         cam_source = f"given ({camera})" if isinstance(camera, (str, os.PathLike)) else "given"
     else:
         fit, why = estimate_camera(dets, size, person_height_m=person_height_m,
-                                   min_score=calib_min_score, seed=seed)
+                                   min_score=calib_min_score, seed=seed, video=video)
         if fit is None:
             cam_source = f"none: {why}"
             messages.append(f"no camera: {why}; tracking in the image plane (preset "
