@@ -78,6 +78,7 @@ __all__ = [
     "compare_with_reference",
     "detect_people",
     "estimate_camera_from_people",
+    "estimate_camera_from_video",
     "ground_error_after_alignment",
     "horizon_row",
     "measure_slants",
@@ -932,3 +933,71 @@ def measure_slants(video: Any, boxes_xywh: Any, frames: Any, *, warmup: int = 20
             rc = rows - rows.mean()
             out[i] = float(rc @ (cols - cols.mean()) / (rc @ rc))
     return out
+
+
+def estimate_camera_from_video(video: Any, boxes: Any = None, first: int = 1,
+                               last: int | None = None, stride: int = 4,
+                               person_height_m: float = 1.7,
+                               rng: np.random.Generator | int | None = None, *,
+                               lean: bool = True, min_score: float = 0.0, host: Any = None,
+                               **fit_kw: Any) -> tuple[PeopleCameraFit, np.ndarray, str]:
+    """A camera from a video alone: people detected (or given), their lean measured, the fit.
+
+    What ``pftrack calib people`` does, for callers such as a one-command tracker.
+
+    Parameters
+    ----------
+    video : path
+        The video.
+    boxes : array_like, shape (N, >=5), optional
+        ``x, y, w, h, frame[, score]`` person boxes (frames from 1); None: detect them with
+        :func:`detect_people` over frames ``first..last`` every ``stride``-th frame.
+    first, last, stride : int
+        Frames to detect in (``last`` None: to the end).
+    person_height_m : float
+        Mean person height, metres.
+    rng : numpy.random.Generator or int or None
+        As for :func:`estimate_camera_from_people`.
+    lean : bool
+        Measure the people's lean (:func:`measure_slants`) for the focal length; skipped when
+        ``focal_px`` is given in ``fit_kw``.
+    min_score : float
+        Detections scoring below are dropped (detection only).
+    host : pftrack.host.Host, optional
+        Where to look for a registered ``hog-people`` detector.
+    **fit_kw
+        Passed to :func:`estimate_camera_from_people` (``focal_px``, ``n_bootstrap``, ...).
+
+    Returns
+    -------
+    fit : PeopleCameraFit
+    rows : ndarray, shape (N, 6)
+        The boxes used as input: ``x, y, w, h, frame, score``.
+    source : str
+        Where the boxes came from.
+    """
+    from pftrack.scenes.video import VideoScene
+
+    frame = next(iter(VideoScene(str(video), first=first, last=first).frames()), None)
+    if frame is None:
+        raise ValueError(f"estimate_camera_from_video: {video}: no frame {first} could be read")
+    size = frame.size_wh
+    if boxes is None:
+        rows, name = detect_people(video, first, last, stride, host=host, min_score=min_score)
+        source = f"{name} over frames {first}..{last or 'end'} every {stride}"
+    else:
+        b = np.asarray(boxes, dtype=np.float64)
+        if b.ndim != 2 or b.shape[1] < 5:
+            raise ValueError(f"estimate_camera_from_video: boxes must have shape (N, >=5) "
+                             f"(x, y, w, h, frame[, score]), got {b.shape}")
+        rows = np.column_stack([b[:, :5], b[:, 5] if b.shape[1] > 5 else np.ones(len(b))])
+        source = f"{len(rows)} given boxes"
+    if len(rows) == 0:
+        raise ValueError(f"estimate_camera_from_video: no person boxes from {source}; lower "
+                         "min_score, widen the frames or give boxes")
+    slants = None
+    if lean and fit_kw.get("focal_px") is None and np.all(rows[:, 4] >= 1):
+        slants = measure_slants(video, rows[:, :4], rows[:, 4])
+    fit = estimate_camera_from_people(rows[:, :4], size, person_height_m, rng, slants=slants,
+                                      **fit_kw)
+    return fit, rows, source
