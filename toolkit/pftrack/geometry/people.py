@@ -34,10 +34,10 @@ difference of the two rows. The parameters fitted are
   1.5), whose spread is propagated into the other figures' uncertainties; ``fit_focal=True``
   fits it from the heights alone with that prior as a regulariser (for undistorted images and
   tight boxes), and ``focal_px=`` fixes a known one. ``fit.focal_identified``,
-  ``fit.slants_used`` and ``fit.notes`` say which. On PETS 2009 S2.L1 the leans give 1237-1414
-  px against the true 1185 px: biased high by up to 19 % (its lens distortion and its principal
-  point 60 px left of the image centre are not modelled), which the bootstrap 1-sigma (20-40 px)
-  does not include.
+  ``fit.slants_used`` and ``fit.notes`` say which. On PETS 2009 S2.L1 the leans give 1237-1429
+  px against the true 1185 px: 4-21 % high (its lens distortion and its principal point 60 px
+  left of the image centre are not modelled), a bias the bootstrap 1-sigma (20-110 px) does not
+  include.
 
 The principal point is the image centre and the pixels are square; lens distortion is not
 modelled.
@@ -45,16 +45,21 @@ modelled.
 Robustness: detector false positives (boxes whose height does not follow the row) are removed by
 a RANSAC over the linear relation above (generalised to a sloping horizon,
 ``h = a v + b u + c``, minimal samples of 3 boxes, all hypotheses scored at once by MSAC's
-truncated squares), then the exact
-model is refined on the inliers by :func:`scipy.optimize.least_squares` with a soft-L1 (Huber
-like) loss on the log height ratio, which also absorbs the spread of people's heights. The 1-sigma
+truncated squares), then the exact model is refined on the inliers by
+:func:`scipy.optimize.least_squares` with a soft-L1 (Huber like) loss on the log height ratio,
+which also absorbs the spread of people's heights. The 1-sigma
 uncertainties come from a bootstrap over the inlier boxes (``n_bootstrap`` refits, seeded
 :class:`numpy.random.Generator`), or from the Jacobian when ``n_bootstrap=0``.
 
 World frame of the result: metres, z up, the ground is z = 0, the camera centre is at
 ``(0, 0, camera_height_m)`` and its optical axis points along +y (seen from above). Any other
 frame differs from it by a rigid motion in the ground plane: compare ground positions after a 2-D
-rigid alignment (:func:`rigid_align_2d`).
+rigid alignment (:func:`rigid_align_2d`, :func:`compare_with_reference`).
+
+Where the boxes come from: :func:`read_boxes_csv` (a user's clicked boxes),
+:func:`read_detection_boxes` (a MOTChallenge ``det.txt``), :func:`detect_people` (a registered
+``hog-people`` detector, else OpenCV's HOG people detector); :func:`estimate_camera_from_video`
+does detection, leans and fit in one call (``pftrack calib people``).
 """
 
 from __future__ import annotations
@@ -210,7 +215,8 @@ class PeopleCameraFit:
     camera_height_m : float
         Camera centre above the ground, metres (proportional to ``person_height_m``).
     tilt_deg, roll_deg : float
-        Optical axis below the horizontal; rotation about the axis (positive: horizon falling to the right).
+        Optical axis below the horizontal; rotation about the axis (positive: the horizon falls
+        to the right).
     focal_px : float
         Focal length in pixels (fx = fy); see ``focal_identified``.
     focal_identified : bool
