@@ -324,10 +324,13 @@ def test_cli_people_hog_detections_on_pets(capsys, tmp_path):
                    "--reference", str(data_path("pets09", "View_001.xml")),
                    "--gt", str(data_path("pets09", "gt.txt")), "--json")
     assert code == 0
+    # measured (under load, 60 s): 123 of 166 boxes, 112 leans, f 1429 px, median 0.391 m,
+    # horizon error 0.8 px
     assert "HOG" in r["source"]
-    assert r["inliers"] >= 80
-    assert r["reference"]["median_error_m"] < 0.8
-    assert r["reference"]["horizon_error_px"] < 60
+    assert r["inliers"] >= 80 and r["slants_used"] >= 60
+    assert r["focal_px"] == pytest.approx(1185.0, rel=0.3)
+    assert r["reference"]["median_error_m"] < 0.5
+    assert r["reference"]["horizon_error_px"] < 30
 
 
 def test_detect_people_uses_a_registered_hog_people_detector(tmp_path):
@@ -366,3 +369,21 @@ def test_detect_people_uses_a_registered_hog_people_detector(tmp_path):
     # frames smaller than HOG's window (OpenCV would crash): named, with the way out
     with pytest.raises(ValueError, match="smaller than the HOG window.*raise upscale"):
         detect_people(video, 1, 3, host=Host(load_entry_points=False), upscale=1.0)
+
+
+def test_estimate_camera_from_video_with_given_boxes():
+    from pftrack.geometry.people import estimate_camera_from_video
+
+    gt = _pets_gt(1, 60)
+    video = data_path("pets09", "vtest.avi")
+    boxes = np.column_stack([gt[:, 2:6], gt[:, 0]])
+    fit, rows, source = estimate_camera_from_video(video, boxes, n_bootstrap=0)
+    assert rows.shape == (len(gt), 6) and np.all(rows[:, 5] == 1) and "given" in source
+    assert fit.slants_used > 100 and fit.focal_identified
+    # the same without the lean: the prior, and the lean skipped when the focal is known
+    fit0, _, _ = estimate_camera_from_video(video, boxes, lean=False, n_bootstrap=0)
+    assert fit0.slants_used == 0 and not fit0.focal_identified
+    fit1, _, _ = estimate_camera_from_video(video, boxes, focal_px=1185.0, n_bootstrap=0)
+    assert fit1.slants_used == 0 and fit1.focal_px == pytest.approx(1185.0)
+    with pytest.raises(ValueError, match=r"shape \(N, >=5\)"):
+        estimate_camera_from_video(video, gt[:, 2:6])

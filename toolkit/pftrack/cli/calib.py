@@ -298,19 +298,21 @@ def _people(args: argparse.Namespace) -> int:
     else:
         if not args.video:
             raise ValueError("calib people: detecting people needs --video")
-        rows, name = pp.detect_people(args.video, first, last, args.stride,
-                                      min_score=args.min_score or 0.0)
-        source = f"{name} over frames {first}..{last or 'end'} every {args.stride}"
-    if len(rows) == 0:
+        rows, source = None, ""
+    if rows is not None and len(rows) == 0:
         raise ValueError(f"calib people: no person boxes from {source}; lower --min-score, "
                          "widen --frames or give --boxes")
-    slants = None
-    if args.video and not args.no_lean and focal is None and np.all(rows[:, 4] >= 1):
-        slants = pp.measure_slants(args.video, rows[:, :4], rows[:, 4])
-    fit = pp.estimate_camera_from_people(
-        rows[:, :4], size, person_height_m=args.person_height,
-        rng=np.random.default_rng(args.seed), focal_px=focal, fit_focal=args.fit_focal,
-        n_bootstrap=args.bootstrap, slants=slants)
+    fit_kw = {"focal_px": focal, "fit_focal": args.fit_focal, "n_bootstrap": args.bootstrap}
+    rng = np.random.default_rng(args.seed)
+    if args.video and (rows is None or np.all(rows[:, 4] >= 1)):
+        # detection (when no boxes), the people's lean and the fit, as a library call
+        fit, rows, found = pp.estimate_camera_from_video(
+            args.video, rows, first, last, args.stride, args.person_height, rng,
+            lean=not args.no_lean, min_score=args.min_score or 0.0, **fit_kw)
+        source = source or found
+    else:
+        fit = pp.estimate_camera_from_people(rows[:, :4], size, args.person_height, rng,
+                                             **fit_kw)
     out = fit.summary()
     out["source"] = source
     out["image_size"] = list(size)

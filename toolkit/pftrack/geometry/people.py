@@ -34,10 +34,10 @@ difference of the two rows. The parameters fitted are
   1.5), whose spread is propagated into the other figures' uncertainties; ``fit_focal=True``
   fits it from the heights alone with that prior as a regulariser (for undistorted images and
   tight boxes), and ``focal_px=`` fixes a known one. ``fit.focal_identified``,
-  ``fit.slants_used`` and ``fit.notes`` say which. On PETS 2009 S2.L1 the leans give 1237-1414
-  px against the true 1185 px: biased high by up to 19 % (its lens distortion and its principal
-  point 60 px left of the image centre are not modelled), which the bootstrap 1-sigma (20-40 px)
-  does not include.
+  ``fit.slants_used`` and ``fit.notes`` say which. On PETS 2009 S2.L1 the leans give 1237-1429
+  px against the true 1185 px: 4-21 % high (its lens distortion and its principal point 60 px
+  left of the image centre are not modelled), a bias the bootstrap 1-sigma (20-110 px) does not
+  include.
 
 The principal point is the image centre and the pixels are square; lens distortion is not
 modelled.
@@ -45,16 +45,21 @@ modelled.
 Robustness: detector false positives (boxes whose height does not follow the row) are removed by
 a RANSAC over the linear relation above (generalised to a sloping horizon,
 ``h = a v + b u + c``, minimal samples of 3 boxes, all hypotheses scored at once by MSAC's
-truncated squares), then the exact
-model is refined on the inliers by :func:`scipy.optimize.least_squares` with a soft-L1 (Huber
-like) loss on the log height ratio, which also absorbs the spread of people's heights. The 1-sigma
+truncated squares), then the exact model is refined on the inliers by
+:func:`scipy.optimize.least_squares` with a soft-L1 (Huber like) loss on the log height ratio,
+which also absorbs the spread of people's heights. The 1-sigma
 uncertainties come from a bootstrap over the inlier boxes (``n_bootstrap`` refits, seeded
 :class:`numpy.random.Generator`), or from the Jacobian when ``n_bootstrap=0``.
 
 World frame of the result: metres, z up, the ground is z = 0, the camera centre is at
 ``(0, 0, camera_height_m)`` and its optical axis points along +y (seen from above). Any other
 frame differs from it by a rigid motion in the ground plane: compare ground positions after a 2-D
-rigid alignment (:func:`rigid_align_2d`).
+rigid alignment (:func:`rigid_align_2d`, :func:`compare_with_reference`).
+
+Where the boxes come from: :func:`read_boxes_csv` (a user's clicked boxes),
+:func:`read_detection_boxes` (a MOTChallenge ``det.txt``), :func:`detect_people` (a registered
+``hog-people`` detector, else OpenCV's HOG people detector); :func:`estimate_camera_from_video`
+does detection, leans and fit in one call (``pftrack calib people``).
 """
 
 from __future__ import annotations
@@ -78,6 +83,7 @@ __all__ = [
     "compare_with_reference",
     "detect_people",
     "estimate_camera_from_people",
+    "estimate_camera_from_video",
     "ground_error_after_alignment",
     "horizon_row",
     "measure_slants",
@@ -209,7 +215,8 @@ class PeopleCameraFit:
     camera_height_m : float
         Camera centre above the ground, metres (proportional to ``person_height_m``).
     tilt_deg, roll_deg : float
-        Optical axis below the horizontal; rotation about the axis (positive: horizon falling to the right).
+        Optical axis below the horizontal; rotation about the axis (positive: the horizon falls
+        to the right).
     focal_px : float
         Focal length in pixels (fx = fy); see ``focal_identified``.
     focal_identified : bool
@@ -932,3 +939,71 @@ def measure_slants(video: Any, boxes_xywh: Any, frames: Any, *, warmup: int = 20
             rc = rows - rows.mean()
             out[i] = float(rc @ (cols - cols.mean()) / (rc @ rc))
     return out
+
+
+def estimate_camera_from_video(video: Any, boxes: Any = None, first: int = 1,
+                               last: int | None = None, stride: int = 4,
+                               person_height_m: float = 1.7,
+                               rng: np.random.Generator | int | None = None, *,
+                               lean: bool = True, min_score: float = 0.0, host: Any = None,
+                               **fit_kw: Any) -> tuple[PeopleCameraFit, np.ndarray, str]:
+    """A camera from a video alone: people detected (or given), their lean measured, the fit.
+
+    What ``pftrack calib people`` does, for callers such as a one-command tracker.
+
+    Parameters
+    ----------
+    video : path
+        The video.
+    boxes : array_like, shape (N, >=5), optional
+        ``x, y, w, h, frame[, score]`` person boxes (frames from 1); None: detect them with
+        :func:`detect_people` over frames ``first..last`` every ``stride``-th frame.
+    first, last, stride : int
+        Frames to detect in (``last`` None: to the end).
+    person_height_m : float
+        Mean person height, metres.
+    rng : numpy.random.Generator or int or None
+        As for :func:`estimate_camera_from_people`.
+    lean : bool
+        Measure the people's lean (:func:`measure_slants`) for the focal length; skipped when
+        ``focal_px`` is given in ``fit_kw``.
+    min_score : float
+        Detections scoring below are dropped (detection only).
+    host : pftrack.host.Host, optional
+        Where to look for a registered ``hog-people`` detector.
+    **fit_kw
+        Passed to :func:`estimate_camera_from_people` (``focal_px``, ``n_bootstrap``, ...).
+
+    Returns
+    -------
+    fit : PeopleCameraFit
+    rows : ndarray, shape (N, 6)
+        The boxes used as input: ``x, y, w, h, frame, score``.
+    source : str
+        Where the boxes came from.
+    """
+    from pftrack.scenes.video import VideoScene
+
+    frame = next(iter(VideoScene(str(video), first=first, last=first).frames()), None)
+    if frame is None:
+        raise ValueError(f"estimate_camera_from_video: {video}: no frame {first} could be read")
+    size = frame.size_wh
+    if boxes is None:
+        rows, name = detect_people(video, first, last, stride, host=host, min_score=min_score)
+        source = f"{name} over frames {first}..{last or 'end'} every {stride}"
+    else:
+        b = np.asarray(boxes, dtype=np.float64)
+        if b.ndim != 2 or b.shape[1] < 5:
+            raise ValueError(f"estimate_camera_from_video: boxes must have shape (N, >=5) "
+                             f"(x, y, w, h, frame[, score]), got {b.shape}")
+        rows = np.column_stack([b[:, :5], b[:, 5] if b.shape[1] > 5 else np.ones(len(b))])
+        source = f"{len(rows)} given boxes"
+    if len(rows) == 0:
+        raise ValueError(f"estimate_camera_from_video: no person boxes from {source}; lower "
+                         "min_score, widen the frames or give boxes")
+    slants = None
+    if lean and fit_kw.get("focal_px") is None and np.all(rows[:, 4] >= 1):
+        slants = measure_slants(video, rows[:, :4], rows[:, 4])
+    fit = estimate_camera_from_people(rows[:, :4], size, person_height_m, rng, slants=slants,
+                                      **fit_kw)
+    return fit, rows, source
