@@ -186,7 +186,7 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
     over the video then costs a bounded time however long the video is.
     Returns ``(PeopleCameraFit, description)`` or ``(None, reason)``.
     """
-    from pftrack.geometry.people import estimate_camera_from_people, measure_slants
+    from pftrack.geometry.people import estimate_camera_from_people, estimate_camera_from_video
 
     boxes, frames = [], []
     use = sorted(detections)
@@ -203,15 +203,19 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
         return None, (f"only {len(b)} person boxes scored >= {min_score} (need {min_boxes}) to "
                       "estimate a camera")
     try:
-        slants = measure_slants(video, b, fr) if video is not None else None
-        fit = estimate_camera_from_people(b, image_size=image_size,
-                                          person_height_m=person_height_m,
-                                          rng=np.random.default_rng(seed), slants=slants)
+        if video is not None:  # what `pftrack calib people` does with these boxes
+            fit, _, _ = estimate_camera_from_video(
+                video, np.column_stack([b, fr]), first=int(use[0]),
+                person_height_m=person_height_m, rng=np.random.default_rng(seed))
+        else:
+            fit = estimate_camera_from_people(b, image_size=image_size,
+                                              person_height_m=person_height_m,
+                                              rng=np.random.default_rng(seed))
     except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
         return None, f"the camera could not be estimated from {len(b)} person boxes: {exc}"
     if not (np.isfinite(fit.camera_height_m) and fit.camera_height_m > 0):
         return None, f"the estimated camera height {fit.camera_height_m} is not usable"
-    lean = "" if slants is None else ", focal length from their lean"
+    lean = ", focal length from their lean" if getattr(fit, "slants_used", 0) else ""
     return fit, (f"estimated from {int(np.sum(fit.inliers))} of {len(b)} person boxes in "
                  f"frames {use[0]}-{use[-1]} (mean height {person_height_m} m{lean})")
 
