@@ -115,6 +115,9 @@ def load_config(spec: str | os.PathLike[str] | dict[str, Any]) -> dict[str, Any]
         if bad:
             raise ValueError(f"config {where}: unknown {key} options {sorted(bad)}; known: "
                              f"{sorted(allowed)}")
+    from pftrack.config import validate_config
+
+    validate_config(cfg, source=where)  # types, ranges, component parameters (ConfigError)
     cfg["_source"] = where
     return cfg
 
