@@ -55,6 +55,7 @@ __all__ = [
 
 CONFIG_KEYS = {"name", "description", "state", "observation", "motion", "likelihood", "detector",
                "associator", "tracker", "tracks", "births", "valid_region_m", "report"}
+RUN_OUTPUTS = ("tracks.txt", "metrics.json", "report")  # what a run owns in its --out folder
 TRACKER_KEYS = {"n_particles", "resampling", "ess_threshold", "dt", "init_spread",
                 "recover_spread", "max_misses", "min_log_likelihood", "kill_out_of_view",
                 "target_size"}
@@ -203,6 +204,13 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
     """
     import numpy as np
 
+    from pftrack.io.outputs import check_input_file, check_output_file
+
+    # checked before training, not after it
+    if out is not None:
+        check_output_file(out, "--out")
+    check_input_file(video, "--video")
+    check_input_file(gt, "--gt")
     cfg = cfg or {"detector": {"type": "svm", "params": {}}}
     det_cfg = dict(cfg.get("detector") or {"type": "svm"})
     train_cfg = det_cfg.get("train") or {}
@@ -417,14 +425,23 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     detections : dict {frame: Detections}, optional
         Precomputed detections (another run's ``RunResult.detections``): the detector is not run.
     """
+    from pftrack.io.outputs import check_input_file, check_output_dir
+
     cfg = load_config(config)
+    # everything that can be checked is checked before the first frame
+    if out_dir is not None:
+        check_output_dir(out_dir)
     if report and out_dir is not None:
         report_writer(cfg)  # an unknown writer stops the run before it tracks, not after
+    for option, path in (("--video", video), ("--gt", gt), ("--detector-model", detector_model),
+                         ("--camera", camera if isinstance(camera, (str, os.PathLike)) else None)):
+        if path is not None:
+            check_input_file(path, option)
     cam = _load_camera(camera)
     video = Path(video)
-    if not video.is_file():
-        raise FileNotFoundError(f"video {video} not found")
     first, last = parse_frames(frames)
+    gt_all = None if gt is None else read_ground_truth(gt, first, last if last is not None
+                                                         else 10**9)
     fps = video_fps(video)
     engine = build_engine(cfg, camera=cam, fps=fps, seed=seed, detector_model=detector_model)
     detector = None
@@ -483,8 +500,8 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
               "frames_per_second_cpu": n / max(c_loop, 1e-12)}
     metrics = None
     gt_rows = None
-    if gt is not None:
-        gt_rows = read_ground_truth(gt, first, last if last is not None else 10**9)
+    if gt_all is not None:
+        gt_rows = gt_all
         metrics = evaluate_tracks(gt_rows, rows)
         metrics.update(timing)
     result = RunResult(rows, dets_out, timing, metrics, None, n)
@@ -504,23 +521,27 @@ def _report_frames(first: int, last: int | None) -> set[int]:
 def write_outputs(out_dir: str | os.PathLike[str], cfg: dict[str, Any], result: RunResult,
                   camera: Any, frames: dict[int, np.ndarray],
                   gt_rows: np.ndarray | None) -> Path:
-    """``tracks.txt``, ``metrics.json`` (with ground truth) and ``report/*.png``, atomically."""
+    """``tracks.txt``, ``metrics.json`` (with ground truth) and ``report/*.png``, as one unit
+    (:class:`pftrack.io.outputs.OutputSet`): all replaced or none."""
     import json
 
     from pftrack.io.atomic import atomic_write_text
     from pftrack.io.mot import write_mot
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    write_mot(out / "tracks.txt", result.rows)  # no tracks: an empty file, still a result
-    if result.metrics is not None:
-        atomic_write_text(out / "metrics.json",
-                          json.dumps(result.metrics, indent=2, default=float) + "\n")
-    if frames:
-        writer = report_writer(cfg)
-        writer.write(out / "report", result.rows, frames, camera=camera, gt_rows=gt_rows,
-                     title=str(cfg.get("name", "")))
-    return out
+    from pftrack.io.outputs import OutputSet
+
+    # one unit: staged, then moved into place together; an earlier run's metrics.json or
+    # report/ that this run does not produce is removed, a failure leaves the earlier outputs
+    with OutputSet(out_dir, RUN_OUTPUTS) as out:
+        write_mot(out.path("tracks.txt"), result.rows)  # no tracks: an empty file, a result
+        if result.metrics is not None:
+            atomic_write_text(out.path("metrics.json"),
+                              json.dumps(result.metrics, indent=2, default=float) + "\n")
+        if frames:
+            writer = report_writer(cfg)
+            writer.write(out.path("report"), result.rows, frames, camera=camera,
+                         gt_rows=gt_rows, title=str(cfg.get("name", "")))
+    return Path(out_dir)
 
 
 def report_writer(cfg: dict[str, Any], host: Any = None) -> Any:
