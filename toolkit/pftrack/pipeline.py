@@ -150,10 +150,14 @@ def parse_frames(text: str | Sequence[int] | None) -> tuple[int, int | None]:
 
 def iter_frames(video: str | os.PathLike[str], first: int = 1, last: int | None = None,
                 ) -> Iterator[Frame]:
-    """Stream frames ``first..last`` (ground-truth numbering: MOT frame N = video frame N-1)."""
-    from pftrack.scenes.video import VideoScene
+    """Stream frames ``first..last`` (ground-truth numbering: MOT frame N = video frame N-1),
+    numbered from the decoder's position; a gap or a short read is warned
+    (:class:`FrameWarning`) when the stream ends."""
+    from pftrack.scenes.source import FrameSource
 
-    yield from VideoScene(str(video), first=first, last=last).frames()
+    source = FrameSource(video, first, last)
+    yield from source.frames()
+    _warn_frames(source.report)
 
 
 def video_fps(video: str | os.PathLike[str]) -> float:
@@ -442,14 +446,20 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     first, last = parse_frames(frames)
     gt_all = None if gt is None else read_ground_truth(gt, first, last if last is not None
                                                          else 10**9)
-    fps = video_fps(video)
+    from pftrack.scenes.source import FrameSource
+
+    source = FrameSource(video, first, last)
+    fps, n_announced = source.probe()
+    if n_announced and first > n_announced:
+        raise ValueError(f"--frames {first}:{'' if last is None else last}: the video {video} "
+                         f"has {n_announced} frames (1..{n_announced})")
     engine = build_engine(cfg, camera=cam, fps=fps, seed=seed, detector_model=detector_model)
     detector = None
     if detections is None and cfg.get("detector") and \
             (cfg["detector"].get("detect", True) if isinstance(cfg["detector"], dict) else True):
         detector = build_detector(cfg, RunContext(camera=cam, fps=fps, detector_model=(
             None if detector_model is None else str(detector_model))))
-    frame_iter: Iterable[Frame] = iter_frames(video, first, last)
+    frame_iter: Iterable[Frame] = source.frames(fps)
     n_total = None
     if last is not None:
         n_total = last - first + 1
@@ -487,7 +497,14 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
             keep_frames[frame.index] = frame.image.copy()
     t_loop = time.perf_counter() - t_start
     c_loop = time.process_time() - c_start
+    if n == 0:
+        raise ValueError(f"video {video}: no frame decoded in frames {first}.."
+                         f"{'' if last is None else last}")
+    renumber = source.verify()  # frames lost in damaged data: true numbers from the index
     rows = records_to_mot(records)
+    if renumber:
+        rows, dets_out, keep_frames = _renumbered(renumber, rows, dets_out, keep_frames)
+    _warn_frames(source.report)
     if len(rows):
         rows = rows[np.lexsort((rows[:, 1], rows[:, 0]))]
     n = max(n, 1)
@@ -501,13 +518,59 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     metrics = None
     gt_rows = None
     if gt_all is not None:
-        gt_rows = gt_all
+        if any(a for a, k in source.report.gaps if k == 0):
+            raise ValueError(
+                f"video {video}: frames lost in damaged data could not be located; frame numbers "
+                f"after frame {min(a for a, k in source.report.gaps if k == 0)} are unknown, so "
+                "the run is not scored (re-encode the video, or limit --frames before it)")
+        # scored over the frames actually tracked, and said so
+        tracked = np.asarray(source.report.indices, dtype=np.int64)
+        gt_rows = gt_all[np.isin(gt_all[:, 0].astype(np.int64), tracked)]
+        n_gt_frames = len(np.unique(gt_all[:, 0]))
+        n_scored = len(np.unique(gt_rows[:, 0]))
+        if n_scored < n_gt_frames:
+            import warnings
+
+            warnings.warn(f"--gt {gt}: scored over the {n_scored} ground-truth frames that were "
+                          f"tracked, of {n_gt_frames} in frames {first}.."
+                          f"{'' if last is None else last}", FrameWarning, stacklevel=2)
         metrics = evaluate_tracks(gt_rows, rows)
         metrics.update(timing)
+        metrics.update({"frames_tracked": len(tracked), "gt_frames_scored": n_scored,
+                        "gt_frames_in_range": n_gt_frames,
+                        "frame_problems": source.report.problems()})
     result = RunResult(rows, dets_out, timing, metrics, None, n)
     if out_dir is not None:
         result.out_dir = write_outputs(out_dir, cfg, result, cam, keep_frames, gt_rows)
     return result
+
+
+class FrameWarning(UserWarning):
+    """A run's frames are not what was asked: a gap, a short read, frames renumbered, frames
+    not scored."""
+
+
+def _warn_frames(report: Any) -> None:
+    import warnings
+
+    for line in report.problems():
+        warnings.warn(line, FrameWarning, stacklevel=3)
+
+
+def _renumbered(mapping: dict[int, int | None], rows: np.ndarray,
+                dets: dict[int, Detections], frames: dict[int, np.ndarray]
+                ) -> tuple[np.ndarray, dict[int, Detections], dict[int, np.ndarray]]:
+    """Rows, detections and kept frames with the true frame numbers (rows of frames whose
+    number is unknown dropped)."""
+    if len(rows):
+        old = rows[:, 0].astype(np.int64)
+        new = np.array([mapping.get(int(f), int(f)) if mapping.get(int(f), int(f)) is not None
+                        else -1 for f in old], dtype=np.int64)
+        rows = rows[new >= 0].copy()
+        rows[:, 0] = new[new >= 0]
+    def move(d: dict) -> dict:
+        return {mapping.get(k, k): v for k, v in d.items() if mapping.get(k, k) is not None}
+    return rows, move(dets), move(frames)
 
 
 def _report_frames(first: int, last: int | None) -> set[int]:
@@ -527,7 +590,6 @@ def write_outputs(out_dir: str | os.PathLike[str], cfg: dict[str, Any], result: 
 
     from pftrack.io.atomic import atomic_write_text
     from pftrack.io.mot import write_mot
-
     from pftrack.io.outputs import OutputSet
 
     # one unit: staged, then moved into place together; an earlier run's metrics.json or

@@ -70,6 +70,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                             help="print the traceback of an error (also: PFTRACK_DEBUG=1)")
         args = parser.parse_args(argv)
         command = getattr(args, "command", None)
+        _errors.one_line_warnings(command)
         if not getattr(args, "func", None):
             parser.print_help()
             return 2

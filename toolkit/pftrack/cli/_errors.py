@@ -105,6 +105,19 @@ def inputs_of(args: Any) -> str:
     return ", ".join(names)
 
 
+def one_line_warnings(command: str | None) -> None:
+    """Show warnings as ``pftrack COMMAND: warning: MESSAGE`` (one line, no source line)."""
+    import warnings
+
+    prog = f"pftrack {command}" if command else "pftrack"
+
+    def fmt(message, category, filename, lineno, line=None):
+        text = " ".join(str(message).split())
+        return f"{prog}: warning: {text}\n"
+
+    warnings.formatwarning = fmt
+
+
 def _print(line: str) -> None:
     try:
         print(line, file=sys.stderr)

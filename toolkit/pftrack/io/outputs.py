@@ -209,7 +209,7 @@ class OutputSet:
         """Drop the staged outputs; the earlier ones stay."""
         _remove(self.staging)
 
-    def __enter__(self) -> OutputSet:
+    def __enter__(self) -> "OutputSet":  # noqa: PYI034, UP037
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
