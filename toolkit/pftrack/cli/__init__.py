@@ -64,6 +64,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv, debug = _errors.split_debug(list(sys.argv[1:] if argv is None else argv))
     command = None
     args = None
+    _errors.one_line_warnings(None)
     try:
         parser = build_parser()
         parser.add_argument(_errors.DEBUG_FLAG, action="store_true",
