@@ -237,7 +237,12 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
 
         n = (last - first + 1) if last is not None else None
         frames_it = tqdm(frames_it, total=n, desc="detector: training frames", unit="frame")
-    det.fit(frames_it, pos, rng=rng, ignore_by_frame=ign)
+    try:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            det.fit(frames_it, pos, rng=rng, ignore_by_frame=ign)
+    except ValueError as exc:
+        raise ValueError(f"detector {det_cfg['type']!r} trained on --video {video} frames "
+                         f"{first}:{'' if last is None else last}: {exc}") from None
     if out is not None:
         if not det.learns:
             raise ValueError(f"detector {det_cfg['type']!r} learns nothing to save")
