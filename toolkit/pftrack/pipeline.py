@@ -112,7 +112,7 @@ def load_config(spec: str | os.PathLike[str] | dict[str, Any]) -> dict[str, Any]
         raise ValueError(f"config {where}: state must be 'world' or 'image', got "
                          f"{cfg.get('state')!r}")
     for key, allowed in (("tracker", TRACKER_KEYS),):
-        bad = set(cfg.get(key) or {}) - allowed
+        bad = set(cfg.get(key) or {}) - allowed if isinstance(cfg.get(key), dict) else set()
         if bad:
             raise ValueError(f"config {where}: unknown {key} options {sorted(bad)}; known: "
                              f"{sorted(allowed)}")

@@ -1,4 +1,4 @@
-"""Shared pieces of the bad-input catalogue: tiny synthetic inputs and the checks every case
+"""Shared pieces of the bad-input catalogue (imported by the tests as ``_catalogue``): tiny synthetic inputs and the checks every case
 makes (exit code, the message names the culprit, nothing on disk changed)."""
 
 from __future__ import annotations
@@ -81,3 +81,19 @@ def snapshot(*roots: Path) -> dict[str, tuple[str, int]]:
             for d in sorted(p for p in root.rglob("*") if p.is_dir()):
                 out[str(d) + "/"] = ("dir", 0)
     return out
+
+
+
+
+def assert_untouched(before: dict, *roots: Path) -> None:
+    after = snapshot(*roots)
+    assert after == before, {k: (before.get(k), after.get(k)) for k in set(before) | set(after)
+                             if before.get(k) != after.get(k)}
+
+
+def one_line(err: str) -> str:
+    """The error line (warnings before it allowed); asserts no traceback."""
+    assert "Traceback" not in err, err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert lines, "no message on stderr"
+    return lines[-1]
