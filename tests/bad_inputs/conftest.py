@@ -5,10 +5,9 @@ from __future__ import annotations
 import types
 from dataclasses import dataclass
 
+import pftrack.host as host_mod
 import pytest
 from _catalogue import CONFIG, gt_text, write_video
-
-import pftrack.host as host_mod
 from pftrack.cli import main
 
 

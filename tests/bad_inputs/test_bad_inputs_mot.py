@@ -70,7 +70,7 @@ def test_bad_tracks_in_eval(tmp_path, cli, text, expect):
 @pytest.mark.parametrize(("text", "expect"), [c[1:] for c in CASES[1::4]],
                          ids=[c[0] for c in CASES[1::4]])
 def test_bad_ground_truth_stops_a_run_before_tracking(work, cli, monkeypatch, text, expect):
-    import pftrack.pipeline as pipeline
+    from pftrack import pipeline
 
     bad = work.dir / "gt.txt"
     bad.write_text(text)
@@ -89,7 +89,7 @@ def test_bad_ground_truth_stops_a_run_before_tracking(work, cli, monkeypatch, te
 def test_ground_truth_path_checked_before_tracking(work, cli, monkeypatch, what):
     import os
 
-    import pftrack.pipeline as pipeline
+    from pftrack import pipeline
 
     gt = work.dir / "gt.txt"
     if what == "folder":

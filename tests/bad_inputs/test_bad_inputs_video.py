@@ -9,7 +9,7 @@ import json
 
 import numpy as np
 import pytest
-from _catalogue import N_FRAMES, assert_untouched, frames, one_line, snapshot, write_video
+from _catalogue import N_FRAMES, assert_untouched, one_line, snapshot, write_video
 
 
 def _warned(recwarn) -> str:
