@@ -434,12 +434,13 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     detections : dict {frame: Detections}, optional
         Precomputed detections (another run's ``RunResult.detections``): the detector is not run.
     """
-    from pftrack.io.outputs import check_input_file, check_output_dir
+    from pftrack.io.outputs import check_input_file, check_output_tree
 
     cfg = load_config(config)
     # everything that can be checked is checked before the first frame
     if out_dir is not None:
-        check_output_dir(out_dir)
+        check_output_tree(out_dir, {"tracks.txt": "file", "metrics.json": "file",
+                                    "report": "dir"})
     if report and out_dir is not None:
         report_writer(cfg)  # an unknown writer stops the run before it tracks, not after
     for option, path in (("--video", video), ("--gt", gt), ("--detector-model", detector_model),
