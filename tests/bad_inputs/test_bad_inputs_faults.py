@@ -108,9 +108,9 @@ STAGES = ["setup", "tracking", "writing"]
 @pytest.mark.parametrize("stage", STAGES)
 def test_sigint_leaves_everything_as_it_was(work, slow_run, stage):
     before = snapshot(work.out)
-    proc, marker = slow_run(stage)
+    proc, _marker = slow_run(stage)
     proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=60)
+    _out, err = proc.communicate(timeout=60)
     assert proc.returncode == 130
     assert "Traceback" not in err
     assert err.strip().splitlines()[-1] == ("pftrack run: interrupted; outputs left as they "
@@ -123,7 +123,7 @@ def test_sigint_leaves_everything_as_it_was(work, slow_run, stage):
 def test_kill_keeps_the_previous_outputs_and_the_next_run_cleans(work, slow_run, cli, stage,
                                                                  sig):
     visible = {k: v for k, v in snapshot(work.out).items() if "/." not in k}
-    proc, marker = slow_run(stage)
+    proc, _marker = slow_run(stage)
     proc.send_signal(sig)
     proc.communicate(timeout=60)
     assert proc.returncode == -sig
@@ -148,9 +148,9 @@ def test_closed_stdout_pipe_is_quiet(tmp_path):
 
 def test_broken_pipe_exit_code(tmp_path):
     proc = subprocess.run(
-        [sys.executable, "-c", "import sys; from pftrack.cli import main; "
+        [sys.executable, "-c", ("import sys; from pftrack.cli import main; "
          "sys.stdout.close = lambda: None; import os; r, w = os.pipe(); os.close(r); "
-         "os.dup2(w, 1); sys.exit(main(['presets', '--json']))"],
+         "os.dup2(w, 1); sys.exit(main(['presets', '--json']))")],
         capture_output=True, text=True, env=_env(), check=False)
     assert proc.returncode == 141 and proc.stderr == ""
 

@@ -164,3 +164,42 @@ def test_overlay_frame_beyond_the_video(work, cli, inputs):
     line = one_line(r.err)
     assert str(inputs.video) in line and f"has {N_FRAMES} frames" in line
     assert_untouched(before, work.dir)
+
+
+def _damaged(work):
+    """The clip with a stretch of random bytes in its middle (OpenCV skips frames there)."""
+    images = [np.random.default_rng(i).integers(0, 256, (72, 96, 3), dtype=np.uint8)
+              for i in range(N_FRAMES)]
+    v = write_video(work.dir / "noisy.avi", images)
+    data = bytearray(v.read_bytes())
+    n = len(data)
+    data[n // 2: n // 2 + n // 6] = np.random.default_rng(9).integers(
+        0, 256, n // 6, dtype=np.uint8).tobytes()
+    bad = work.dir / "damaged.avi"
+    bad.write_bytes(bytes(data))
+    return bad
+
+
+def test_damaged_video_is_not_scored_silently(work, cli, recwarn):
+    """Frames lost inside the file: OpenCV cannot tell where, so the run says that numbers after
+    the loss cannot be trusted and marks its metrics unverified (it was exit 0 with nothing)."""
+    bad = _damaged(work)
+    r = _run(cli, work, bad, "--gt", work.gt)
+    assert r.rc == 0
+    said = _warned(recwarn)
+    assert f"video {bad}: short read" in said and "truncated, or frames were lost" in said
+    m = json.loads((work.out / "metrics.json").read_text())
+    assert m["frame_numbers_verified"] is False
+    assert m["frames_tracked"] < N_FRAMES and m["gt_frames_scored"] == m["frames_tracked"]
+
+
+def test_training_frames_short_read_is_warned(work):
+    """A detector trained on a truncated file said nothing: the frame stream warns."""
+    from pftrack.pipeline import FrameWarning, iter_frames
+
+    data = work.video.read_bytes()
+    trunc = work.dir / "t.avi"
+    trunc.write_bytes(data[: len(data) // 2])
+    with pytest.warns(FrameWarning, match=f"video {trunc}: short read: frames 1..{N_FRAMES}"):
+        got = [f.index for f in iter_frames(trunc, 1, N_FRAMES)]
+    assert 0 < len(got) < N_FRAMES and got == list(range(1, len(got) + 1))
