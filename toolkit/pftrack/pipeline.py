@@ -538,8 +538,7 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
                         "gt_frames_in_range": n_gt_frames,
                         "frame_problems": source.report.problems(),
                         # frames lost somewhere in the file: later numbers may be off
-                        "frame_numbers_verified": not (source.report.gaps
-                                                       or source.report.lost_inside)})
+                        "frame_numbers_verified": source.report.numbers_trusted})
     result = RunResult(rows, dets_out, timing, metrics, None, n)
     if out_dir is not None:
         result.out_dir = write_outputs(out_dir, cfg, result, cam, keep_frames, gt_rows)
