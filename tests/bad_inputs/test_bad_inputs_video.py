@@ -9,8 +9,16 @@ import json
 
 import numpy as np
 import pytest
-from _catalogue import (N_FRAMES, assert_untouched, damage_middle, marked_frames, one_line,
-                        read_mark, snapshot, write_video)
+from _catalogue import (
+    N_FRAMES,
+    assert_untouched,
+    damage_middle,
+    marked_frames,
+    one_line,
+    read_mark,
+    snapshot,
+    write_video,
+)
 
 
 def _warned(recwarn) -> str:
