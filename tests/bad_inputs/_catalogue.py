@@ -1,4 +1,4 @@
-"""Shared pieces of the bad-input catalogue (imported by the tests as ``_catalogue``): tiny synthetic inputs and the checks every case
+"""Shared pieces of the bad-input catalogue: tiny synthetic inputs and the checks every case
 makes (exit code, the message names the culprit, nothing on disk changed)."""
 
 from __future__ import annotations

@@ -7,8 +7,9 @@ from dataclasses import dataclass
 
 import pftrack.host as host_mod
 import pytest
-from _catalogue import CONFIG, gt_text, write_video
 from pftrack.cli import main
+
+from ._catalogue import CONFIG, gt_text, write_video
 
 
 @dataclass

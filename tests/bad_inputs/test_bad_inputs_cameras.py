@@ -9,7 +9,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from _catalogue import assert_untouched, one_line, snapshot
+
+from ._catalogue import assert_untouched, one_line, snapshot
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -9,7 +9,8 @@ import copy
 
 import pytest
 import yaml
-from _catalogue import CONFIG, assert_untouched, one_line, snapshot
+
+from ._catalogue import CONFIG, assert_untouched, one_line, snapshot
 
 BASE = yaml.safe_load(CONFIG)
 

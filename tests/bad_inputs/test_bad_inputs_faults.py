@@ -16,7 +16,8 @@ import time
 from pathlib import Path
 
 import pytest
-from _catalogue import assert_untouched, snapshot
+
+from ._catalogue import assert_untouched, snapshot
 
 DRIVER = r'''
 import os, pathlib, sys, time

@@ -6,7 +6,8 @@ ground truth of ``pftrack run`` is found before any frame is tracked."""
 from __future__ import annotations
 
 import pytest
-from _catalogue import assert_untouched, one_line, snapshot
+
+from ._catalogue import assert_untouched, one_line, snapshot
 
 GOOD = "1,1,10,20,14,14,1,-1,-1,-1\n2,1,12,21,14,14,1,-1,-1,-1\n"
 

@@ -12,8 +12,9 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from _catalogue import assert_untouched, one_line, snapshot
 from pftrack import pipeline
+
+from ._catalogue import assert_untouched, one_line, snapshot
 
 
 def _no_tracking(monkeypatch):

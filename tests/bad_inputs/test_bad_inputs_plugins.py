@@ -16,10 +16,11 @@ import numpy as np
 import pftrack.host as host_mod
 import pytest
 import yaml
-from _catalogue import CONFIG, assert_untouched, one_line, snapshot
 from pftrack import hookimpl
 from pftrack.components import Likelihood
 from pftrack.host import Host, PluginLoadWarning, PluginSettingWarning, RegistrationError
+
+from ._catalogue import CONFIG, assert_untouched, one_line, snapshot
 
 BEHAVIOURS = {
     "raises": lambda n: (_ for _ in ()).throw(RuntimeError("kaboom")),

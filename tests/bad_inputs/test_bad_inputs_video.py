@@ -9,7 +9,8 @@ import json
 
 import numpy as np
 import pytest
-from _catalogue import (
+
+from ._catalogue import (
     N_FRAMES,
     assert_untouched,
     damage_middle,
@@ -159,7 +160,8 @@ def test_detector_train_inputs_missing(work, cli, what):
     r = cli("detector", "train", "--video", args["video"], "--gt", args["gt"], "--frames", "1:5",
             "--out", work.dir / "m.npz", "--quiet")
     assert r.rc == 2
-    assert f"--{what} {work.dir / 'none'} not found" in one_line(r.err)
+    label = "video" if what == "video" else "--gt"
+    assert f"{label} {work.dir / 'none'} not found" in one_line(r.err)
     assert_untouched(before, work.dir)
 
 

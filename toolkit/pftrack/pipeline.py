@@ -213,7 +213,7 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
     # checked before training, not after it
     if out is not None:
         check_output_file(out, "--out")
-    check_input_file(video, "--video")
+    check_input_file(video, "video")
     check_input_file(gt, "--gt")
     cfg = cfg or {"detector": {"type": "svm", "params": {}}}
     det_cfg = dict(cfg.get("detector") or {"type": "svm"})
@@ -443,7 +443,7 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
                                     "report": "dir"})
     if report and out_dir is not None:
         report_writer(cfg)  # an unknown writer stops the run before it tracks, not after
-    for option, path in (("--video", video), ("--gt", gt), ("--detector-model", detector_model),
+    for option, path in (("video", video), ("--gt", gt), ("--detector-model", detector_model),
                          ("--camera", camera if isinstance(camera, (str, os.PathLike)) else None)):
         if path is not None:
             check_input_file(path, option)
