@@ -1,0 +1,486 @@
+"""Pages of the documentation generated from the code at build time.
+
+A small Sphinx extension (``docs/conf.py`` loads it). On ``builder-inited`` it writes, under
+``docs/_generated/`` (git-ignored):
+
+* ``config_reference.md``: every key of a run configuration (:data:`pftrack.pipeline.CONFIG_KEYS`
+  described from :mod:`pftrack.pipeline`'s docstring; the engine options
+  :data:`pftrack.pipeline.TRACKER_KEYS` from :class:`pftrack.tracker.MultiTargetTracker`'s
+  signature and docstring), every parameter of every component the plugin host registers (its
+  signature's default, its ``Parameters`` docstring entry or :class:`pftrack.components.Param`
+  declaration), and every preset, key by key;
+* ``api/*.md``: one autodoc page per public module of the core and of the built-in plugins;
+
+and executes the notebooks (``notebooks/*.ipynb``, stored without outputs) into
+``docs/gallery/`` on the short slices their tests use (:data:`NOTEBOOKS`), so that myst-nb
+renders them with their pictures. The functions are importable without Sphinx (the test of the
+configuration reference, ``tests/test_docs.py``, calls :func:`config_reference`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import json
+import os
+import re
+import shutil
+import tempfile
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[2]
+DOCS = ROOT / "docs"
+
+#: Notebook -> (environment for its kernel, working directory: ``"root"`` or ``"tmp"``), as the
+#: notebook tests in ``tests/test_notebooks_*.py`` run them (their SHORT slices).
+NOTEBOOKS: dict[str, tuple[dict[str, str], str]] = {
+    "00_geometry.ipynb": ({}, "root"),
+    "01_cross_entropy.ipynb": ({"PFTRACK_NB_FRAMES": "30", "PFTRACK_NB_PETS_LAST": "20"}, "tmp"),
+    "02_soccer_world.ipynb": ({"PFTRACK_NB_SECONDS": "2"}, "tmp"),
+    "03_pets_ground_plane.ipynb": ({"PFTRACK_NB_TRAIN": "1:120", "PFTRACK_NB_FRAMES": "401:460"},
+                                   "tmp"),
+    "04_block_eigenspace.ipynb": ({}, "root"),
+    "05_coastal_volumes.ipynb": ({}, "root"),
+    "06_camera_network.ipynb": ({}, "root"),
+}
+
+#: Component kinds of a run configuration, in the order of the reference page: kind -> the
+#: configuration key that names it.
+COMPONENT_KINDS = {"observation": "observation", "motion": "motion", "likelihood": "likelihood",
+                   "detector": "detector", "associator": "associator", "tracks": "tracks",
+                   "scene": "(scenes: ``pftrack demo``, benchmarks, notebooks)"}
+
+#: Modules left out of the API reference: private kernels and the command line's internals.
+_API_SKIP = re.compile(r"(^|\.)_|^pftrack\.cli\.|^pftrack\.__main__$")
+
+# a unit read off a parameter's name (suffix) or its description
+_NAME_UNITS = {"_m": "m", "_px": "px", "_s": "s", "_deg": "deg", "_frames": "frames",
+               "_mps": "m/s", "_ms": "ms"}
+_DOC_UNITS = [
+    (r"\bm/s\^?2\b|\bm s\^-2\b", "m/s²"), (r"\bm/s\b|\bmetres per second\b", "m/s"),
+    (r"\bmetres?\b|\bmeters?\b|\(m\)|\bin m\b|, m\b|\bm\)", "m"),
+    (r"\bpixels?\b|\bpx\b", "px"), (r"\bseconds?\b|\(s\)", "s"), (r"\bframes?\b", "frames"),
+    (r"\bdegrees?\b", "deg"), (r"\bradians?\b", "rad"),
+]
+
+
+# --------------------------------------------------------------------------------------------
+# Configuration reference
+# --------------------------------------------------------------------------------------------
+
+
+def _md_cell(text: Any) -> str:
+    """Text for one cell of a Markdown table: one line, pipes escaped, reST roles
+    (``:class:`X```) as MyST roles."""
+    text = re.sub(r":(\w+):`", r"{\1}`", " ".join(str(text).split()))
+    return text.replace("|", "\\|")
+
+
+def _code(value: Any) -> str:
+    """A default or value as inline code (``—`` when there is none)."""
+    if value is inspect.Parameter.empty:
+        return "required"
+    text = json.dumps(value) if isinstance(value, (str, bool, type(None))) else repr(value)
+    return "`" + text.replace("|", "\\|").replace("`", "'") + "`"
+
+
+def unit_of(name: str, doc: str) -> str:
+    """The unit of parameter ``name``: its name's suffix (``_m``, ``_px``, ...) or the first unit
+    word its description names; ``""`` when neither says one."""
+    for suffix, unit in _NAME_UNITS.items():
+        if name.endswith(suffix):
+            return unit
+    for pattern, unit in _DOC_UNITS:
+        if re.search(pattern, doc):
+            return unit
+    return ""
+
+
+def pipeline_keys() -> dict[str, str]:
+    """The top-level keys of a run configuration with their description, read from the key
+    table in :mod:`pftrack.pipeline`'s docstring.
+
+    Raises
+    ------
+    ValueError
+        A key of :data:`pftrack.pipeline.CONFIG_KEYS` is not described there (the message names
+        it and the module).
+    """
+    from pftrack import pipeline
+
+    described: dict[str, str] = {}
+    key = None
+    for line in (pipeline.__doc__ or "").splitlines():
+        m = re.match(r"^    (\w+): (.*)$", line)
+        if m:
+            key = m.group(1)
+            parts = re.split(r"\s{2,}", m.group(2).strip(), maxsplit=1)
+            spec, text = parts[0], (parts[1] if len(parts) > 1 else "")
+            described[key] = f"`{spec}` " + text if text else f"`{spec}`"
+        elif key and line.startswith("      ") and line.strip():
+            described[key] += " " + line.strip()
+        elif not line.strip():
+            key = None
+    missing = sorted(set(pipeline.CONFIG_KEYS) - set(described))
+    if missing:
+        raise ValueError(f"pftrack.pipeline: configuration keys {missing} are not described in "
+                         "the module docstring's key table")
+    return {k: described[k] for k in sorted(pipeline.CONFIG_KEYS, key=list(described).index)}
+
+
+def _doc_params(cls: type) -> dict[str, tuple[str, str]]:
+    """``{name: (type, description)}`` from the ``Parameters`` sections of ``cls``'s docstring
+    and its bases' (the nearest class that documents a name wins)."""
+    from numpydoc.docscrape import NumpyDocString
+
+    out: dict[str, tuple[str, str]] = {}
+    for klass in cls.__mro__:
+        doc = klass.__dict__.get("__doc__")
+        if not doc:
+            continue
+        try:
+            parsed = NumpyDocString(inspect.cleandoc(doc))
+        except Exception:  # noqa: BLE001 - a docstring numpydoc cannot read documents nothing
+            continue
+        for p in parsed["Parameters"]:
+            for name in (n.strip().lstrip("*") for n in p.name.split(",")):
+                out.setdefault(name, (p.type, " ".join(p.desc)))
+        # "Parameters are those of :class:`Other`." (a sibling sharing a base's __init__)
+        same = re.search(r"Parameters are those of :class:`~?([\w.]+)`", doc)
+        if same:
+            module = inspect.getmodule(klass)
+            other = getattr(module, same.group(1).rsplit(".", 1)[-1], None)
+            if isinstance(other, type) and other is not klass:
+                for k, v in _doc_params(other).items():
+                    out.setdefault(k, v)
+    return out
+
+
+def component_params(cls: type) -> list[dict[str, Any]]:
+    """Every constructor parameter of component class ``cls``: name, type, default, unit and
+    description (from a :class:`pftrack.components.Param` declaration or the docstring)."""
+    from pftrack.components import _declared
+
+    declared = _declared(cls)
+    documented = _doc_params(cls)
+    rows = []
+    for p in inspect.signature(cls.__init__).parameters.values():
+        if p.name == "self" or p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+            continue
+        if p.name in declared:
+            typ, doc = declared[p.name].type_doc, declared[p.name].doc
+        else:
+            typ, doc = documented.get(p.name, ("", ""))
+        if not typ and p.annotation is not inspect.Parameter.empty:
+            typ = p.annotation if isinstance(p.annotation, str) else getattr(
+                p.annotation, "__name__", str(p.annotation))
+        rows.append({"name": p.name, "type": typ, "default": p.default,
+                     "unit": unit_of(p.name, doc), "doc": doc})
+    return rows
+
+
+def tracker_params() -> list[dict[str, Any]]:
+    """The engine options of a configuration's ``tracker:`` section
+    (:data:`pftrack.pipeline.TRACKER_KEYS`) from :class:`pftrack.tracker.MultiTargetTracker`."""
+    from pftrack.pipeline import TRACKER_KEYS
+    from pftrack.tracker import MultiTargetTracker
+
+    rows = [r for r in component_params(MultiTargetTracker) if r["name"] in TRACKER_KEYS]
+    for r in rows:
+        if r["name"] == "dt":  # pftrack.pipeline.build_engine's own default
+            r["default"], r["unit"] = "auto", "s"
+            r["doc"] += " ``auto`` (the run's default): 1 / the video's frames per second."
+    missing = sorted(set(TRACKER_KEYS) - {r["name"] for r in rows})
+    if missing:
+        raise ValueError(f"pftrack.pipeline.TRACKER_KEYS {missing} are not parameters of "
+                         "pftrack.tracker.MultiTargetTracker")
+    return rows
+
+
+def _param_table(rows: list[dict[str, Any]]) -> list[str]:
+    out = ["| key | type | default | unit | description |", "|---|---|---|---|---|"]
+    for r in rows:
+        out.append(f"| `{r['name']}` | {_md_cell(r['type'])} | {_code(r['default'])} | "
+                   f"{r['unit'] or '—'} | {_md_cell(r['doc']) or '—'} |")
+    return out
+
+
+def _leaves(value: Any, path: str = "") -> Iterator[tuple[str, Any]]:
+    """``(dotted.path, value)`` of every leaf of a parsed YAML document (list items as ``[i]``)."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            yield from _leaves(v, f"{path}.{k}" if path else str(k))
+    elif isinstance(value, list) and any(isinstance(v, (dict, list)) for v in value):
+        for i, v in enumerate(value):
+            yield from _leaves(v, f"{path}[{i}]")
+    else:
+        yield path, value
+
+
+def preset_defaults(cfg: dict[str, Any], host: Any) -> dict[str, Any]:
+    """``{dotted.path: default}`` of the component parameters a preset sets (its sections'
+    ``type``'s constructor defaults), to show what a preset changes."""
+    out: dict[str, Any] = {}
+    kinds = {"observation": "observation", "motion": "motion", "likelihood": "likelihood",
+             "detector": "detector", "associator": "associator", "tracks": "tracks"}
+    for key, kind in kinds.items():
+        spec = cfg.get(key)
+        if not isinstance(spec, dict) or "type" not in spec:
+            continue
+        try:
+            cls = host.get(kind, spec["type"])
+        except KeyError:
+            continue
+        for r in component_params(cls):
+            out[f"{key}.params.{r['name']}"] = r["default"]
+    return out
+
+
+def config_reference() -> str:
+    """The configuration reference page (MyST Markdown), generated from the code: the top-level
+    keys, the engine options, every registered component's parameters and every preset."""
+    import yaml
+
+    from pftrack.host import get_host
+
+    host = get_host()
+    lines = [
+        "<!-- generated by docs/_ext/pftrack_docs.py from the code: do not edit -->",
+        "",
+        "## Top-level keys",
+        "",
+        "A run configuration is a YAML mapping with these keys (any other is an error naming the "
+        "file and the key). Each component section is `{type: NAME, params: {...}}`: `NAME` is a "
+        "registered name (below), `params` its constructor's keyword arguments; a parameter left "
+        "out takes its default.",
+        "",
+        "| key | value | description |",
+        "|---|---|---|",
+    ]
+    for key, text in pipeline_keys().items():
+        spec, _, desc = text.partition("` ")
+        lines.append(f"| `{key}` | {_md_cell(spec + '`')} | {_md_cell(desc) or '—'} |")
+    lines += ["", "(config-tracker)=", "## `tracker:` engine options", "",
+              "Keyword arguments of {class}`pftrack.tracker.MultiTargetTracker`.", ""]
+    lines += _param_table(tracker_params())
+    lines += ["", "## Components", "",
+              "Every component registered by the installed plugins (this build's: "
+              + ", ".join(f"`{p}`" for p in sorted(host.plugins)) + "). Units are read from "
+              "the parameter's name (`_m`, `_px`, ...) or its description; `—`: none stated "
+              "(a count, a ratio or a dimensionless weight).", ""]
+    for kind, key in COMPONENT_KINDS.items():
+        title = f"`{key}:`" if key == kind else key
+        lines += [f"### {kind.capitalize()} components {title if key == kind else ''}".rstrip(),
+                  ""]
+        for name in host.names(kind):
+            cls = host.get(kind, name)
+            entry = host.registry.get(kind, name)
+            summary = (inspect.getdoc(cls) or "").split("\n\n")[0]
+            lines += [f"(config-{kind}-{name})=", f"#### `{name}`", "",
+                      f"{{class}}`{cls.__module__}.{cls.__qualname__}` (plugin "
+                      f"`{entry.plugin}`). {_md_cell(summary)}", ""]
+            rows = component_params(cls)
+            lines += _param_table(rows) if rows else ["No parameters."]
+            lines.append("")
+    lines += ["## Presets", "",
+              "The configurations the plugins ship (`pftrack presets --show NAME` prints one; "
+              "`pftrack run NAME ...` runs it). Each key the preset sets, with the component's "
+              "default where it has one.", ""]
+    for name in host.names("preset"):
+        path = Path(host.get("preset", name))
+        cfg = yaml.safe_load(path.read_text())
+        defaults = preset_defaults(cfg, host)
+        desc = " ".join(str(cfg.get("description", "")).split())
+        lines += [f"(preset-{name})=", f"### `{name}`", "", _md_cell(desc), "",
+                  f"Shipped as `{path.parent.parent.name}/{path.parent.name}/{path.name}`.", "",
+                  "| key | value | default |", "|---|---|---|"]
+        for leaf, value in _leaves(cfg):
+            if leaf in ("name", "description"):
+                continue
+            default = defaults.get(leaf, None)
+            shown = _code(default) if leaf in defaults else "—"
+            lines.append(f"| `{leaf}` | {_code(value)} | {shown} |")
+        lines += ["", "```yaml",
+                  path.read_text().rstrip(), "```", ""]
+    return "\n".join(lines) + "\n"
+
+
+def docstring_markdown(module: str, start: str | None = None) -> str:
+    """A module's docstring as MyST Markdown, from its line ``start`` on: numpydoc section
+    titles become level-2 headings, ``::`` literal blocks fenced code, reST roles MyST roles,
+    so a guide page shows it without a second autodoc entry of the module."""
+    import importlib
+
+    lines = inspect.cleandoc(importlib.import_module(module).__doc__ or "").splitlines()
+    if start is not None:
+        lines = lines[next(i for i, ln in enumerate(lines) if ln.strip() == start):]
+    out: list[str] = []
+    i = 0
+    while i < len(lines):
+        line = lines[i]
+        nxt = lines[i + 1] if i + 1 < len(lines) else ""
+        if line.strip() and re.fullmatch(r"-{3,}", nxt.strip()):
+            out += [f"## {line.strip()}", ""]
+            i += 2
+            continue
+        if line.rstrip().endswith("::"):
+            out.append(_myst_roles(line.rstrip()[:-1], module))
+            block = []
+            i += 1
+            while i < len(lines) and (not lines[i].strip() or lines[i].startswith(" ")):
+                block.append(lines[i])
+                i += 1
+            body = inspect.cleandoc("\n".join(block))
+            lang = "yaml" if re.search(r"^\s*[\w-]+:", body, re.M) else ""
+            out += ["", f"```{lang}", body, "```", ""]
+            continue
+        out.append(_myst_roles(line, module))
+        i += 1
+    return "\n".join(out).strip() + "\n"
+
+
+def _myst_roles(text: str, module: str) -> str:
+    """reST roles as MyST roles; a target without a dot is qualified with ``module``."""
+    def one(m: re.Match[str]) -> str:
+        role, target = m.group(1), m.group(2)
+        if "." not in target.lstrip("~") and role in ("func", "class", "meth", "data"):
+            target = f"~{module}.{target}"
+        return f"{{{role}}}`{target}`"
+
+    return re.sub(r":(\w+):`([^`]+)`", one, text)
+
+
+# --------------------------------------------------------------------------------------------
+# API pages
+# --------------------------------------------------------------------------------------------
+
+
+def api_modules() -> list[str]:
+    """The public modules of the core and of the built-in plugins, sorted."""
+    mods = []
+    for base in (ROOT / "toolkit", ROOT / "plugins"):
+        for path in sorted(base.rglob("*.py")):
+            rel = path.relative_to(base).with_suffix("")
+            parts = list(rel.parts)
+            if parts[-1] == "__init__":
+                parts = parts[:-1]
+            name = ".".join(parts)
+            if name and not _API_SKIP.search(name) and "__pycache__" not in path.parts:
+                mods.append(name)
+    return sorted(set(mods))
+
+
+def write_api_pages(out: Path) -> list[str]:
+    """One Markdown page per module of :func:`api_modules` under ``out``; returns the names."""
+    out.mkdir(parents=True, exist_ok=True)
+    mods = api_modules()
+    for mod in mods:
+        _write_if_changed(out / f"{mod}.md", "\n".join([
+            f"# `{mod}`", "", "```{eval-rst}", f".. automodule:: {mod}", "   :members:",
+            "   :show-inheritance:", "```", ""]))
+    return mods
+
+
+# --------------------------------------------------------------------------------------------
+# Notebooks
+# --------------------------------------------------------------------------------------------
+
+
+def execute_notebooks(out: Path, *, force: bool = False, log: Any = print) -> dict[str, float]:
+    """Execute every notebook of :data:`NOTEBOOKS` into ``out`` (same name) with nbclient and
+    the ``python3`` kernel, on its short slice; a notebook whose source and settings are
+    unchanged since its last execution is kept (``force``: execute all again).
+
+    Returns the seconds each executed notebook took.
+
+    Raises
+    ------
+    RuntimeError
+        A cell failed (the message names the notebook and the cell's error).
+    FileNotFoundError
+        A notebook of :data:`NOTEBOOKS` is missing from ``notebooks/``.
+    """
+    import nbclient
+    import nbformat
+
+    out.mkdir(parents=True, exist_ok=True)
+    times: dict[str, float] = {}
+    for name, (env, where) in NOTEBOOKS.items():
+        src = ROOT / "notebooks" / name
+        if not src.is_file():
+            raise FileNotFoundError(f"docs: notebook {src} (listed in NOTEBOOKS) is missing")
+        key = hashlib.sha256(src.read_bytes() + json.dumps(env, sort_keys=True).encode())
+        stamp = out / f".{name}.sha256"
+        dest = out / name
+        if not force and dest.is_file() and stamp.is_file() and \
+                stamp.read_text() == key.hexdigest():
+            continue
+        nb = nbformat.read(src, as_version=4)
+        saved = {k: os.environ.get(k) for k in env}
+        t0 = time.perf_counter()
+        log(f"pftrack docs: executing notebooks/{name} {env or ''}")
+        with tempfile.TemporaryDirectory(prefix="pftrack-docs-") as tmp:
+            cwd = str(ROOT) if where == "root" else tmp
+            os.environ.update(env)
+            try:
+                nbclient.NotebookClient(nb, kernel_name="python3", timeout=900,
+                                        resources={"metadata": {"path": cwd}}).execute()
+            except nbclient.exceptions.CellExecutionError as exc:
+                raise RuntimeError(f"docs: notebooks/{name} failed: {exc}") from None
+            finally:
+                for k, v in saved.items():
+                    if v is None:
+                        os.environ.pop(k, None)
+                    else:
+                        os.environ[k] = v
+        times[name] = time.perf_counter() - t0
+        tmp_dest = dest.with_suffix(".ipynb.tmp")
+        nbformat.write(nb, tmp_dest)
+        os.replace(tmp_dest, dest)
+        stamp.write_text(key.hexdigest())
+    return times
+
+
+# --------------------------------------------------------------------------------------------
+# Sphinx
+# --------------------------------------------------------------------------------------------
+
+
+def _write_if_changed(path: Path, text: str) -> None:
+    """Write ``text`` unless the file already holds it (Sphinx then keeps its cached page)."""
+    if not path.is_file() or path.read_text() != text:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(path.suffix + ".tmp")
+        tmp.write_text(text)
+        os.replace(tmp, path)
+
+
+def _generate(app: Any) -> None:
+    from sphinx.util import logging
+
+    logger = logging.getLogger(__name__)
+    gen = DOCS / "_generated"
+    _write_if_changed(gen / "config_reference.md", config_reference())
+    _write_if_changed(gen / "volumes_doc.md",
+                      docstring_markdown("pftrack.geometry.volumes", "World frame conventions"))
+    write_api_pages(DOCS / "api" / "_modules")
+    if os.environ.get("PFTRACK_DOCS_NOTEBOOKS", "1") == "0":
+        for name in NOTEBOOKS:  # unexecuted copies: a quick build without pictures
+            dest = DOCS / "gallery" / name
+            if not dest.is_file():
+                shutil.copyfile(ROOT / "notebooks" / name, dest)
+        return
+    times = execute_notebooks(DOCS / "gallery",
+                              force=os.environ.get("PFTRACK_DOCS_REEXECUTE") == "1",
+                              log=logger.info)
+    for name, sec in times.items():
+        logger.info(f"pftrack docs: {name} executed in {sec:.0f} s")
+
+
+def setup(app: Any) -> dict[str, Any]:
+    """Register the generation step with Sphinx."""
+    app.connect("builder-inited", _generate)
+    return {"parallel_read_safe": True, "parallel_write_safe": True}
