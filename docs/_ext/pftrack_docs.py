@@ -131,23 +131,44 @@ def pipeline_keys() -> dict[str, str]:
     return {k: described[k] for k in sorted(pipeline.CONFIG_KEYS, key=list(described).index)}
 
 
+def parameters_section(doc: str) -> dict[str, tuple[str, str]]:
+    """``{name: (type, description)}`` of a numpydoc docstring's ``Parameters`` section
+    (``a, b : float`` documents both names)."""
+    lines = inspect.cleandoc(doc).splitlines() + [""]
+    rule = re.compile(r"-{3,}")
+    starts = [k for k in range(len(lines) - 1)
+              if lines[k].strip() == "Parameters" and rule.fullmatch(lines[k + 1].strip())]
+    if not starts:
+        return {}
+    body = []
+    for k in range(starts[0] + 2, len(lines) - 1):
+        if rule.fullmatch(lines[k + 1].strip()) and lines[k].strip():
+            break  # the next section's title
+        body.append(lines[k])
+    out: dict[str, tuple[str, str]] = {}
+    entry: tuple[list[str], str, list[str]] | None = None
+    for line in body + ["END"]:
+        if line and not line.startswith(" "):
+            if entry:
+                for n in entry[0]:
+                    out.setdefault(n, (entry[1], " ".join(entry[2])))
+            head, _, typ = line.partition(" : ")
+            entry = ([n.strip().lstrip("*") for n in head.split(",")], typ.strip(), [])
+        elif line.strip() and entry:
+            entry[2].append(line.strip())
+    return out
+
+
 def _doc_params(cls: type) -> dict[str, tuple[str, str]]:
     """``{name: (type, description)}`` from the ``Parameters`` sections of ``cls``'s docstring
     and its bases' (the nearest class that documents a name wins)."""
-    from numpydoc.docscrape import NumpyDocString
-
     out: dict[str, tuple[str, str]] = {}
     for klass in cls.__mro__:
         doc = klass.__dict__.get("__doc__")
         if not doc:
             continue
-        try:
-            parsed = NumpyDocString(inspect.cleandoc(doc))
-        except Exception:  # noqa: BLE001 - a docstring numpydoc cannot read documents nothing
-            continue
-        for p in parsed["Parameters"]:
-            for name in (n.strip().lstrip("*") for n in p.name.split(",")):
-                out.setdefault(name, (p.type, " ".join(p.desc)))
+        for k, v in parameters_section(doc).items():
+            out.setdefault(k, v)
         # "Parameters are those of :class:`Other`." (a sibling sharing a base's __init__)
         same = re.search(r"Parameters are those of :class:`~?([\w.]+)`", doc)
         if same:

@@ -1,0 +1,169 @@
+"""The documentation's generated pages (``docs/_ext/pftrack_docs.py``): the configuration
+reference covers every key the code accepts, with the code's defaults; the gallery executes every
+notebook on the slices its test uses."""
+
+from __future__ import annotations
+
+import inspect
+import re
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "docs" / "_ext"))
+
+import pftrack_docs  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def page() -> str:
+    return pftrack_docs.config_reference()
+
+
+def _rows(page: str, section: str) -> dict[str, list[str]]:
+    """``{key: cells}`` of the table rows between heading ``section`` and the next heading of
+    the same or a higher level."""
+    level = section.split(" ")[0]
+    start = page.index(section + "\n")
+    end = re.compile(rf"^#{{1,{len(level)}}} ", re.M).search(page, start + len(section))
+    out = {}
+    for line in page[start:end.start() if end else None].splitlines():
+        m = re.match(r"^\| `([^`]+)` \|(.*)\|$", line)
+        if m:
+            out[m.group(1)] = [c.strip() for c in re.split(r"(?<!\\)\|", m.group(2))]
+    return out
+
+
+def test_every_top_level_and_tracker_key_is_described(page):
+    from pftrack.pipeline import CONFIG_KEYS, TRACKER_KEYS
+
+    top = _rows(page, "## Top-level keys")
+    assert set(top) == set(CONFIG_KEYS)
+    assert all(cells[1] not in ("", "—") for cells in top.values()), top
+    tracker = _rows(page, "## `tracker:` engine options")
+    assert set(tracker) == set(TRACKER_KEYS)
+    # defaults from MultiTargetTracker's signature; dt is the pipeline's "auto"
+    assert tracker["n_particles"][1] == "`500`"
+    assert tracker["resampling"][1] == '`"systematic"`'
+    assert tracker["dt"][1] == '`"auto"`' and tracker["dt"][2] == "s"
+
+
+def test_every_component_parameter_has_a_row_with_its_default(page):
+    from pftrack.host import get_host
+
+    host = get_host()
+    n = 0
+    for kind in pftrack_docs.COMPONENT_KINDS:
+        for name in host.names(kind):
+            cls = host.get(kind, name)
+            label = f"(config-{kind}-{name})=\n#### `{name}`"
+            assert label in page
+            rows = _rows(page[page.index(label):], f"#### `{name}`")
+            params = {p.name: p.default for p in inspect.signature(cls.__init__).parameters
+                      .values() if p.name != "self" and p.kind not in (p.VAR_POSITIONAL,
+                                                                      p.VAR_KEYWORD)}
+            assert set(params) <= set(rows), (kind, name, set(params) - set(rows))
+            for pname, default in params.items():
+                n += 1
+                if default is inspect.Parameter.empty:
+                    assert rows[pname][1] == "required"
+                elif isinstance(default, (int, float)) and not isinstance(default, bool):
+                    assert rows[pname][1] == f"`{default!r}`", (name, pname, rows[pname])
+    assert n > 150  # the built-in plugins declare over 200 parameters
+
+
+def test_param_declarations_give_type_doc_and_unit():
+    from pftrack.host import get_host
+
+    rows = {r["name"]: r for r in pftrack_docs.component_params(
+        get_host().get("tracks", "volumes"))}
+    assert rows["entry_particles"]["default"] == 50 and rows["entry_particles"]["type"] == "int"
+    assert rows["entry_particles"]["doc"].startswith("N_m:")
+    assert rows["object_size_m"]["unit"] == "m"
+
+
+def test_every_preset_key_is_listed_with_its_value(page):
+    from pftrack.host import get_host
+
+    host = get_host()
+    assert host.names("preset")
+    for name in host.names("preset"):
+        cfg = yaml.safe_load(Path(host.get("preset", name)).read_text())
+        rows = _rows(page, f"### `{name}`")
+        leaves = dict(pftrack_docs._leaves(cfg))
+        leaves.pop("name"), leaves.pop("description", None)
+        assert set(leaves) <= set(rows), (name, set(leaves) - set(rows))
+        for key, value in leaves.items():
+            if isinstance(value, (int, float)) and not isinstance(value, bool):
+                assert rows[key][0] == f"`{value!r}`", (name, key, rows[key])
+    # a value that differs from the component's default is shown beside it
+    rows = _rows(page, "### `pets09-ground`")
+    assert rows["tracker.n_particles"][0] == "`200`"
+    assert rows["observation.params.height_m"][1] == "`1.75`"
+
+
+def test_an_undescribed_key_stops_the_build_naming_it(monkeypatch):
+    from pftrack import pipeline
+
+    monkeypatch.setattr(pipeline, "CONFIG_KEYS", pipeline.CONFIG_KEYS | {"colour"})
+    with pytest.raises(ValueError, match=r"\['colour'\] are not described"):
+        pftrack_docs.pipeline_keys()
+    monkeypatch.setattr(pipeline, "TRACKER_KEYS", pipeline.TRACKER_KEYS | {"particles"})
+    with pytest.raises(ValueError, match=r"\['particles'\] are not parameters"):
+        pftrack_docs.tracker_params()
+
+
+def test_parameters_section_and_units():
+    doc = """Summary.
+
+    Parameters
+    ----------
+    width_px, height_px : float
+        Box size.
+    sigma : float
+        Noise, metres.
+    bins : int
+
+    Attributes
+    ----------
+    scores_ : ndarray
+        Not a parameter.
+    """
+    got = pftrack_docs.parameters_section(doc)
+    assert got == {"width_px": ("float", "Box size."), "height_px": ("float", "Box size."),
+                   "sigma": ("float", "Noise, metres."), "bins": ("int", "")}
+    assert pftrack_docs.unit_of("width_px", "Box size.") == "px"
+    assert pftrack_docs.unit_of("sigma", "Noise, metres.") == "m"
+    assert pftrack_docs.unit_of("speed", "Speed in m/s.") == "m/s"
+    assert pftrack_docs.unit_of("bins", "Bins per channel.") == ""
+
+
+def test_docstring_markdown_sections_literals_and_roles():
+    md = pftrack_docs.docstring_markdown("pftrack.geometry.volumes", "World frame conventions")
+    assert md.startswith("## World frame conventions\n")
+    assert "## Volumes YAML" in md and "```yaml\nvolumes:\n  - name: near" in md
+    assert "{func}`~pftrack.geometry.volumes.load_volumes`" in md and ":func:" not in md
+
+
+def test_gallery_runs_every_notebook_as_its_test_does():
+    names = sorted(p.name for p in (ROOT / "notebooks").glob("*.ipynb"))
+    assert sorted(pftrack_docs.NOTEBOOKS) == names
+    for name, (env, where) in pftrack_docs.NOTEBOOKS.items():
+        tests = [p.read_text() for p in (ROOT / "tests").glob("test_notebooks_*.py")
+                 if name in p.read_text()]
+        assert len(tests) == 1, name
+        setenv = dict(re.findall(r'setenv\("(PFTRACK_NB_\w+)", "([^"]*)"\)', tests[0]))
+        assert env == setenv, name
+        # the tests that use conftest's execute_notebook run in the repository root
+        assert where == ("root" if "execute_notebook(" in tests[0] else "tmp"), name
+
+
+def test_api_pages_cover_the_public_modules(tmp_path):
+    mods = pftrack_docs.write_api_pages(tmp_path)
+    assert "pftrack.pipeline" in mods and "pftrack_coast.volumes" in mods
+    assert not [m for m in mods if m.startswith("pftrack.cli.") or "._" in m]
+    text = (tmp_path / "pftrack.tracker.md").read_text()
+    assert ".. automodule:: pftrack.tracker" in text
