@@ -844,6 +844,10 @@ def train_svm_model(frames: Iterable[Frame], boxes_by_frame: dict[int, np.ndarra
         w = clf.coef_.ravel().astype(np.float64)
         b = float(clf.intercept_[0])
         norm = float(np.linalg.norm(w))
+        if not (np.isfinite(norm) and norm > 0):
+            raise ValueError("train_svm_model: the training windows carry no signal (blank "
+                             "frames? positives and negatives have the same features): nothing "
+                             "to learn")
         acc = float(np.mean(np.sign(X @ w + b) == y))
         return (w / norm).astype(np.float32), b / norm, acc
 

@@ -19,6 +19,7 @@ other registrations and the other plugins still load.
 
 from __future__ import annotations
 
+import difflib
 import importlib
 import os
 import warnings
@@ -67,6 +68,10 @@ class RegistrationError(ValueError):
 
 class PluginLoadWarning(UserWarning):
     """A plugin could not be imported or registered; the others were loaded."""
+
+
+class PluginSettingWarning(UserWarning):
+    """A plugin setting names nothing: an unknown plugin in ``PFTRACK_DISABLE_PLUGINS``."""
 
 
 class UnknownComponentError(KeyError):
@@ -241,6 +246,16 @@ class Host:
                                   f"{info.error}", PluginLoadWarning, stacklevel=2)
                     continue
                 self._add_plugin(ep.name, obj, info, strict=False)
+        plugins = list(plugins)
+        if disabled:
+            known = {ep.name for ep in metadata.entry_points(group=ENTRY_POINT_GROUP)}
+            known |= {n for n, _ in plugins}
+            for unknown in sorted(disabled - known):
+                close = difflib.get_close_matches(unknown, sorted(known), n=1)
+                warnings.warn(f"{ENV_DISABLE} names {unknown!r}, which is no installed plugin"
+                              + (f"; did you mean {close[0]!r}?" if close else
+                                 f" (plugins: {', '.join(sorted(known))})"),
+                              PluginSettingWarning, stacklevel=2)
         for name, obj in plugins:
             if name in disabled:
                 continue
@@ -254,6 +269,7 @@ class Host:
         plugin for installed ones, so that one bad package cannot stop every other plugin."""
         self.pm.register(obj, name=name)
         self.plugins[name] = info
+        self._check_hook_names(name, obj)
         for hook, kind in _REGISTER_HOOKS.items():
             for impl in getattr(self.pm.hook, hook).get_hookimpls():
                 if impl.plugin_name != name:
@@ -273,6 +289,20 @@ class Host:
         for e in self.registry.entries():
             if e.plugin == name:
                 info.components.setdefault(e.kind, []).append(e.name)
+
+    def _check_hook_names(self, name: str, obj: Any) -> None:
+        """Warn about functions named like a hook (``pftrack_*``) that no hook has: a misspelt
+        hook name would otherwise be ignored without a word."""
+        specs = set(_REGISTER_HOOKS) | {n for n in dir(hookspecs) if n.startswith("pftrack_")}
+        for attr in sorted(dir(obj)):
+            if not attr.startswith("pftrack_") or attr in specs:
+                continue
+            if not callable(getattr(obj, attr, None)):
+                continue
+            close = difflib.get_close_matches(attr, sorted(specs), n=1)
+            warnings.warn(f"pftrack plugin {name!r}: {attr} is no pftrack hook and is ignored"
+                          + (f"; did you mean {close[0]!r}?" if close else ""),
+                          PluginLoadWarning, stacklevel=3)
 
     # -- lookup -------------------------------------------------------------------------------
 

@@ -58,6 +58,7 @@ __all__ = [
 
 CONFIG_KEYS = {"name", "description", "state", "observation", "motion", "likelihood", "detector",
                "associator", "tracker", "tracks", "births", "valid_region_m", "report"}
+RUN_OUTPUTS = ("tracks.txt", "metrics.json", "report")  # what a run owns in its --out folder
 TRACKER_KEYS = {"n_particles", "resampling", "ess_threshold", "dt", "init_spread",
                 "recover_spread", "max_misses", "min_log_likelihood", "kill_out_of_view",
                 "target_size"}
@@ -118,6 +119,9 @@ def load_config(spec: str | os.PathLike[str] | dict[str, Any]) -> dict[str, Any]
         if bad:
             raise ValueError(f"config {where}: unknown {key} options {sorted(bad)}; known: "
                              f"{sorted(allowed)}")
+    from pftrack.config import validate_config
+
+    validate_config(cfg, source=where)  # types, ranges, component parameters (ConfigError)
     cfg["_source"] = where
     return cfg
 
@@ -149,10 +153,14 @@ def parse_frames(text: str | Sequence[int] | None) -> tuple[int, int | None]:
 
 def iter_frames(video: str | os.PathLike[str], first: int = 1, last: int | None = None,
                 ) -> Iterator[Frame]:
-    """Stream frames ``first..last`` (ground-truth numbering: MOT frame N = video frame N-1)."""
-    from pftrack.scenes.video import VideoScene
+    """Stream frames ``first..last`` (ground-truth numbering: MOT frame N = video frame N-1),
+    numbered from the decoder's position; a gap or a short read is warned
+    (:class:`FrameWarning`) when the stream ends."""
+    from pftrack.scenes.source import FrameSource
 
-    yield from VideoScene(str(video), first=first, last=last).frames()
+    source = FrameSource(video, first, last)
+    yield from source.frames()
+    _warn_frames(source.report)
 
 
 def video_fps(video: str | os.PathLike[str]) -> float:
@@ -203,6 +211,13 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
     """
     import numpy as np
 
+    from pftrack.io.outputs import check_input_file, check_output_file
+
+    # checked before training, not after it
+    if out is not None:
+        check_output_file(out, "--out")
+    check_input_file(video, "--video")
+    check_input_file(gt, "--gt")
     cfg = cfg or {"detector": {"type": "svm", "params": {}}}
     det_cfg = dict(cfg.get("detector") or {"type": "svm"})
     train_cfg = det_cfg.get("train") or {}
@@ -225,7 +240,12 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
 
         n = (last - first + 1) if last is not None else None
         frames_it = tqdm(frames_it, total=n, desc="detector: training frames", unit="frame")
-    det.fit(frames_it, pos, rng=rng, ignore_by_frame=ign)
+    try:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            det.fit(frames_it, pos, rng=rng, ignore_by_frame=ign)
+    except ValueError as exc:
+        raise ValueError(f"detector {det_cfg['type']!r} trained on --video {video} frames "
+                         f"{first}:{'' if last is None else last}: {exc}") from None
     if out is not None:
         if not det.learns:
             raise ValueError(f"detector {det_cfg['type']!r} learns nothing to save")
@@ -417,22 +437,37 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     detections : dict {frame: Detections}, optional
         Precomputed detections (another run's ``RunResult.detections``): the detector is not run.
     """
+    from pftrack.io.outputs import check_input_file, check_output_dir
+
     cfg = load_config(config)
+    # everything that can be checked is checked before the first frame
+    if out_dir is not None:
+        check_output_dir(out_dir)
     if report and out_dir is not None:
         report_writer(cfg)  # an unknown writer stops the run before it tracks, not after
+    for option, path in (("--video", video), ("--gt", gt), ("--detector-model", detector_model),
+                         ("--camera", camera if isinstance(camera, (str, os.PathLike)) else None)):
+        if path is not None:
+            check_input_file(path, option)
     cam = _load_camera(camera)
     video = Path(video)
-    if not video.is_file():
-        raise FileNotFoundError(f"video {video} not found")
     first, last = parse_frames(frames)
-    fps = video_fps(video)
+    gt_all = None if gt is None else read_ground_truth(gt, first, last if last is not None
+                                                         else 10**9)
+    from pftrack.scenes.source import FrameSource
+
+    source = FrameSource(video, first, last)
+    fps, n_announced = source.probe()
+    if n_announced and first > n_announced:
+        raise ValueError(f"--frames {first}:{'' if last is None else last}: the video {video} "
+                         f"has {n_announced} frames (1..{n_announced})")
     engine = build_engine(cfg, camera=cam, fps=fps, seed=seed, detector_model=detector_model)
     detector = None
     if detections is None and cfg.get("detector") and \
             (cfg["detector"].get("detect", True) if isinstance(cfg["detector"], dict) else True):
         detector = build_detector(cfg, RunContext(camera=cam, fps=fps, detector_model=(
             None if detector_model is None else str(detector_model))))
-    frame_iter: Iterable[Frame] = iter_frames(video, first, last)
+    frame_iter: Iterable[Frame] = source.frames(fps)
     n_total = None
     if last is not None:
         n_total = last - first + 1
@@ -470,7 +505,14 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
             keep_frames[frame.index] = frame.image.copy()
     t_loop = time.perf_counter() - t_start
     c_loop = time.process_time() - c_start
+    if n == 0:
+        raise ValueError(f"video {video}: no frame decoded in frames {first}.."
+                         f"{'' if last is None else last}")
+    renumber = source.verify()  # frames lost in damaged data: true numbers from the index
     rows = records_to_mot(records)
+    if renumber:
+        rows, dets_out, keep_frames = _renumbered(renumber, rows, dets_out, keep_frames)
+    _warn_frames(source.report)
     if len(rows):
         rows = rows[np.lexsort((rows[:, 1], rows[:, 0]))]
     n = max(n, 1)
@@ -483,14 +525,60 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
               "frames_per_second_cpu": n / max(c_loop, 1e-12)}
     metrics = None
     gt_rows = None
-    if gt is not None:
-        gt_rows = read_ground_truth(gt, first, last if last is not None else 10**9)
+    if gt_all is not None:
+        if any(a for a, k in source.report.gaps if k == 0):
+            raise ValueError(
+                f"video {video}: frames lost in damaged data could not be located; frame numbers "
+                f"after frame {min(a for a, k in source.report.gaps if k == 0)} are unknown, so "
+                "the run is not scored (re-encode the video, or limit --frames before it)")
+        # scored over the frames actually tracked, and said so
+        tracked = np.asarray(source.report.indices, dtype=np.int64)
+        gt_rows = gt_all[np.isin(gt_all[:, 0].astype(np.int64), tracked)]
+        n_gt_frames = len(np.unique(gt_all[:, 0]))
+        n_scored = len(np.unique(gt_rows[:, 0]))
+        if n_scored < n_gt_frames:
+            import warnings
+
+            warnings.warn(f"--gt {gt}: scored over the {n_scored} ground-truth frames that were "
+                          f"tracked, of {n_gt_frames} in frames {first}.."
+                          f"{'' if last is None else last}", FrameWarning, stacklevel=2)
         metrics = evaluate_tracks(gt_rows, rows)
         metrics.update(timing)
+        metrics.update({"frames_tracked": len(tracked), "gt_frames_scored": n_scored,
+                        "gt_frames_in_range": n_gt_frames,
+                        "frame_problems": source.report.problems()})
     result = RunResult(rows, dets_out, timing, metrics, None, n)
     if out_dir is not None:
         result.out_dir = write_outputs(out_dir, cfg, result, cam, keep_frames, gt_rows)
     return result
+
+
+class FrameWarning(UserWarning):
+    """A run's frames are not what was asked: a gap, a short read, frames renumbered, frames
+    not scored."""
+
+
+def _warn_frames(report: Any) -> None:
+    import warnings
+
+    for line in report.problems():
+        warnings.warn(line, FrameWarning, stacklevel=3)
+
+
+def _renumbered(mapping: dict[int, int | None], rows: np.ndarray,
+                dets: dict[int, Detections], frames: dict[int, np.ndarray]
+                ) -> tuple[np.ndarray, dict[int, Detections], dict[int, np.ndarray]]:
+    """Rows, detections and kept frames with the true frame numbers (rows of frames whose
+    number is unknown dropped)."""
+    if len(rows):
+        old = rows[:, 0].astype(np.int64)
+        new = np.array([mapping.get(int(f), int(f)) if mapping.get(int(f), int(f)) is not None
+                        else -1 for f in old], dtype=np.int64)
+        rows = rows[new >= 0].copy()
+        rows[:, 0] = new[new >= 0]
+    def move(d: dict) -> dict:
+        return {mapping.get(k, k): v for k, v in d.items() if mapping.get(k, k) is not None}
+    return rows, move(dets), move(frames)
 
 
 def _report_frames(first: int, last: int | None) -> set[int]:
@@ -504,23 +592,26 @@ def _report_frames(first: int, last: int | None) -> set[int]:
 def write_outputs(out_dir: str | os.PathLike[str], cfg: dict[str, Any], result: RunResult,
                   camera: Any, frames: dict[int, np.ndarray],
                   gt_rows: np.ndarray | None) -> Path:
-    """``tracks.txt``, ``metrics.json`` (with ground truth) and ``report/*.png``, atomically."""
+    """``tracks.txt``, ``metrics.json`` (with ground truth) and ``report/*.png``, as one unit
+    (:class:`pftrack.io.outputs.OutputSet`): all replaced or none."""
     import json
 
     from pftrack.io.atomic import atomic_write_text
     from pftrack.io.mot import write_mot
+    from pftrack.io.outputs import OutputSet
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    write_mot(out / "tracks.txt", result.rows)  # no tracks: an empty file, still a result
-    if result.metrics is not None:
-        atomic_write_text(out / "metrics.json",
-                          json.dumps(result.metrics, indent=2, default=float) + "\n")
-    if frames:
-        writer = report_writer(cfg)
-        writer.write(out / "report", result.rows, frames, camera=camera, gt_rows=gt_rows,
-                     title=str(cfg.get("name", "")))
-    return out
+    # one unit: staged, then moved into place together; an earlier run's metrics.json or
+    # report/ that this run does not produce is removed, a failure leaves the earlier outputs
+    with OutputSet(out_dir, RUN_OUTPUTS) as out:
+        write_mot(out.path("tracks.txt"), result.rows)  # no tracks: an empty file, a result
+        if result.metrics is not None:
+            atomic_write_text(out.path("metrics.json"),
+                              json.dumps(result.metrics, indent=2, default=float) + "\n")
+        if frames:
+            writer = report_writer(cfg)
+            writer.write(out.path("report"), result.rows, frames, camera=camera,
+                         gt_rows=gt_rows, title=str(cfg.get("name", "")))
+    return Path(out_dir)
 
 
 def report_writer(cfg: dict[str, Any], host: Any = None) -> Any:

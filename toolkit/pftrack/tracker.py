@@ -63,6 +63,7 @@ from pftrack.filter import (
 log = logging.getLogger(__name__)
 
 __all__ = [
+    "ComponentOutputError",
     "ImageBoxObservation",
     "ManualTracks",
     "MultiTargetTracker",
@@ -163,6 +164,11 @@ class ManualTracks(TrackManager):
 
     def __init__(self) -> None:
         """No parameters."""
+
+
+class ComponentOutputError(RuntimeError):
+    """A component returned what its contract forbids (NaN log-likelihoods, a wrong shape or
+    dtype); the message names the component and the module it comes from."""
 
 
 class MultiTargetTracker:
@@ -271,6 +277,24 @@ class MultiTargetTracker:
                           and type(observation).to_boxes_rows
                           is not ObservationModel.to_boxes_rows)
         likelihood.prepare()  # compiled kernels and the like: before the first frame
+
+    # -- checks of what components return ----------------------------------------------------
+
+    @staticmethod
+    def _who(component: Any) -> str:
+        """``likelihood 'name' (Class from module)``: the component at fault, for messages."""
+        cls = type(component)
+        name = getattr(component, "name", None) or cls.__name__
+        return f"{getattr(component, 'kind', 'component')} {name!r} ({cls.__name__} from " \
+               f"{cls.__module__})"
+
+    def _checked_dtype(self, logl: Any) -> np.ndarray:
+        arr = np.asarray(logl)
+        if arr.dtype.kind != "f":
+            raise ComponentOutputError(
+                f"{self._who(self.likelihood)} returned log-likelihoods of dtype {arr.dtype}, "
+                "expected floating point")
+        return arr.astype(np.float64, copy=False)
 
     # -- targets ------------------------------------------------------------------------------
 
@@ -394,10 +418,16 @@ class MultiTargetTracker:
             t = f.target
             logl = self.likelihood.log_likelihood(t.particle_boxes_xywh_px, t)
             if type(logl) is not np.ndarray or logl.dtype != np.float64:
-                logl = np.asarray(logl, dtype=np.float64)
+                logl = self._checked_dtype(logl)
             if logl.shape != (len(f.particles),):
-                raise ValueError(f"likelihood {type(self.likelihood).__name__} returned shape "
-                                 f"{logl.shape}, expected ({len(f.particles)},)")
+                raise ComponentOutputError(
+                    f"{self._who(self.likelihood)} returned log-likelihoods of shape "
+                    f"{logl.shape}, expected ({len(f.particles)},) (one per particle)")
+            if not (logl < np.inf).all():  # NaN or +inf; -inf (impossible) is allowed
+                bad = int(np.count_nonzero(~(logl < np.inf)))
+                raise ComponentOutputError(
+                    f"{self._who(self.likelihood)} returned {bad} NaN or +inf log-likelihood(s) "
+                    f"of {len(logl)} at frame {frame.index} (target {t.id})")
             if self.valid_region is not None:
                 logl = np.where(self.valid_region(f.particles[:, pos_dims]), logl, -np.inf)
             if t.valid_region is not None:

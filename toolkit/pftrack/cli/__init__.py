@@ -56,18 +56,31 @@ def _plugin_commands(sub: argparse._SubParsersAction) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if not getattr(args, "func", None):
-        parser.print_help()
-        return 2
+    """Run a command; every exception becomes one line and an exit code (0 ok, 1 internal
+    error, 2 bad input, 130 interrupted, 141 closed output pipe; see
+    :mod:`pftrack.cli._errors`). ``--debug`` anywhere prints the traceback too."""
+    from pftrack.cli import _errors
+
+    argv, debug = _errors.split_debug(list(sys.argv[1:] if argv is None else argv))
+    command = None
+    args = None
+    _errors.one_line_warnings(None)
     try:
-        return int(args.func(args) or 0)
-    except (FileNotFoundError, ValueError, KeyError) as exc:
-        # user errors: one clear line naming the file/parameter, no traceback
-        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
-        print(f"pftrack {args.command}: error: {msg}", file=sys.stderr)
-        return 2
+        parser = build_parser()
+        parser.add_argument(_errors.DEBUG_FLAG, action="store_true",
+                            help="print the traceback of an error (also: PFTRACK_DEBUG=1)")
+        args = parser.parse_args(argv)
+        command = getattr(args, "command", None)
+        _errors.one_line_warnings(command)
+        if not getattr(args, "func", None):
+            parser.print_help()
+            return 2
+        code = int(args.func(args) or 0)
+        sys.stdout.flush()
+        return code
+    except (Exception, KeyboardInterrupt) as exc:  # noqa: BLE001 - the one place that must
+        return _errors.handle(command, exc, debug,
+                              _errors.inputs_of(args) if args is not None else "")
 
 
 if __name__ == "__main__":  # pragma: no cover

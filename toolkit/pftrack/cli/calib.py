@@ -30,6 +30,16 @@ def _size(text: str) -> tuple[int, int]:
     return w, h
 
 
+def _positive(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (v > 0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    return v
+
+
 def _pair(text: str) -> tuple[float, float]:
     try:
         a, b = (float(v) for v in text.split(","))
@@ -57,7 +67,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     b.add_argument("images", nargs="+", help="image files")
     b.add_argument("--board", type=_size, default=(9, 6),
                    help="inner corners COLSxROWS (default 9x6)")
-    b.add_argument("--square", type=float, default=0.025, help="square side in metres")
+    b.add_argument("--square", type=_positive, default=0.025, help="square side in metres")
     b.add_argument("--fix-aspect", action="store_true", help="fx = fy (CALIB_FIX_ASPECT_RATIO)")
     b.add_argument("--radial-terms", type=int, default=3, choices=(1, 2, 3))
     b.add_argument("--out", help="write the camera here (format from the name or --format)")
@@ -133,7 +143,12 @@ def _check(args: argparse.Namespace) -> int:
 
 def _chessboard(args: argparse.Namespace) -> int:
     from pftrack.geometry.calibration import calibrate_chessboard
+    from pftrack.io.outputs import check_input_file, check_output_file
 
+    if args.out:
+        check_output_file(args.out, "--out")
+    for image in args.images:
+        check_input_file(image, "image")
     res = calibrate_chessboard(args.images, args.board, args.square, fix_aspect=args.fix_aspect,
                                radial_terms=args.radial_terms)
     cam = res.camera
@@ -153,13 +168,22 @@ def _points(args: argparse.Namespace) -> int:
     from pftrack.geometry.calibration import calibrate_points, read_correspondences
     from pftrack.geometry.formats import load_camera
 
+    import cv2
+
+    from pftrack.io.outputs import check_output_file
+
+    if args.out:
+        check_output_file(args.out, "--out")
     X, x = read_correspondences(args.csv)
     guess = load_camera(args.camera) if args.camera else None
-    res = calibrate_points(
-        X, x, args.image_size, lens=args.lens, camera=guess, method=args.method,
-        fix_principal_point=False if args.free_principal_point else None,
-        principal_point=args.principal_point, fix_aspect=not args.free_aspect,
-        radial_terms=args.radial_terms, tangential=args.tangential)
+    try:
+        res = calibrate_points(
+            X, x, args.image_size, lens=args.lens, camera=guess, method=args.method,
+            fix_principal_point=False if args.free_principal_point else None,
+            principal_point=args.principal_point, fix_aspect=not args.free_aspect,
+            radial_terms=args.radial_terms, tangential=args.tangential)
+    except (ValueError, cv2.error) as exc:
+        raise ValueError(f"{args.csv}: {' '.join(str(exc).split())}") from None
     out = res.summary()
     err = res.errors_px
     out["residuals"] = [
@@ -184,7 +208,9 @@ def _points(args: argparse.Namespace) -> int:
 
 def _convert(args: argparse.Namespace) -> int:
     from pftrack.geometry.formats import guess_format, load_camera, save_camera
+    from pftrack.io.outputs import check_output_file
 
+    check_output_file(args.output, "output")
     cam = load_camera(args.input, args.from_format)
     fmt = args.format or guess_format(args.output, for_writing=True)
     report = save_camera(cam, args.output, fmt, approximate=True)

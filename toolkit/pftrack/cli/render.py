@@ -17,6 +17,9 @@ from __future__ import annotations
 import argparse
 
 
+MAX_SIDE_PX = 8192
+
+
 def _size(text: str) -> tuple[int, int]:
     try:
         w, h = (int(v) for v in text.lower().split("x"))
@@ -24,6 +27,10 @@ def _size(text: str) -> tuple[int, int]:
         raise argparse.ArgumentTypeError(f"--size must be WxH in pixels, got {text!r}") from None
     if w < 16 or h < 16:
         raise argparse.ArgumentTypeError(f"--size must be at least 16x16, got {text!r}")
+    if w > MAX_SIDE_PX or h > MAX_SIDE_PX:
+        # beyond what an off-screen OpenGL framebuffer takes: VTK would abort the process
+        raise argparse.ArgumentTypeError(f"--size must be at most {MAX_SIDE_PX}x{MAX_SIDE_PX}, "
+                                         f"got {text!r}")
     return w, h
 
 

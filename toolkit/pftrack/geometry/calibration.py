@@ -122,6 +122,22 @@ def rotation_angle_deg(R1: np.ndarray, R2: np.ndarray) -> float:
     return math.degrees(math.acos(min(1.0, max(-1.0, c))))
 
 
+def _check_spread(X: np.ndarray, x: np.ndarray) -> None:
+    """Raise ``ValueError`` for correspondences no camera can be solved from: repeated points,
+    or world or image points on one line (or one point)."""
+    n_world = len(np.unique(X, axis=0))
+    n_pixel = len(np.unique(x, axis=0))
+    if n_world < len(X) or n_pixel < len(x):
+        raise ValueError(f"correspondences repeat points: {len(X)} rows but {n_world} distinct "
+                         f"world points and {n_pixel} distinct pixels")
+    for name, P in (("world points", X), ("pixels", x)):
+        c = P - P.mean(axis=0)
+        sv = np.linalg.svd(c, compute_uv=False)
+        if len(sv) < 2 or sv[1] <= 1e-9 * max(sv[0], 1e-300):
+            raise ValueError(f"the {name} lie on one line: a camera needs points spread over "
+                             "a plane or a volume")
+
+
 def is_coplanar(points_world_m: Any, rel_tol: float = 1e-6) -> bool:
     """True when the points lie on one plane (smallest singular value of the centred points
     below ``rel_tol`` times the largest)."""
@@ -458,6 +474,7 @@ def calibrate_points(points_world_m: Any, pixels: Any, image_size: Sequence[int]
         raise ValueError(f"method must be auto, pnp, calibrate or dlt, got {method!r}")
     if not (np.all(np.isfinite(X)) and np.all(np.isfinite(x))):
         raise ValueError("correspondences contain NaN or infinite values")
+    _check_spread(X, x)
     w, h = (int(v) for v in image_size)
     coplanar = is_coplanar(X)
     if method == "auto":

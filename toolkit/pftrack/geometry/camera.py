@@ -350,6 +350,9 @@ class Camera:
         if K.shape != (3, 3) or K[1, 0] != 0 or K[2, 0] != 0 or K[2, 1] != 0 or K[2, 2] != 1:
             raise ValueError(f"Camera {name!r}: K must be [[fx, s, cx], [0, fy, cy], [0, 0, 1]], "
                              f"got {K.tolist()}")
+        if K.shape == (3, 3) and not np.all(np.isfinite(K)):
+            raise ValueError(f"Camera {name!r}: K must be finite (fx, fy, skew, cx, cy), got "
+                             f"{K.tolist()}")
         if not (K[0, 0] > 0 and K[1, 1] > 0):
             raise ValueError(f"Camera {name!r}: focal lengths must be positive, got "
                              f"fx={K[0, 0]}, fy={K[1, 1]}")
@@ -358,7 +361,11 @@ class Camera:
             raise ValueError(f"Camera {name!r}: R must be a rotation matrix, got {R.tolist()}")
         if t.shape != (3,) or not np.all(np.isfinite(t)):
             raise ValueError(f"Camera {name!r}: t_m must be 3 finite numbers, got {t_m!r}")
-        w, h = (int(v) for v in image_size)
+        try:
+            w, h = (int(v) for v in image_size)
+        except (TypeError, ValueError, OverflowError):
+            raise ValueError(f"Camera {name!r}: image_size must be two integers (width, "
+                             f"height), got {image_size!r}") from None
         if w <= 0 or h <= 0:
             raise ValueError(f"Camera {name!r}: image_size must be (width, height) > 0, "
                              f"got {image_size!r}")

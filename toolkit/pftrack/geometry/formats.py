@@ -632,7 +632,15 @@ def load_camera(path: str | os.PathLike[str], format: str | None = None) -> Came
     if not p.is_file():
         raise FileNotFoundError(f"camera file {p} not found")
     fmt = _check_format(format) if format else guess_format(p)
-    cam = _LOADERS[fmt](p)
+    try:
+        cam = _LOADERS[fmt](p)
+    except ValueError as exc:
+        if str(p) in str(exc):
+            raise
+        raise ValueError(f"camera file {p}: {exc}") from None
+    except Exception as exc:  # noqa: BLE001 - OpenCV's parser raises cv2.error / SystemError
+        raise ValueError(f"camera file {p}: cannot be read as format {fmt!r} "
+                         f"({type(exc).__name__}: {' '.join(str(exc).split())[:200]})") from None
     cam.metadata["source"] = {"path": str(p), "format": fmt}
     return cam
 

@@ -55,6 +55,9 @@ FRAME, ID, LEFT, TOP, WIDTH, HEIGHT, CONF, X, Y, Z = range(10)
 UNKNOWN = -1.0
 
 
+MAX_EXACT_INT = 2**53
+
+
 def _parse_line(text: str, where: str) -> list[float]:
     parts = [p.strip() for p in (text.split(",") if "," in text else text.split())]
     if len(parts) < 6 or len(parts) > 10:
@@ -69,6 +72,20 @@ def _parse_line(text: str, where: str) -> list[float]:
         raise ValueError(f"{where}: NaN or infinite value in {text!r}")
     if values[0] != int(values[0]) or values[1] != int(values[1]):
         raise ValueError(f"{where}: frame and id must be integers, got {parts[0]!r}, {parts[1]!r}")
+    # exact integers (a float64 holds integers exactly only up to 2**53)
+    for col, what in ((0, "frame"), (1, "id")):
+        try:
+            exact = int(parts[col].strip())
+        except ValueError:
+            exact = int(values[col])
+        if abs(exact) > MAX_EXACT_INT:
+            raise ValueError(f"{where}: {what} {parts[col].strip()} is too large (at most "
+                             f"2**53 = {MAX_EXACT_INT}, exactly representable)")
+    if values[0] < 1:
+        raise ValueError(f"{where}: frame {parts[0].strip()} must be >= 1 (MOTChallenge frames "
+                         "count from 1)")
+    if values[1] < -1:
+        raise ValueError(f"{where}: id {parts[1].strip()} must be >= 0 (or -1: no identity)")
     if values[WIDTH] < 0 or values[HEIGHT] < 0:
         raise ValueError(f"{where}: negative box width/height in {text!r}")
     return values + [UNKNOWN] * (10 - len(values))

@@ -49,8 +49,8 @@ def tracks_from_mot(rows: np.ndarray, world_cols: tuple[int, int] = MOT_WORLD_CO
     Returns
     -------
     dict of int to ndarray, shape (K, 3)
-        Per id, positions (x, y, 0) sorted by frame; rows whose x or y is not finite are
-        skipped. Ids in increasing order.
+        Per id, positions (x, y, 0) sorted by frame; rows whose x or y is not finite, or whose
+        x, y, z are all -1 (unknown), are skipped. Ids in increasing order.
     """
     rows = np.asarray(rows, dtype=np.float64)
     if rows.ndim != 2 or rows.shape[1] <= max(world_cols):
@@ -58,8 +58,11 @@ def tracks_from_mot(rows: np.ndarray, world_cols: tuple[int, int] = MOT_WORLD_CO
                          f"(x, y metres); rows have shape {rows.shape}")
     xy = rows[:, list(world_cols)]
     ok = np.all(np.isfinite(xy), axis=1)
+    if rows.shape[1] >= 10 and tuple(world_cols) == MOT_WORLD_COLS:
+        # MOTChallenge's marker of an unknown world position: x, y and z all -1
+        ok &= ~np.all(rows[:, 7:10] == -1, axis=1)
     if len(rows) and not ok.any():
-        raise ValueError(f"{source}: no finite world positions in columns "
+        raise ValueError(f"{source}: no finite, known (not -1) world positions in columns "
                          f"{world_cols[0] + 1}-{world_cols[1] + 1}")
     rows, xy = rows[ok], xy[ok]
     order = np.lexsort((rows[:, 0], rows[:, 1]))  # by id, then frame

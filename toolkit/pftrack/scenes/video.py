@@ -118,27 +118,18 @@ class VideoScene(Scene):
             cap.release()
 
     def frames(self) -> Iterator[Frame]:
+        """The frames, numbered from the decoder's position
+        (:class:`pftrack.scenes.source.FrameSource`); the last stream's gaps and short read are
+        in ``frame_report_``."""
+        from pftrack.scenes.source import FrameSource
+
         self._check()
         fps = self.fps
-        cap = self._open()
-        try:
-            k = 0  # video frame counted from 0
-            while True:
-                index = k + int(self.index_offset)
-                if self.last is not None and index > self.last:
-                    break
-                if index < self.first:
-                    if not cap.grab():
-                        break
-                    k += 1
-                    continue
-                ok, image = cap.read()
-                if not ok:
-                    break
-                yield Frame(index=index, image=image, time_s=k / fps)
-                k += 1
-        finally:
-            cap.release()
+        self._open().release()  # the errors of this scene, naming the file
+        source = FrameSource(self.path, self.first, self.last, int(self.index_offset))
+        self.frame_report_ = source.report
+        yield from source.frames(fps)
+        self.frame_report_ = source.report
 
     def ground_truth(self) -> np.ndarray | None:
         """The ground-truth rows of the streamed frames, (M, 10), or None without ``gt_path``."""
