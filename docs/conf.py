@@ -27,6 +27,7 @@ source_suffix = {".md": "myst-nb", ".ipynb": "myst-nb"}
 # notebooks are executed by pftrack_docs (per-notebook short slices, as the tests run them)
 nb_execution_mode = "off"
 nb_merge_streams = True
+nb_render_markdown_format = "myst"   # the notebooks' Markdown tables (CommonMark has none)
 myst_enable_extensions = ["colon_fence", "deflist"]
 myst_heading_anchors = 3
 

@@ -3,12 +3,11 @@
 A small Sphinx extension (``docs/conf.py`` loads it). On ``builder-inited`` it writes, under
 ``docs/_generated/`` (git-ignored):
 
-* ``config_reference.md``: every key of a run configuration (:data:`pftrack.pipeline.CONFIG_KEYS`
-  described from :mod:`pftrack.pipeline`'s docstring; the engine options
-  :data:`pftrack.pipeline.TRACKER_KEYS` from :class:`pftrack.tracker.MultiTargetTracker`'s
-  signature and docstring), every parameter of every component the plugin host registers (its
-  signature's default, its ``Parameters`` docstring entry or :class:`pftrack.components.Param`
-  declaration), and every preset, key by key;
+* ``config_reference.md``: every key of a run configuration with its type, default, unit and
+  range (from the schema :data:`pftrack.config.CONFIG_SCHEMA`), every parameter of every
+  component the plugin host registers (its signature's default, its ``Parameters`` docstring
+  entry or :class:`pftrack.components.Param` declaration; the unit read off its name or its
+  description), and every preset, key by key with the component's default beside it;
 * ``api/*.md``: one autodoc page per public module of the core and of the built-in plugins;
 
 and executes the notebooks (``notebooks/*.ipynb``, stored without outputs) into
@@ -59,12 +58,12 @@ _API_SKIP = re.compile(r"(^|\.)_|^pftrack\.cli\.|^pftrack\.__main__$")
 # a unit read off a parameter's name (suffix) or its description
 _NAME_UNITS = {"_m": "m", "_px": "px", "_s": "s", "_deg": "deg", "_frames": "frames",
                "_mps": "m/s", "_ms": "ms"}
-_DOC_UNITS = [
-    (r"\bm/s\^?2\b|\bm s\^-2\b", "m/s²"), (r"\bm/s\b|\bmetres per second\b", "m/s"),
-    (r"\bmetres?\b|\bmeters?\b|\(m\)|\bin m\b|, m\b|\bm\)", "m"),
-    (r"\bpixels?\b|\bpx\b", "px"), (r"\bseconds?\b|\(s\)", "s"), (r"\bframes?\b", "frames"),
-    (r"\bdegrees?\b", "deg"), (r"\bradians?\b", "rad"),
+_DOC_UNITS = [  # a unit stated as such: ", metres", "in pixels", "(s)", "px." ...
+    (r"m/s\^?2|m s\^-2", "m/s²"), (r"m/s|metres per second", "m/s"),
+    (r"metres|meters|m", "m"), (r"pixels|px", "px"), (r"seconds|s", "s"),
+    (r"frames", "frames"), (r"degrees|deg", "deg"), (r"radians|rad", "rad"),
 ]
+_UNIT_CONTEXT = r"(?:, |\bin |\()(?:{})(?=[.;)]|$)"
 
 
 # --------------------------------------------------------------------------------------------
@@ -94,41 +93,9 @@ def unit_of(name: str, doc: str) -> str:
         if name.endswith(suffix):
             return unit
     for pattern, unit in _DOC_UNITS:
-        if re.search(pattern, doc):
+        if re.search(_UNIT_CONTEXT.format(pattern), doc.strip()):
             return unit
     return ""
-
-
-def pipeline_keys() -> dict[str, str]:
-    """The top-level keys of a run configuration with their description, read from the key
-    table in :mod:`pftrack.pipeline`'s docstring.
-
-    Raises
-    ------
-    ValueError
-        A key of :data:`pftrack.pipeline.CONFIG_KEYS` is not described there (the message names
-        it and the module).
-    """
-    from pftrack import pipeline
-
-    described: dict[str, str] = {}
-    key = None
-    for line in (pipeline.__doc__ or "").splitlines():
-        m = re.match(r"^    (\w+): (.*)$", line)
-        if m:
-            key = m.group(1)
-            parts = re.split(r"\s{2,}", m.group(2).strip(), maxsplit=1)
-            spec, text = parts[0], (parts[1] if len(parts) > 1 else "")
-            described[key] = f"`{spec}` " + text if text else f"`{spec}`"
-        elif key and line.startswith("      ") and line.strip():
-            described[key] += " " + line.strip()
-        elif not line.strip():
-            key = None
-    missing = sorted(set(pipeline.CONFIG_KEYS) - set(described))
-    if missing:
-        raise ValueError(f"pftrack.pipeline: configuration keys {missing} are not described in "
-                         "the module docstring's key table")
-    return {k: described[k] for k in sorted(pipeline.CONFIG_KEYS, key=list(described).index)}
 
 
 def parameters_section(doc: str) -> dict[str, tuple[str, str]]:
@@ -203,24 +170,6 @@ def component_params(cls: type) -> list[dict[str, Any]]:
     return rows
 
 
-def tracker_params() -> list[dict[str, Any]]:
-    """The engine options of a configuration's ``tracker:`` section
-    (:data:`pftrack.pipeline.TRACKER_KEYS`) from :class:`pftrack.tracker.MultiTargetTracker`."""
-    from pftrack.pipeline import TRACKER_KEYS
-    from pftrack.tracker import MultiTargetTracker
-
-    rows = [r for r in component_params(MultiTargetTracker) if r["name"] in TRACKER_KEYS]
-    for r in rows:
-        if r["name"] == "dt":  # pftrack.pipeline.build_engine's own default
-            r["default"], r["unit"] = "auto", "s"
-            r["doc"] += " ``auto`` (the run's default): 1 / the video's frames per second."
-    missing = sorted(set(TRACKER_KEYS) - {r["name"] for r in rows})
-    if missing:
-        raise ValueError(f"pftrack.pipeline.TRACKER_KEYS {missing} are not parameters of "
-                         "pftrack.tracker.MultiTargetTracker")
-    return rows
-
-
 def _param_table(rows: list[dict[str, Any]]) -> list[str]:
     out = ["| key | type | default | unit | description |", "|---|---|---|---|---|"]
     for r in rows:
@@ -260,6 +209,43 @@ def preset_defaults(cfg: dict[str, Any], host: Any) -> dict[str, Any]:
     return out
 
 
+def schema_fields(field: Any = None) -> list[tuple[str, Any]]:
+    """``(dotted key, Field)`` of the direct children of ``field`` (default: the top level of
+    :data:`pftrack.config.CONFIG_SCHEMA`) and of their children, in schema order."""
+    from pftrack.config import CONFIG_SCHEMA, iter_fields
+
+    return list(iter_fields(CONFIG_SCHEMA if field is None else field))
+
+
+def _allowed(field: Any) -> str:
+    """A field's choices or range, and whether null is allowed, in words."""
+    parts = []
+    if field.choices:
+        parts.append(", ".join(f"`{c}`" for c in field.choices))
+    if field.range is not None:
+        lo, hi = field.range
+        parts.append(f"[{'' if lo is None else f'{lo:g}'}, {'' if hi is None else f'{hi:g}'}]"
+                     .replace("[, ", "(-∞, ").replace(", ]", ", ∞)"))
+    if field.length is not None:
+        parts.append(f"length {field.length}")
+    if field.kind and field.type == "component":
+        parts.append(f"a registered {field.kind} component "
+                     f"({{ref}}`list <config-kind-{field.kind}>`)")
+    if field.nullable:
+        parts.append("or `null`")
+    return "; ".join(parts) or "—"
+
+
+def _schema_table(fields: list[tuple[str, Any]]) -> list[str]:
+    out = ["| key | type | default | unit | allowed | description |",
+           "|---|---|---|---|---|---|"]
+    for path, f in fields:
+        out.append(f"| `{path}` | {_md_cell(f.type)} | "
+                   f"{'—' if f.default is None else _code(f.default)} | {_md_cell(f.unit) or '—'}"
+                   f" | {_allowed(f)} | {_md_cell(f.doc) or '—'} |")
+    return out
+
+
 def config_reference() -> str:
     """The configuration reference page (MyST Markdown), generated from the code: the top-level
     keys, the engine options, every registered component's parameters and every preset."""
@@ -273,20 +259,24 @@ def config_reference() -> str:
         "",
         "## Top-level keys",
         "",
-        "A run configuration is a YAML mapping with these keys (any other is an error naming the "
-        "file and the key). Each component section is `{type: NAME, params: {...}}`: `NAME` is a "
-        "registered name (below), `params` its constructor's keyword arguments; a parameter left "
-        "out takes its default.",
+        "A run configuration is a YAML mapping with these keys, from the schema "
+        "{data}`pftrack.config.CONFIG_SCHEMA` that `pftrack run` validates against (any other "
+        "key is an error naming the file and the key). Each component section is `{type: NAME, "
+        "params: {...}}`: `NAME` is a registered name (below), `params` its constructor's "
+        "keyword arguments; a parameter left out takes its default.",
         "",
-        "| key | value | description |",
-        "|---|---|---|",
     ]
-    for key, text in pipeline_keys().items():
-        spec, _, desc = text.partition("` ")
-        lines.append(f"| `{key}` | {_md_cell(spec + '`')} | {_md_cell(desc) or '—'} |")
-    lines += ["", "(config-tracker)=", "## `tracker:` engine options", "",
-              "Keyword arguments of {class}`pftrack.tracker.MultiTargetTracker`.", ""]
-    lines += _param_table(tracker_params())
+    lines += _schema_table([(p, f) for p, f in schema_fields() if "." not in p])
+    for path, field in schema_fields():
+        if "." not in path and field.type == "mapping" and field.children:
+            lines += ["", f"(config-{path})=", f"## `{path}:` keys", "", _md_cell(field.doc),
+                      ""]
+            lines += _schema_table([(f"{path}.{p}", f) for p, f in schema_fields(field)
+                                    if "." not in p])
+            for sub, f in schema_fields(field):
+                if "." not in sub and f.type == "mapping" and f.children:
+                    lines += ["", f"`{path}.{sub}:` {_md_cell(f.doc)}", ""]
+                    lines += _schema_table([(f"{path}.{sub}.{c.name}", c) for c in f.children])
     lines += ["", "## Components", "",
               "Every component registered by the installed plugins (this build's: "
               + ", ".join(f"`{p}`" for p in sorted(host.plugins)) + "). Units are read from "
@@ -294,7 +284,8 @@ def config_reference() -> str:
               "(a count, a ratio or a dimensionless weight).", ""]
     for kind, key in COMPONENT_KINDS.items():
         title = f"`{key}:`" if key == kind else key
-        lines += [f"### {kind.capitalize()} components {title if key == kind else ''}".rstrip(),
+        lines += [f"(config-kind-{kind})=",
+                  f"### {kind.capitalize()} components {title if key == kind else ''}".rstrip(),
                   ""]
         for name in host.names(kind):
             cls = host.get(kind, name)
