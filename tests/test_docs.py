@@ -45,12 +45,14 @@ def test_every_schema_key_is_on_the_page_with_its_default_and_unit(page):
     assert set(top) == set(CONFIG_KEYS) == {f.name for f in CONFIG_SCHEMA.children}
     tracker = _rows(page, "## `tracker:` keys")
     assert set(tracker) == {f"tracker.{k}" for k in TRACKER_KEYS}
-    # cells: type, default, unit, allowed, description
+    # cells: type, default, unit, description (with what is allowed)
     assert tracker["tracker.n_particles"][:2] == ["int", "`500`"]
+    assert tracker["tracker.n_particles"][3].endswith("Allowed: [1, ∞).")
     assert tracker["tracker.dt"][1:3] == ['`"auto"`', "motion model's time unit (s, or frames)"]
-    assert tracker["tracker.resampling"][3].startswith("`systematic`, `stratified`")
-    assert top["state"][3] == "`world`, `image`"
-    assert "a registered motion" in top["motion"][3]
+    assert "Allowed: one of `systematic`, `stratified`" in tracker["tracker.resampling"][3]
+    assert tracker["tracker.max_misses"][0] == "int or null"
+    assert top["state"][3].endswith("Allowed: one of `world`, `image`.")
+    assert "a registered {ref}`motion <config-kind-motion>` component" in top["motion"][3]
     detector = _rows(page, "## `detector:` keys")
     assert detector["detector.train.seed"][:2] == ["int", "`0`"]
     # every key of the schema, at any depth, has its row

@@ -218,10 +218,10 @@ def schema_fields(field: Any = None) -> list[tuple[str, Any]]:
 
 
 def _allowed(field: Any) -> str:
-    """A field's choices or range, and whether null is allowed, in words."""
+    """A field's choices, range, length or component kind, in words ('' when free)."""
     parts = []
     if field.choices:
-        parts.append(", ".join(f"`{c}`" for c in field.choices))
+        parts.append("one of " + ", ".join(f"`{c}`" for c in field.choices))
     if field.range is not None:
         lo, hi = field.range
         parts.append(f"[{'' if lo is None else f'{lo:g}'}, {'' if hi is None else f'{hi:g}'}]"
@@ -229,20 +229,19 @@ def _allowed(field: Any) -> str:
     if field.length is not None:
         parts.append(f"length {field.length}")
     if field.kind and field.type == "component":
-        parts.append(f"a registered {field.kind} component "
-                     f"({{ref}}`list <config-kind-{field.kind}>`)")
-    if field.nullable:
-        parts.append("or `null`")
-    return "; ".join(parts) or "—"
+        parts.append(f"a registered {{ref}}`{field.kind} <config-kind-{field.kind}>` component")
+    return "; ".join(parts)
 
 
 def _schema_table(fields: list[tuple[str, Any]]) -> list[str]:
-    out = ["| key | type | default | unit | allowed | description |",
-           "|---|---|---|---|---|---|"]
+    out = ["| key | type | default | unit | description |", "|---|---|---|---|---|"]
     for path, f in fields:
-        out.append(f"| `{path}` | {_md_cell(f.type)} | "
-                   f"{'—' if f.default is None else _code(f.default)} | {_md_cell(f.unit) or '—'}"
-                   f" | {_allowed(f)} | {_md_cell(f.doc) or '—'} |")
+        allowed = _allowed(f)
+        desc = _md_cell(f.doc) + (f" Allowed: {allowed}." if allowed else "")
+        typ = f.type + (" or null" if f.nullable else "")
+        out.append(f"| `{path}` | {_md_cell(typ)} | "
+                   f"{'—' if f.default is None else _code(f.default)} | "
+                   f"{_md_cell(f.unit) or '—'} | {desc or '—'} |")
     return out
 
 
