@@ -166,3 +166,22 @@ def test_api_pages_cover_the_public_modules(tmp_path):
     assert not [m for m in mods if m.startswith("pftrack.cli.") or "._" in m]
     text = (tmp_path / "pftrack.tracker.md").read_text()
     assert ".. automodule:: pftrack.tracker" in text
+
+
+def test_image_plane_example_builds_without_a_camera_and_tracks_in_pixels(tmp_path):
+    from pftrack.data import data_dir
+    from pftrack.pipeline import build_engine, load_config, run_pipeline
+
+    example = ROOT / "docs" / "examples" / "image-plane.yaml"
+    cfg = load_config(example)  # validated against the schema
+    assert cfg["state"] == "image"
+    engine = build_engine(cfg, camera=None)
+    assert type(engine.observation).__name__ == "ImageBoxObservation"
+    pets = data_dir() / "pets09"
+    if not (pets / "vtest.avi").is_file():
+        pytest.skip("PETS 2009 data not found (set PFTRACK_DATA)")
+    res = run_pipeline(example, video=pets / "vtest.avi", frames="201:260", out_dir=tmp_path,
+                       report=False, progress=False)
+    rows = res.rows
+    assert len(rows) > 0 and set(rows[:, 0].astype(int)) <= set(range(201, 261))
+    assert (rows[:, 7:10] == -1).all()  # no camera: no world position
