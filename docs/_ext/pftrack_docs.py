@@ -148,8 +148,15 @@ def _doc_params(cls: type) -> dict[str, tuple[str, str]]:
 
 
 def component_params(cls: type) -> list[dict[str, Any]]:
-    """Every constructor parameter of component class ``cls``: name, type, default, unit and
-    description (from a :class:`pftrack.components.Param` declaration or the docstring)."""
+    """Every constructor parameter of component class ``cls``.
+
+    Returns
+    -------
+    list of dict
+        One per parameter in signature order: ``name``, ``type``, ``default`` (the signature's;
+        ``inspect.Parameter.empty`` when required), ``unit`` (:func:`unit_of`) and ``doc`` (from
+        a :class:`pftrack.components.Param` declaration or the ``Parameters`` section).
+    """
     from pftrack.components import _declared
 
     declared = _declared(cls)
@@ -246,8 +253,14 @@ def _schema_table(fields: list[tuple[str, Any]]) -> list[str]:
 
 
 def config_reference() -> str:
-    """The configuration reference page (MyST Markdown), generated from the code: the top-level
-    keys, the engine options, every registered component's parameters and every preset."""
+    """The configuration reference page, generated from the code.
+
+    Returns
+    -------
+    str
+        MyST Markdown: the schema's keys (top level, then each section), every registered
+        component's parameters by kind, and every preset key by key.
+    """
     import yaml
 
     from pftrack.host import get_host
