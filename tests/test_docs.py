@@ -185,3 +185,17 @@ def test_image_plane_example_builds_without_a_camera_and_tracks_in_pixels(tmp_pa
     rows = res.rows
     assert len(rows) > 0 and set(rows[:, 0].astype(int)) <= set(range(201, 261))
     assert (rows[:, 7:10] == -1).all()  # no camera: no world position
+
+
+def test_cli_reference_has_every_command_and_its_options():
+    from pftrack.cli import build_parser
+
+    page = pftrack_docs.cli_reference()
+    commands = pftrack_docs._subparsers(build_parser())
+    assert {"run", "eval", "calib", "batch", "bench"} <= set(commands)
+    for name, parser in commands.items():
+        assert f"(cli-pftrack-{name})=\n## `pftrack {name}`" in page
+        for sub in pftrack_docs._subparsers(parser):
+            assert f"### `pftrack {name} {sub}`" in page
+    run = page[page.index("## `pftrack run`"):]
+    assert "--detector-model MODEL" in run and "--camera CAMERA" in run
