@@ -199,3 +199,24 @@ def test_cli_reference_has_every_command_and_its_options():
             assert f"### `pftrack {name} {sub}`" in page
     run = page[page.index("## `pftrack run`"):]
     assert "--detector-model MODEL" in run and "--camera CAMERA" in run
+
+
+def test_thumbnails_are_each_notebooks_first_picture(tmp_path, monkeypatch):
+    import base64
+
+    nbformat = pytest.importorskip("nbformat")
+    first, second = b"\x89PNG first", b"\x89PNG second"
+    monkeypatch.setattr(pftrack_docs, "NOTEBOOKS", {"a.ipynb": ({}, "root"),
+                                                    "b.ipynb": ({}, "root")})
+    a = nbformat.v4.new_notebook(cells=[nbformat.v4.new_markdown_cell("# A"),
+                                        nbformat.v4.new_code_cell("x", outputs=[
+        nbformat.v4.new_output("display_data", data={
+            "image/png": base64.b64encode(data).decode(), "text/plain": "<Figure>"})
+        for data in (first, second)])])
+    nbformat.write(a, tmp_path / "a.ipynb")
+    nbformat.write(nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("1")]),
+                   tmp_path / "b.ipynb")
+    thumbs = pftrack_docs.write_thumbnails(tmp_path)
+    assert thumbs["a.ipynb"].read_bytes() == first
+    blank = thumbs["b.ipynb"].read_bytes()
+    assert blank.startswith(b"\x89PNG") and len(blank) < 100

@@ -511,6 +511,32 @@ def execute_notebooks(out: Path, *, force: bool = False, log: Any = print) -> di
     return times
 
 
+def write_thumbnails(gallery: Path) -> dict[str, Path]:
+    """The first picture each executed notebook of ``gallery`` shows, as
+    ``gallery/_thumbs/NAME.png`` (a blank 1 x 1 picture for a notebook without one, e.g. an
+    unexecuted copy); returns the files by notebook name."""
+    import base64
+
+    import nbformat
+
+    blank = base64.b64decode("iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAQAAAC1HAwCAAAAC0lEQVR42mP8/x8AAwMB"
+                             "/6XKpQAAAABJRU5ErkJggg==")
+    out: dict[str, Path] = {}
+    for name in NOTEBOOKS:
+        nb = nbformat.read(gallery / name, as_version=4)
+        pngs = [o["data"]["image/png"] for c in nb.cells if c.cell_type == "code"
+                for o in c.get("outputs", []) if "image/png" in o.get("data", {})]
+        data = base64.b64decode(pngs[0]) if pngs else blank
+        dest = gallery / "_thumbs" / name.replace(".ipynb", ".png")
+        if not dest.is_file() or dest.read_bytes() != data:
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            tmp = dest.with_suffix(".png.tmp")
+            tmp.write_bytes(data)
+            os.replace(tmp, dest)
+        out[name] = dest
+    return out
+
+
 # --------------------------------------------------------------------------------------------
 # Sphinx
 # --------------------------------------------------------------------------------------------
@@ -540,12 +566,14 @@ def _generate(app: Any) -> None:
             dest = DOCS / "gallery" / name
             if not dest.is_file():
                 shutil.copyfile(ROOT / "notebooks" / name, dest)
+        write_thumbnails(DOCS / "gallery")
         return
     times = execute_notebooks(DOCS / "gallery",
                               force=os.environ.get("PFTRACK_DOCS_REEXECUTE") == "1",
                               log=logger.info)
     for name, sec in times.items():
         logger.info(f"pftrack docs: {name} executed in {sec:.0f} s")
+    write_thumbnails(DOCS / "gallery")
 
 
 def setup(app: Any) -> dict[str, Any]:
