@@ -85,6 +85,14 @@ def test_every_component_parameter_has_a_row_with_its_default(page):
     assert n > 150  # the built-in plugins declare over 200 parameters
 
 
+def test_report_writers_are_listed(page):
+    from pftrack.host import get_host
+
+    rows = _rows(page, "### Report writers `report: {writer: NAME}`")
+    assert set(rows) == set(get_host().names("report")) and "tracks" in rows
+    assert rows["tracks"][0] == "`basic`"
+
+
 def test_param_declarations_give_type_doc_and_unit():
     from pftrack.host import get_host
 

@@ -310,6 +310,13 @@ def config_reference() -> str:
             rows = component_params(cls)
             lines += _param_table(rows) if rows else ["No parameters."]
             lines.append("")
+    writers = host.names("report")
+    lines += ["(config-kind-report)=", "### Report writers `report: {writer: NAME}`", "",
+              "| name | plugin | what it draws |", "|---|---|---|"]
+    for name in writers:
+        entry = host.registry.get("report", name)
+        lines.append(f"| `{name}` | `{entry.plugin}` | {_md_cell(entry.obj.summary)} |")
+    lines += [""]
     lines += ["## Presets", "",
               "The configurations the plugins ship (`pftrack presets --show NAME` prints one; "
               "`pftrack run NAME ...` runs it). Each key the preset sets, with the component's "
