@@ -88,3 +88,16 @@ def test_load_config_validates(tmp_path, pets):
     cfg["tracker"]["n_particles"] = 200
     p.write_text(yaml.safe_dump(cfg))
     assert load_config(str(p))["tracker"]["n_particles"] == 200
+
+
+def test_composite_terms_are_checked(pets):
+    cfg = copy.deepcopy(pets)
+    cfg["likelihood"]["params"]["terms"][1]["likelihood"]["params"]["bnis"] = 16
+    cfg["likelihood"]["params"]["terms"][2]["likelihood"]["type"] = 5
+    with pytest.raises(ConfigError) as info:
+        validate_config(cfg, source="x.yaml")
+    msgs = [str(i) for i in info.value.issues]
+    assert msgs[0].startswith("likelihood.params.terms[1].likelihood.params.bnis: unknown "
+                              "parameter of likelihood 'emd'") and "did you mean 'bins'" in msgs[0]
+    assert msgs[1].startswith("likelihood.params.terms[2].likelihood.type: expected a registered "
+                              "likelihood name")

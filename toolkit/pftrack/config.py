@@ -359,12 +359,33 @@ def _check_component(f: Field, v: Any, path: str, out: list[ConfigIssue], host: 
             return
         out.extend(component_param_issues(f.kind or "", v["type"], dict(params),
                                           f"{path}.params", host))
+        _check_nested(params, f"{path}.params", out, host)
     elif f.name == "observation":
         # legacy form: the default observation model's parameters (checked in validate_config,
         # which knows the state)
         return
     else:
         out.append(ConfigIssue(path, f"expected {f.expected()}, got a mapping without 'type'"))
+
+
+_NESTED_KINDS = ("likelihood", "detector", "motion", "observation", "associator")
+
+
+def _check_nested(params: Mapping[str, Any], path: str, out: list[ConfigIssue],
+                  host: Any) -> None:
+    """Component specs inside parameters (a composite likelihood's ``terms: [{likelihood:
+    {type, params}, weight}]``): checked as components of their kind."""
+    for key, val in params.items():
+        if not isinstance(val, list):
+            continue
+        for i, item in enumerate(val):
+            if not isinstance(item, Mapping):
+                continue
+            for kind in _NESTED_KINDS:
+                spec = item.get(kind)
+                if isinstance(spec, Mapping) and "type" in spec:
+                    _check_component(_component(kind, kind, ""), spec,
+                                     f"{path}.{key}[{i}].{kind}", out, host)
 
 
 _SIMPLE_TYPES = {"int": _is_int, "float": _is_number, "bool": lambda x: isinstance(x, bool),

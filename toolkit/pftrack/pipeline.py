@@ -115,7 +115,7 @@ def load_config(spec: str | os.PathLike[str] | dict[str, Any]) -> dict[str, Any]
         raise ValueError(f"config {where}: state must be 'world' or 'image', got "
                          f"{cfg.get('state')!r}")
     for key, allowed in (("tracker", TRACKER_KEYS),):
-        bad = set(cfg.get(key) or {}) - allowed
+        bad = set(cfg.get(key) or {}) - allowed if isinstance(cfg.get(key), dict) else set()
         if bad:
             raise ValueError(f"config {where}: unknown {key} options {sorted(bad)}; known: "
                              f"{sorted(allowed)}")
@@ -216,7 +216,7 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
     # checked before training, not after it
     if out is not None:
         check_output_file(out, "--out")
-    check_input_file(video, "--video")
+    check_input_file(video, "video")
     check_input_file(gt, "--gt")
     cfg = cfg or {"detector": {"type": "svm", "params": {}}}
     det_cfg = dict(cfg.get("detector") or {"type": "svm"})
@@ -437,15 +437,16 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     detections : dict {frame: Detections}, optional
         Precomputed detections (another run's ``RunResult.detections``): the detector is not run.
     """
-    from pftrack.io.outputs import check_input_file, check_output_dir
+    from pftrack.io.outputs import check_input_file, check_output_tree
 
     cfg = load_config(config)
     # everything that can be checked is checked before the first frame
     if out_dir is not None:
-        check_output_dir(out_dir)
+        check_output_tree(out_dir, {"tracks.txt": "file", "metrics.json": "file",
+                                    "report": "dir"})
     if report and out_dir is not None:
         report_writer(cfg)  # an unknown writer stops the run before it tracks, not after
-    for option, path in (("--video", video), ("--gt", gt), ("--detector-model", detector_model),
+    for option, path in (("video", video), ("--gt", gt), ("--detector-model", detector_model),
                          ("--camera", camera if isinstance(camera, (str, os.PathLike)) else None)):
         if path is not None:
             check_input_file(path, option)
@@ -508,10 +509,7 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     if n == 0:
         raise ValueError(f"video {video}: no frame decoded in frames {first}.."
                          f"{'' if last is None else last}")
-    renumber = source.verify()  # frames lost in damaged data: true numbers from the index
     rows = records_to_mot(records)
-    if renumber:
-        rows, dets_out, keep_frames = _renumbered(renumber, rows, dets_out, keep_frames)
     _warn_frames(source.report)
     if len(rows):
         rows = rows[np.lexsort((rows[:, 1], rows[:, 0]))]
@@ -526,11 +524,6 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     metrics = None
     gt_rows = None
     if gt_all is not None:
-        if any(a for a, k in source.report.gaps if k == 0):
-            raise ValueError(
-                f"video {video}: frames lost in damaged data could not be located; frame numbers "
-                f"after frame {min(a for a, k in source.report.gaps if k == 0)} are unknown, so "
-                "the run is not scored (re-encode the video, or limit --frames before it)")
         # scored over the frames actually tracked, and said so
         tracked = np.asarray(source.report.indices, dtype=np.int64)
         gt_rows = gt_all[np.isin(gt_all[:, 0].astype(np.int64), tracked)]
@@ -546,7 +539,9 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
         metrics.update(timing)
         metrics.update({"frames_tracked": len(tracked), "gt_frames_scored": n_scored,
                         "gt_frames_in_range": n_gt_frames,
-                        "frame_problems": source.report.problems()})
+                        "frame_problems": source.report.problems(),
+                        # frames lost somewhere in the file: later numbers may be off
+                        "frame_numbers_verified": source.report.numbers_trusted})
     result = RunResult(rows, dets_out, timing, metrics, None, n)
     if out_dir is not None:
         result.out_dir = write_outputs(out_dir, cfg, result, cam, keep_frames, gt_rows)
@@ -563,22 +558,6 @@ def _warn_frames(report: Any) -> None:
 
     for line in report.problems():
         warnings.warn(line, FrameWarning, stacklevel=3)
-
-
-def _renumbered(mapping: dict[int, int | None], rows: np.ndarray,
-                dets: dict[int, Detections], frames: dict[int, np.ndarray]
-                ) -> tuple[np.ndarray, dict[int, Detections], dict[int, np.ndarray]]:
-    """Rows, detections and kept frames with the true frame numbers (rows of frames whose
-    number is unknown dropped)."""
-    if len(rows):
-        old = rows[:, 0].astype(np.int64)
-        new = np.array([mapping.get(int(f), int(f)) if mapping.get(int(f), int(f)) is not None
-                        else -1 for f in old], dtype=np.int64)
-        rows = rows[new >= 0].copy()
-        rows[:, 0] = new[new >= 0]
-    def move(d: dict) -> dict:
-        return {mapping.get(k, k): v for k, v in d.items() if mapping.get(k, k) is not None}
-    return rows, move(dets), move(frames)
 
 
 def _report_frames(first: int, last: int | None) -> set[int]:

@@ -416,7 +416,14 @@ class MultiTargetTracker:
         logls = []
         for f in filters:
             t = f.target
-            logl = self.likelihood.log_likelihood(t.particle_boxes_xywh_px, t)
+            try:
+                logl = self.likelihood.log_likelihood(t.particle_boxes_xywh_px, t)
+            except (ValueError, OSError) as exc:  # bad input met at run time: still exit 2
+                raise ValueError(f"{self._who(self.likelihood)}: {exc}") from exc
+            except Exception as exc:
+                raise ComponentOutputError(
+                    f"{self._who(self.likelihood)} raised {type(exc).__name__}: {exc} (frame "
+                    f"{frame.index}, target {t.id})") from exc
             if type(logl) is not np.ndarray or logl.dtype != np.float64:
                 logl = self._checked_dtype(logl)
             if logl.shape != (len(f.particles),):

@@ -75,6 +75,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not getattr(args, "func", None):
             parser.print_help()
             return 2
+        _errors.precheck_out(args)
         code = int(args.func(args) or 0)
         sys.stdout.flush()
         return code

@@ -93,6 +93,21 @@ def handle(command: str | None, exc: BaseException, debug: bool, inputs: str = "
     return EXIT_INTERNAL
 
 
+def precheck_out(args: Any) -> None:
+    """Before any command works: its ``--out`` (file or folder) must not lie under a regular
+    file, and the folder it would be written in must be writable."""
+    out = getattr(args, "out", None)
+    if not isinstance(out, (str, os.PathLike)) or not str(out):
+        return
+    from pathlib import Path
+
+    from pftrack.io.outputs import check_output_dir
+
+    p = Path(out)
+    check_output_dir(p.parent if not p.is_dir() else p, option=f"--out {p}: folder"
+                     if not p.is_dir() else "--out")
+
+
 def inputs_of(args: Any) -> str:
     """The files a command was given (its arguments that name existing paths), for the line of
     an internal error."""

@@ -165,11 +165,10 @@ def _chessboard(args: argparse.Namespace) -> int:
 
 
 def _points(args: argparse.Namespace) -> int:
-    from pftrack.geometry.calibration import calibrate_points, read_correspondences
-    from pftrack.geometry.formats import load_camera
-
     import cv2
 
+    from pftrack.geometry.calibration import calibrate_points, read_correspondences
+    from pftrack.geometry.formats import load_camera
     from pftrack.io.outputs import check_output_file
 
     if args.out:

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 
-
 MAX_SIDE_PX = 8192
 
 

@@ -30,6 +30,7 @@ __all__ = [
     "check_input_file",
     "check_output_dir",
     "check_output_file",
+    "check_output_tree",
     "clean_stale",
 ]
 
@@ -71,6 +72,22 @@ def check_output_dir(path: str | os.PathLike[str], option: str = "--out") -> Pat
     base = _nearest_existing(p)
     if not os.access(base, os.W_OK | os.X_OK):
         raise PermissionError(f"{option} {p}: folder {base} is not writable")
+    return p
+
+
+def check_output_tree(path: str | os.PathLike[str], outputs: dict[str, str],
+                      option: str = "--out") -> Path:
+    """:func:`check_output_dir`, and every existing output of ``outputs`` (name -> ``"file"``
+    or ``"dir"``) of the right kind, so that replacing them cannot fail half-way."""
+    p = check_output_dir(path, option)
+    for name, kind in outputs.items():
+        q = p / name
+        if kind == "dir" and q.exists() and not q.is_dir():
+            raise NotADirectoryError(f"{option} {p}: {q} is a file, where the run writes a "
+                                     "folder; move it away")
+        if kind == "file" and q.is_dir():
+            raise IsADirectoryError(f"{option} {p}: {q} is a folder, where the run writes a "
+                                    "file; move it away")
     return p
 
 
@@ -215,5 +232,8 @@ class OutputSet:
     def __exit__(self, exc_type, exc, tb) -> None:
         if exc_type is None:
             self.commit()
-        else:
-            self.abort()
+            return
+        self.abort()
+        if isinstance(exc, OSError) and exc.filename is None and exc.errno is not None:
+            # a write that failed without naming its file (a full disk): name the folder
+            raise OSError(exc.errno, exc.strerror or str(exc), str(self.out)) from exc
