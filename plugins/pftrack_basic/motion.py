@@ -11,8 +11,7 @@ Models
 ------
 :class:`RandomWalkMotion` (``random-walk``)
     Seed 000: the box centre ``(x, y)`` in pixels moves by Gaussian noise only.
-:class:`ConstantVelocity2DMotion`, :class:`ConstantVelocity3DMotion`
-(``constant-velocity-2d``, ``constant-velocity-3d``)
+:class:`ConstantVelocity2DMotion`, :class:`ConstantVelocity3DMotion` (``constant-velocity-2d/3d``)
     Seed 003 eq. 5-7: ``x_t = F x_{t-1} + W`` with the velocity taken as the displacement just made
     (eq. 7), state ``(x, y[, z], vx, vy[, vz])``.
 :class:`ConstantAccelerationMotion` (``constant-acceleration``)

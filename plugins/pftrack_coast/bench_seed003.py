@@ -12,11 +12,11 @@
     ground truth's world positions, matched within 1 m;
   - ``median_error_m``: ground-plane distance of the track/ground-truth pairs matched within 1 m
     frame by frame;
-  - ``entry_error_frames``, ``exit_error_frames``: per person, |the first (last) frame a track
+  - ``entry_error_frames``, ``exit_error_frames``: per person, ``|the first (last) frame a track
     is matched to them within 1 m - the first (last) frame the ground truth has them inside the
-    volume| (identity is IDF1's business); the medians, and ``entry_exit_within_10`` the
+    volume|`` (identity is IDF1's business); the medians, and ``entry_exit_within_10`` the
     fraction of people with both within 10 frames (a person never matched counts as outside);
-  - ``size_error_m``: median |estimated - true| size per axis (x = width across the view, y =
+  - ``size_error_m``: median ``|estimated - true|`` size per axis (x = width across the view, y =
     depth along the view, z = height; the truth a person's 0.5 x 0.5 x 1.75 m) over the
     estimates matched within 1 m: after the support-plane correction, and ``size_error_raw_m``
     the paper's eq. 10 (2 sqrt of the particles' variance along the same axes);

@@ -206,10 +206,10 @@ class BlockEigenspaceModel:
     raw block would add the mean's own projection ``(E^T mean)_i``, large for any bright block,
     and flag a background that merely has high grey levels.
 
-    Attributes (after :meth:`fit`)
-    ------------------------------
+    Attributes
+    ----------
     grid_shape_ : (int, int)
-        Blocks per column and per row, (rows, cols).
+        Blocks per column and per row, (rows, cols); this and the others are set by :meth:`fit`.
     image_shape_ : (int, int)
         (H, W) of the training frames; frames scored must have it.
     mean_ : ndarray, shape (B, P)

@@ -280,7 +280,7 @@ class VolumeTracks(TrackManager):
 
     volumes: Sequence[str | dict] | str = Param(
         ("near", "far"), "Detection volumes: names (built in, or defined in the shipped "
-        "calib/*.yaml), 'FILE' (every volume of a volumes YAML) / 'FILE:NAME', or volume "
+        "``calib/*.yaml``), 'FILE' (every volume of a volumes YAML) / 'FILE:NAME', or volume "
         "mappings as in a volumes file.")
     entry_particles: int = Param(50, "N_m: an entry when at least this many particles of a "
                                      "detection group have likelihood above v_pi.")

@@ -19,15 +19,15 @@ Data flow::
 
 Sources (``source=``)
 ---------------------
-=================  ==========================================  =================================
-name               kloppy files                                continuous play, players, rate
-=================  ==========================================  =================================
-``hawkeye``        ``hawkeye_1_1.football.samples.*`` + meta   60 s, 22, 50 Hz (default)
-``hawkeye-2``      ``hawkeye_2_46.football.samples.*`` + meta  60 s, 22, 50 Hz (2nd half)
-``pff``            ``pff_10517.jsonl`` + metadata + rosters    8 clips of 0.83 s, 22, 29.97 Hz
-``sportec``        ``sportec_positional.xml`` + meta           2 x 4 s, 1-3 players, 25 Hz
-``skillcorner``    ``skillcorner_structured_data.json`` + meta broadcast (players in view), 10 Hz
-=================  ==========================================  =================================
+=================  ===========================================  ================================
+name               kloppy files                                 continuous play, players, rate
+=================  ===========================================  ================================
+``hawkeye``        ``hawkeye_1_1.football.samples.*`` + meta    60 s, 22, 50 Hz (default)
+``hawkeye-2``      ``hawkeye_2_46.football.samples.*`` + meta   60 s, 22, 50 Hz (2nd half)
+``pff``            ``pff_10517.jsonl`` + metadata + rosters     8 clips of 0.83 s, 22, 29.97 Hz
+``sportec``        ``sportec_positional.xml`` + meta            2 x 4 s, 1-3 players, 25 Hz
+``skillcorner``    ``skillcorner_structured_data.json`` + meta  broadcast (players in view), 10 Hz
+=================  ===========================================  ================================
 
 Only Hawk-Eye holds >= 20 s of continuous play with all 22 players, so it is the default; the
 other sources load, but a window longer than their longest continuous run raises a ValueError

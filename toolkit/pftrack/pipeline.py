@@ -4,6 +4,8 @@ A configuration (a YAML file, or the name of a preset a plugin registered) names
 by their registered names; this module builds them through the plugin host, so every component of
 a run is replaceable by a third-party plugin::
 
+    name: str                     the run's name (report titles, progress bar)
+    description: str              one paragraph: what the configuration tracks and how
     state: world | image          default observation: camera-box (ground plane) or image-box
     observation: {type, params}   a registered observation model (legacy: its parameters only)
     motion: {type, params}        a registered motion model
@@ -12,13 +14,14 @@ a run is replaceable by a third-party plugin::
                                   ``detect: false``: trained (``pftrack detector train``) and its
                                   model handed to the components (``--detector-model``), not run
                                   per frame (seed 003: the eigenspace likelihood's model)
-    associator: {type, params}
+    associator: {type, params}    a registered associator (detections to targets; none: no detector)
     tracks: {type, params}        a registered track manager (default ``confirmed``)
     births: {...}                 legacy: the ``confirmed`` track manager's parameters
     tracker: {...}                engine options (n_particles, max_misses, dt, ...)
     valid_region_m: [x0, x1, y0, y1]   optional ground rectangle (metres) people live in
     detections: FILE              optional MOTChallenge det.txt (relative to the YAML file):
                                   these detections are tracked and the detector is not run
+    report: {writer}              the registered report writer of ``report/*.png`` (``tracks``)
 
 Data flow per frame: video frame -> detector (timed on its own) -> the one engine,
 :meth:`pftrack.tracker.MultiTargetTracker.step` (predict, associate, weight, estimate, resample,

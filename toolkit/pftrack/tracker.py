@@ -79,6 +79,13 @@ class ImageBoxObservation(ObservationModel):
 
     With ``size_from_box=True`` each target keeps the size of the box it was started from
     (``target.box_wh_px``), e.g. each person's ground-truth size at initialisation.
+
+    Parameters
+    ----------
+    width_px, height_px : float
+        The box size, pixels.
+    size_from_box : bool
+        Each target keeps the size of the box it was started from.
     """
 
     def __init__(self, width_px: float = 30.0, height_px: float = 30.0,
