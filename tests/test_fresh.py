@@ -96,6 +96,34 @@ def test_too_few_people_falls_back_to_the_image_plane(tmp_path):
 
 
 @needs_pets
+def test_an_earlier_camera_does_not_stay_beside_image_plane_tracks(tmp_path):
+    det = tmp_path / "det.txt"
+    det.write_text("".join(f"{f},-1,{100 + 2 * f},100,30,90,0.9\n" for f in range(1, 11)))
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "camera.yaml").write_text("an earlier run's estimate\n")
+    res = track_video(PETS / "vtest.avi", out, detections=det, frames="1:10", report=False)
+    assert res.summary["state"] == "image" and "camera_file" not in res.summary
+    assert not (out / "camera.yaml").exists()
+
+
+@needs_pets
+def test_track_checks_its_outputs_before_detecting(tmp_path, monkeypatch):
+    import pftrack.fresh as fresh
+
+    def no_detection(*a, **k):
+        raise AssertionError("the detector ran before --out was checked")
+
+    monkeypatch.setattr(fresh, "detect_video", no_detection)
+    out = tmp_path / "o"
+    (out / "summary.json").mkdir(parents=True)
+    with pytest.raises(IsADirectoryError, match="summary.json is a folder"):
+        track_video(PETS / "vtest.avi", out, frames="1:10", report=False)
+    with pytest.raises(FileNotFoundError, match="--gt .*none.txt not found"):
+        track_video(PETS / "vtest.avi", tmp_path / "p", gt=tmp_path / "none.txt")
+
+
+@needs_pets
 def test_pitch_blob_takes_the_run_camera_file(tmp_path):
     """Issue 16 item 7: ``pftrack run soccer-ground --camera calib/soccer_seed001.yaml`` stopped
     with ``TypeError: expected str ... not Camera`` in pitch-blob; the run's camera object is

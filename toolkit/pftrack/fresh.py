@@ -244,6 +244,10 @@ class FreshResult:
     messages: list[str] = field(default_factory=list)
 
 
+#: the files ``pftrack track`` writes into its folder besides ``run_pipeline``'s ``report/``
+TRACK_OUTPUTS = ("tracks.txt", "metrics.json", "summary.json", "camera.yaml")
+
+
 def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] | None, *,
                 camera: Any = None, detections: Any = None, preset: Any = None,
                 frames: Any = None, seed: int = 0, person_height_m: float = 1.7,
@@ -275,9 +279,16 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
     from pftrack.io.detections import read_detections
     from pftrack.pipeline import _load_camera, load_config, run_pipeline
 
-    video = Path(video)
-    if not video.is_file():
-        raise FileNotFoundError(f"video {video} not found")
+    from pftrack.io.outputs import check_input_file, check_output_tree
+
+    # everything that can be checked is checked before the detector's pass over the video
+    video = check_input_file(video, "video")
+    for option, path in (("--gt", gt), ("--camera", camera), ("--detections", detections)):
+        if isinstance(path, (str, os.PathLike)):
+            check_input_file(path, option)
+    if out_dir is not None:
+        check_output_tree(out_dir, {**{name: "file" for name in TRACK_OUTPUTS},
+                                    "report": "dir"})
     messages: list[str] = []
     t0, c0 = time.perf_counter(), time.process_time()
     cam = _load_camera(camera)
@@ -347,6 +358,11 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
 
             save_camera(fit.camera, out / "camera.yaml")
             summary["camera_file"] = str(out / "camera.yaml")
+        elif (out / "camera.yaml").is_file() and not (
+                isinstance(camera, (str, os.PathLike))
+                and Path(camera).resolve() == (out / "camera.yaml").resolve()):
+            # an earlier run's estimate beside this run's tracks would pass for their camera
+            (out / "camera.yaml").unlink()
         atomic_write_text(out / "summary.json",
                           json.dumps(summary, indent=2, default=float) + "\n")
     return FreshResult(summary, run, fit, messages)
