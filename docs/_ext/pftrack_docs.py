@@ -6,8 +6,10 @@ A small Sphinx extension (``docs/conf.py`` loads it). On ``builder-inited`` it w
 * ``config_reference.md``: every key of a run configuration with its type, default, unit and
   range (from the schema :data:`pftrack.config.CONFIG_SCHEMA`), every parameter of every
   component the plugin host registers (its signature's default, its ``Parameters`` docstring
-  entry or :class:`pftrack.components.Param` declaration; the unit read off its name or its
-  description), and every preset, key by key with the component's default beside it;
+  entry or :class:`pftrack.components.Param` declaration; the unit as the declaration's
+  ``unit=`` or the description's closing ``Unit: X.`` states it, else read off the name's
+  suffix or the description), and every preset, key by key with the component's default beside
+  it;
 * ``cli_reference.md``: every command's ``--help``;
 * ``api/*.md``: one autodoc page per public module of the core and of the built-in plugins;
 
@@ -65,6 +67,10 @@ _DOC_UNITS = [  # a unit stated as such: ", metres", "in pixels", "(s)", "px." .
     (r"frames", "frames"), (r"degrees|deg", "deg"), (r"radians|rad", "rad"),
 ]
 _UNIT_CONTEXT = r"(?:, |\bin |\()(?:{})(?=[.;)]|$)"
+# a unit stated as the description's last sentence: "... Unit: px."
+_STATED_UNIT = re.compile(r"(?:^|\s)Unit: ([^\s.][^\n]*?)\.?\s*$")
+#: The stated unit of a number that is not a quantity (a seed, an index): shown as ``—``.
+NOT_A_QUANTITY = "none"
 
 
 # --------------------------------------------------------------------------------------------
@@ -97,6 +103,28 @@ def unit_of(name: str, doc: str) -> str:
         if re.search(_UNIT_CONTEXT.format(pattern), doc.strip()):
             return unit
     return ""
+
+
+def stated_unit(doc: str) -> tuple[str | None, str]:
+    """The unit a description states in its closing ``Unit: X.`` sentence.
+
+    Parameters
+    ----------
+    doc : str
+        A parameter's description.
+
+    Returns
+    -------
+    unit : str or None
+        ``X`` (``"none"``: a number that is not a quantity); None when the description states no
+        unit.
+    doc : str
+        The description without that sentence.
+    """
+    m = _STATED_UNIT.search(doc)
+    if not m:
+        return None, doc
+    return m.group(1).strip(), doc[:m.start()].rstrip()
 
 
 def parameters_section(doc: str) -> dict[str, tuple[str, str]]:
@@ -155,8 +183,13 @@ def component_params(cls: type) -> list[dict[str, Any]]:
     -------
     list of dict
         One per parameter in signature order: ``name``, ``type``, ``default`` (the signature's;
-        ``inspect.Parameter.empty`` when required), ``unit`` (:func:`unit_of`) and ``doc`` (from
-        a :class:`pftrack.components.Param` declaration or the ``Parameters`` section).
+        ``inspect.Parameter.empty`` when required), ``unit`` (the stated one, from a
+        :class:`pftrack.components.Param` declaration's ``unit`` or the description's closing
+        ``Unit: X.``; otherwise :func:`unit_of`; ``""`` for none or for ``"none"``),
+        ``unit_source`` (``"stated"``, ``"name"`` for a name suffix, ``"text"`` for a unit
+        word of the description, ``""``), ``doc`` (the description from the declaration or the
+        ``Parameters`` section, without its ``Unit:`` sentence) and ``numeric`` (whether the
+        type or the default is a number or numbers, booleans excluded).
     """
     from pftrack.components import _declared
 
@@ -168,14 +201,41 @@ def component_params(cls: type) -> list[dict[str, Any]]:
             continue
         if p.name in declared:
             typ, doc = declared[p.name].type_doc, declared[p.name].doc
+            unit = declared[p.name].unit
+            if unit is None:
+                unit, doc = stated_unit(doc)
         else:
             typ, doc = documented.get(p.name, ("", ""))
+            unit, doc = stated_unit(doc)
         if not typ and p.annotation is not inspect.Parameter.empty:
             typ = p.annotation if isinstance(p.annotation, str) else getattr(
                 p.annotation, "__name__", str(p.annotation))
-        rows.append({"name": p.name, "type": typ, "default": p.default,
-                     "unit": unit_of(p.name, doc), "doc": doc})
+        if unit is not None:
+            source = "stated"
+            unit = "" if unit == NOT_A_QUANTITY else unit
+        else:
+            unit = unit_of(p.name, doc)
+            source = ("name" if any(p.name.endswith(k) for k in _NAME_UNITS) else "text") \
+                if unit else ""
+        rows.append({"name": p.name, "type": typ, "default": p.default, "unit": unit,
+                     "unit_source": source, "doc": doc,
+                     "numeric": is_numeric(typ, p.default)})
     return rows
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def is_numeric(typ: str, default: Any) -> bool:
+    """Whether a parameter takes a number or numbers: its documented type names ``int`` or
+    ``float``, or its default is a number or a sequence of numbers (``bool`` is not a number)."""
+    if re.search(r"\b(int|float)\b", str(typ)):
+        return True
+    if _is_number(default):
+        return True
+    return isinstance(default, (tuple, list)) and bool(default) and all(
+        _is_number(v) for v in default)
 
 
 def _param_table(rows: list[dict[str, Any]]) -> list[str]:
@@ -292,9 +352,19 @@ def config_reference() -> str:
                     lines += _schema_table([(f"{path}.{sub}.{c.name}", c) for c in f.children])
     lines += ["", "## Components", "",
               "Every component registered by the installed plugins (this build's: "
-              + ", ".join(f"`{p}`" for p in sorted(host.plugins)) + "). Units are read from "
-              "the parameter's name (`_m`, `_px`, ...) or its description; `—`: none stated "
-              "(a count, a ratio or a dimensionless weight).", ""]
+              + ", ".join(f"`{p}`" for p in sorted(host.plugins)) + "). The unit column, "
+              "as each component states it (a `Param`'s `unit`, or a description's closing "
+              "`Unit: X.`; a third-party parameter that states none: read off its name, "
+              "`_m`, `_px`, ...): `px` image pixels, `m` world metres, `s` seconds, `frames` "
+              "video frames, `frames/s` a frame rate, `grey levels` 8-bit intensity steps; "
+              "`state units (m or px)`: the motion model's state, metres in world "
+              "coordinates, pixels in the image plane; `dt`: the tracker's time step "
+              "(`tracker.dt`: seconds, or frames), so a noise `per √dt` is the standard "
+              "deviation of one step of `dt = 1`; `1`: a dimensionless number (a ratio, a "
+              "fraction, a probability, a weight, a score); `count`: a number of things "
+              "(bins, particles, samples); `detector score`: the detector's own score "
+              "c(det). `—`: not a quantity (a name, a flag, a list of names, a file, a random "
+              "seed, an index into the state vector).", ""]
     for kind, key in COMPONENT_KINDS.items():
         title = f"`{key}:`" if key == kind else key
         lines += [f"(config-kind-{kind})=",

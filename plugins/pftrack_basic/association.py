@@ -128,7 +128,9 @@ class GreedyIoUAssociator(_BoxAssociator):
     Parameters
     ----------
     metric : {"iou", "distance"}
+        Compare boxes by overlap or by centre distance (as :class:`HungarianIoUAssociator`).
     min_iou : float
+        Gate for ``metric="iou"``: pairs with IoU below are not matched.
     max_distance_px : float
         As for :class:`HungarianIoUAssociator`.
     """

@@ -257,6 +257,8 @@ class EMDLikelihood(Likelihood):
     bins : int
         Bins per channel.
     colour_space : {"bgr", "hsv", "lab"}
+        Colour space the 8-bit channels are converted to before they are binned (OpenCV's
+        full-range HSV, or Lab); "bgr": the frame's own channels, as the paper.
     sigma : float
         Scale of the distance (in [0, 1] units).
     grid_wh : (int, int)

@@ -446,6 +446,10 @@ class SoccerScene(Scene):
     camera : str or path, optional
         Camera file readable by :func:`pftrack.geometry.formats.load_camera`; default the
         project's soccer camera in ``calib/`` (:func:`default_soccer_camera_path`).
+    volume : str
+        The pitch drawn and played on: a :class:`~pftrack.geometry.volumes.SoccerPitchVolume`
+        by name (:func:`pftrack.geometry.volumes.resolve_volume`, ``calib/volumes.yaml``), in
+        the camera's world frame.
     image_size : (int, int)
         Output (width, height) in pixels. When it differs from the camera's, the camera's
         intrinsics are scaled to it.

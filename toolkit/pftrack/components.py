@@ -275,18 +275,35 @@ class Param:
     """A declared parameter of a component (as Stone Soup's ``Property``)::
 
         class MyLikelihood(Likelihood):
-            sigma: float = Param(1.0, "Noise standard deviation, pixels.")
+            sigma: float = Param(1.0, "Noise standard deviation.", unit="px")
 
     A component class that declares parameters this way and defines no ``__init__`` of its own
     gets one that takes them as keyword arguments (those of its bases first, in declaration
     order) and stores each unchanged as an attribute of the same name; its docstring gets a
     numpydoc ``Parameters`` section built from the declarations (types from the annotations).
     A subclass inherits its bases' declarations and may redeclare one (a new default or doc).
+
+    Parameters
+    ----------
+    default : object, optional
+        The value a component gets when the keyword is left out (none: the keyword is required).
+    doc : str
+        What the parameter does, one or more sentences.
+    unit : str, optional
+        The unit of a numeric parameter, in the words of the configuration reference: ``"px"``,
+        ``"m"``, ``"m/s"``, ``"s"``, ``"frames"``, ``"deg"``, ``"grey levels"``, ``"1"``
+        (dimensionless: a ratio, fraction, probability or weight), ``"count"`` (a number of
+        things), ``"none"`` (a number that is not a quantity: a seed, an index). None: the
+        parameter is not a number (a name, a flag, a list of names). The generated
+        ``Parameters`` section ends the description with ``Unit: <unit>.``, the convention a
+        component documenting its ``__init__`` by hand follows too.
     """
 
-    def __init__(self, default: Any = _NO_DEFAULT, doc: str = "") -> None:
+    def __init__(self, default: Any = _NO_DEFAULT, doc: str = "", unit: str | None = None,
+                 ) -> None:
         self.default = default
         self.doc = doc
+        self.unit = unit
         self.name = ""
         self.type_doc = ""
 
@@ -312,8 +329,10 @@ def _params_section(params: dict[str, Param]) -> str:
     lines = ["Parameters", "----------"]
     for p in params.values():
         lines.append(f"{p.name} : {p.type_doc}" if p.type_doc else p.name)
-        lines.extend(textwrap.wrap(" ".join(p.doc.split()), 92, initial_indent="    ",
-                                   subsequent_indent="    "))
+        text = " ".join(p.doc.split())
+        if p.unit:
+            text = f"{text} Unit: {p.unit}." if text else f"Unit: {p.unit}."
+        lines.extend(textwrap.wrap(text, 92, initial_indent="    ", subsequent_indent="    "))
     return "\n".join(lines)
 
 
