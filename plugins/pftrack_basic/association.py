@@ -101,9 +101,10 @@ class HungarianIoUAssociator(_BoxAssociator):
     metric : {"iou", "distance"}
         Compare boxes by overlap or by centre distance.
     min_iou : float
-        Gate for ``metric="iou"``: pairs with IoU below are not matched.
+        Gate for ``metric="iou"``: pairs with IoU below are not matched. Unit: 1.
     max_distance_px : float
         Gate for ``metric="distance"``: pairs whose centres are farther apart are not matched.
+        Unit: px.
     """
 
     def associate(self, targets: Sequence[Target], detections: Detections) -> Assignment:
@@ -130,9 +131,9 @@ class GreedyIoUAssociator(_BoxAssociator):
     metric : {"iou", "distance"}
         Compare boxes by overlap or by centre distance (as :class:`HungarianIoUAssociator`).
     min_iou : float
-        Gate for ``metric="iou"``: pairs with IoU below are not matched.
+        Gate for ``metric="iou"``: pairs with IoU below are not matched. Unit: 1.
     max_distance_px : float
-        As for :class:`HungarianIoUAssociator`.
+        As for :class:`HungarianIoUAssociator`. Unit: px.
     """
 
     def associate(self, targets: Sequence[Target], detections: Detections) -> Assignment:

@@ -33,19 +33,20 @@ class BackgroundSubtractionDetector(Detector):
     Parameters
     ----------
     history : int
-        Frames of history of the MOG2 model.
+        Frames of history of the MOG2 model. Unit: frames.
     var_threshold : float
-        MOG2's squared Mahalanobis distance threshold for foreground.
+        MOG2's squared Mahalanobis distance threshold for foreground. Unit: 1.
     detect_shadows : bool
         Let MOG2 mark shadows (they are then discarded rather than detected).
     learning_rate : float
-        MOG2 learning rate; negative: automatic (1 / history).
+        MOG2 learning rate; negative: automatic (1 / history). Unit: 1/frame.
     min_area_px : int
-        Smallest blob kept, pixels.
+        Smallest blob kept, pixels. Unit: px².
     morph_px : int
         Side of the square structuring element of the clean-up, pixels (0 or 1: no clean-up).
+        Unit: px.
     warmup_frames : int
-        Frames at the start of a stream that only update the background.
+        Frames at the start of a stream that only update the background. Unit: frames.
 
     Attributes
     ----------

@@ -36,11 +36,12 @@ class GaussianLikelihood(Likelihood):
     Parameters
     ----------
     sigma_px : float
-        Standard deviation of the observation noise, pixels (> 0).
+        Standard deviation of the observation noise, pixels (> 0). Unit: px.
     use_all_detections : bool
         Fall back on the nearest of all the frame's detections (rule 3).
     missing_log_likelihood : float
         Log-likelihood of every particle when there is no observation (not NaN, not +inf).
+        Unit: log-likelihood.
     """
 
     def __init__(self, sigma_px: float = 5.0, use_all_detections: bool = True,

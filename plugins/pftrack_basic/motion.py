@@ -139,7 +139,7 @@ class RandomWalkMotion(MotionModel):
     Parameters
     ----------
     sigma_px : float or (2,) floats
-        Noise standard deviation per frame, pixels (per axis when two values).
+        Noise standard deviation per frame, pixels (per axis when two values). Unit: px per √frame.
     """
 
     def __init__(self, sigma_px: float | tuple[float, float] = 3.0) -> None:
@@ -195,9 +195,10 @@ class _ConstantVelocityMotion(MotionModel):
     ----------
     position_noise : float or sequence of float
         Position noise standard deviation per unit of ``dt`` (per axis when a sequence), in the
-        position unit (pixels or metres).
+        position unit (pixels or metres). Unit: state units per √dt.
     velocity_noise : float or sequence of float
         Extra velocity noise standard deviation per unit of ``dt``; 0 follows the paper exactly.
+        Unit: state units/dt per √dt.
     velocity_from_displacement : bool
         Seed 003 eq. 7: the new velocity is the displacement just made.
     """
@@ -283,14 +284,16 @@ class ConstantAccelerationMotion(MotionModel):
     Parameters
     ----------
     position_noise : float
-        Position noise std per unit of target size (per unit of ``dt``).
+        Position noise std per unit of target size (per unit of ``dt``). Unit: target sizes per √dt.
     velocity_noise : float
         Velocity noise std for a target tracked for one frame (per unit of ``dt``).
+        Unit: state units/dt per √dt.
     acceleration_noise : float
         Acceleration noise std for a target tracked for one frame (per unit of ``dt``).
+        Unit: state units/dt² per √dt.
     max_frames_tracked : int, optional
         Cap on ``n`` so the derivative noise never falls below ``noise / sqrt(cap)``; None (the
-        paper) lets it shrink without bound.
+        paper) lets it shrink without bound. Unit: frames.
     """
 
     def __init__(self, position_noise: float = 0.1, velocity_noise: float = 0.5,

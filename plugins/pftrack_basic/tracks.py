@@ -38,7 +38,7 @@ class DetectionBirthTracks(TrackManager):
     Parameters
     ----------
     min_score : float
-        Least detector score c(det) of a detection that starts a target.
+        Least detector score c(det) of a detection that starts a target. Unit: detector score.
     """
 
     def __init__(self, min_score: float = 0.5) -> None:
@@ -71,24 +71,28 @@ class ConfirmedTracks(TrackManager):
     Parameters
     ----------
     min_score : float
-        Least detector score c(det) of a detection that may start a target.
+        Least detector score c(det) of a detection that may start a target. Unit: detector score.
     max_iou : float
-        A detection overlapping a live target's box by more than this starts nothing.
-    confirm_hits, confirm_window : int
+        A detection overlapping a live target's box by more than this starts nothing. Unit: 1.
+    confirm_hits : int
         A tentative target is confirmed after ``confirm_hits`` matched detections within its
-        first ``confirm_window`` frames (birth frame included), else dropped.
+        first ``confirm_window`` frames (birth frame included), else dropped. Unit: count.
+    confirm_window : int
+        The frames, from its birth frame on, in which a tentative target must reach
+        ``confirm_hits`` matched detections. Unit: frames.
     merge_iou : float
         Confirmed targets overlapping by more than this: the younger is removed (1 or more: no
-        merging by overlap).
+        merging by overlap). Unit: 1.
     merge_distance_m : float, optional
         With a ground-plane observation model: confirmed targets whose ground positions are
         closer than this (metres) are one object tracked twice and the younger is removed;
         ``merge_iou`` is then not used. Image overlap is the wrong test on the ground plane:
         two people one behind the other (a metre or more apart in depth) overlap in the
-        image, and removing one of them loses a correctly tracked person.
+        image, and removing one of them loses a correctly tracked person. Unit: m.
     hide_after_misses : int, optional
         A live target is not output in frames where it has gone more than this many frames
         without a matched detection (it keeps being tracked and reappears when matched again).
+        Unit: frames.
     appearance : dict, optional
         ``{bins, sigma, update_rate, region}``: keep a colour model per target (per-channel BGR
         histograms of its matched detections, ``bins`` per channel, running mean with

@@ -57,18 +57,18 @@ class EigenspaceDetector(Detector):
         :meth:`detect` (for likelihoods and pictures).
     """
 
-    block_size: int = Param(8, "Side of a block, pixels.")
+    block_size: int = Param(8, "Side of a block, pixels.", unit="px")
     threshold_q: float = Param(0.8, "Cumulative contribution q(D) fixing each block's "
-                                    "eigenspace dimension D (eq. 1).")
-    v_low: float = Param(15.0, "Threshold v_D on r_D (eq. 4) for D <= d_split.")
-    v_high: float = Param(9.0, "Threshold v_D on r_D (eq. 4) for D > d_split.")
-    d_split: int = Param(20, "Largest dimension D that gets v_low.")
+                                    "eigenspace dimension D (eq. 1).", unit="1")
+    v_low: float = Param(15.0, "Threshold v_D on r_D (eq. 4) for D <= d_split.", unit="1")
+    v_high: float = Param(9.0, "Threshold v_D on r_D (eq. 4) for D > d_split.", unit="1")
+    d_split: int = Param(20, "Largest dimension D that gets v_low.", unit="count")
     min_background_fraction: float = Param(
         1.0, "Training with boxes or masks: a block counts in a frame when at least this "
-             "fraction of its pixels is background.")
+             "fraction of its pixels is background.", unit="1")
     min_samples: int = Param(
         10, "A block needs max(min_samples, D + 2) background samples; blocks with fewer are "
-            "left untrained (never intruders) and reported.")
+            "left untrained (never intruders) and reported.", unit="count")
     frame_offset: str = Param(
         "none", "'median' subtracts each frame's median grey level first (a thermal camera's "
                 "automatic gain or drift); 'none' is the paper's model.")
@@ -77,7 +77,7 @@ class EigenspaceDetector(Detector):
                    "uses the nearest trained block's eigenspace; 'ignore': it is never an "
                    "intruder.")
     box_margin_px: int = Param(0, "Training with boxes: each box is grown by this many pixels "
-                                  "per side (people's outlines are not background).")
+                                  "per side (people's outlines are not background).", unit="px")
     model: str | None = Param(None, "A model file written by save() (.npz), loaded on first "
                                     "use when the detector is not fitted.")
 

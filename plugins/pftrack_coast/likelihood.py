@@ -61,9 +61,9 @@ class EigenspaceLikelihood(Likelihood):
     model: str | None = Param(None, "A model file (.npz) written by the eigenspace detector's "
                                     "save(); None: the run's detector model "
                                     "(pftrack run --detector-model).")
-    alpha: float = Param(1.0, "Slope of the sigmoid (eq. 12), per unit of r_D - v_D.")
+    alpha: float = Param(1.0, "Slope of the sigmoid (eq. 12), per unit of r_D - v_D.", unit="1")
     position_dims: tuple[int, int, int] = Param(
-        (0, 1, 2), "State entries holding a particle's (x, y, z) in world metres.")
+        (0, 1, 2), "State entries holding a particle's (x, y, z) in world metres.", unit="none")
 
     def setup(self, context: RunContext) -> None:
         """The run's camera, and the run's detector model when ``model`` is not set."""
@@ -160,14 +160,15 @@ class ForegroundFractionLikelihood(Likelihood):
     {params}
     """
 
-    block_size: int = Param(8, "Block size in pixels (as the eigenspace model's).")
-    history: int = Param(500, "MOG2's history (frames).")
-    var_threshold: float = Param(16.0, "MOG2's varThreshold (squared Mahalanobis distance).")
+    block_size: int = Param(8, "Block size in pixels (as the eigenspace model's).", unit="px")
+    history: int = Param(500, "MOG2's history (frames).", unit="frames")
+    var_threshold: float = Param(16.0, "MOG2's varThreshold (squared Mahalanobis distance).",
+                                 unit="1")
     detect_shadows: bool = Param(True, "MOG2 marks shadows (then counted as background).")
     eps: float = Param(1e-6, "Likelihood of a block without foreground (> 0: a frame without "
-                             "foreground still weights).")
+                             "foreground still weights).", unit="1")
     position_dims: tuple[int, int, int] = Param(
-        (0, 1, 2), "State entries holding a particle's (x, y, z) in world metres.")
+        (0, 1, 2), "State entries holding a particle's (x, y, z) in world metres.", unit="none")
 
     def setup(self, context: RunContext) -> None:
         """The run's camera."""

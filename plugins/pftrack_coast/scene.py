@@ -221,17 +221,20 @@ class CoastScene(Scene):
     ----------
     seed : int
         Seeds everything random (site, conditions, noise): the same seed gives the same frames.
+        Unit: none.
     clip : {"boat", "car", "multi", "empty"}
         Which clip :meth:`frames` and :meth:`ground_truth` give (see :data:`CLIPS`).
     n_frames : int or None
         Clip length in frames; None: the clip's own (boat 200, car 100, multi 200, empty 100).
         Objects move the same whatever the length (a shorter clip is the start of the clip).
+        Unit: frames.
     fps : float
         Frames per second of the clip (object speeds are in m/s, so fewer fps = longer steps).
+        Unit: frames/s.
     n_training : int
-        Number of background-only training frames (:meth:`training_frames`).
+        Number of background-only training frames (:meth:`training_frames`). Unit: frames.
     noise_std : float
-        Sensor noise, grey levels at 384 x 288.
+        Sensor noise, grey levels at 384 x 288. Unit: grey levels.
     camera : str or None
         A camera file (:func:`pftrack.geometry.formats.load_camera`) of size 768 x 576; None:
         :func:`default_coast_camera`.

@@ -283,64 +283,69 @@ class VolumeTracks(TrackManager):
         "``calib/*.yaml``), 'FILE' (every volume of a volumes YAML) / 'FILE:NAME', or volume "
         "mappings as in a volumes file.")
     entry_particles: int = Param(50, "N_m: an entry when at least this many particles of a "
-                                     "detection group have likelihood above v_pi.")
+                                     "detection group have likelihood above v_pi.", unit="count")
     exit_particles: int = Param(10, "N_out: a track ends when no more than this many of its "
-                                    "particles have likelihood above v_pi.")
-    v_pi: float = Param(0.5, "Likelihood threshold in (0, 1) of the entry and exit counts.")
+                                    "particles have likelihood above v_pi.", unit="count")
+    v_pi: float = Param(0.5, "Likelihood threshold in (0, 1) of the entry and exit counts.",
+                        unit="1")
     exit_frames: int = Param(1, "Frames in a row at or below N_out before a track ends "
-                                "(1: the paper).")
+                                "(1: the paper).", unit="frames")
     idle_frames: int = Param(10, "A detection group without an entry for this many frames is "
-                                 "spread uniformly through its volume again.")
+                                 "spread uniformly through its volume again.", unit="frames")
     exclusion_margin: float = Param(0.2, "A tracked intruder's image box, enlarged by this "
                                          "fraction of its size per side, is taken away from "
-                                         "the detection groups.")
+                                         "the detection groups.", unit="1")
     merge_iou: float = Param(0.5, "Two tracks whose image boxes overlap by more than this "
                                   "for merge_frames frames in a row are one intruder: the "
-                                  "younger ends.")
+                                  "younger ends.", unit="1")
     merge_distance_m: float | None = Param(
         None, "Two tracks whose footprints are closer than this (metres) are one intruder too "
-        "(with the same merge_frames); None: only the image overlap.")
+        "(with the same merge_frames); None: only the image overlap.", unit="m")
     merge_frames: int = Param(5, "Frames in a row of overlap before two tracks merge (two "
-                                 "intruders crossing overlap for a while and stay two).")
+                                 "intruders crossing overlap for a while and stay two).",
+                              unit="frames")
     confirm_frames: int = Param(3, "A new track is output once it has lived this many frames "
                                    "(its records from the entry on, so confirmation costs no "
                                    "frames); one that ends sooner was noise and is never "
-                                   "output (1: every entry is output at once, the paper).")
+                                   "output (1: every entry is output at once, the paper).",
+                                unit="frames")
     support_z_m: float = Param(0.0, "Height of the plane intruders rest on (sea level, the "
-                                    "ground), metres.")
+                                    "ground), metres.", unit="m")
     footprint_aspect: float = Param(1.0, "Length / width of an intruder's footprint (1: a "
-                                         "person; about 3 for boats and cars).")
+                                         "person; about 3 for boats and cars).", unit="1")
     min_travel_m: float = Param(2.0, "A track's heading is the direction of its footprint's "
                                      "travel over the last heading_frames once it exceeds "
-                                     "this distance (before: across the view).")
-    heading_frames: int = Param(15, "Frames over which the heading is measured.")
+                                     "this distance (before: across the view).", unit="m")
+    heading_frames: int = Param(15, "Frames over which the heading is measured.", unit="frames")
     min_speed: float = Param(0.3, "Before the footprint has travelled min_travel_m: the heading "
                                   "is the particles' mean horizontal velocity once faster than "
-                                  "this (metres per time step; state entries 3, 4).")
+                                  "this (metres per time step; state entries 3, 4).", unit="m/dt")
     object_size_m: Sequence[float] | None = Param(
         None, "A typical intruder's size (width across the view, height, depth along it), "
         "metres: a new track's particles are jittered by half of it (so that a track started "
         "on part of an intruder soon covers all of it), and each track takes away from the "
         "detection groups at least the image box of a cuboid this size on its footprint. "
-        "None: neither.")
+        "None: neither.", unit="m")
     gate_margin: float | None = Param(
         0.5, "With object_size_m: a track's particles live only where they project into the "
         "image boxes of a cuboid of that size on its last footprint and where its recent "
         "motion takes it next, enlarged by this fraction of the size per side (one "
-        "intruder's particles do not spread onto a neighbour). None: no gate.")
+        "intruder's particles do not spread onto a neighbour). None: no gate.", unit="1")
     min_size_fraction: float = Param(
         0.5, "With object_size_m: an entry whose particles span less than this fraction of the "
-        "typical width or height (on the support plane) is a fringe or noise: no new track.")
+        "typical width or height (on the support plane) is a fringe or noise: no new track.",
+        unit="1")
     spawn_overlap: float = Param(0.5, "An entry whose particles' image box lies more than this "
                                       "fraction inside a tracked intruder's box is that "
-                                      "intruder's fringe: no new track.")
+                                      "intruder's fringe: no new track.", unit="1")
     footprint_inside: bool = Param(
         True, "Output a track only while its footprint (the support-plane correction) lies "
         "inside its volume's ground footprint: one view sees an intruder through the volume "
         "before it enters and after it leaves; its footprint says where it is (False: the "
         "paper, output while the particles see it).")
     blob_block_px: int = Param(8, "Cell size (pixels) of the image grid on which a new track "
-                                  "takes the largest connected patch of the group's particles.")
+                                  "takes the largest connected patch of the group's particles.",
+                               unit="px")
 
     @classmethod
     def _conformance_example(cls) -> Any:

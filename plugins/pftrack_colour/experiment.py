@@ -311,9 +311,9 @@ class GivenBoxTracks(TrackManager):
     ends : {id: frame}
         Frame after which a target is stopped (e.g. :func:`last_frames`).
     scale_step : float, optional
-        Per-frame scale search around the estimate (see :func:`track`).
+        Per-frame scale search around the estimate (see :func:`track`). Unit: 1.
     scale_limits : (float, float)
-        Bounds of the scale search, times the starting size.
+        Bounds of the scale search, times the starting size. Unit: 1.
     perspective : bool
         Box height from a linear fit of height against foot row (see :func:`track`).
 

@@ -105,18 +105,18 @@ class ColourLikelihood(Likelihood):
     needs_own_counts = False
 
     bins: int | tuple[int, int, int] = Param(8, "Bins per channel (8: 8 x 8 x 8 = 512 bins, "
-                                                "the paper).")
+                                                "the paper).", unit="count")
     colour_space: str = Param("rgb", 'Colour space of the histograms, one of "rgb" (the '
                                      'paper), "hsv", "lab", "ycrcb", "bgr".')
-    eps: float = Param(1e-4, "Histogram floor (see the module docstring).")
+    eps: float = Param(1e-4, "Histogram floor (see the module docstring).", unit="1")
     region: tuple[float, float, float, float] | None = Param(
         None, "Part of each box the colour model reads, as fractions (fx0, fy0, fx1, fy1) of "
-              "its width and height (e.g. (0.15, 0.1, 0.85, 0.9)); None: the whole box.")
+              "its width and height (e.g. (0.15, 0.1, 0.85, 0.9)); None: the whole box.", unit="1")
     parts: int = Param(1, "Horizontal stripes of the colour box, each with its own template "
-                          "(1: the paper).")
+                          "(1: the paper).", unit="count")
     update_rate: float = Param(0.0, "Template update q <- (1 - a) q + a p(estimate) once per "
                                     "frame, from the previous frame at the target's last "
-                                    "estimate; 0 (the paper): never.")
+                                    "estimate; 0 (the paper): never.", unit="1/frame")
 
     # -- set-up -------------------------------------------------------------------------------
 
@@ -407,7 +407,7 @@ class BhattacharyyaLikelihood(ColourLikelihood):
     {params}
     """
 
-    lam: float = Param(20.0, "λ of eq. 9 (dimensionless).")
+    lam: float = Param(20.0, "λ of eq. 9 (dimensionless).", unit="1")
 
     def _log_likelihood(self, region, q, target_id):
         binner = self.binner_
@@ -435,9 +435,9 @@ class BhattacharyyaBackgroundLikelihood(ColourLikelihood):
     uses_background = True
     needs_own_counts = True
 
-    lam: float = Param(20.0, "λ of eq. 23 (dimensionless).")
+    lam: float = Param(20.0, "λ of eq. 23 (dimensionless).", unit="1")
     background_stride: int = Param(3, "The background histogram reads every "
-                                      "background_stride-th pixel in each direction.")
+                                      "background_stride-th pixel in each direction.", unit="px")
 
     def _log_likelihood(self, region, q, target_id):
         binner = self.binner_
@@ -476,7 +476,8 @@ class CrossEntropyLikelihood(ColourLikelihood):
     {params}
     """
 
-    lam: float | None = Param(None, "λ of eq. 13; None: the box's pixel count n (eq. 18).")
+    lam: float | None = Param(None, "λ of eq. 13; None: the box's pixel count n (eq. 18).",
+                              unit="1")
     method: str = Param("integral", '"integral" (default): O(1) per particle. "histogram": '
                                     "build each sample's histogram and take eq. 14 literally "
                                     "(same numbers; for checking and for timing).")
@@ -601,11 +602,11 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
     uses_background = True
 
     lam: float | None = Param(None, "λ of eq. 13; None: the box's pixel count n (eq. 18, "
-                                    "21).")
+                                    "21).", unit="1")
     method: str = Param("integral", 'As CrossEntropyLikelihood ("histogram" needs '
                                     'overlap="independent").')
     background_stride: int = Param(3, "The background histogram reads every "
-                                      "background_stride-th pixel in each direction.")
+                                      "background_stride-th pixel in each direction.", unit="px")
     overlap: str = Param("mixture", 'How pixels under another target count: "mixture", '
                                     '"product" or "independent" (above).')
 

@@ -45,11 +45,13 @@ class WalkersScene(Scene):
     ----------
     seed : int
         Seeds ``np.random.default_rng`` for the layout, the paths and the per-frame noise.
+        Unit: none.
     n_frames : int
         Number of frames (the paper: 180). Fewer frames are the start of the 180-frame walk
-        (same speed); more frames stretch the walk over them (slower walkers).
+        (same speed); more frames stretch the walk over them (slower walkers). Unit: frames.
     noise_sigma : float
         Standard deviation of the per-pixel Gaussian noise added to every frame (grey levels).
+        Unit: grey levels.
 
     Attributes
     ----------

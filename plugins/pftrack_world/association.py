@@ -160,17 +160,18 @@ class GreedyScoreAssociator(_ScoreAssociator):
     Parameters
     ----------
     alpha : float
-        Weight of the particles' proximity to the detection (eq. 3).
+        Weight of the particles' proximity to the detection (eq. 3). Unit: 1.
     sigma_det : float
-        Std of ``p_N(det - p)``, in track heights.
+        Std of ``p_N(det - p)``, in track heights. Unit: track heights.
     sigma_size : float
-        Std of the size gate ``g`` (eq. 4), relative size difference.
+        Std of the size gate ``g`` (eq. 4), relative size difference. Unit: 1.
     max_distance : float or None
-        Distance gate in track heights (None: none).
+        Distance gate in track heights (None: none). Unit: track heights.
     min_score : float
-        Pairs must score above this (the paper's threshold of eq. 6).
+        Pairs must score above this (the paper's threshold of eq. 6). Unit: 1.
     appearance_weight : float
         Weight of the track-specific appearance term (module docstring); 0: the paper's score.
+        Unit: 1.
 
     Attributes
     ----------

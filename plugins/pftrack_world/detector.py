@@ -531,37 +531,39 @@ class SVMDetector(Detector):
         where a person of that size can stand, and detections carry their ground point
         (``points_world_m``, the foot point back-projected to z = 0).
     height_m : float
-        Person height used with the camera, metres.
+        Person height used with the camera, metres. Unit: m.
     threshold : float
-        Minimum score c(det) (signed distance to the SVM boundary) of a reported window.
+        Minimum score c(det) (signed distance to the SVM boundary) of a reported window. Unit: 1.
     nms_iou : float
-        Windows overlapping a better one by more than this IoU are suppressed.
+        Windows overlapping a better one by more than this IoU are suppressed. Unit: 1.
     merge_tau : float or None
         Each kept window is refined to the score-weighted mean of the windows overlapping it
         (IoU >= 0.5), weights ``exp((c - c_best) / merge_tau)`` (:func:`merge_clusters`), which
         places detections between the 8 px grid positions; None keeps the grid window. Needs
         windows below ``threshold`` too, so the windows are scored down to ``threshold - 3
-        merge_tau``.
+        merge_tau``. Unit: 1.
     scale_step : float
-        Ratio between consecutive search scales.
+        Ratio between consecutive search scales. Unit: 1.
     min_height_px, max_height_px : float
         Person heights searched (image pixels); with a camera they clip its expected range.
+        Unit: px.
     feature : {"hog", "grey"}
         Feature used by :meth:`fit` (a loaded model carries its own).
     window_wh : (int, int)
-        Window size used by :meth:`fit` (pixels).
+        Window size used by :meth:`fit` (pixels). Unit: px.
     occupancy : float
-        Fraction of the window height a training box fills (:meth:`fit`).
+        Fraction of the window height a training box fills (:meth:`fit`). Unit: 1.
     C : float
-        LinearSVC regularisation (:meth:`fit`).
+        LinearSVC regularisation (:meth:`fit`). Unit: 1.
     n_negatives : int
-        Random negative windows drawn by :meth:`fit`.
+        Random negative windows drawn by :meth:`fit`. Unit: count.
     hard_negative_rounds : int
-        Rounds of hard-negative mining in :meth:`fit` (0 or 1 in practice).
+        Rounds of hard-negative mining in :meth:`fit` (0 or 1 in practice). Unit: count.
     neg_iou : float
         A negative window's person box must have IoU below this with every ground-truth box.
+        Unit: 1.
     max_hard_negatives : int
-        At most this many mined false positives are added per round (a random subset).
+        At most this many mined false positives are added per round (a random subset). Unit: count.
 
     Attributes
     ----------

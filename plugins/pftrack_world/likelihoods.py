@@ -108,18 +108,20 @@ class NCCLikelihood(Likelihood):
     ----------
     grid_wh : (int, int)
         Template size in cells (across, down); each window is reduced to this grid of cell means.
+        Unit: count.
     sigma : float or None
         None: ``p_C = clip(NCC, eps, 1)`` (the paper's value). A number: ``p_C = exp(-(1 -
-        NCC)^2 / (2 sigma^2))``.
+        NCC)^2 / (2 sigma^2))``. Unit: 1.
     eps : float
-        Floor of ``p_C`` (log-likelihoods stay finite).
+        Floor of ``p_C`` (log-likelihoods stay finite). Unit: 1.
     region : (fx0, fy0, fx1, fy1) or None
-        Part of each box compared, fractions of its width and height.
+        Part of each box compared, fractions of its width and height. Unit: 1.
     update_rate : float
         Template update ``T <- (1 - a) T + a T(estimate)`` each frame the target had support
-        (0, the paper: never).
+        (0, the paper: never). Unit: 1/frame.
     min_valid : float
         Windows with less than this fraction of their cells inside the image get ``p_C = eps``.
+        Unit: 1.
 
     Attributes
     ----------
@@ -255,19 +257,19 @@ class EMDLikelihood(Likelihood):
     Parameters
     ----------
     bins : int
-        Bins per channel.
+        Bins per channel. Unit: count.
     colour_space : {"bgr", "hsv", "lab"}
         Colour space the 8-bit channels are converted to before they are binned (OpenCV's
         full-range HSV, or Lab); "bgr": the frame's own channels, as the paper.
     sigma : float
-        Scale of the distance (in [0, 1] units).
+        Scale of the distance (in [0, 1] units). Unit: 1.
     grid_wh : (int, int)
-        Sample grid over each window (across, down).
+        Sample grid over each window (across, down). Unit: count.
     region : (fx0, fy0, fx1, fy1) or None
         Part of each box histogrammed, fractions of its width and height (default: the middle,
-        less background beside the legs and above the head).
+        less background beside the legs and above the head). Unit: 1.
     update_rate : float
-        Template update each frame the target had support (0: never, as the paper).
+        Template update each frame the target had support (0: never, as the paper). Unit: 1/frame.
 
     Attributes
     ----------
@@ -403,15 +405,16 @@ class DetectionLikelihood(Likelihood):
     ----------
     phi : float
         Weight of the SVM score term ``c(p)`` (see the module docstring for how it is read).
+        Unit: 1.
     psi : float
-        Weight of the Gaussian of the distance to the matched detection.
+        Weight of the Gaussian of the distance to the matched detection. Unit: 1.
     sigma : float
         Standard deviation of ``p_N(p - det*)``: foot-point distance in units of the
-        detection's height.
+        detection's height. Unit: detection heights.
     floor : float
         Added to ``p_D`` before the log, so a target without a matched detection (``I = 0``)
         gets ``log(floor)`` everywhere (``-inf`` when 0: in a composite, the term then simply
-        contributes nothing).
+        contributes nothing). Unit: 1.
 
     Attributes
     ----------
@@ -488,9 +491,11 @@ class CompositeLikelihood(Likelihood):
     beta_sigma : float
         ``beta = exp(-d^2 / (2 beta_sigma^2))`` (eq. 9), ``d`` the distance from the target to the
         nearest other live target in state units (metres for ground-plane state).
+        Unit: state units (m or px).
     exclusion_m : float, optional
         Radius ``r`` of the exclusion prior (module docstring) in state units (metres for
         ground-plane state: about a person's radius, 0.3 m); None: none (seed 001).
+        Unit: state units (m or px).
 
     Attributes
     ----------

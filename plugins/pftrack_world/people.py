@@ -80,30 +80,32 @@ class HOGPeopleDetector(SVMDetector):
         the rows where a ``height_m`` person has that size, and gives detections their ground
         point (foot back-projected to z = 0).
     height_m : float
-        Mean person height with the camera, metres.
+        Mean person height with the camera, metres. Unit: m.
     threshold : float
         Minimum calibrated score (0-1, a probability of being a person's box) of a detection.
+        Unit: 1.
     nms_iou : float
-        Detections overlapping a better one by more than this IoU are suppressed.
+        Detections overlapping a better one by more than this IoU are suppressed. Unit: 1.
     merge_tau : float or None
         Each kept window is refined to the mean of the windows overlapping it by IoU >= 0.5,
         weighted ``exp((m - m_best) / merge_tau)`` with ``m`` the raw margin; None: no
-        refinement.
+        refinement. Unit: 1.
     scale_step : float
-        Ratio between consecutive search scales.
+        Ratio between consecutive search scales. Unit: 1.
     min_height_px, max_height_px : float
         Person heights (image pixels) searched; with a camera they clip its expected range.
+        Unit: px.
     box_fraction : (float, float, float, float)
-        Person box inside the 64 x 128 window as fractions (left, top, width, height).
+        Person box inside the 64 x 128 window as fractions (left, top, width, height). Unit: 1.
     score_offset, score_scale : float
         The logistic map of the margin ``m``: ``1 / (1 + exp(-(m - score_offset) /
-        score_scale))``.
+        score_scale))``. Unit: 1.
     learn_scales : int
         Without a camera: frames searched over the whole pyramid before the search is limited
-        by the height-row relation of their detections (0: never limit).
+        by the height-row relation of their detections (0: never limit). Unit: frames.
     tolerance : float
         A scale is searched at a row when the expected person height there is within this
-        factor (times sqrt(scale_step)) of the scale's height.
+        factor (times sqrt(scale_step)) of the scale's height. Unit: 1.
     """
 
     def __init__(self, camera: Any = None, height_m: float = 1.7, threshold: float = 0.5,

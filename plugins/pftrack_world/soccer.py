@@ -435,14 +435,14 @@ class SoccerScene(Scene):
         Trajectory source, a key of :data:`SOURCES` (``"hawkeye"``: 22 players, 50 Hz, the only
         built-in source with >= 20 s of continuous play).
     start_s : float
-        Clip start, seconds into the source's longest continuous run of play.
+        Clip start, seconds into the source's longest continuous run of play. Unit: s.
     duration_s : float
-        Clip length in seconds.
+        Clip length in seconds. Unit: s.
     fps : float
-        Video frame rate (frames per second); trajectories are interpolated to it.
+        Video frame rate (frames per second); trajectories are interpolated to it. Unit: frames/s.
     seed : int
         Seeds every random choice (player heights, skin tones, gait phases, grass texture,
-        sensor noise): the same seed gives the same video, bit for bit.
+        sensor noise): the same seed gives the same video, bit for bit. Unit: none.
     camera : str or path, optional
         Camera file readable by :func:`pftrack.geometry.formats.load_camera`; default the
         project's soccer camera in ``calib/`` (:func:`default_soccer_camera_path`).
@@ -452,13 +452,14 @@ class SoccerScene(Scene):
         the camera's world frame.
     image_size : (int, int)
         Output (width, height) in pixels. When it differs from the camera's, the camera's
-        intrinsics are scaled to it.
+        intrinsics are scaled to it. Unit: px.
     noise_std : float
-        Standard deviation of the additive sensor noise, grey levels (0: none).
+        Standard deviation of the additive sensor noise, grey levels (0: none). Unit: grey levels.
     max_gap_s : float
-        Largest provider-data gap bridged by interpolation (see :func:`load_pitch_tracks`).
+        Largest provider-data gap bridged by interpolation (see :func:`load_pitch_tracks`). Unit: s.
     supersample : int
         The static background is rendered at this factor and averaged down (anti-aliased lines).
+        Unit: 1.
 
     Attributes
     ----------
@@ -981,28 +982,33 @@ class PitchBlobDetector(Detector):
     volume : str
         Pitch volume (camera's world frame) whose run-off bounds the search region.
     margin_m : float
-        Extra ground margin around the volume, metres.
-    history, var_threshold, detect_shadows
-        MOG2's parameters.
+        Extra ground margin around the volume, metres. Unit: m.
+    history : int
+        MOG2's history (frames its background model remembers). Unit: frames.
+    var_threshold : float
+        MOG2's varThreshold (squared Mahalanobis distance of a foreground pixel). Unit: 1.
+    detect_shadows : bool
+        MOG2 marks shadows (then counted as background).
     learning_rate : float, optional
         MOG2's learning rate. None: automatic -- OpenCV's ``1 / min(frames, history)`` while the
         detector learns the background from the stream itself, and 0 (a frozen background) once
         :meth:`fit` has learned it from frames of the empty pitch, so players who stand still
-        are never absorbed into the background.
+        are never absorbed into the background. Unit: 1/frame.
     height_m, width_m : float
-        Player cuboid (metres) giving the expected box at each foot point.
+        Player cuboid (metres) giving the expected box at each foot point. Unit: m.
     min_height_frac : float
-        Blobs shorter than this fraction of the expected height are dropped.
+        Blobs shorter than this fraction of the expected height are dropped. Unit: 1.
     split_factor : float
         A blob wider (taller) than ``split_factor`` times the expected width (height) is split.
+        Unit: 1.
     split_score : float
         Factor on the score of the parts of a split blob (their positions are guesses), so that
-        births (``min_score``) can ignore them while the tracker still uses them.
+        births (``min_score``) can ignore them while the tracker still uses them. Unit: 1.
     foot_depth_m : float
         Ground distance from a blob's lowest point (the nearest foot, plus the anti-aliased
         fringe) to the player's centre, away from the camera, added to ``points_world_m``.
         0.7 m removes the mean depth bias on the soccer scene with the seed-001 camera
-        (measured: mean error along the viewing direction -0.57 m at 0.3, ~0 at 0.7).
+        (measured: mean error along the viewing direction -0.57 m at 0.3, ~0 at 0.7). Unit: m.
     boxes : {"model", "blob"}
         ``"model"``: each detection's box is the box of a ``height_m`` player standing at its
         ``points_world_m`` (:meth:`model_boxes`), the convention of the tracker's
@@ -1010,6 +1016,7 @@ class PitchBlobDetector(Detector):
         the bias of the blob's lowest pixel; ``"blob"``: the (split) blob's own bounding box.
     warmup_frames : int
         Frames at the start of a stream that only teach the background (unless fitted).
+        Unit: frames.
 
     Attributes
     ----------

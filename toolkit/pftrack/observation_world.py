@@ -39,22 +39,22 @@ class CameraBoxObservation(ObservationModel):
         None: the run's camera (:meth:`setup` takes it from the
         :class:`~pftrack.components.RunContext`; ``pftrack run --camera``).
     height_m : float
-        Height of the tracked objects in metres (about 1.75 m for people).
+        Height of the tracked objects in metres (about 1.75 m for people). Unit: m.
     width_m : float, optional
         Width in metres; the box width is ``height_px * width_m / height_m``. When None,
-        ``width_ratio`` is used.
+        ``width_ratio`` is used. Unit: m.
     width_ratio : float
-        Box width as a fraction of its height (PETS 2009 ground truth: median 0.355).
+        Box width as a fraction of its height (PETS 2009 ground truth: median 0.355). Unit: 1.
     position_dims : (int, int)
         Entries of the state vector that hold (p_x, p_y) in metres (default the first two, the
-        layout of seed 001 eq. 1).
+        layout of seed 001 eq. 1). Unit: none.
     min_visible : float
         :meth:`in_view` is true while at least this fraction of the box's area is inside the
-        image (a person stepping out of the picture dies once mostly out).
+        image (a person stepping out of the picture dies once mostly out). Unit: 1.
     adapt_height : bool
         Keep a height factor per target (module docstring).
     height_scale_range : (float, float)
-        Bounds of the per-target height factor.
+        Bounds of the per-target height factor. Unit: 1.
 
     Notes
     -----
@@ -234,14 +234,15 @@ class CameraVolumeObservation(ObservationModel):
     camera : Camera or str, optional
         As :class:`CameraBoxObservation` (None: the run's camera).
     size_m : (float, float, float)
-        Object size along world x, y and z, metres.
+        Object size along world x, y and z, metres. Unit: m.
     position_dims : (int, int, int)
         Entries of the state vector holding (x, y, z) in metres (default the first three, the
-        layout of ``constant-velocity-3d``).
+        layout of ``constant-velocity-3d``). Unit: none.
     support_z_m : float
-        Height of the plane objects rest on (births from boxes), metres.
+        Height of the plane objects rest on (births from boxes), metres. Unit: m.
     min_visible : float
         :meth:`in_view` is true while at least this fraction of the box is inside the image.
+        Unit: 1.
     particle_box : {"cuboid", "point"}
         ``"point"``: a state's box is its projected point (width and height 0), one projection
         per particle instead of eight. For seed 003, where each particle is a point on the

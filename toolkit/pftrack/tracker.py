@@ -83,7 +83,7 @@ class ImageBoxObservation(ObservationModel):
     Parameters
     ----------
     width_px, height_px : float
-        The box size, pixels.
+        The box size, pixels. Unit: px.
     size_from_box : bool
         Each target keeps the size of the box it was started from.
     """

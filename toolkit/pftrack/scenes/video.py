@@ -31,12 +31,13 @@ class VideoScene(Scene):
         A MOTChallenge ground-truth file for it.
     first : int
         First frame to stream, in ground-truth numbering (default 1: the video's first frame).
+        Unit: frames.
     last : int, optional
-        Last frame to stream (inclusive); None: to the end.
+        Last frame to stream (inclusive); None: to the end. Unit: frames.
     index_offset : int
-        Ground-truth frame number of the video's frame 0 (MOTChallenge: 1).
+        Ground-truth frame number of the video's frame 0 (MOTChallenge: 1). Unit: frames.
     frame_rate : float, optional
-        Frames per second; None: read from the file (25 if the file does not say).
+        Frames per second; None: read from the file (25 if the file does not say). Unit: frames/s.
 
     Notes
     -----
