@@ -9,6 +9,7 @@ import re
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -228,3 +229,105 @@ def test_thumbnails_are_each_notebooks_first_picture(tmp_path, monkeypatch):
     assert thumbs["a.ipynb"].read_bytes() == first
     blank = thumbs["b.ipynb"].read_bytes()
     assert blank.startswith(b"\x89PNG") and len(blank) < 100
+
+
+def _all_component_rows():
+    from pftrack.host import get_host
+
+    host = get_host()
+    for kind in pftrack_docs.COMPONENT_KINDS:
+        for name in host.names(kind):
+            for r in pftrack_docs.component_params(host.get(kind, name)):
+                yield kind, name, r
+
+
+def test_every_numeric_component_parameter_states_its_unit(page):
+    numeric, missing, wrong = 0, [], []
+    for kind, name, r in _all_component_rows():
+        if r["numeric"]:
+            numeric += 1
+            if r["unit_source"] != "stated":  # a guess from the name or the text is not enough
+                missing.append(f"{kind}.{name}.{r['name']}")
+        elif r["unit"]:
+            wrong.append(f"{kind}.{name}.{r['name']} ({r['unit']})")  # a name or flag
+        assert "Unit:" not in r["doc"], (name, r["name"])  # the sentence moves to the column
+        label = f"(config-{kind}-{name})=\n#### `{name}`"
+        cells = _rows(page[page.index(label):], f"#### `{name}`")[r["name"]]
+        assert cells[2] == (r["unit"] or "—"), (name, r["name"], cells)
+    assert not missing, f"numeric parameters without a stated unit: {missing}"
+    assert not wrong, f"non-numeric parameters with a unit: {wrong}"
+    assert numeric > 170  # 237 parameters, about 190 of them numbers
+    # the legend says what the units and the dash mean
+    legend = page[page.index("## Components"):page.index("(config-kind-observation)=")]
+    for word in ("`px`", "`1`", "`count`", "`state units (m or px)`", "`—`: not a quantity"):
+        assert word in legend
+
+
+def test_units_read_from_the_code_are_the_right_ones():
+    rows = {f"{k}.{n}.{r['name']}": r for k, n, r in _all_component_rows()}
+    expected = {
+        "detector.mog2.min_area_px": "px²",  # an area, whatever the suffix says
+        "detector.mog2.history": "frames",
+        "likelihood.composite.exclusion_m": "state units (m or px)",  # state units, not metres
+        "associator.greedy-score.sigma_det": "track heights",
+        "likelihood.detection.sigma": "detection heights",
+        "tracks.confirmed.confirm_hits": "count",
+        "tracks.confirmed.confirm_window": "frames",
+        "tracks.volumes.min_speed": "m/dt",
+        "motion.constant-velocity-3d.position_noise": "state units per √dt",
+        "scene.soccer.fps": "frames/s",
+        "scene.walkers.noise_sigma": "grey levels",
+        "likelihood.bhattacharyya.bins": "count",
+        "likelihood.ncc.min_valid": "1",
+    }
+    assert {k: rows[k]["unit"] for k in expected} == expected
+    # seeds and state indices are numbers but not quantities: stated "none", shown as a dash
+    for key in ("scene.walkers.seed", "observation.camera-box.position_dims"):
+        assert rows[key]["unit_source"] == "stated" and rows[key]["unit"] == ""
+
+
+def test_parameters_that_had_no_description_have_one(page):
+    rows = {f"{k}.{n}.{r['name']}": r for k, n, r in _all_component_rows()}
+    for key in ("likelihood.emd.colour_space", "associator.greedy-iou.metric",
+                "associator.greedy-iou.min_iou", "scene.soccer.volume"):
+        assert len(rows[key]["doc"].split()) >= 5, (key, rows[key]["doc"])
+    assert rows["associator.greedy-iou.min_iou"]["unit"] == "1"
+    assert "`emd`" in page and "| `colour_space` | {\"bgr\", \"hsv\", \"lab\"} | `\"bgr\"` | — | " \
+        "Colour space" in page
+
+
+def test_param_unit_reaches_the_docstring_and_the_reference():
+    from pftrack.components import Likelihood, Param
+
+    class _Units(Likelihood):
+        """A test likelihood.
+
+        {params}
+        """
+
+        sigma: float = Param(2.0, "Noise standard deviation.", unit="px")
+        seed: int = Param(0, "Random seed.", unit="none")
+        tag: str = Param("a", "A name.")
+        ratio: float = Param(0.5, "A fraction. Unit: 1.")  # the docstring route works here too
+
+        def log_likelihood(self, boxes_xywh_px, target):
+            return np.zeros(len(boxes_xywh_px))
+
+    assert "    Noise standard deviation. Unit: px.\n" in _Units.__doc__
+    assert Param(1.0, "x", unit="m").unit == "m" and Param(1.0, "x").unit is None
+    rows = {r["name"]: r for r in pftrack_docs.component_params(_Units)}
+    assert (rows["sigma"]["unit"], rows["sigma"]["unit_source"]) == ("px", "stated")
+    assert rows["sigma"]["doc"] == "Noise standard deviation."
+    assert (rows["seed"]["unit"], rows["seed"]["unit_source"], rows["seed"]["numeric"]) == \
+        ("", "stated", True)
+    assert (rows["tag"]["unit"], rows["tag"]["unit_source"], rows["tag"]["numeric"]) == \
+        ("", "", False)
+    assert (rows["ratio"]["unit"], rows["ratio"]["doc"]) == ("1", "A fraction.")
+    assert pftrack_docs.stated_unit("Speed of a walker. Unit: m/s.") == ("m/s",
+                                                                         "Speed of a walker.")
+    assert pftrack_docs.stated_unit("Speed of a walker, m/s.") == (None,
+                                                                   "Speed of a walker, m/s.")
+    assert pftrack_docs.is_numeric("(int, int)", None)
+    assert pftrack_docs.is_numeric("", (0.1, 0.2)) and not pftrack_docs.is_numeric("bool", True)
+    assert not pftrack_docs.is_numeric('{"cuboid", "point"}', "point")
+    assert pftrack_docs.is_numeric("(fx0, fy0, fx1, fy1) floats or None", None)

@@ -230,7 +230,7 @@ def _is_number(value: Any) -> bool:
 def is_numeric(typ: str, default: Any) -> bool:
     """Whether a parameter takes a number or numbers: its documented type names ``int`` or
     ``float``, or its default is a number or a sequence of numbers (``bool`` is not a number)."""
-    if re.search(r"\b(int|float)\b", str(typ)):
+    if re.search(r"\b(int|float)s?\b", str(typ)):
         return True
     if _is_number(default):
         return True
@@ -355,15 +355,19 @@ def config_reference() -> str:
               + ", ".join(f"`{p}`" for p in sorted(host.plugins)) + "). The unit column, "
               "as each component states it (a `Param`'s `unit`, or a description's closing "
               "`Unit: X.`; a third-party parameter that states none: read off its name, "
-              "`_m`, `_px`, ...): `px` image pixels, `m` world metres, `s` seconds, `frames` "
-              "video frames, `frames/s` a frame rate, `grey levels` 8-bit intensity steps; "
-              "`state units (m or px)`: the motion model's state, metres in world "
-              "coordinates, pixels in the image plane; `dt`: the tracker's time step "
-              "(`tracker.dt`: seconds, or frames), so a noise `per √dt` is the standard "
-              "deviation of one step of `dt = 1`; `1`: a dimensionless number (a ratio, a "
-              "fraction, a probability, a weight, a score); `count`: a number of things "
-              "(bins, particles, samples); `detector score`: the detector's own score "
-              "c(det). `—`: not a quantity (a name, a flag, a list of names, a file, a random "
+              "`_m`, `_px`, ...): `px` image pixels (`px²` an area), `m` world metres, `s` "
+              "seconds, `frames` video frames (a number of frames or a frame number), "
+              "`frames/s` a frame rate, `grey levels` 8-bit intensity steps, "
+              "`log-likelihood` natural log; `state units (m or px)`: the motion model's "
+              "state, metres in world coordinates, pixels in the image plane; `dt`: the "
+              "tracker's time step (`tracker.dt`: seconds, or frames), so `m/dt` is a "
+              "velocity and a noise `per √dt` is the standard deviation of one step of "
+              "`dt = 1` (it grows with `√dt`); `track heights`, `detection heights`, `target "
+              "sizes`: relative to that box or size; `1/frame`: a blending rate applied once "
+              "per frame; `1`: a dimensionless number (a ratio, a fraction, an IoU, a "
+              "probability, a weight, a score); `count`: a number of things (bins, cells, "
+              "particles, samples); `detector score`: the run's detector's own score c(det). "
+              "`—`: not a quantity (a name, a flag, a list of names, a file, a random "
               "seed, an index into the state vector).", ""]
     for kind, key in COMPONENT_KINDS.items():
         title = f"`{key}:`" if key == kind else key

@@ -114,7 +114,7 @@ class NCCLikelihood(Likelihood):
         NCC)^2 / (2 sigma^2))``. Unit: 1.
     eps : float
         Floor of ``p_C`` (log-likelihoods stay finite). Unit: 1.
-    region : (fx0, fy0, fx1, fy1) or None
+    region : (fx0, fy0, fx1, fy1) floats or None
         Part of each box compared, fractions of its width and height. Unit: 1.
     update_rate : float
         Template update ``T <- (1 - a) T + a T(estimate)`` each frame the target had support
@@ -265,7 +265,7 @@ class EMDLikelihood(Likelihood):
         Scale of the distance (in [0, 1] units). Unit: 1.
     grid_wh : (int, int)
         Sample grid over each window (across, down). Unit: count.
-    region : (fx0, fy0, fx1, fy1) or None
+    region : (fx0, fy0, fx1, fy1) floats or None
         Part of each box histogrammed, fractions of its width and height (default: the middle,
         less background beside the legs and above the head). Unit: 1.
     update_rate : float
