@@ -296,6 +296,33 @@ def test_parameters_that_had_no_description_have_one(page):
         "Colour space" in page
 
 
+def test_preset_keys_show_their_unit(page):
+    from pftrack.host import get_host
+
+    host = get_host()
+    rows = _rows(page, "### `pets09-ground`")
+    assert rows["tracker.n_particles"][2] == "particles per target"  # a schema key's unit
+    assert rows["observation.params.height_m"][2] == "m"  # a component parameter's
+    n = 0
+    for name in host.names("preset"):
+        cfg = yaml.safe_load(Path(host.get("preset", name)).read_text())
+        rows = _rows(page, f"### `{name}`")
+        for key in ("observation", "motion", "likelihood", "detector", "associator", "tracks"):
+            spec = cfg.get(key)
+            if not isinstance(spec, dict) or "type" not in spec:
+                continue
+            comp = {r["name"]: r for r in pftrack_docs.component_params(
+                host.get(key, spec["type"]))}
+            for pname, value in (spec.get("params") or {}).items():
+                if f"{key}.params.{pname}" not in rows:  # a list of mappings: its leaves
+                    assert isinstance(value, (list, dict)), (name, key, pname)
+                    continue
+                n += 1
+                assert rows[f"{key}.params.{pname}"][2] == (comp[pname]["unit"] or "—"), \
+                    (name, key, pname)
+    assert n > 50
+
+
 def test_param_unit_reaches_the_docstring_and_the_reference():
     from pftrack.components import Likelihood, Param
 

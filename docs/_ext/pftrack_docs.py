@@ -277,6 +277,24 @@ def preset_defaults(cfg: dict[str, Any], host: Any) -> dict[str, Any]:
     return out
 
 
+def preset_units(cfg: dict[str, Any], host: Any) -> dict[str, str]:
+    """``{dotted.path: unit}`` of the keys a preset may set: the schema's keys (their
+    :class:`pftrack.config.Field` unit) and its sections' component parameters (the unit the
+    component states, :func:`component_params`); ``""``: not a quantity or not known."""
+    out = {path: f.unit for path, f in schema_fields()}
+    for key in COMPONENT_KINDS:
+        spec = cfg.get(key)
+        if not isinstance(spec, dict) or "type" not in spec:
+            continue
+        try:
+            cls = host.get(key, spec["type"])
+        except KeyError:
+            continue
+        for r in component_params(cls):
+            out[f"{key}.params.{r['name']}"] = r["unit"]
+    return out
+
+
 def schema_fields(field: Any = None) -> list[tuple[str, Any]]:
     """``(dotted key, Field)`` of the direct children of ``field`` (default: the top level of
     :data:`pftrack.config.CONFIG_SCHEMA`) and of their children, in schema order."""
@@ -394,21 +412,24 @@ def config_reference() -> str:
     lines += ["## Presets", "",
               "The configurations the plugins ship (`pftrack presets --show NAME` prints one; "
               "`pftrack run NAME ...` runs it). Each key the preset sets, with the component's "
-              "default where it has one.", ""]
+              "default where it has one and its unit (as in the tables above; `—`: not a "
+              "quantity, or a key inside a list such as a composite's terms).", ""]
     for name in host.names("preset"):
         path = Path(host.get("preset", name))
         cfg = yaml.safe_load(path.read_text())
         defaults = preset_defaults(cfg, host)
+        units = preset_units(cfg, host)
         desc = " ".join(str(cfg.get("description", "")).split())
         lines += [f"(preset-{name})=", f"### `{name}`", "", _md_cell(desc), "",
                   f"Shipped as `{path.parent.parent.name}/{path.parent.name}/{path.name}`.", "",
-                  "| key | value | default |", "|---|---|---|"]
+                  "| key | value | default | unit |", "|---|---|---|---|"]
         for leaf, value in _leaves(cfg):
             if leaf in ("name", "description"):
                 continue
             default = defaults.get(leaf, None)
             shown = _code(default) if leaf in defaults else "—"
-            lines.append(f"| `{leaf}` | {_code(value)} | {shown} |")
+            lines.append(f"| `{leaf}` | {_code(value)} | {shown} | "
+                         f"{_md_cell(units.get(leaf, '')) or '—'} |")
         lines += ["", "```yaml",
                   path.read_text().rstrip(), "```", ""]
     return "\n".join(lines) + "\n"
