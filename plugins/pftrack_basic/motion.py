@@ -139,7 +139,7 @@ class RandomWalkMotion(MotionModel):
     Parameters
     ----------
     sigma_px : float or (2,) floats
-        Noise standard deviation per frame, pixels (per axis when two values). Unit: px per √frame.
+        Noise standard deviation per frame, pixels (per axis when two values). Unit: px per √dt.
     """
 
     def __init__(self, sigma_px: float | tuple[float, float] = 3.0) -> None:
