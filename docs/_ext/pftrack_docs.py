@@ -370,23 +370,25 @@ def config_reference() -> str:
                     lines += _schema_table([(f"{path}.{sub}.{c.name}", c) for c in f.children])
     lines += ["", "## Components", "",
               "Every component registered by the installed plugins (this build's: "
-              + ", ".join(f"`{p}`" for p in sorted(host.plugins)) + "). The unit column, "
-              "as each component states it (a `Param`'s `unit`, or a description's closing "
-              "`Unit: X.`; a third-party parameter that states none: read off its name, "
-              "`_m`, `_px`, ...): `px` image pixels (`px²` an area), `m` world metres, `s` "
-              "seconds, `frames` video frames (a number of frames or a frame number), "
-              "`frames/s` a frame rate, `grey levels` 8-bit intensity steps, "
-              "`log-likelihood` natural log; `state units (m or px)`: the motion model's "
-              "state, metres in world coordinates, pixels in the image plane; `dt`: the "
-              "tracker's time step (`tracker.dt`: seconds, or frames), so `m/dt` is a "
-              "velocity and a noise `per √dt` is the standard deviation of one step of "
-              "`dt = 1` (it grows with `√dt`); `track heights`, `detection heights`, `target "
-              "sizes`: relative to that box or size; `1/frame`: a blending rate applied once "
-              "per frame; `1`: a dimensionless number (a ratio, a fraction, an IoU, a "
-              "probability, a weight, a score); `count`: a number of things (bins, cells, "
-              "particles, samples); `detector score`: the run's detector's own score c(det). "
-              "`—`: not a quantity (a name, a flag, a list of names, a file, a random "
-              "seed, an index into the state vector).", ""]
+              + ", ".join(f"`{p}`" for p in sorted(host.plugins)) + "). The unit column "
+              "shows the unit each component states (a `Param`'s `unit`, or a description's "
+              "closing `Unit: X.`; for a third-party parameter that states none, one read off "
+              "its name, `_m`, `_px`, ...):", "",
+              "- `px` image pixels (`px²` an area), `m` world metres, `s` seconds, `frames` "
+              "video frames (a number of frames or a frame number), `frames/s` a frame rate, "
+              "`grey levels` 8-bit intensity steps, `log-likelihood` a natural logarithm;",
+              "- `state units (m or px)`: the motion model's state, metres in world "
+              "coordinates, pixels in the image plane; `dt`: the tracker's time step "
+              "(`tracker.dt`: seconds, or frames), so `m/dt` is a velocity and a noise "
+              "`per √dt` is the standard deviation of one step of `dt = 1` (it grows with "
+              "`√dt`);",
+              "- `track heights`, `detection heights`, `target sizes`: relative to that box or "
+              "size; `1/frame`: a blending rate applied once per frame;",
+              "- `1`: a dimensionless number (a ratio, a fraction, an IoU, a probability, a "
+              "weight, a score); `count`: a number of things (bins, cells, particles, "
+              "samples); `detector score`: the run's detector's own score c(det);",
+              "- `—`: not a quantity (a name, a flag, a list of names, a file, a random seed, "
+              "an index into the state vector).", ""]
     for kind, key in COMPONENT_KINDS.items():
         title = f"`{key}:`" if key == kind else key
         lines += [f"(config-kind-{kind})=",
