@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+# the shared data beside the checkout, also for notebook kernels run in temporary folders
+os.environ.setdefault("PFTRACK_DATA", str(ROOT.parent / "shared" / "data"))
 
 
 def execute_notebook(name: str, cwd: Path = ROOT, timeout: int = 300) -> list[dict]:

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from conftest import ROOT
+
 import numpy as np
 import pytest
-from pftrack.data import REPO_ROOT, data_dir
+from pftrack.data import data_dir
 from pftrack.geometry.calibration import (
     calibrate_chessboard,
     calibrate_points,
@@ -17,7 +19,7 @@ from pftrack.geometry.calibration import (
 from pftrack.geometry.camera import Camera, OpenCVDistortion, TsaiDistortion
 from pftrack.geometry.formats import load_camera
 
-CALIB = REPO_ROOT / "calib"
+CALIB = ROOT / "calib"
 
 
 def _chessboard_images() -> list[str]:

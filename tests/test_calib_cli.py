@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from conftest import ROOT
+
 import json
 
 import numpy as np
 import pytest
 from pftrack.cli import main
-from pftrack.data import REPO_ROOT, data_dir, data_path
+from pftrack.data import data_dir, data_path
 from pftrack.geometry.calibration import rotation_angle_deg, soccer_pitch_keypoints
 from pftrack.geometry.formats import load_camera
 
@@ -68,7 +70,7 @@ def test_chessboard_cli(capsys, tmp_path):
 
 def test_points_cli_round_trip(capsys, tmp_path):
     # done-when 4 through the CLI: pitch line intersections from the shipped camera, 0.5 px noise
-    truth = load_camera(REPO_ROOT / "calib" / "soccer_seed001.yaml")
+    truth = load_camera(ROOT / "calib" / "soccer_seed001.yaml")
     X = np.array(list(soccer_pitch_keypoints().values()))
     x = truth.project(X) + np.random.default_rng(2009).normal(0.0, 0.5, (len(X), 2))
     csv = tmp_path / "pitch.csv"

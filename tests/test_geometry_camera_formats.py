@@ -3,9 +3,11 @@ shipped calib/ cameras."""
 
 from __future__ import annotations
 
+from conftest import ROOT
+
 import numpy as np
 import pytest
-from pftrack.data import REPO_ROOT, data_path
+from pftrack.data import data_path
 from pftrack.geometry.calibration import check_against_mot, read_mot_world
 from pftrack.geometry.camera import Camera, NoDistortion, OpenCVDistortion, TsaiDistortion
 from pftrack.geometry.formats import (
@@ -18,7 +20,7 @@ from pftrack.geometry.formats import (
 
 PETS_XML = data_path("pets09", "View_001.xml")
 PETS_GT = data_path("pets09", "gt.txt")
-CALIB = REPO_ROOT / "calib"
+CALIB = ROOT / "calib"
 
 SUFFIX = {"pftrack": "cam.yaml", "tsai": "cam.xml", "opencv": "cam.opencv.yml",
           "open3d": "cam.json"}

@@ -153,11 +153,11 @@ def test_cli_overlay_errors_name_the_file(tmp_path, capsys):
 
 
 def test_soccer_pitch_overlay_lines_through_projected_corners():
-    from pftrack.data import REPO_ROOT
+    from conftest import ROOT
     from pftrack.geometry.formats import load_camera
     from pftrack.geometry.volumes import resolve_volume
 
-    cam = load_camera(REPO_ROOT / "calib" / "soccer_seed001.yaml")
+    cam = load_camera(ROOT / "calib" / "soccer_seed001.yaml")
     pitch = resolve_volume("pitch_seed001")
     w, h = cam.image_size
     green = np.full((h, w, 3), (40, 110, 40), np.uint8)

@@ -14,6 +14,8 @@ Components (registered name -> class):
   any likelihood plugins weighted by numbers, beta or 1 - beta);
 * scene: ``soccer`` :class:`~pftrack_world.soccer.SoccerScene`;
 * preset: ``pets09-ground`` and ``soccer-ground`` (package data, ``pftrack_world/presets``);
+* volumes: ``world`` (package data ``pftrack_world/data/volumes.yaml``: ``pitch_seed001`` and
+  seed 003's ``near`` / ``far``); the soccer camera ``pftrack_world/data/soccer_seed001.yaml``;
 * benchmark: ``pets09-ground`` (:mod:`pftrack_world.bench_pets09_ground`) and ``soccer``
   (:mod:`pftrack_world.bench_soccer`).
 
@@ -77,6 +79,13 @@ def pftrack_register_presets(register):
     presets = resources.files("pftrack_world") / "presets"
     register("pets09-ground", str(presets / "pets09-ground.yaml"))
     register("soccer-ground", str(presets / "soccer-ground.yaml"))
+
+
+@hookimpl
+def pftrack_register_volumes(register):
+    from importlib import resources
+
+    register("world", str(resources.files("pftrack_world") / "data" / "volumes.yaml"))
 
 
 @hookimpl

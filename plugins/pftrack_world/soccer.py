@@ -82,9 +82,9 @@ SOURCES: dict[str, str] = {
 }
 
 #: Candidate file names of the project's soccer camera, searched in ``calib/``.
-_CAMERA_FILES = ("soccer_seed001.yaml", "soccer.yaml")
+_CAMERA_FILE = "soccer_seed001.yaml"
 #: Default pitch volume (in the camera's world frame), looked up with
-#: :func:`pftrack.geometry.volumes.resolve_volume` (``calib/volumes.yaml``).
+#: :func:`pftrack.geometry.volumes.resolve_volume` (``pftrack_world/data/volumes.yaml``).
 _DEFAULT_VOLUME = "pitch_seed001"
 
 # Player body plan in metres for a 1.80 m player (scaled by height): (name, z0, z1, half side
@@ -107,26 +107,21 @@ _BOX_HALF_M = 0.30  # ground-truth cuboid: 0.6 x 0.6 m footprint
 
 
 def default_soccer_camera_path() -> Path:
-    """The project's soccer camera file under ``calib/`` (the first that exists).
+    """The plugin's soccer camera, package data ``pftrack_world/data/soccer_seed001.yaml``
+    (seed 001's Table 1 camera; ``calib/soccer_seed001.yaml`` in a checkout points to it).
 
     Raises
     ------
     FileNotFoundError
-        When none of the known names exists, listing the names searched.
+        When the package data is missing (a broken install), naming the path.
     """
-    from pftrack.data import REPO_ROOT
+    from importlib import resources
 
-    calib = REPO_ROOT / "calib"
-    for name in _CAMERA_FILES:
-        p = calib / name
-        if p.is_file():
-            return p
-    found = sorted(p.name for p in calib.glob("*soccer*")) if calib.is_dir() else []
-    if found:
-        return calib / found[0]
-    raise FileNotFoundError(
-        f"soccer scene: no soccer camera in {calib} (looked for {', '.join(_CAMERA_FILES)}); "
-        "pass camera=PATH")
+    path = Path(str(resources.files("pftrack_world") / "data" / _CAMERA_FILE))
+    if not path.is_file():
+        raise FileNotFoundError(f"soccer scene: the plugin's camera {path} is missing (package "
+                                "data of pftrack_world); pass camera=PATH")
+    return path
 
 
 # ---------------------------------------------------------------------------------------------

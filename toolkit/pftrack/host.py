@@ -49,6 +49,7 @@ _REGISTER_HOOKS = {
     "pftrack_register_observation_models": "observation",
     "pftrack_register_track_managers": "tracks",
     "pftrack_register_presets": "preset",
+    "pftrack_register_volumes": "volumes",
     "pftrack_register_metrics": "metric",
     "pftrack_register_benchmarks": "benchmark",
     "pftrack_register_commands": "command",
@@ -58,7 +59,7 @@ _REGISTER_HOOKS = {
 _RECORD_TYPES: dict[str, type] = {"benchmark": Benchmark, "command": Command, "demo": Demo,
                                   "report": ReportWriter}
 ALL_KINDS = ("detector", "likelihood", "motion", "associator", "scene", "observation", "tracks",
-             "preset", "metric", "benchmark", "command", "demo", "report")
+             "preset", "volumes", "metric", "benchmark", "command", "demo", "report")
 
 
 class RegistrationError(ValueError):
@@ -155,9 +156,9 @@ class Registry:
                 raise RegistrationError(
                     f"plugin {plugin!r}: {obj.__name__} has kind {obj.kind!r}, registered as {kind}"
                 )
-        elif kind == "preset":
+        elif kind in ("preset", "volumes"):
             if not Path(obj).is_file():
-                raise RegistrationError(f"plugin {plugin!r}: preset {name!r} file not found: {obj}")
+                raise RegistrationError(f"plugin {plugin!r}: {kind} {name!r} file not found: {obj}")
         elif kind == "metric" and not callable(obj):
             raise RegistrationError(f"plugin {plugin!r}: metric {name!r} is not callable")
         elif kind in _RECORD_TYPES:

@@ -579,8 +579,8 @@ def resolve_volume(spec: str | os.PathLike[str] | Volume,
         ``"pitch"``, ``"near"``, ``"far"`` (built in), a name defined in one of the ``search``
         YAML files, or a YAML file path (``FILE`` -- its only/first volume -- or ``FILE:NAME``).
     search : list of paths, optional
-        Volumes YAML files whose names are looked up; missing files are skipped. Default: every
-        ``*.yaml`` under the repository's ``calib/`` that holds a ``volumes:`` list.
+        Volumes YAML files whose names are looked up; missing files are skipped. Default: the volume
+        files the loaded plugins register (``pftrack_register_volumes``, their package data).
     """
     if isinstance(spec, Volume):
         return spec
@@ -597,7 +597,7 @@ def resolve_volume(spec: str | os.PathLike[str] | Volume,
     builtins = builtin_volumes()
     if s in builtins:
         return builtins[s]
-    files = search if search is not None else _calib_volume_files()
+    files = search if search is not None else _plugin_volume_files()
     seen: list[str] = list(builtins)
     for f in files:
         if not Path(f).exists():
@@ -612,18 +612,9 @@ def resolve_volume(spec: str | os.PathLike[str] | Volume,
     raise ValueError(f"unknown volume {s!r}: not a file and not one of {sorted(set(seen))}")
 
 
-def _calib_volume_files() -> list[Path]:
-    from pftrack.data import REPO_ROOT
+def _plugin_volume_files() -> list[Path]:
+    """The volume files the loaded plugins ship (``pftrack_register_volumes``)."""
+    from pftrack.host import get_host
 
-    calib = REPO_ROOT / "calib"
-    if not calib.is_dir():
-        return []
-    out = []
-    for f in sorted(calib.glob("*.y*ml")):
-        try:
-            head = f.read_text(errors="replace")
-        except OSError:
-            continue
-        if "volumes" in head:
-            out.append(f)
-    return out
+    host = get_host()
+    return [Path(host.get("volumes", n)) for n in host.names("volumes")]
