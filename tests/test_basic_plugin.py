@@ -10,10 +10,10 @@ import pytest
 
 from pftrack.components import DetectionMatch, Detections, Frame, Target
 from pftrack.data import data_dir
+from pftrack.geometry.boxes import iou_matrix
 from pftrack_basic.association import (
     GreedyIoUAssociator,
     HungarianIoUAssociator,
-    box_iou,
     centre_distance,
 )
 from pftrack_basic.background import BackgroundSubtractionDetector
@@ -73,11 +73,11 @@ def test_gaussian_likelihood_rejects_bad_parameters():
 def test_box_iou_and_centre_distance_numbers():
     a = np.array([[0.0, 0, 10, 10], [0.0, 0, 0, 0]])
     b = np.array([[5.0, 0, 10, 10], [0.0, 0, 10, 10], [20.0, 20, 5, 5]])
-    iou = box_iou(a, b)
+    iou = iou_matrix(a, b)
     assert iou.shape == (2, 3)
     assert np.allclose(iou[0], [50 / 150, 1.0, 0.0]) and np.all(iou[1] == 0.0)
     assert np.allclose(centre_distance(a[:1], b), [5.0, 0.0, np.hypot(17.5, 17.5)])
-    assert box_iou(np.zeros((0, 4)), b).shape == (0, 3)
+    assert iou_matrix(np.zeros((0, 4)), b).shape == (0, 3)
 
 
 def test_hungarian_is_optimal_where_greedy_is_not():
@@ -142,7 +142,7 @@ def test_mog2_finds_a_moving_square_after_learning_the_background():
     assert all(len(d) == 0 for d in out[2:start])  # static background: nothing
     for d, b in zip(out[start:], boxes[start:]):
         assert len(d) == 1
-        assert box_iou(b[None], d.boxes_xywh_px)[0, 0] > 0.8
+        assert iou_matrix(b[None], d.boxes_xywh_px)[0, 0] > 0.8
         assert 0.8 < d.scores[0] <= 1.0
     assert det.frames_seen_ == len(frames)
 
@@ -184,7 +184,7 @@ def test_mog2_on_pets09_finds_most_people():
             if k < 50:
                 continue
             g = gt[(gt[:, 0] == k + 1) & (gt[:, 6] > 0), 2:6]
-            iou = box_iou(g, d.boxes_xywh_px)
+            iou = iou_matrix(g, d.boxes_xywh_px)
             if len(d):
                 hits += int(np.sum(iou.max(axis=1) >= 0.3))
                 matched_det += int(np.sum(iou.max(axis=0) >= 0.3))

@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from pftrack.geometry.boxes import sub_boxes
 from pftrack_colour.histograms import (
     ColourBins,
     ParticleRegion,
     integer_boxes,
     normalise_histogram,
-    sub_boxes,
     subsample,
 )
 

@@ -41,7 +41,8 @@ def test_view3d_needs_something():
 def test_view3d_camera_frustum_on_pets(tmp_path):
     from pftrack.data import data_dir
     from pftrack.geometry.formats import load_camera
-    from pftrack.render.tracks import read_mot, tracks_from_mot
+    from pftrack.io.mot import read_mot
+    from pftrack.render.tracks import tracks_from_mot
     from pftrack.render.view3d import CAMERA_RGB, camera_frustum
 
     pets = data_dir() / "pets09"

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from pftrack.components import Frame
 from pftrack.data import data_dir
+from pftrack.geometry.boxes import iou_matrix, nms
 from pftrack.testing import synthetic_scene
 from pftrack_world.detector import (
     ScaleBand,
@@ -15,12 +16,10 @@ from pftrack_world.detector import (
     SVMModel,
     _dense_windows,
     _hog,
-    box_iou_matrix,
     crop_windows,
     heights_from_boxes,
     load_model,
     merge_clusters,
-    nms,
     save_model,
     scale_plan,
     train_svm_model,
@@ -138,7 +137,7 @@ def test_nms_and_merge():
     w = np.exp((0.5 - 0.9) / 0.1)
     assert merged[0, 0] == pytest.approx((1.0 + w * 0.0) / (1 + w))
     np.testing.assert_allclose(merged[1], boxes[2])
-    assert box_iou_matrix(boxes[:1], boxes[1:2])[0, 0] == pytest.approx(180 / 220)
+    assert iou_matrix(boxes[:1], boxes[1:2])[0, 0] == pytest.approx(180 / 220)
 
 
 @pytest.mark.parametrize("feature", ["grey", "hog"])
@@ -191,7 +190,7 @@ def test_fit_is_seeded_and_finds_the_objects():
     hits = 0
     for f in test.frames:
         d = det.detect(f)
-        iou = box_iou_matrix(test.boxes_by_frame[f.index], d.boxes_xywh_px)
+        iou = iou_matrix(test.boxes_by_frame[f.index], d.boxes_xywh_px)
         hits += int((iou.max(axis=1) >= 0.5).sum()) if iou.size else 0
     assert hits >= 7  # of 9 objects (measured: 8)
     # no boxes and no model: a clear error; with a model, fit keeps it
@@ -223,7 +222,7 @@ def test_trained_on_pets_detects_people_in_unseen_frames(tmp_path):
         d = det.detect(f)
         assert d.points_world_m is not None and d.points_world_m.shape == (len(d), 3)
         g = gt[gt[:, 0] == f.index, 2:6]
-        iou = box_iou_matrix(g, d.boxes_xywh_px)
+        iou = iou_matrix(g, d.boxes_xywh_px)
         from scipy.optimize import linear_sum_assignment
 
         m = 0

@@ -148,7 +148,7 @@ def test_world_duplicates_are_told_by_ground_distance_not_image_overlap():
     younger). With image overlap alone (merge_iou) the hidden person would be removed."""
     from pftrack.components import Frame
     from pftrack.geometry.formats import load_camera
-    from pftrack_basic.association import box_iou
+    from pftrack.geometry.boxes import iou_matrix
 
     cam = load_camera(PETS / "View_001.xml")
     frame0 = Frame(1, np.zeros((576, 768, 3), np.uint8))
@@ -166,7 +166,7 @@ def test_world_duplicates_are_told_by_ground_distance_not_image_overlap():
         return {k for k, i in ids.items() if i in live}, boxes
 
     kept, boxes = survivors(merge_distance_m=0.4)
-    assert box_iou(boxes["front"], boxes["behind"])[0, 0] > 0.6
+    assert iou_matrix(boxes["front"], boxes["behind"])[0, 0] > 0.6
     assert kept == {"front", "behind"}
     kept, _ = survivors(merge_iou=0.6)
     assert kept == {"front"}
@@ -179,7 +179,7 @@ def test_empty_result_writes_an_empty_mot_file(tmp_path):
     from pftrack.pipeline import RunResult, write_outputs
 
     res = RunResult(np.zeros((0, 10)), {}, {})
-    write_outputs(tmp_path, {"name": "x"}, res, None, {}, None)
+    write_outputs(tmp_path, {"name": "x"}, res, {}, None)
     assert (tmp_path / "tracks.txt").read_text() == ""
     assert read_mot(tmp_path / "tracks.txt").shape == (0, 10)
 

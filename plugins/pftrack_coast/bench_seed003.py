@@ -267,10 +267,8 @@ def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
 def pets_images(folder: Path, engine: Any, frame: Any, camera: Any, volume: Any) -> None:
     """The frame with particles and corrected cuboids (seed 003 figs. 2-3), and the particle
     clouds in the volume in 3-D (off-screen)."""
-    import cv2
-
     from pftrack.geometry.clouds import ParticleCloud
-    from pftrack.io.atomic import atomic_write_bytes
+    from pftrack.io.images import write_png
     from pftrack.render.view3d import render_view3d
 
     from pftrack_coast.report import intruders_image
@@ -278,9 +276,7 @@ def pets_images(folder: Path, engine: Any, frame: Any, camera: Any, volume: Any)
     folder.mkdir(parents=True, exist_ok=True)
     img = intruders_image(frame.image, camera, [volume], engine, engine.tracks.estimates_,
                           frame.index)
-    ok, png = cv2.imencode(".png", img)
-    if ok:
-        atomic_write_bytes(folder / "pets09_volume_frame.png", png.tobytes())
+    write_png(folder / "pets09_volume_frame.png", img)
     groups = engine.tracks.groups_
     clouds = []
     for t in engine.targets:

@@ -56,6 +56,7 @@ from pftrack.components import (
     TrackManager,
     TrackRecord,
 )
+from pftrack.geometry.boxes import iou_matrix
 
 from pftrack_coast.likelihood import _blocks_of_pixels
 
@@ -225,12 +226,6 @@ def _clip_into(volume: Any, points: np.ndarray) -> np.ndarray:
     local = volume.to_local(points)
     half = 0.5 * np.asarray(volume.size_m, dtype=np.float64)
     return volume.to_world(np.clip(local, -half, half))
-
-
-def _iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    from pftrack.metrics.similarity import box_iou
-
-    return box_iou(a[:, None, :], b[None, :, :])
 
 
 class InsideBoxesLikelihood(Likelihood):
@@ -676,7 +671,7 @@ class VolumeTracks(TrackManager):
         overlaps: dict[tuple[int, int], int] = {}
         if len(out) > 1:
             boxes = np.array([r.box_xywh_px for r in out])
-            same = _iou(boxes, boxes) > float(self.merge_iou)
+            same = iou_matrix(boxes, boxes) > float(self.merge_iou)
             if self.merge_distance_m is not None:
                 xy = np.array([r.world_m[:2] if r.world_m is not None else (np.nan, np.nan)
                                for r in out])

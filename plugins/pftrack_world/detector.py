@@ -40,15 +40,14 @@ from typing import Any
 
 import numpy as np
 from pftrack.components import Detections, Detector, Frame, RunContext
+from pftrack.geometry.boxes import iou_matrix, nms
 
 __all__ = [
     "SVMDetector",
     "SVMModel",
     "ScaleBand",
-    "box_iou_matrix",
     "heights_from_boxes",
     "load_model",
-    "nms",
     "save_model",
     "scale_plan",
     "train_svm_model",
@@ -200,19 +199,6 @@ def load_model(path: str | os.PathLike[str]) -> SVMModel:
 # --------------------------------------------------------------------------------------------
 
 
-def box_iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """IoU of every box of ``a`` (A, 4) with every box of ``b`` (B, 4), xywh px -> (A, B)."""
-    a = np.asarray(a, dtype=np.float64).reshape(-1, 4)
-    b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
-    x0 = np.maximum(a[:, None, 0], b[None, :, 0])
-    y0 = np.maximum(a[:, None, 1], b[None, :, 1])
-    x1 = np.minimum(a[:, None, 0] + a[:, None, 2], b[None, :, 0] + b[None, :, 2])
-    y1 = np.minimum(a[:, None, 1] + a[:, None, 3], b[None, :, 1] + b[None, :, 3])
-    inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
-    union = (a[:, 2] * a[:, 3])[:, None] + (b[:, 2] * b[:, 3])[None, :] - inter
-    return np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0)
-
-
 def merge_clusters(boxes_xywh_px: np.ndarray, scores: np.ndarray, keep: np.ndarray,
                    iou_min: float = 0.5, tau: float = 0.1) -> np.ndarray:
     """Refine each kept box by the score-weighted mean of the windows around it.
@@ -224,25 +210,10 @@ def merge_clusters(boxes_xywh_px: np.ndarray, scores: np.ndarray, keep: np.ndarr
     boxes = np.asarray(boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
     if len(keep) == 0:
         return np.zeros((0, 4))
-    iou = box_iou_matrix(boxes[keep], boxes)  # (M, K)
+    iou = iou_matrix(boxes[keep], boxes)  # (M, K)
     w = np.where(iou >= iou_min, np.exp((scores[None, :] - scores[keep][:, None]) / tau), 0.0)
     w[np.arange(len(keep)), keep] = 1.0
     return (w @ boxes) / w.sum(axis=1, keepdims=True)
-
-
-def nms(boxes_xywh_px: np.ndarray, scores: np.ndarray, iou_threshold: float) -> np.ndarray:
-    """Greedy non-maximum suppression; indices of the kept boxes, best score first."""
-    boxes = np.asarray(boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
-    scores = np.asarray(scores, dtype=np.float64).reshape(-1)
-    if len(boxes) == 0:
-        return np.zeros(0, dtype=np.intp)
-    import cv2
-
-    # NMSBoxes wants non-negative scores; a shift keeps their order
-    shifted = scores - scores.min()
-    idx = cv2.dnn.NMSBoxes(boxes.tolist(), shifted.tolist(), 0.0, float(iou_threshold))
-    idx = np.asarray(idx, dtype=np.intp).reshape(-1)
-    return idx[np.argsort(-scores[idx], kind="stable")]
 
 
 # --------------------------------------------------------------------------------------------
@@ -772,7 +743,7 @@ def _random_negatives(grey: np.ndarray, avoid: np.ndarray, n: int, heights: np.n
     y = rng.uniform(-0.1, 1.0, size=m) * (ih - h * 0.9)
     cand = np.stack([x, y, w, h], axis=1)
     if len(avoid):
-        cand = cand[box_iou_matrix(cand, avoid).max(axis=1) < neg_iou]
+        cand = cand[iou_matrix(cand, avoid).max(axis=1) < neg_iou]
     return cand[:n]
 
 
@@ -881,7 +852,7 @@ def train_svm_model(frames: Iterable[Frame], boxes_by_frame: dict[int, np.ndarra
             keep = nms(boxes, scores, 0.5)
             boxes = boxes[keep]
             if len(avoid):
-                boxes = boxes[box_iou_matrix(boxes, avoid).max(axis=1) < neg_iou]
+                boxes = boxes[iou_matrix(boxes, avoid).max(axis=1) < neg_iou]
             if len(boxes):
                 hard.append(crop_windows(grey, _window_rect(boxes, box_in_window, (W, H)),
                                          (W, H)))

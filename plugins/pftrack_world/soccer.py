@@ -1362,13 +1362,3 @@ def draw_tracks(image_bgr: np.ndarray, rows: np.ndarray, frame: int, scene: Socc
         cv2.putText(img, str(int(r[1])), (a[0], a[1] - 3), cv2.FONT_HERSHEY_SIMPLEX, 0.35,
                     col, 1, cv2.LINE_AA)
     return img
-
-
-def png_bytes(image_bgr: np.ndarray) -> bytes:
-    """PNG encoding of a BGR image (for ``IPython.display.Image(data=...)``)."""
-    import cv2
-
-    ok, buf = cv2.imencode(".png", np.ascontiguousarray(image_bgr))
-    if not ok:
-        raise ValueError("png_bytes: OpenCV could not encode the image")
-    return buf.tobytes()

@@ -321,7 +321,7 @@ def _matched_world_errors(gt: np.ndarray, tracks: np.ndarray, iou_threshold: flo
     """Ground-plane distances (m) of gt/track rows matched per frame (Hungarian on IoU >= thr)."""
     from scipy.optimize import linear_sum_assignment
 
-    from pftrack.metrics.similarity import box_iou
+    from pftrack.geometry.boxes import iou_matrix
 
     errs = []
     tf = tracks[:, 0].astype(int)
@@ -330,7 +330,7 @@ def _matched_world_errors(gt: np.ndarray, tracks: np.ndarray, iou_threshold: flo
         t = tracks[tf == f]
         if len(g) == 0 or len(t) == 0:
             continue
-        iou = np.nan_to_num(box_iou(g[:, None, 2:6], t[None, :, 2:6]))
+        iou = iou_matrix(g[:, 2:6], t[:, 2:6])
         r, c = linear_sum_assignment(-iou)
         ok = iou[r, c] >= iou_threshold
         d = np.linalg.norm(g[r[ok], 7:9] - t[c[ok], 7:9], axis=1)
@@ -486,7 +486,7 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
         metrics.update(timing)
     result = RunResult(rows, dets_out, timing, metrics, None, n)
     if out_dir is not None:
-        result.out_dir = write_outputs(out_dir, cfg, result, cam, keep_frames, gt_rows)
+        result.out_dir = write_outputs(out_dir, cfg, result, keep_frames, gt_rows)
     return result
 
 
@@ -499,8 +499,7 @@ def _report_frames(first: int, last: int | None) -> set[int]:
 
 
 def write_outputs(out_dir: str | os.PathLike[str], cfg: dict[str, Any], result: RunResult,
-                  camera: Any, frames: dict[int, np.ndarray],
-                  gt_rows: np.ndarray | None) -> Path:
+                  frames: dict[int, np.ndarray], gt_rows: np.ndarray | None) -> Path:
     """``tracks.txt``, ``metrics.json`` (with ground truth) and ``report/*.png``, atomically."""
     import json
 
@@ -515,7 +514,7 @@ def write_outputs(out_dir: str | os.PathLike[str], cfg: dict[str, Any], result: 
                           json.dumps(result.metrics, indent=2, default=float) + "\n")
     if frames:
         writer = report_writer(cfg)
-        writer.write(out / "report", result.rows, frames, camera=camera, gt_rows=gt_rows,
+        writer.write(out / "report", result.rows, frames, gt_rows=gt_rows,
                      title=str(cfg.get("name", "")))
     return out
 

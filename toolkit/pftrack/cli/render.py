@@ -57,7 +57,8 @@ def topview_handler(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from pftrack.render.topview import render_topview
-    from pftrack.render.tracks import read_mot, tracks_from_mot
+    from pftrack.io.mot import read_mot
+    from pftrack.render.tracks import tracks_from_mot
 
     if Path(args.out).suffix.lower() != ".png":
         raise ValueError(f"{args.out}: --out must be a .png file")
@@ -79,8 +80,9 @@ def overlay_handler(args: argparse.Namespace) -> int:
     import numpy as np
 
     from pftrack.io.mot import has_world
-    from pftrack.render.overlay import read_video_frame, render_overlay, write_png_bgr
-    from pftrack.render.tracks import read_mot
+    from pftrack.io.images import write_png
+    from pftrack.render.overlay import read_video_frame, render_overlay
+    from pftrack.io.mot import read_mot
 
     if not str(args.out).lower().endswith(".png"):
         raise ValueError(f"{args.out}: --out must be a .png file")
@@ -98,6 +100,6 @@ def overlay_handler(args: argparse.Namespace) -> int:
         ground = np.column_stack([w[:, 7:9], np.zeros(len(w))])
     img = render_overlay(frame, camera=camera, boxes_xywh_px=rows[:, 2:6], ids=rows[:, 1],
                          ground_points_m=ground)
-    write_png_bgr(args.out, img)
+    write_png(args.out, img)
     print(f"wrote {args.out} ({len(rows)} boxes in frame {args.frame})")
     return 0

@@ -38,7 +38,6 @@ __all__ = [
     "project_polylines",
     "read_video_frame",
     "render_overlay",
-    "write_png_bgr",
 ]
 
 #: Colour of projected ground positions (BGR): pure magenta, rare in natural video.
@@ -315,18 +314,3 @@ def read_video_frame(path: str | os.PathLike[str], index: int) -> np.ndarray:
     if not ok or frame is None:
         raise ValueError(f"{path}: could not read frame index {index}")
     return np.ascontiguousarray(frame)
-
-
-def write_png_bgr(path: str | os.PathLike[str], image_bgr: np.ndarray) -> Path:
-    """Write an (H, W, 3) uint8 BGR image as PNG, atomically."""
-    import cv2
-
-    from pftrack.io.atomic import atomic_path
-
-    path = Path(path)
-    if path.suffix.lower() != ".png":
-        raise ValueError(f"{path}: the output must be a .png file")
-    with atomic_path(path) as tmp:
-        if not cv2.imwrite(str(tmp), np.ascontiguousarray(image_bgr)):
-            raise OSError(f"OpenCV could not write {path}")
-    return path

@@ -21,6 +21,7 @@ import numpy as np
 from pftrack.geometry.camera import Camera
 from pftrack.geometry.clouds import ParticleCloud
 from pftrack.geometry.volumes import Volume
+from pftrack.io.images import write_png
 from pftrack.render import _layers
 from pftrack.render._pyvista import (
     plotter,
@@ -28,7 +29,6 @@ from pftrack.render._pyvista import (
     pv,
     screenshot,
     segment_cells,
-    write_png,
 )
 
 __all__ = ["camera_frustum", "render_view3d"]
@@ -205,5 +205,5 @@ def render_view3d(
         cam.clipping_range = (max(dist - 2 * radius, dist * 1e-3), dist + 2 * radius)
         img = screenshot(p)
     if out is not None:
-        write_png(Path(out), img)
+        write_png(Path(out), img[:, :, ::-1])
     return img

@@ -16,66 +16,16 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
-
 import numpy as np
+
+from pftrack.geometry.boxes import foot_points
+from pftrack.io.images import write_png
+from pftrack.render.colours import track_colour_bgr
+from pftrack.render.topview import render_topview
 
 __all__ = ["draw_overlay", "draw_trajectories", "write_report"]
 
 TOP_W = 760  # top-view width for a 576 px tall frame (room for the legend)
-
-
-def _colour_bgr(track_id: int) -> tuple[int, int, int]:
-    try:
-        from pftrack.render.colours import track_colour_bgr
-    except ImportError:  # the renderer is optional here: a plain palette
-        rgb = _FALLBACK_RGB[int(track_id) % len(_FALLBACK_RGB)]
-        return (rgb[2], rgb[1], rgb[0])
-    return tuple(int(c) for c in track_colour_bgr(int(track_id)))
-
-
-_FALLBACK_RGB = [(31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
-                 (140, 86, 75), (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207)]
-
-
-def _plain_topview(tracks: dict[int, np.ndarray], gt_tracks: dict[int, np.ndarray],
-                   size_wh: tuple[int, int], title: str) -> np.ndarray:
-    """A top view drawn with OpenCV (x right, y up, metres), used when
-    :mod:`pftrack.render.topview` is not available."""
-    import cv2
-
-    w, h = size_wh
-    img = np.full((h, w, 3), 255, np.uint8)
-    pts = np.concatenate(list(tracks.values()) + list(gt_tracks.values()))[:, :2]
-    lo, hi = pts.min(axis=0) - 1.0, pts.max(axis=0) + 1.0
-    scale = min((w - 60) / (hi[0] - lo[0]), (h - 80) / (hi[1] - lo[1]))
-
-    def px(p: np.ndarray) -> np.ndarray:
-        return np.stack([30 + (p[:, 0] - lo[0]) * scale,
-                         h - 30 - (p[:, 1] - lo[1]) * scale], axis=1).round().astype(np.int32)
-
-    for x in np.arange(np.ceil(lo[0]), hi[0], 2.0):
-        q = px(np.array([[x, lo[1]], [x, hi[1]]]))
-        cv2.line(img, tuple(q[0]), tuple(q[1]), (225, 225, 225), 1)
-    for y in np.arange(np.ceil(lo[1]), hi[1], 2.0):
-        q = px(np.array([[lo[0], y], [hi[0], y]]))
-        cv2.line(img, tuple(q[0]), tuple(q[1]), (225, 225, 225), 1)
-    for tid, t in gt_tracks.items():
-        q = px(t[:, :2])
-        for a, b in zip(q[:-1:2], q[1::2]):  # dashed
-            cv2.line(img, tuple(a), tuple(b), _colour_bgr(tid), 1, cv2.LINE_AA)
-    for tid, t in tracks.items():
-        q = px(t[:, :2])
-        cv2.polylines(img, [q.reshape(-1, 1, 2)], False, _colour_bgr(tid), 2, cv2.LINE_AA)
-        cv2.putText(img, str(tid), tuple(q[-1] + 4), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
-                    (0, 0, 0), 1, cv2.LINE_AA)
-    cv2.putText(img, f"{title} (grid 2 m)", (10, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.55,
-                (0, 0, 0), 1, cv2.LINE_AA)
-    return img
-
-
-def _foot(rows: np.ndarray) -> np.ndarray:
-    return np.stack([rows[:, 2] + 0.5 * rows[:, 4], rows[:, 3] + rows[:, 5]], axis=1)
 
 
 def draw_overlay(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
@@ -104,10 +54,10 @@ def draw_overlay(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
                           cv2.LINE_AA)
     cur = rows[rows[:, 0] == frame]
     for tid in np.unique(cur[:, 1]).astype(int):
-        col = _colour_bgr(tid)
+        col = track_colour_bgr(int(tid))
         hist = rows[(rows[:, 1] == tid) & (rows[:, 0] <= frame) & (rows[:, 0] > frame - trail)]
         hist = hist[np.argsort(hist[:, 0])]
-        pts = _foot(hist).round().astype(np.int32)
+        pts = foot_points(hist[:, 2:6]).round().astype(np.int32)
         if len(pts) > 1:
             cv2.polylines(img, [pts.reshape(-1, 1, 2)], False, col, 2, cv2.LINE_AA)
         r = cur[cur[:, 1] == tid][0]
@@ -148,8 +98,8 @@ def draw_trajectories(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
     for tid in np.unique(upto[:, 1]).astype(int):
         r = upto[upto[:, 1] == tid]
         r = r[np.argsort(r[:, 0])]
-        pts = _foot(r).round().astype(np.int32)
-        col = _colour_bgr(tid)
+        pts = foot_points(r[:, 2:6]).round().astype(np.int32)
+        col = track_colour_bgr(int(tid))
         if len(pts) > 1:
             cv2.polylines(img, [pts.reshape(-1, 1, 2)], False, col, 2, cv2.LINE_AA)
         if r[-1, 0] == frame:
@@ -162,21 +112,14 @@ def draw_trajectories(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
     gt_tracks = _world_tracks(gt_rows, frame) if gt_rows is not None else {}
     top = None
     if tracks or gt_tracks:
-        try:
-            from pftrack.render.topview import render_topview
-        except ImportError:
-            render_topview = None
         every = [t for t in tracks.values()] + [t for t in gt_tracks.values()]
         allp = np.concatenate(every)
         lo, hi = allp.min(axis=0), allp.max(axis=0)
         size = (TOP_W * H // 576, H)
         label = f"{title} top view, frame {frame}".strip()
-        if render_topview is None:
-            top = _plain_topview(tracks, gt_tracks, size, label)
-        else:
-            rgb = render_topview(tracks=tracks, ground_truth=gt_tracks, size_wh=size, title=label,
-                                 bounds_m=np.array([lo, hi]), legend=False)
-            top = cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)
+        rgb = render_topview(tracks=tracks, ground_truth=gt_tracks, size_wh=size, title=label,
+                             bounds_m=np.array([lo, hi]), legend=False)
+        top = cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)
         note = "solid: tracks (track ids)   dashed: ground truth (gt ids)"
         cv2.putText(top, note, (60, 44), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
                     (60, 60, 60), 1, cv2.LINE_AA)
@@ -185,18 +128,8 @@ def draw_trajectories(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
     return np.concatenate([img, cv2.resize(top, (top.shape[1], H))], axis=1)
 
 
-def _write_png(path: Path, image_bgr: np.ndarray) -> None:
-    import cv2
-
-    from pftrack.io.atomic import atomic_path
-
-    with atomic_path(path) as tmp:
-        if not cv2.imwrite(str(tmp), image_bgr):
-            raise OSError(f"could not write {path}")
-
-
 def write_report(out_dir: str | os.PathLike[str], rows: np.ndarray,
-                 frames: Mapping[int, np.ndarray], *, camera: Any = None,
+                 frames: Mapping[int, np.ndarray], *,
                  gt_rows: np.ndarray | None = None, title: str = "") -> list[Path]:
     """Write ``overlay_FRAME.png`` and ``trajectories_FRAME.png`` for each kept frame.
 
@@ -209,9 +142,9 @@ def write_report(out_dir: str | os.PathLike[str], rows: np.ndarray,
     for f in sorted(frames):
         img = frames[f]
         p = out / f"overlay_{f:06d}.png"
-        _write_png(p, draw_overlay(img, rows, f, gt_rows=gt_rows))
+        write_png(p, draw_overlay(img, rows, f, gt_rows=gt_rows))
         written.append(p)
         p = out / f"trajectories_{f:06d}.png"
-        _write_png(p, draw_trajectories(img, rows, f, gt_rows=gt_rows, title=title))
+        write_png(p, draw_trajectories(img, rows, f, gt_rows=gt_rows, title=title))
         written.append(p)
     return written
