@@ -180,7 +180,7 @@ class Registry:
             )
         if base is not None and isinstance(obj, type):
             # the registered name is what to_config() writes and Host.build() reads back
-            obj.name = name
+            obj.name = name  # type: ignore[attr-defined]
         self._entries[kind][name] = Entry(kind, name, obj, plugin)
 
     def get(self, kind: str, name: str) -> Entry:

@@ -176,7 +176,7 @@ class CameraBoxObservation(ObservationModel):
         """Per-target height factors (``height_scales_``), created on first use."""
         scales = self.__dict__.get("height_scales_")
         if scales is None:
-            scales = self.height_scales_ = {}
+            scales = self.height_scales_ = {}  # type: ignore[var-annotated]
         return scales
 
     def end_target(self, target: Target) -> None:

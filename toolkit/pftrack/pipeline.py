@@ -126,10 +126,10 @@ def parse_frames(text: str | Sequence[int] | None) -> tuple[int, int | None]:
     if not isinstance(text, str):
         a, b = text
         return int(a), None if b is None else int(b)
-    a, sep, b = text.partition(":")
+    a, sep, b = text.partition(":")  # type: ignore[assignment]
     try:
-        first = int(a) if a.strip() else 1
-        last = int(b) if b.strip() else None
+        first = int(a) if a.strip() else 1  # type: ignore[attr-defined]
+        last = int(b) if b.strip() else None  # type: ignore[attr-defined]
     except ValueError:
         raise ValueError(f"--frames must look like A:B (1-based, inclusive), got {text!r}") from None
     if not sep:
@@ -207,7 +207,7 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
               **(params or {})}
     det_cfg = {"type": det_cfg.get("type", "svm"), "params": merged}
     det = build_detector({"detector": det_cfg}, RunContext(camera=_load_camera(camera)))
-    first, last = parse_frames(frames)
+    first, last = parse_frames(frames)  # type: ignore[arg-type]
     rows = read_ground_truth(gt, first, last)
     pos: dict[int, np.ndarray] = {}
     ign: dict[int, np.ndarray] = {}
@@ -421,7 +421,7 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     video = Path(video)
     if not video.is_file():
         raise FileNotFoundError(f"video {video} not found")
-    first, last = parse_frames(frames)
+    first, last = parse_frames(frames)  # type: ignore[arg-type]
     fps = video_fps(video)
     engine = build_engine(cfg, camera=cam, fps=fps, seed=seed, detector_model=detector_model)
     detector = None

@@ -361,9 +361,9 @@ class MultiTargetTracker:
                                                  self.dt, rng, targets)
             boxes = observation.to_boxes_rows(predicted, targets)
         else:
-            predicted = [self.motion.predict(f.particles, self.dt, rng, target=f.target)
+            predicted = [self.motion.predict(f.particles, self.dt, rng, target=f.target)  # type: ignore[assignment]
                          for f in filters]
-            boxes = [observation.to_boxes(p, f.target) for p, f in zip(predicted, filters)]
+            boxes = [observation.to_boxes(p, f.target) for p, f in zip(predicted, filters)]  # type: ignore[assignment]
         for f, p, b in zip(filters, predicted, boxes):
             t = f.target
             f.particles = t.particles = p
@@ -385,7 +385,7 @@ class MultiTargetTracker:
         logls = []
         for f in filters:
             t = f.target
-            logl = self.likelihood.log_likelihood(t.particle_boxes_xywh_px, t)
+            logl = self.likelihood.log_likelihood(t.particle_boxes_xywh_px, t)  # type: ignore[arg-type]
             if type(logl) is not np.ndarray or logl.dtype != np.float64:
                 logl = np.asarray(logl, dtype=np.float64)
             if logl.shape != (len(f.particles),):
@@ -430,7 +430,7 @@ class MultiTargetTracker:
         for i, f in enumerate(filters):
             t = f.target
             if weights is not None:
-                w, ok = weights[i], bool(ok_rows[i])
+                w, ok = weights[i], bool(ok_rows[i])  # type: ignore[index]
             else:
                 w, ok = normalize_log_weights(f.log_weights + logls[i])
             if not ok:
@@ -444,7 +444,7 @@ class MultiTargetTracker:
             else:
                 best = best_rows[i] if best_rows is not None else float(logls[i].max())
             if states is not None:
-                state, t.extent = states[i], extents[i]
+                state, t.extent = states[i], extents[i]  # type: ignore[index]
             else:
                 state = weighted_mean(f.particles, w)
                 t.extent = weighted_extent(f.particles, w, state)
@@ -512,7 +512,7 @@ class MultiTargetTracker:
         return TrackRecord(
             frame=frame.index, id=t.id, box_xywh_px=t.box_xywh_px.copy(), state=t.state.copy(),
             position=t.state[pos_dims],  # fancy indexing: already a copy
-            extent=t.extent.copy(),
+            extent=t.extent.copy(),  # type: ignore[union-attr]
             confidence=float(expit(best_logl)) if math.isfinite(best_logl) else 0.0,
             world_m=None if world is None else np.asarray(world, dtype=np.float64),
         )

@@ -138,7 +138,7 @@ def _chessboard(args: argparse.Namespace) -> int:
                                radial_terms=args.radial_terms)
     cam = res.camera
     out = {"views": len(res.views), "rms_px": res.rms_px, "fx": cam.fx, "fy": cam.fy,
-           "cx": cam.cx, "cy": cam.cy, "dist": cam.distortion.coeffs.tolist(),
+           "cx": cam.cx, "cy": cam.cy, "dist": cam.distortion.coeffs.tolist(),  # type: ignore[attr-defined]
            "per_view_rms_px": res.per_view_rms_px, "skipped": res.notes,
            "saved": _save(cam, args.out, args.format)}
     text = (f"{len(res.views)} views, rms {res.rms_px:.4f} px\n"

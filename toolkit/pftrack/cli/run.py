@@ -44,7 +44,7 @@ def handler(args: argparse.Namespace) -> int:
                           gt=args.gt, frames=args.frames, detector_model=args.detector_model,
                           seed=args.seed, progress=not args.quiet, report=not args.no_report)
     if not args.quiet:
-        summary = {"tracks": str(result.out_dir / "tracks.txt"), "frames": result.n_frames,
+        summary = {"tracks": str(result.out_dir / "tracks.txt"), "frames": result.n_frames,  # type: ignore[operator]
                    "rows": len(result.rows),
                    "ids": len(set(result.rows[:, 1].astype(int))) if len(result.rows) else 0,
                    **result.timing}

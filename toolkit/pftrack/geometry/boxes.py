@@ -81,8 +81,8 @@ def nms(boxes_xywh_px: np.ndarray, scores: np.ndarray, iou_threshold: float) -> 
 
     shifted = scores - scores.min()
     idx = cv2.dnn.NMSBoxes(boxes.tolist(), shifted.tolist(), 0.0, float(iou_threshold))
-    idx = np.asarray(idx, dtype=np.intp).reshape(-1)
-    return idx[np.argsort(-scores[idx], kind="stable")]
+    idx = np.asarray(idx, dtype=np.intp).reshape(-1)  # type: ignore[assignment]
+    return idx[np.argsort(-scores[idx], kind="stable")]  # type: ignore[call-overload]
 
 
 def sub_boxes(boxes_xywh_px: np.ndarray, region: Sequence[float] | None) -> np.ndarray:

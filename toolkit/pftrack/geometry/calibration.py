@@ -521,7 +521,7 @@ def calibrate_points(points_world_m: Any, pixels: Any, image_size: Sequence[int]
             desc = "non-coplanar: DLT guess + calibrateCamera"
         if fix_principal_point:
             K0[0, 2], K0[1, 2] = pp
-        Xp = ((X - c) @ Q.T)
+        Xp = ((X - c) @ Q.T)  # type: ignore[assignment]
         if coplanar:
             Xp[:, 2] = 0.0
         rms, K, dist, rvecs, tvecs = cv2.calibrateCamera(

@@ -101,7 +101,7 @@ def look_at_rotation(eye: Sequence[float], target: Sequence[float],
     The camera's y axis points down along ``-up`` projected on the image plane, so the horizon
     is level.
     """
-    eye = np.asarray(eye, dtype=np.float64)
+    eye = np.asarray(eye, dtype=np.float64)  # type: ignore[assignment]
     z = np.asarray(target, dtype=np.float64) - eye
     if np.linalg.norm(z) == 0:
         raise ValueError("look_at_rotation: eye and target coincide")
@@ -184,7 +184,7 @@ class OpenCVDistortion(LensDistortion):
         self.k3, self.k4, self.k5, self.k6 = float(k3), float(k4), float(k5), float(k6)
 
     @classmethod
-    def from_coeffs(cls, coeffs: Sequence[float]) -> OpenCVDistortion:
+    def from_coeffs(cls, coeffs: Sequence[float] | np.ndarray) -> OpenCVDistortion:
         """From OpenCV's ``distCoeffs`` (4, 5 or 8 numbers)."""
         c = np.asarray(coeffs, dtype=np.float64).ravel()
         if c.size not in (4, 5, 8):
@@ -245,7 +245,7 @@ class OpenCVDistortion(LensDistortion):
         ok = np.all(np.isfinite(xy), axis=1)
         if ok.any():
             crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-15)
-            und = cv2.undistortPointsIter(xy[ok].reshape(-1, 1, 2), np.eye(3), self.coeffs,
+            und = cv2.undistortPointsIter(xy[ok].reshape(-1, 1, 2), np.eye(3), self.coeffs,  # type: ignore[call-overload]
                                           None, None, crit)
             out[ok] = und.reshape(-1, 2)
         return out

@@ -227,7 +227,7 @@ class CuboidVolume(Volume):
         """``open3d.geometry.OrientedBoundingBox`` with the same centre, rotation and extent."""
         import open3d as o3d
 
-        return o3d.geometry.OrientedBoundingBox(self.center_m, self.rotation, self.size_m)
+        return o3d.geometry.OrientedBoundingBox(self.center_m, self.rotation, self.size_m)  # type: ignore[arg-type]
 
     # -- Volume API -----------------------------------------------------------------------
     def to_local(self, points_world_m: np.ndarray) -> np.ndarray:
@@ -237,7 +237,7 @@ class CuboidVolume(Volume):
 
     def to_world(self, points_local_m: np.ndarray) -> np.ndarray:
         """Box coordinates (N, 3) -> world metres (N, 3)."""
-        return _as_points(points_local_m, "points_local_m") @ self.rotation.T + self.center_m
+        return _as_points(points_local_m, "points_local_m") @ self.rotation.T + self.center_m  # type: ignore[union-attr]
 
     def contains(self, points_world_m: np.ndarray) -> np.ndarray:
         local = self.to_local(points_world_m)
@@ -273,8 +273,8 @@ class CuboidVolume(Volume):
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {"name": self.name, "type": "cuboid",
                              "center_m": self.center_m.tolist(), "size_m": self.size_m.tolist()}
-        if not np.allclose(self.rotation, np.eye(3)):
-            d["rotation"] = self.rotation.tolist()
+        if not np.allclose(self.rotation, np.eye(3)):  # type: ignore[arg-type]
+            d["rotation"] = self.rotation.tolist()  # type: ignore[union-attr]
         return d
 
 
@@ -486,8 +486,8 @@ def seed003_volumes() -> dict[str, CuboidVolume]:
     (z from 0 up). Frame: origin at the camera mast foot, y away from the camera, z up.
     """
     return {
-        "near": CuboidVolume([0.0, 100.0, 3.0], [43.0, 10.0, 6.0], None, "near"),
-        "far": CuboidVolume([0.0, 300.0, 4.5], [170.0, 310.0, 9.0], None, "far"),
+        "near": CuboidVolume([0.0, 100.0, 3.0], [43.0, 10.0, 6.0], None, "near"),  # type: ignore[arg-type]
+        "far": CuboidVolume([0.0, 300.0, 4.5], [170.0, 310.0, 9.0], None, "far"),  # type: ignore[arg-type]
     }
 
 

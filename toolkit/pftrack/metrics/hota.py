@@ -46,8 +46,8 @@ def hota_metrics(seq: SequenceData) -> dict[str, object]:
         res["HOTA_FN"] = np.full(A, float(n_gt))
         res["HOTA_FP"] = np.full(A, float(n_tr))
         res["LocA"] = np.ones(A)
-        res.update({"HOTA(0)": 0.0, "LocA(0)": 1.0, "HOTALocA(0)": 0.0, "alphas": ALPHAS.copy()})
-        return res
+        res.update({"HOTA(0)": 0.0, "LocA(0)": 1.0, "HOTALocA(0)": 0.0, "alphas": ALPHAS.copy()})  # type: ignore[dict-item]
+        return res  # type: ignore[return-value]
 
     # -- whole-sequence soft alignment between ids (vectorised over all same-frame pairs) --
     s = seq.pair_sim

@@ -49,7 +49,7 @@ def plotter(size_wh: tuple[int, int]) -> Iterator[pv.Plotter]:
     w, h = int(size_wh[0]), int(size_wh[1])
     if w < 16 or h < 16:
         raise ValueError(f"render size must be at least 16x16 px, got {w}x{h}")
-    p = pv.Plotter(off_screen=True, window_size=(w, h), theme=theme())
+    p = pv.Plotter(off_screen=True, window_size=(w, h), theme=theme())  # type: ignore[arg-type]
     try:
         yield p
     finally:

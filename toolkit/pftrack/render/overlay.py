@@ -244,7 +244,7 @@ def draw_particles(image_bgr: np.ndarray, camera: Camera, clouds: Sequence[Parti
     clouds = [c for c in clouds if len(c)]
     if not clouds:
         return _check_image(image_bgr)
-    vmax = max(float(c.weights.max()) for c in clouds)
+    vmax = max(float(c.weights.max()) for c in clouds)  # type: ignore[union-attr]
     pts = np.vstack([c.points_world_m for c in clouds])
     rgb = np.vstack([c.colours(vmax) for c in clouds])
     order = np.argsort(np.concatenate([c.weights for c in clouds]), kind="stable")
@@ -276,14 +276,14 @@ def render_overlay(frame_bgr: np.ndarray, *, camera: Camera | None = None,
     if camera is None and (volume is not None or len(clouds) or ground_points_m is not None):
         raise ValueError("render_overlay: volume, clouds and ground points need a camera")
     if volume is not None:
-        img = draw_volume(img, camera, volume, thickness=max(1, thickness - 1))
+        img = draw_volume(img, camera, volume, thickness=max(1, thickness - 1))  # type: ignore[arg-type]
     if len(clouds):
-        img = draw_particles(img, camera, clouds)
+        img = draw_particles(img, camera, clouds)  # type: ignore[arg-type]
     if boxes_xywh_px is not None:
         ids_ = np.arange(len(boxes_xywh_px)) if ids is None else ids
         img = draw_boxes(img, boxes_xywh_px, ids_, thickness)
     if ground_points_m is not None:
-        img = draw_ground_points(img, camera, ground_points_m, radius=max(2, thickness + 1))
+        img = draw_ground_points(img, camera, ground_points_m, radius=max(2, thickness + 1))  # type: ignore[arg-type]
     return img
 
 

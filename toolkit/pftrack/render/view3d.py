@@ -187,7 +187,7 @@ def render_view3d(
             p.add_mesh(centre_pt, color=CAMERA_RGB, point_size=max(4.0, 8.0 * scale),
                        render_points_as_spheres=True, lighting=False)
         if axes:
-            p.show_bounds(bounds=[float(b[0, 0]), float(b[1, 0]), float(b[0, 1]),
+            p.show_bounds(bounds=[float(b[0, 0]), float(b[1, 0]), float(b[0, 1]),  # type: ignore[call-arg]
                                   float(b[1, 1]), float(b[0, 2]), float(b[1, 2])],
                           xtitle="x (m)", ytitle="y (m)", ztitle="z (m)", grid=None,
                           location="outer", color="black", font_size=max(8, round(12 * scale)),

@@ -368,11 +368,11 @@ def _likelihood_workflow(ex: ConformanceExample, rng: np.random.Generator, run: 
             t.particles = t.particle_boxes_xywh_px[:, :2] + 0.5 * t.particle_boxes_xywh_px[:, 2:]
         lik.begin_frame(frame, targets, dets)
         for j, t in enumerate(targets[:2]):
-            inp = t.particle_boxes_xywh_px.copy()
+            inp = t.particle_boxes_xywh_px.copy()  # type: ignore[union-attr]
             ll = lik.log_likelihood(inp, t)
             tag = f"frame {frame.index} target {t.id}"
             _float_array(run, ll, (len(boxes),), f"log_likelihood(({len(boxes)}, 4)) [{tag}]")
-            run.need(np.array_equal(inp, t.particle_boxes_xywh_px), "inputs_unchanged",
+            run.need(np.array_equal(inp, t.particle_boxes_xywh_px), "inputs_unchanged",  # type: ignore[arg-type]
                      "log_likelihood modified the boxes it was given")
             if isinstance(ll, np.ndarray) and ll.shape == (len(boxes),):
                 run.need(not np.any(np.isnan(ll)), "finite_output",
