@@ -7,7 +7,6 @@ import pickle
 
 import numpy as np
 import pytest
-
 from pftrack.components import DetectionMatch, Detections, Frame, Target
 from pftrack.data import data_dir
 from pftrack.geometry.boxes import iou_matrix

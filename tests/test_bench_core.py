@@ -6,9 +6,8 @@ import argparse
 import json
 
 import pytest
-
-from pftrack_basic import bench_core as core
 from pftrack.cli import main
+from pftrack_basic import bench_core as core
 
 
 def _args(**kw) -> argparse.Namespace:

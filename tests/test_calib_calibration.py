@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-from conftest import ROOT
-
 import numpy as np
 import pytest
+from conftest import ROOT
 from pftrack.data import data_dir
 from pftrack.geometry.calibration import (
     calibrate_chessboard,

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-from conftest import ROOT
-
 import json
 
 import numpy as np
 import pytest
+from conftest import ROOT
 from pftrack.cli import main
 from pftrack.data import data_dir, data_path
 from pftrack.geometry.calibration import rotation_angle_deg, soccer_pitch_keypoints

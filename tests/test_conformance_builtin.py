@@ -7,7 +7,6 @@ are checked without editing this file.
 from __future__ import annotations
 
 import pytest
-
 from pftrack.host import get_host
 from pftrack.testing import CHECKS, assert_conforms
 

@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from pftrack.components import (
     Assignment,
     Associator,

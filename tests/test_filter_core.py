@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy import stats
-
 from pftrack.filter import (
     RESAMPLERS,
     effective_sample_size,
@@ -16,6 +14,7 @@ from pftrack.filter import (
     weighted_mean,
     weighted_variance,
 )
+from scipy import stats
 
 SCHEMES = ["multinomial", "systematic", "stratified", "residual"]
 W = np.array([0.31, 0.02, 0.0, 0.17, 0.105, 0.045, 0.2, 0.15])  # one zero weight

@@ -10,7 +10,6 @@ import sys
 
 import numpy as np
 import pytest
-
 from pftrack.components import Target
 from pftrack.filter import (
     _jit,

@@ -3,10 +3,9 @@ shipped calib/ cameras."""
 
 from __future__ import annotations
 
-from conftest import ROOT
-
 import numpy as np
 import pytest
+from conftest import ROOT
 from pftrack.data import data_path
 from pftrack.geometry.calibration import check_against_mot, read_mot_world
 from pftrack.geometry.camera import Camera, NoDistortion, OpenCVDistortion, TsaiDistortion

@@ -10,9 +10,8 @@ import warnings
 from importlib import metadata
 
 import numpy as np
-import pytest
-
 import pftrack.host as host_mod
+import pytest
 from pftrack import hookimpl
 from pftrack.components import Likelihood, MotionModel
 from pftrack.host import Host, PluginLoadWarning, RegistrationError, UnknownComponentError

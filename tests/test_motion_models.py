@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from pftrack.components import Target
 from pftrack_basic.motion import (
     ConstantAccelerationMotion,

@@ -9,7 +9,6 @@ import json
 
 import numpy as np
 import pytest
-
 from pftrack.data import data_dir
 
 CAVIAR = data_dir() / "reid" / "caviar4reid"
@@ -63,11 +62,10 @@ def test_virtual_dataset_follows_the_protocol():
 
 
 def test_project_ari_matches_scikit_learn_on_linker_output():
-    from sklearn.metrics import adjusted_rand_score
-
     from pftrack.metrics import adjusted_rand_index
     from pftrack_network.bench_seed004 import dataset
     from pftrack_network.linkers import GreedyLinker, MinCostFlowLinker
+    from sklearn.metrics import adjusted_rand_score
 
     ds, app = dataset(1000)
     for linker in (GreedyLinker(), MinCostFlowLinker()):

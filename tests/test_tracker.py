@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from pftrack.components import Detections, Detector, Frame, Likelihood, MotionModel, Target
 from pftrack.tracker import ImageBoxObservation, MultiTargetTracker, records_to_mot
 from pftrack_basic.motion import RandomWalkMotion

@@ -147,8 +147,8 @@ def test_world_duplicates_are_told_by_ground_distance_not_image_overlap():
     both stay with merge_distance_m; a second track 0.1 m from a person is removed (the
     younger). With image overlap alone (merge_iou) the hidden person would be removed."""
     from pftrack.components import Frame
-    from pftrack.geometry.formats import load_camera
     from pftrack.geometry.boxes import iou_matrix
+    from pftrack.geometry.formats import load_camera
 
     cam = load_camera(PETS / "View_001.xml")
     frame0 = Frame(1, np.zeros((576, 768, 3), np.uint8))

@@ -12,7 +12,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-
 from pftrack.components import Assignment, Associator, Detections, Target
 from pftrack.geometry.boxes import iou_matrix
 

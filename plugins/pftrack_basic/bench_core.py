@@ -90,6 +90,7 @@ def _pftrack_step(n: int, seed: int) -> tuple[Callable[[Any], Any], Callable[[],
     from pftrack.components import Target
     from pftrack.filter import normalize_log_weights, systematic_resample, weighted_mean
     from pftrack.tracker import ImageBoxObservation
+
     from pftrack_basic.gaussian import GaussianLikelihood
     from pftrack_basic.motion import ConstantAccelerationMotion
 

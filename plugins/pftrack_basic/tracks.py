@@ -25,7 +25,6 @@ import numpy as np
 from pftrack.components import Detections, Frame, Target, TrackManager, TrackRecord
 from pftrack.geometry.boxes import iou_matrix
 
-
 __all__ = ["ConfirmedTracks", "DetectionBirthTracks"]
 
 APPEARANCE_KEYS = {"bins", "sigma", "update_rate", "region"}

@@ -85,7 +85,6 @@ def track_frames(cfg: dict[str, Any], frames: list[Any], camera: Any, seed: int,
     (``fit_frames``: images the likelihood's ``fit`` is shown first, untimed; ``snapshot``:
     ``(frame, f(engine, frame))`` called after that frame, its time not counted)."""
     import cv2
-
     from pftrack.pipeline import build_engine
     from pftrack.tracker import records_to_mot
 
@@ -207,12 +206,16 @@ def score_pets(gt: np.ndarray, run: dict[str, Any], volume: Any) -> dict[str, An
 def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
     import tempfile
 
+    from pftrack.data import pets09_files
     from pftrack.geometry.formats import load_camera
     from pftrack.geometry.volumes import resolve_volume
-    from pftrack.pipeline import iter_frames, load_config, parse_frames, read_ground_truth, \
-        train_detector
-
-    from pftrack.data import pets09_files
+    from pftrack.pipeline import (
+        iter_frames,
+        load_config,
+        parse_frames,
+        read_ground_truth,
+        train_detector,
+    )
 
     video, gt_path, cam_path = pets09_files(root)
     cfg = load_config(args.config)

@@ -5,7 +5,6 @@ Used by ``notebooks/04_block_eigenspace.ipynb``."""
 from __future__ import annotations
 
 import numpy as np
-
 from pftrack.io.images import figure_png
 
 from pftrack_coast.eigenspace import BlockEigenspaceModel, block_fractions
@@ -74,7 +73,6 @@ def intruders_image(image_bgr: np.ndarray, camera, volumes, engine, estimates,
     projected (green) with its id. ``estimates`` is :attr:`VolumeTracks.estimates_`;
     ``engine`` the engine right after ``frame_index`` was tracked. Returns a BGR copy."""
     import cv2
-
     from pftrack.render.overlay import draw_points, draw_volume, draw_world_polylines
 
     img = np.ascontiguousarray(image_bgr).copy()

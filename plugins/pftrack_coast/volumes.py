@@ -345,7 +345,6 @@ class VolumeTracks(TrackManager):
         from pftrack.geometry.volumes import CuboidVolume
         from pftrack.observation_world import CameraVolumeObservation
         from pftrack.testing import ConformanceExample
-
         from pftrack_basic.motion import ConstantVelocity3DMotion
 
         cam = Camera.look_at((0.0, -40.0, 20.0), (0.0, 0.0, 0.0), (160, 120), fx=150.0)

@@ -50,7 +50,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
     import cv2
-
     from pftrack.host import get_host
 
     get_host().get("likelihood", "cross-entropy-bg")  # a clear error without the plugin

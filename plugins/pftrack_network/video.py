@@ -50,7 +50,6 @@ def tracklets_from_tracks(video: str | os.PathLike[str], tracks: str | os.PathLi
         track's first and last rows, ``images`` BGR crops, ``rows`` the track's rows.
     """
     import cv2
-
     from pftrack.io.mot import FRAME, HEIGHT, ID, LEFT, TOP, WIDTH, read_mot, validate_mot_rows
 
     video = Path(video)

@@ -123,7 +123,6 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     import tempfile
 
     import cv2
-
     from pftrack.data import pets09_files
     from pftrack.pipeline import load_config, run_pipeline, train_detector
 

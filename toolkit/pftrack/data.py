@@ -11,7 +11,6 @@ import os
 from pathlib import Path
 
 
-
 def data_dir() -> Path:
     """The shared data folder: ``$PFTRACK_DATA``, else the first ``shared/data`` folder beside
     the working directory or one of its parents, else ``../shared/data`` (not checked)."""

@@ -14,7 +14,6 @@ variables block it.
 from __future__ import annotations
 
 import numpy as np
-
 from pftrack import hookimpl
 from pftrack.components import (
     Assignment,

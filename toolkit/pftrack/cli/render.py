@@ -56,8 +56,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def topview_handler(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from pftrack.render.topview import render_topview
     from pftrack.io.mot import read_mot
+    from pftrack.render.topview import render_topview
     from pftrack.render.tracks import tracks_from_mot
 
     if Path(args.out).suffix.lower() != ".png":
@@ -79,10 +79,9 @@ def topview_handler(args: argparse.Namespace) -> int:
 def overlay_handler(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from pftrack.io.mot import has_world
     from pftrack.io.images import write_png
+    from pftrack.io.mot import has_world, read_mot
     from pftrack.render.overlay import read_video_frame, render_overlay
-    from pftrack.io.mot import read_mot
 
     if not str(args.out).lower().endswith(".png"):
         raise ValueError(f"{args.out}: --out must be a .png file")

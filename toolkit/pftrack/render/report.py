@@ -16,6 +16,7 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping
 from pathlib import Path
+
 import numpy as np
 
 from pftrack.geometry.boxes import foot_points

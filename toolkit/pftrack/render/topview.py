@@ -17,8 +17,8 @@ import numpy as np
 
 from pftrack.geometry.clouds import ParticleCloud
 from pftrack.geometry.volumes import Volume
-from pftrack.render import _layers
 from pftrack.io.images import write_png
+from pftrack.render import _layers
 from pftrack.render._pyvista import plotter, polyline_cells, screenshot
 
 __all__ = ["draw_legend", "nice_step", "render_topview"]
