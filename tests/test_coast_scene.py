@@ -138,14 +138,14 @@ def test_boxes_contain_the_rendered_object(clip):
         rows = gt[gt[:, 0] == k + 1]
         allowed = np.zeros_like(changed)
         for r in rows:
-            l, t, w, h = r[2:6]
+            left, t, w, h = r[2:6]
             # 1.5 px: the bilinear 2x upscale spreads an edge over one output pixel
             allowed[max(int(np.floor(t - 1.5)), 0): int(np.ceil(t + h + 1.5)) + 1,
-                    max(int(np.floor(l - 1.5)), 0): int(np.ceil(l + w + 1.5)) + 1] = True
+                    max(int(np.floor(left - 1.5)), 0): int(np.ceil(left + w + 1.5)) + 1] = True
             # inside the image and mostly filled
             inner = changed[int(np.ceil(t + 1)): int(np.floor(t + h - 1)) + 1,
-                            int(np.ceil(l + 1)): int(np.floor(l + w - 1)) + 1]
-            if inner.size and l > 0 and l + w < 767:
+                            int(np.ceil(left + 1)): int(np.floor(left + w - 1)) + 1]
+            if inner.size and left > 0 and left + w < 767:
                 assert inner.mean() > 0.8, (clip, k, r[1], inner.mean())
         assert not (changed & ~allowed).any(), (clip, k)
         if len(rows):
@@ -165,11 +165,11 @@ def _object_blocks(rows: np.ndarray, grid: tuple[int, int], min_cover: float = 0
     ys = np.arange(grid[0]) * BS
     xs = np.arange(grid[1]) * BS
     for r in rows:
-        l, t, w, h = r[2:6]
-        ox = np.clip(np.minimum(xs + BS, l + w) - np.maximum(xs, l), 0, None)
+        left, t, w, h = r[2:6]
+        ox = np.clip(np.minimum(xs + BS, left + w) - np.maximum(xs, left), 0, None)
         oy = np.clip(np.minimum(ys + BS, t + h) - np.maximum(ys, t), 0, None)
         obj |= (oy[:, None] * ox[None, :]) >= min_cover * BS * BS
-        gx = (xs + BS > l - BS) & (xs < l + w + BS)
+        gx = (xs + BS > left - BS) & (xs < left + w + BS)
         gy = (ys + BS > t - BS) & (ys < t + h + BS)
         near |= gy[:, None] & gx[None, :]
     return obj, near
@@ -209,8 +209,9 @@ def block_figures(model: BlockEigenspaceModel, sc: CoastScene, mog2_training=Non
         mog = cv2.createBackgroundSubtractorMOG2(history=500, detectShadows=False)
         for img in mog2_training:
             mog.apply(img)
-    acc = {m: {"tp": 0, "obj": 0, "tp50": 0, "obj50": 0, "seen": 0, "frames": 0, "flag": 0, "flag_near": 0, "fa_sea": 0, "fa_land": 0,
-               "n_sea": 0, "n_land": 0, "px_sea": 0.0} for m in ("eigenspace", "mog2")}
+    acc = {m: {"tp": 0, "obj": 0, "tp50": 0, "obj50": 0, "seen": 0, "frames": 0, "flag": 0,
+               "flag_near": 0, "fa_sea": 0, "fa_land": 0, "n_sea": 0, "n_land": 0, "px_sea": 0.0}
+           for m in ("eigenspace", "mog2")}
     for k in range(sc.clip_frames):
         img = sc.render(k)[band[0]:band[1]]
         fg = mog.apply(img) if mog is not None else None

@@ -65,7 +65,8 @@ CASES = [
     (CrossEntropyBackgroundLikelihood, {"overlap": "independent"}),
     (CrossEntropyBackgroundLikelihood, {"overlap": "product", "parts": 2}),
     (CrossEntropyBackgroundLikelihood, {"overlap": "mixture"}),
-    (CrossEntropyBackgroundLikelihood, {"overlap": "mixture", "parts": 3, "region": (0.2, 0.1, 0.8, 0.9)}),
+    (CrossEntropyBackgroundLikelihood, {"overlap": "mixture", "parts": 3,
+                                        "region": (0.2, 0.1, 0.8, 0.9)}),
     (CrossEntropyBackgroundLikelihood, {"overlap": "mixture", "colour_space": "lab",
                                         "background_stride": 2}),
 ]

@@ -124,7 +124,8 @@ def test_normalize_log_weights_values():
 
 
 def test_normalize_log_weights_degenerate_rows_become_uniform_and_flag():
-    for lw in (np.full(4, -np.inf), np.full(4, np.nan), np.array([np.nan, -np.inf, np.nan, -np.inf])):
+    for lw in (np.full(4, -np.inf), np.full(4, np.nan),
+               np.array([np.nan, -np.inf, np.nan, -np.inf])):
         w, ok = normalize_log_weights(lw)
         assert not ok
         assert np.allclose(w, 0.25) and not np.any(np.isnan(w))

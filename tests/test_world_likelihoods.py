@@ -107,8 +107,10 @@ def test_ncc_matches_a_direct_computation_and_peaks_on_the_target():
         out = np.empty((6, 5))
         for i in range(6):
             for j in range(5):
-                x0, x1 = int(np.floor(x + w * j / 5 + 0.5)), int(np.floor(x + w * (j + 1) / 5 + 0.5))
-                y0, y1 = int(np.floor(y + h * i / 6 + 0.5)), int(np.floor(y + h * (i + 1) / 6 + 0.5))
+                x0 = int(np.floor(x + w * j / 5 + 0.5))
+                x1 = int(np.floor(x + w * (j + 1) / 5 + 0.5))
+                y0 = int(np.floor(y + h * i / 6 + 0.5))
+                y1 = int(np.floor(y + h * (i + 1) / 6 + 0.5))
                 out[i, j] = grey[y0:y1, x0:x1].mean()
         return out.ravel()
 

@@ -4,8 +4,9 @@
 
 * ``pets09``: PETS 2009 S2.L1 with the preset ``pets09-volume`` -- the block eigenspace model
   trained on frames 1-400 (people's boxes, grown by 8 px, as foreground) exactly as
-  ``pftrack detector train --config pets09-volume`` trains it, then the people found and tracked in the
-  walkway cuboid (``calib/pets09_walkway.yaml``) on the test frames (default 401-795). Reported:
+  ``pftrack detector train --config pets09-volume`` trains it, then the people found and tracked
+  in the walkway cuboid (``calib/pets09_walkway.yaml``) on the test frames (default 401-795).
+  Reported:
 
   - ``MOTA``, ``IDF1``, ``HOTA``: image boxes (each estimate's cuboid projected) at IoU 0.5;
   - ``MOTA_world``, ``IDF1_world``, ``HOTA_world``: footprints on the ground plane against the
@@ -286,7 +287,8 @@ def pets_images(folder: Path, engine: Any, frame: Any, camera: Any, volume: Any)
         w = np.full(len(t.particles), 0.2 if t.id in groups else 1.0)
         clouds.append(ParticleCloud(t.particles[:, :3], w))
     render_view3d(folder / "pets09_volume_3d.png", volumes=[volume], clouds=clouds,
-                  cameras=[camera], title=f"PETS frame {frame.index}: group (dark), people (bright)")
+                  cameras=[camera],
+                  title=f"PETS frame {frame.index}: group (dark), people (bright)")
 
 
 def pets_topview(folder: Path, run: dict[str, Any], gt: np.ndarray, volume: Any) -> None:

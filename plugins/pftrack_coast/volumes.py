@@ -350,7 +350,8 @@ class VolumeTracks(TrackManager):
         cam = Camera.look_at((0.0, -40.0, 20.0), (0.0, 0.0, 0.0), (160, 120), fx=150.0)
         vol = CuboidVolume([0.0, 0.0, 1.0], [60.0, 60.0, 2.0], None, "kit")
         return ConformanceExample(
-            cls(volumes=[vol.to_dict()], entry_particles=3, exit_particles=2, object_size_m=(1, 2, 1)),
+            cls(volumes=[vol.to_dict()], entry_particles=3, exit_particles=2,
+                object_size_m=(1, 2, 1)),
             context=RunContext(camera=cam),
             engine={"motion": ConstantVelocity3DMotion(position_noise=0.3),
                     "likelihood": InsideBoxesLikelihood(),

@@ -152,11 +152,11 @@ def score(track_rows: np.ndarray, gt_rows: np.ndarray) -> dict[str, Any]:
     iou_all = np.concatenate(iou) if iou else np.zeros(0)
     err = []
     per_person = {}
-    for tid, (g, e) in track_boxes(track_rows, gt_rows, hold_last=True).items():
+    for g, e in track_boxes(track_rows, gt_rows, hold_last=True).values():
         d = np.hypot(e[:, 0] + e[:, 2] / 2 - g[:, 0] - g[:, 2] / 2,
                      e[:, 1] + e[:, 3] / 2 - g[:, 1] - g[:, 3] / 2)
         err.append(d)
-    for (tid, (g, _)), i in zip(track_boxes(track_rows, gt_rows).items(), iou):
+    for tid, i in zip(track_boxes(track_rows, gt_rows), iou):
         per_person[int(tid)] = float(np.mean(i >= 0.5)) if len(i) else float("nan")
     err_all = np.concatenate(err) if err else np.zeros(0)
     m = evaluate(gt_rows, track_rows) if len(track_rows) else {"MOTA": float("nan"),
@@ -299,7 +299,8 @@ def pets_markdown(result: dict[str, Any]) -> str:
     s = result["setup"]
     lines = [(f"{s['sequence']}: frames {s['frames'][0]}-{s['frames'][1]}, {s['persons']} "
               f"persons, {s['gt_boxes']} ground-truth boxes\n"),
-             "| method | centre error px | success | updates / s | frames / s | MOTA | IDF1 | HOTA |",
+             "| method | centre error px | success | updates / s | frames / s | MOTA | IDF1 "
+             "| HOTA |",
              "|---|---:|---:|---:|---:|---:|---:|---:|"]
     for r in result["rows"]:
         lines.append(f"| {r['method']} | {r['mean_center_error_px']:.1f} | "

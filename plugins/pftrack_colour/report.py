@@ -180,7 +180,7 @@ def line_chart(series: Sequence[tuple[str, np.ndarray, np.ndarray, tuple[int, in
         cv2.putText(img, f"{t:g}", (int(xx) - 10, top + ph + 18), _FONT, 0.4, (60, 60, 60), 1,
                     cv2.LINE_AA)
     cv2.rectangle(img, (left, top), (left + pw, top + ph), (90, 90, 90), 1)
-    for name, x, y, col, thick in series:
+    for _name, x, y, col, thick in series:
         px_, py_ = px(x, y)
         pts = np.column_stack([px_, py_])[np.isfinite(np.asarray(y, float))]
         if len(pts) > 1:

@@ -748,7 +748,8 @@ def _random_negatives(grey: np.ndarray, avoid: np.ndarray, n: int, heights: np.n
 
 
 def train_svm_model(frames: Iterable[Frame], boxes_by_frame: dict[int, np.ndarray],
-                    rng: np.random.Generator, *, ignore_by_frame: dict[int, np.ndarray] | None = None,
+                    rng: np.random.Generator, *,
+                    ignore_by_frame: dict[int, np.ndarray] | None = None,
                     feature: str = "hog", window_wh: tuple[int, int] = (32, 64),
                     occupancy: float = 0.8, C: float = 0.01, n_negatives: int = 8000,
                     hard_negative_rounds: int = 1, neg_iou: float = 0.3, max_hard: int = 20000,

@@ -131,7 +131,8 @@ def parse_frames(text: str | Sequence[int] | None) -> tuple[int, int | None]:
         first = int(a) if a.strip() else 1  # type: ignore[attr-defined]
         last = int(b) if b.strip() else None  # type: ignore[attr-defined]
     except ValueError:
-        raise ValueError(f"--frames must look like A:B (1-based, inclusive), got {text!r}") from None
+        raise ValueError(
+            f"--frames must look like A:B (1-based, inclusive), got {text!r}") from None
     if not sep:
         last = first
     if first < 1 or (last is not None and last < first):

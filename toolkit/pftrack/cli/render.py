@@ -2,8 +2,8 @@
 
 * ``pftrack render topview TRACKS.txt --out PNG [--gt GT.txt] [--volume NAME|FILE]
   [--size WxH] [--title T] [--label L]`` -- the ground plane from above; trajectories from the
-  MOTChallenge world columns 8-9 (x, y metres), coloured by id; ground truth dashed; the volume's ground
-  lines when ``--volume`` is given, otherwise just the data's bounds with a metre grid.
+  MOTChallenge world columns 8-9 (x, y metres), coloured by id; ground truth dashed; the volume's
+  ground lines when ``--volume`` is given, otherwise just the data's bounds with a metre grid.
 * ``pftrack render overlay --video PATH --frame N --tracks TRACKS.txt [--camera CAM]
   --out PNG`` -- boxes and ids of MOT frame N drawn on the video frame N-1 (MOT frames count
   from 1, video frames from 0); with ``--camera`` and world columns, the ground positions

@@ -310,7 +310,8 @@ def distortion_from_dict(d: dict[str, Any] | None) -> LensDistortion:
         if model == "tsai":
             return TsaiDistortion(**{k: float(v) for k, v in d.items()})
     except TypeError as exc:
-        raise ValueError(f"distortion model {model!r}: bad coefficients {sorted(d)}: {exc}") from exc
+        raise ValueError(f"distortion model {model!r}: bad coefficients {sorted(d)}: "
+                         f"{exc}") from exc
     raise ValueError(f"unknown distortion model {model!r} (known: none, opencv, tsai)")
 
 
