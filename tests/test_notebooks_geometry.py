@@ -7,6 +7,7 @@ import pytest
 from conftest import execute_notebook, pngs
 
 
+@pytest.mark.slow
 def test_geometry_notebook_runs():
     from pftrack.data import data_dir
 
