@@ -46,9 +46,12 @@ import copy
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera
 
 #: a person's size (width across the view, height, depth along the view), metres
 PERSON_M = (0.5, 1.75, 0.5)
@@ -79,7 +82,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
-def track_frames(cfg: dict[str, Any], frames: list[Any], camera: Any, seed: int,
+def track_frames(cfg: dict[str, Any], frames: list[Any], camera: Camera, seed: int,
            model: str | None, fit_frames: Any = None,
            snapshot: tuple[int, Any] | None = None) -> dict[str, Any]:
     """Run the configuration over ``frames``: MOT rows, the track manager, timings
@@ -268,7 +271,7 @@ def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
     return out
 
 
-def pets_images(folder: Path, engine: Any, frame: Any, camera: Any, volume: Any) -> None:
+def pets_images(folder: Path, engine: Any, frame: Any, camera: Camera, volume: Any) -> None:
     """The frame with particles and corrected cuboids (seed 003 figs. 2-3), and the particle
     clouds in the volume in 3-D (off-screen)."""
     from pftrack.geometry.clouds import ParticleCloud

@@ -65,7 +65,7 @@ import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -687,7 +687,7 @@ def _sky(rng: np.random.Generator, ground: np.ndarray) -> np.ndarray:
     return np.broadcast_to(sky, (h, w)).astype(np.float32).copy()
 
 
-def _draw_cuboid(img: np.ndarray, cam: Any, centre: np.ndarray, size: np.ndarray,
+def _draw_cuboid(img: np.ndarray, cam: Camera, centre: np.ndarray, size: np.ndarray,
                  faces: dict[str, float], dist: np.ndarray, ss: int = 4) -> None:
     """Fill the faces of a world-axis-aligned cuboid that face the camera into ``img`` (H, W)
     float32 in place, with ``ss`` x ``ss`` super-sampled coverage; grey levels hazed by

@@ -43,7 +43,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from pftrack.components import (
@@ -59,6 +59,9 @@ from pftrack.components import (
 from pftrack.geometry.boxes import iou_matrix
 
 from pftrack_coast.likelihood import _blocks_of_pixels
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera
 
 __all__ = ["InsideBoxesLikelihood", "VolumeTracks", "cloud_box", "cuboid_box", "cuboid_boxes",
            "cuboid_corners", "footprint_size",
@@ -81,7 +84,7 @@ def footprint_size(across_m: float, aspect: float, heading_deg: float | None) ->
     return float(across_m), w * (a * s + c)
 
 
-def _axes(camera: Any, ground_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _axes(camera: Camera, ground_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit vectors (3,) across and along the view on the horizontal plane at ``ground_xy``."""
     c = camera.center_m
     along = np.array([ground_xy[0] - c[0], ground_xy[1] - c[1], 0.0])
@@ -91,7 +94,7 @@ def _axes(camera: Any, ground_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return across, along
 
 
-def support_plane_estimate(camera: Any, pixels: np.ndarray, *, support_z_m: float = 0.0,
+def support_plane_estimate(camera: Camera, pixels: np.ndarray, *, support_z_m: float = 0.0,
                            aspect: float = 1.0, heading_deg: float | None = None,
                            max_height_m: float = 50.0, quantile: float = 0.02,
                            ) -> dict[str, Any] | None:
@@ -156,7 +159,7 @@ def support_plane_estimate(camera: Any, pixels: np.ndarray, *, support_z_m: floa
             "across": across, "along": along}
 
 
-def cuboid_box(camera: Any, centre_m: np.ndarray, size_m: np.ndarray, across: np.ndarray,
+def cuboid_box(camera: Camera, centre_m: np.ndarray, size_m: np.ndarray, across: np.ndarray,
                along: np.ndarray) -> np.ndarray:
     """Image bounding box (4,) of a cuboid with ``size_m`` (across, height, along) about
     ``centre_m``, its faces along the view's axes (NaN when a corner is behind the camera)."""
@@ -197,7 +200,7 @@ def _cloud_ends(pixels: np.ndarray, quantile: float,
     return mid - half, mid + half, mid
 
 
-def cuboid_boxes(camera: Any, centres_m: np.ndarray, sizes_m: np.ndarray, across: np.ndarray,
+def cuboid_boxes(camera: Camera, centres_m: np.ndarray, sizes_m: np.ndarray, across: np.ndarray,
                  along: np.ndarray) -> np.ndarray:
     """:func:`cuboid_box` of K cuboids (K, 3) at once: (K, 4), one projection."""
     c = np.asarray(centres_m, dtype=np.float64)

@@ -36,11 +36,14 @@ import os
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from pftrack.components import Detections, Detector, Frame, RunContext
 from pftrack.geometry.boxes import iou_matrix, nms
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera, CameraSpec
 
 __all__ = [
     "SVMDetector",
@@ -231,7 +234,7 @@ class ScaleBand:
     top_max: int
 
 
-def expected_heights_px(camera: Any, height_m: float, image_size_wh: tuple[int, int],
+def expected_heights_px(camera: Camera, height_m: float, image_size_wh: tuple[int, int],
                         step_px: int = 16) -> tuple[np.ndarray, np.ndarray]:
     """Expected person height (px) for a foot at each pixel of a grid (world frame z up, ground
     z = 0). Returns (foot pixels (M, 2), heights (M,)); NaN above the horizon."""
@@ -291,7 +294,7 @@ def heights_from_boxes(boxes_xywh_px: np.ndarray, image_size_wh: tuple[int, int]
 def scale_plan(box_height_win: float, window_h: int, foot_offset_win: float,
                image_size_wh: tuple[int, int], *, scale_step: float = 1.15,
                min_height_px: float = 40.0, max_height_px: float = 400.0,
-               camera: Any = None, height_m: float = 1.75, tolerance: float = 1.25,
+               camera: Camera | None = None, height_m: float = 1.75, tolerance: float = 1.25,
                expected: tuple[np.ndarray, np.ndarray] | None = None,
                ) -> list[ScaleBand]:
     """The scales to search and, with a camera, the band of window tops at each scale.
@@ -532,7 +535,8 @@ class SVMDetector(Detector):
     camera_ : Camera or None
     """
 
-    def __init__(self, model: str | None = None, camera: Any = None, height_m: float = 1.75,
+    def __init__(self, model: str | None = None, camera: CameraSpec | None = None,
+                 height_m: float = 1.75,
                  threshold: float = 0.0, nms_iou: float = 0.3, merge_tau: float | None = 0.1,
                  scale_step: float = 1.15,
                  min_height_px: float = 40.0, max_height_px: float = 400.0,

@@ -56,10 +56,13 @@ import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from pftrack.components import Detections, Detector, Frame, RunContext, Scene
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera
 
 __all__ = [
     "SOURCES",
@@ -788,7 +791,7 @@ def _noise_bank(rng: np.random.Generator, shape: tuple[int, int], std: float,
     return bank
 
 
-def _scaled_camera(camera: Any, factor: int) -> Any:
+def _scaled_camera(camera: Camera, factor: int) -> Camera:
     """The same camera rendering at ``factor`` times the resolution (pixel centres kept)."""
     if factor == 1:
         return camera
@@ -852,7 +855,7 @@ def _goal_boxes(pitch: Any) -> np.ndarray:
     return np.array(boxes)
 
 
-def render_pitch_background(camera: Any, pitch: Any, rng: np.random.Generator,
+def render_pitch_background(camera: Camera, pitch: Any, rng: np.random.Generator,
                             centre_m: Any = None, supersample: int = 2,
                             n_stripes: int = 18) -> np.ndarray:
     """The empty pitch seen by ``camera``: grass with mowing stripes, markings, goals, stands.

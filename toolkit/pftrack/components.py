@@ -23,9 +23,12 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera
 
 __all__ = [
     "Component",
@@ -250,7 +253,7 @@ class RunContext:
     """
 
     host: Any = None
-    camera: Any = None
+    camera: Camera | None = None
     fps: float = 25.0
     detector_model: str | None = None
 

@@ -19,11 +19,14 @@ from and moved towards each matched detection's height by :meth:`CameraBoxObserv
 from __future__ import annotations
 
 import os
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from pftrack.components import ObservationModel, RunContext, Target
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import CameraSpec
 
 __all__ = ["CameraBoxObservation", "CameraVolumeObservation"]
 
@@ -61,7 +64,8 @@ class CameraBoxObservation(ObservationModel):
     ``to_boxes`` is vectorised: one projection of 2N points per call.
     """
 
-    def __init__(self, camera: Any = None, height_m: float = 1.75, width_m: float | None = None,
+    def __init__(self, camera: CameraSpec | None = None, height_m: float = 1.75,
+                 width_m: float | None = None,
                  width_ratio: float = 0.355, position_dims: tuple[int, int] = (0, 1),
                  min_visible: float = 0.5, adapt_height: bool = False,
                  height_scale_range: tuple[float, float] = (0.85, 1.2)) -> None:
@@ -249,7 +253,8 @@ class CameraVolumeObservation(ObservationModel):
         particle; likelihoods of points read the box's corner as the pixel.
     """
 
-    def __init__(self, camera: Any = None, size_m: tuple[float, float, float] = (1.0, 1.0, 1.0),
+    def __init__(self, camera: CameraSpec | None = None,
+                 size_m: tuple[float, float, float] = (1.0, 1.0, 1.0),
                  position_dims: tuple[int, int, int] = (0, 1, 2), support_z_m: float = 0.0,
                  min_visible: float = 0.5, particle_box: str = "cuboid") -> None:
         self.camera = camera

@@ -33,12 +33,15 @@ import time
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from pftrack.components import Detections, Frame, RunContext
 from pftrack.tracker import MultiTargetTracker, TrackRecord, records_to_mot
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera, CameraSpec
 
 __all__ = [
     "RunResult",
@@ -191,7 +194,7 @@ def build_detector(cfg: dict[str, Any], context: RunContext | None = None):
 
 def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
                    frames: str | tuple[int, int | None], *, out: str | os.PathLike[str] | None,
-                   cfg: dict[str, Any] | None = None, camera: Any = None,
+                   cfg: dict[str, Any] | None = None, camera: CameraSpec | None = None,
                    params: dict[str, Any] | None = None, seed: int = 0,
                    progress: bool = False):
     """Train the configured detector on ground-truth boxes and save its model (``out``).
@@ -262,7 +265,7 @@ def _spec(value: Any, default_type: str) -> dict[str, Any]:
     return {"type": default_type, "params": value}
 
 
-def build_engine(cfg: dict[str, Any], *, camera: Any = None, fps: float = 25.0,
+def build_engine(cfg: dict[str, Any], *, camera: Camera | None = None, fps: float = 25.0,
                  seed: int = 0, host: Any = None,
                  detector_model: str | os.PathLike[str] | None = None) -> MultiTargetTracker:
     """The tracking engine of a configuration: observation model, motion, likelihood,
@@ -392,7 +395,7 @@ class RunResult:
     n_frames: int = 0
 
 
-def _load_camera(camera: Any) -> Any:
+def _load_camera(camera: CameraSpec | None) -> Camera | None:
     if camera is None or not isinstance(camera, (str, os.PathLike)):
         return camera
     from pftrack.geometry.formats import load_camera
@@ -401,7 +404,7 @@ def _load_camera(camera: Any) -> Any:
 
 
 def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str | os.PathLike[str],
-                 camera: Any = None, out_dir: str | os.PathLike[str] | None = None,
+                 camera: CameraSpec | None = None, out_dir: str | os.PathLike[str] | None = None,
                  gt: str | os.PathLike[str] | None = None,
                  frames: str | tuple[int, int | None] | None = None,
                  detector_model: str | os.PathLike[str] | None = None, seed: int = 0,

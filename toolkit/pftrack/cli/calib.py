@@ -17,7 +17,10 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -108,7 +111,7 @@ def _emit(result: dict[str, Any], as_json: bool, text: str) -> int:
     return 0
 
 
-def _save(camera: Any, path: str | None, fmt: str | None) -> dict[str, Any] | None:
+def _save(camera: Camera, path: str | None, fmt: str | None) -> dict[str, Any] | None:
     if not path:
         return None
     from pftrack.geometry.formats import save_camera

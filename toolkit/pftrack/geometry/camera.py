@@ -31,14 +31,16 @@ from __future__ import annotations
 
 import copy
 import math
+import os
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from typing import Any, ClassVar
+from typing import Any, ClassVar, TypeAlias
 
 import numpy as np
 
 __all__ = [
     "Camera",
+    "CameraSpec",
     "LensDistortion",
     "NoDistortion",
     "OpenCVDistortion",
@@ -642,3 +644,8 @@ class Camera:
     def image_to_ground(self, pixels: Any, z_m: float = 0.0) -> np.ndarray:
         """Back-project pixels onto the horizontal plane z = ``z_m`` (metres), shape (N, 3)."""
         return self.image_to_plane(pixels, ((0.0, 0.0, 1.0), z_m))
+
+
+#: What a component's ``camera`` parameter takes: a :class:`Camera` or a camera file path
+#: (anything :func:`pftrack.geometry.formats.load_camera` reads).
+CameraSpec: TypeAlias = "Camera | str | os.PathLike[str]"
