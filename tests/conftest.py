@@ -7,6 +7,8 @@ from pathlib import Path
 
 import pytest
 
+pytest_plugins = ["pytester"]  # the conformance kit's parametrize helper is run in a sandbox
+
 ROOT = Path(__file__).resolve().parents[1]
 # the shared data beside the checkout, also for notebook kernels run in temporary folders
 os.environ.setdefault("PFTRACK_DATA", str(ROOT.parent / "shared" / "data"))

@@ -317,3 +317,46 @@ def test_observation_and_track_manager_workflows_catch_broken_contracts():
     assert "to_boxes_rows differs" in r["shapes_dtypes"].message
     r = _status(_ListlessTracks)
     assert not r["shapes_dtypes"].passed and "list of TrackRecord" in r["shapes_dtypes"].message
+
+
+def test_each_check_is_a_named_function_and_runs_alone():
+    from pftrack.testing import CHECK_FUNCTIONS, run_check
+
+    assert tuple(CHECK_FUNCTIONS) == CHECKS
+    assert all(f.__name__ == f"check_{name}" for name, f in CHECK_FUNCTIONS.items())
+    r = run_check(InPlaceMotion, "inputs_unchanged")
+    assert r.check == "inputs_unchanged" and r.status == "fail" and "InPlaceMotion" in str(r)
+    assert run_check(_Walk, "inputs_unchanged").status == "pass"
+    # one check alone gives what the whole kit gives for it
+    assert run_check(InPlaceMotion, "clone") == _status(InPlaceMotion)["clone"]
+    with pytest.raises(ValueError, match="unknown conformance check 'nope'"):
+        run_check(_Walk, "nope")
+
+
+@pytest.mark.parametrize("bad", [{"skip": ["nope"]}, {"must_run": ["nope"]}])
+def test_parametrize_with_checks_rejects_unknown_checks(bad):
+    from pftrack.testing import parametrize_with_checks
+
+    with pytest.raises(ValueError, match="unknown checks"):
+        parametrize_with_checks([_Walk], **bad)
+
+
+def test_parametrize_with_checks_gives_one_item_per_component_and_check(pytester):
+    pytester.makepyfile(test_kit="""
+        from pftrack.testing import parametrize_with_checks
+        from test_conformance_kit import InPlaceMotion, _Walk
+
+        @parametrize_with_checks([_Walk, InPlaceMotion], ids=["walk", "inplace"],
+                                 skip=["pickle_round_trip"])
+        def test_conforms(component, check):
+            check(component)
+    """)
+    pytester.syspathinsert(str(Path(__file__).parent))
+    res = pytester.runpytest("-p", "no:cacheprovider", "-q", "-rs")
+    n = len(CHECKS) - 1
+    # InPlaceMotion fails exactly its inputs_unchanged item, every other item passes
+    res.assert_outcomes(passed=2 * n - 1, failed=1)
+    res.stdout.fnmatch_lines(["*test_conforms*inplace-inputs_unchanged*"])
+    sel = pytester.runpytest("-p", "no:cacheprovider", "-q", "-k", "walk-clone")
+    sel.assert_outcomes(passed=1)
+
