@@ -19,14 +19,14 @@ from and moved towards each matched detection's height by :meth:`CameraBoxObserv
 from __future__ import annotations
 
 import os
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from pftrack.components import ObservationModel, RunContext, Target
 
 if TYPE_CHECKING:
-    from pftrack.geometry.camera import CameraSpec
+    from pftrack.geometry.camera import Camera, CameraSpec
 
 __all__ = ["CameraBoxObservation", "CameraVolumeObservation"]
 
@@ -115,10 +115,10 @@ class CameraBoxObservation(ObservationModel):
             self.__dict__.pop("dims_", None)
             self.camera_ = context.camera
 
-    def get_camera(self) -> Any:
+    def get_camera(self) -> Camera:
         """The camera in use (``camera``, loaded when a path, or the run's)."""
         self._checked()
-        return _resolve_camera(self)
+        return _required_camera(self)
 
     _cam = get_camera
 
@@ -282,7 +282,7 @@ class CameraVolumeObservation(ObservationModel):
             self.__dict__.pop("half_size_", None)
             self.camera_ = context.camera
 
-    def get_camera(self) -> Any:
+    def get_camera(self) -> Camera:
         """The camera in use (``camera``, loaded when a path, or the run's)."""
         if "half_size_" not in self.__dict__:  # parameters checked once, on first use
             size = np.asarray(self.size_m, dtype=np.float64).reshape(-1)
@@ -292,7 +292,7 @@ class CameraVolumeObservation(ObservationModel):
             if self.particle_box not in ("cuboid", "point"):
                 raise ValueError(f"CameraVolumeObservation: particle_box must be 'cuboid' or "
                                  f"'point', got {self.particle_box!r}")
-            self.camera_ = _resolve_camera(self)
+            self.camera_ = _required_camera(self)
             self.half_size_ = 0.5 * size
         return self.camera_
 
@@ -353,7 +353,7 @@ def _visible_fraction(b: np.ndarray, image_size_wh: tuple[int, int]) -> np.ndarr
         return np.where(area > 0, inside / area, 0.0)
 
 
-def _resolve_camera(model: ObservationModel, required: bool = True) -> Any:
+def _resolve_camera(model: ObservationModel, required: bool = True) -> Camera | None:
     """``model``'s camera: the one :meth:`setup` took from the run (``camera_``) or its
     ``camera`` parameter, loaded when a path; ValueError naming the model when there is none
     and ``required``."""
@@ -365,4 +365,11 @@ def _resolve_camera(model: ObservationModel, required: bool = True) -> Any:
     if cam is None and required:
         raise ValueError(f"{type(model).__name__}: no camera; give camera=... or run with a "
                          "camera (pftrack run --camera PATH)")
+    return cam
+
+
+def _required_camera(model: ObservationModel) -> Camera:
+    """:func:`_resolve_camera` when there must be a camera (ValueError naming ``model`` if not)."""
+    cam = _resolve_camera(model, required=True)
+    assert cam is not None  # _resolve_camera raised otherwise
     return cam
