@@ -180,7 +180,8 @@ class CameraBoxObservation(ObservationModel):
         """Per-target height factors (``height_scales_``), created on first use."""
         scales = self.__dict__.get("height_scales_")
         if scales is None:
-            scales = self.height_scales_ = {}  # type: ignore[var-annotated]
+            scales = {}
+            self.height_scales_: dict[int, float] = scales
         return scales
 
     def end_target(self, target: Target) -> None:

@@ -122,17 +122,18 @@ def load_config(spec: str | os.PathLike[str] | dict[str, Any]) -> dict[str, Any]
     return cfg
 
 
-def parse_frames(text: str | Sequence[int] | None) -> tuple[int, int | None]:
+def parse_frames(text: str | tuple[int, int | None] | Sequence[int] | None
+                 ) -> tuple[int, int | None]:
     """``"A:B"`` (inclusive, ground-truth numbering, 1-based) -> (A, B); ``"A:"`` -> (A, None)."""
     if text is None:
         return 1, None
     if not isinstance(text, str):
-        a, b = text
-        return int(a), None if b is None else int(b)
-    a, sep, b = text.partition(":")  # type: ignore[assignment]
+        lo, hi = text
+        return int(lo), None if hi is None else int(hi)
+    a, sep, b = text.partition(":")
     try:
-        first = int(a) if a.strip() else 1  # type: ignore[attr-defined]
-        last = int(b) if b.strip() else None  # type: ignore[attr-defined]
+        first = int(a) if a.strip() else 1
+        last = int(b) if b.strip() else None
     except ValueError:
         raise ValueError(
             f"--frames must look like A:B (1-based, inclusive), got {text!r}") from None
@@ -211,7 +212,7 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
               **(params or {})}
     det_cfg = {"type": det_cfg.get("type", "svm"), "params": merged}
     det = build_detector({"detector": det_cfg}, RunContext(camera=_load_camera(camera)))
-    first, last = parse_frames(frames)  # type: ignore[arg-type]
+    first, last = parse_frames(frames)
     rows = read_ground_truth(gt, first, last)
     pos: dict[int, np.ndarray] = {}
     ign: dict[int, np.ndarray] = {}
@@ -425,7 +426,7 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     video = Path(video)
     if not video.is_file():
         raise FileNotFoundError(f"video {video} not found")
-    first, last = parse_frames(frames)  # type: ignore[arg-type]
+    first, last = parse_frames(frames)
     fps = video_fps(video)
     engine = build_engine(cfg, camera=cam, fps=fps, seed=seed, detector_model=detector_model)
     detector = None

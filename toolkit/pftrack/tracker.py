@@ -354,6 +354,8 @@ class MultiTargetTracker:
         # associator, the likelihood and callers (``target.particle_boxes_xywh_px``). Several
         # targets with as many particles each: one (T, N, D) call of each (the same numbers)
         n = self.n_particles
+        predicted: np.ndarray | list[np.ndarray]
+        boxes: np.ndarray | list[np.ndarray]
         if (self._vectorise and len(filters) > 1 and self._rows_pay
                 and all(len(f.particles) == n for f in filters)):
             targets = [f.target for f in filters]
@@ -361,9 +363,9 @@ class MultiTargetTracker:
                                                  self.dt, rng, targets)
             boxes = observation.to_boxes_rows(predicted, targets)
         else:
-            predicted = [self.motion.predict(f.particles, self.dt, rng, target=f.target)  # type: ignore[assignment]
+            predicted = [self.motion.predict(f.particles, self.dt, rng, target=f.target)
                          for f in filters]
-            boxes = [observation.to_boxes(p, f.target) for p, f in zip(predicted, filters)]  # type: ignore[assignment]
+            boxes = [observation.to_boxes(p, f.target) for p, f in zip(predicted, filters)]
         for f, p, b in zip(filters, predicted, boxes):
             t = f.target
             f.particles = t.particles = p

@@ -80,9 +80,9 @@ def nms(boxes_xywh_px: np.ndarray, scores: np.ndarray, iou_threshold: float) -> 
     import cv2
 
     shifted = scores - scores.min()
-    idx = cv2.dnn.NMSBoxes(boxes.tolist(), shifted.tolist(), 0.0, float(iou_threshold))
-    idx = np.asarray(idx, dtype=np.intp).reshape(-1)  # type: ignore[assignment]
-    return idx[np.argsort(-scores[idx], kind="stable")]  # type: ignore[call-overload]
+    kept = cv2.dnn.NMSBoxes(boxes.tolist(), shifted.tolist(), 0.0, float(iou_threshold))
+    idx = np.asarray(kept, dtype=np.intp).reshape(-1)
+    return idx[np.argsort(-scores[idx], kind="stable")]
 
 
 def sub_boxes(boxes_xywh_px: np.ndarray, region: Sequence[float] | None) -> np.ndarray:

@@ -13,6 +13,8 @@ counting over alphas and the whole-sequence sums are vectorised.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
@@ -41,13 +43,13 @@ def hota_metrics(seq: SequenceData) -> dict[str, object]:
     G, T = seq.num_gt_ids, seq.num_tracker_ids
     n_gt, n_tr = seq.num_gt_dets, seq.num_tracker_dets
     if n_tr == 0 or n_gt == 0:  # TrackEval's early return
-        res = {k: np.zeros(A) for k in ("HOTA", "DetA", "AssA", "DetRe", "DetPr", "AssRe",
-                                         "AssPr", "OWTA", "HOTA_TP")}
+        res: dict[str, Any] = {k: np.zeros(A) for k in (
+            "HOTA", "DetA", "AssA", "DetRe", "DetPr", "AssRe", "AssPr", "OWTA", "HOTA_TP")}
         res["HOTA_FN"] = np.full(A, float(n_gt))
         res["HOTA_FP"] = np.full(A, float(n_tr))
         res["LocA"] = np.ones(A)
-        res.update({"HOTA(0)": 0.0, "LocA(0)": 1.0, "HOTALocA(0)": 0.0, "alphas": ALPHAS.copy()})  # type: ignore[dict-item]
-        return res  # type: ignore[return-value]
+        res.update({"HOTA(0)": 0.0, "LocA(0)": 1.0, "HOTALocA(0)": 0.0, "alphas": ALPHAS.copy()})
+        return res
 
     # -- whole-sequence soft alignment between ids (vectorised over all same-frame pairs) --
     s = seq.pair_sim
