@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from pftrack.components import Detections, Detector, Frame, RunContext
-from pftrack.geometry.boxes import iou_matrix, nms
+from pftrack.geometry.boxes import foot_points, iou_matrix, nms
 
 if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera, CameraSpec
@@ -280,7 +280,7 @@ def heights_from_boxes(boxes_xywh_px: np.ndarray, image_size_wh: tuple[int, int]
     b = b[np.all(np.isfinite(b), axis=1) & (b[:, 3] > 0)]
     if len(b) < 3:
         raise ValueError(f"heights_from_boxes: need at least 3 boxes, got {len(b)}")
-    A = np.column_stack([b[:, 0] + 0.5 * b[:, 2], b[:, 1] + b[:, 3], np.ones(len(b))])
+    A = np.column_stack([foot_points(b), np.ones(len(b))])
     coef, *_ = np.linalg.lstsq(A, b[:, 3], rcond=None)
     w, h = image_size_wh
     us, vs = np.meshgrid(np.arange(0, w, step_px, dtype=np.float64),
@@ -691,7 +691,7 @@ class SVMDetector(Detector):
         points = None
         cam = self._camera()
         if cam is not None:
-            feet = np.stack([boxes[:, 0] + 0.5 * boxes[:, 2], boxes[:, 1] + boxes[:, 3]], axis=1)
+            feet = foot_points(boxes)
             points = cam.image_to_ground(feet) if len(feet) else np.zeros((0, 3))
         return Detections(boxes, scores, points)
 

@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from pftrack.components import ObservationModel, RunContext, Target
+from pftrack.geometry.boxes import foot_points
 
 if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera, CameraSpec
@@ -209,7 +210,7 @@ class CameraBoxObservation(ObservationModel):
         """Ground position (p_x, p_y) in metres under a box's foot point (bottom centre);
         NaN when the foot point's ray does not meet the ground in front of the camera."""
         b = np.asarray(box_xywh_px, dtype=np.float64).reshape(4)
-        g = self._cam().image_to_ground(np.array([[b[0] + 0.5 * b[2], b[1] + b[3]]]))[0]
+        g = self._cam().image_to_ground(foot_points(b)[None])[0]
         return g[:2].copy()
 
     def world_position(self, state: np.ndarray) -> np.ndarray:
@@ -326,7 +327,7 @@ class CameraVolumeObservation(ObservationModel):
         """The centre (x, y, z) of an object resting on ``z = support_z_m`` whose bottom
         centre is the box's; NaN when that ray misses the plane in front of the camera."""
         b = np.asarray(box_xywh_px, dtype=np.float64).reshape(4)
-        g = self.get_camera().image_to_ground(np.array([[b[0] + 0.5 * b[2], b[1] + b[3]]]),
+        g = self.get_camera().image_to_ground(foot_points(b)[None],
                                               z_m=float(self.support_z_m))[0]
         return np.array([g[0], g[1], float(self.support_z_m) + 0.5 * float(self.size_m[2])])
 
