@@ -178,3 +178,33 @@ def test_resolve_volume(tmp_path):
     assert resolve_volume("other", search=[f]).name == "other"
     with pytest.raises(ValueError, match="unknown volume 'moon'"):
         resolve_volume("moon", search=[f])
+
+
+def test_plugins_ship_volume_files_found_by_name(tmp_path):
+    from pftrack import hookimpl
+    from pftrack.host import Host, RegistrationError
+
+    # the built-ins' package data: seed 001's pitch and the PETS walkway cuboid
+    pitch = resolve_volume("pitch_seed001")
+    assert isinstance(pitch, SoccerPitchVolume) and pitch.frame == "corner"
+    walkway = resolve_volume("walkway")
+    np.testing.assert_allclose(walkway.size_m, [27.0, 22.0, 2.0])
+
+    f = tmp_path / "mine.yaml"
+    save_volumes(f, [CuboidVolume([0, 0, 1], [2, 2, 2], name="shed")])
+
+    class _Ships:
+        @hookimpl
+        def pftrack_register_volumes(self, register):
+            register("sheds", str(f))
+
+    class _Broken:
+        @hookimpl
+        def pftrack_register_volumes(self, register):
+            register("gone", str(tmp_path / "gone.yaml"))
+
+    h = Host(load_entry_points=False, plugins=[("ships", _Ships())])
+    assert h.names("volumes") == ["sheds"]
+    assert h.plugins["ships"].components == {"volumes": ["sheds"]}
+    with pytest.raises(RegistrationError, match=r"plugin 'broken': volumes 'gone' file not found"):
+        Host(load_entry_points=False, plugins=[("broken", _Broken())])
