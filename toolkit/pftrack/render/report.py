@@ -22,7 +22,6 @@ import numpy as np
 from pftrack.geometry.boxes import foot_points
 from pftrack.io.images import write_png
 from pftrack.render.colours import track_colour_bgr
-from pftrack.render.topview import render_topview
 
 __all__ = ["draw_overlay", "draw_trajectories", "write_report"]
 
@@ -113,6 +112,10 @@ def draw_trajectories(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
     gt_tracks = _world_tracks(gt_rows, frame) if gt_rows is not None else {}
     top = None
     if tracks or gt_tracks:
+        # pyvista is imported only when a top view is drawn (the report writer is registered
+        # when the host loads the plugins)
+        from pftrack.render.topview import render_topview
+
         every = [t for t in tracks.values()] + [t for t in gt_tracks.values()]
         allp = np.concatenate(every)
         lo, hi = allp.min(axis=0), allp.max(axis=0)
