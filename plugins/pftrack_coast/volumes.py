@@ -433,7 +433,7 @@ class VolumeTracks(TrackManager):
 
     # -- helpers ------------------------------------------------------------------------------
 
-    def _camera(self, engine: Any) -> Any:
+    def _camera(self, engine: Any) -> Camera:
         cam = self.__dict__.get("camera_")
         if cam is None:
             get = getattr(engine.observation, "get_camera", None)

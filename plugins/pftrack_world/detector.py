@@ -588,7 +588,7 @@ class SVMDetector(Detector):
         m = self._model()
         return {**m.params(), "n_features": m.n_features}
 
-    def _camera(self) -> Any:
+    def _camera(self) -> Camera | None:
         if not hasattr(self, "camera_"):
             cam = self.camera
             if isinstance(cam, (str, os.PathLike)):

@@ -563,7 +563,7 @@ class SoccerScene(Scene):
         self.tracks_ = tracks
         return self
 
-    def _load_camera(self, size: tuple[int, int]) -> Any:
+    def _load_camera(self, size: tuple[int, int]) -> Camera:
         from pftrack.geometry.formats import load_camera
 
         path = Path(self.camera) if self.camera is not None else default_soccer_camera_path()
