@@ -8,6 +8,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from conftest import MEAN_ABS_TOL, compare_reference
 from pftrack.geometry.camera import Camera, OpenCVDistortion
 from pftrack.geometry.clouds import ParticleCloud
 from pftrack.geometry.volumes import CuboidVolume
@@ -17,7 +18,6 @@ from pftrack.render.overlay import (
     project_polylines,
     render_overlay,
 )
-from test_render_topview import MEAN_ABS_TOL, compare_reference
 
 
 def _camera(distortion=None) -> Camera:

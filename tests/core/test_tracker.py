@@ -4,25 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack.components import Detections, Detector, Frame, Likelihood, MotionModel, Target
+from conftest import SampleWalk
+from pftrack.components import Detections, Detector, Frame, Likelihood, Target
 from pftrack.tracker import ImageBoxObservation, MultiTargetTracker, records_to_mot
 from pftrack_basic.motion import RandomWalkMotion
 from pftrack_basic.tracks import DetectionBirthTracks
-
-
-class _Walk(MotionModel):
-    def __init__(self, sigma: float = 3.0) -> None:
-        self.sigma = sigma
-
-    @property
-    def state_dim(self) -> int:
-        return 2
-
-    def predict(self, states, dt, rng, target=None):
-        return states + rng.normal(0.0, self.sigma * np.sqrt(dt), states.shape)
-
-    def init_states(self, position, n, rng, spread=1.0):
-        return position[None, :] + rng.normal(0.0, 1.0, (n, 2)) * spread
 
 
 class _TruthLikelihood(Likelihood):
@@ -53,7 +39,7 @@ def _track(seed, n_frames=60, truth=None):
     lik = _TruthLikelihood()
     truth = truth or {1: lambda k: np.array([20.0 + 2 * k, 50.0])}
     lik.truth_ = truth
-    tr = MultiTargetTracker(_Walk(), lik, ImageBoxObservation(10, 10), n_particles=300,
+    tr = MultiTargetTracker(SampleWalk(3.0), lik, ImageBoxObservation(10, 10), n_particles=300,
                             rng=np.random.default_rng(seed), kill_out_of_view=False)
     frames = list(_frames(n_frames))
     tr.add_target(frames[0], np.array([20.0, 50.0]), target_id=1)
@@ -122,7 +108,7 @@ def test_birth_from_detections_and_death_after_misses():
     lik = _TruthLikelihood()
     lik.truth_ = {}
     lik.truth_ = type("T", (), {"__getitem__": lambda s, i: (lambda k: np.array([50.0, 50.0]))})()
-    tr = MultiTargetTracker(_Walk(1.0), lik, ImageBoxObservation(10, 10), n_particles=100,
+    tr = MultiTargetTracker(SampleWalk(1.0), lik, ImageBoxObservation(10, 10), n_particles=100,
                             detector=_ListDetector(boxes), associator=_NearestAssociator(),
                             tracks=DetectionBirthTracks(min_score=0.5), max_misses=3,
                             rng=np.random.default_rng(0))
@@ -138,7 +124,7 @@ def test_valid_region_zeroes_particles_outside_and_kills_target_leaving_it():
     lik = _TruthLikelihood()
     lik.truth_ = {1: lambda k: np.array([20.0 + 4 * k, 50.0])}
     region = lambda p: p[:, 0] < 120.0  # noqa: E731
-    tr = MultiTargetTracker(_Walk(), lik, ImageBoxObservation(10, 10), n_particles=200,
+    tr = MultiTargetTracker(SampleWalk(3.0), lik, ImageBoxObservation(10, 10), n_particles=200,
                             valid_region=region, min_log_likelihood=-8.0, max_misses=2,
                             rng=np.random.default_rng(0))
     frames = list(_frames(60))
@@ -157,16 +143,16 @@ def test_valid_region_zeroes_particles_outside_and_kills_target_leaving_it():
 
 def test_rejects_missing_rng_and_bad_scheme():
     with pytest.raises(ValueError, match="rng"):
-        MultiTargetTracker(_Walk(), _TruthLikelihood(), ImageBoxObservation())
+        MultiTargetTracker(SampleWalk(3.0), _TruthLikelihood(), ImageBoxObservation())
     with pytest.raises(ValueError, match="resampling scheme"):
-        MultiTargetTracker(_Walk(), _TruthLikelihood(), ImageBoxObservation(),
+        MultiTargetTracker(SampleWalk(3.0), _TruthLikelihood(), ImageBoxObservation(),
                            resampling="bogus", rng=np.random.default_rng(0))
 
 
 def test_size_from_box_keeps_each_targets_initial_size():
     lik = _TruthLikelihood()
     lik.truth_ = {1: lambda k: np.array([50.0, 50.0]), 2: lambda k: np.array([150.0, 50.0])}
-    tr = MultiTargetTracker(_Walk(), lik, ImageBoxObservation(size_from_box=True),
+    tr = MultiTargetTracker(SampleWalk(3.0), lik, ImageBoxObservation(size_from_box=True),
                             n_particles=50, rng=np.random.default_rng(0))
     f = Frame(1, np.zeros((100, 200, 3), np.uint8))
     tr.add_target(f, box_xywh_px=np.array([40.0, 30.0, 20.0, 40.0]), target_id=1)
@@ -190,7 +176,7 @@ def test_targets_vectorised_equal_one_at_a_time_bit_for_bit(scheme, ess, motion)
     def run(vectorise):
         lik = _TruthLikelihood()
         lik.truth_ = truth
-        walk = _Walk() if motion == "test" else RandomWalkMotion(sigma_px=1.0)
+        walk = SampleWalk(3.0) if motion == "test" else RandomWalkMotion(sigma_px=1.0)
         tr = MultiTargetTracker(walk, lik, ImageBoxObservation(10, 10), n_particles=200,
                                 resampling=scheme, ess_threshold=ess,
                                 rng=np.random.default_rng(5), kill_out_of_view=False)
@@ -218,7 +204,7 @@ def test_the_likelihood_is_prepared_once_when_the_tracker_is_built_before_any_fr
 
     lik = Counting()
     lik.truth_ = {1: lambda k: np.array([20.0, 50.0])}
-    tr = MultiTargetTracker(_Walk(), lik, ImageBoxObservation(10, 10), n_particles=50,
+    tr = MultiTargetTracker(SampleWalk(3.0), lik, ImageBoxObservation(10, 10), n_particles=50,
                             rng=np.random.default_rng(0))
     assert lik.prepared_ == 1
     frames = list(_frames(3))
@@ -238,7 +224,7 @@ def test_a_composite_likelihood_prepares_its_terms(monkeypatch):
         {"likelihood": {"type": "cross-entropy-bg"}, "weight": 1.0},
         {"likelihood": {"type": "cross-entropy", "params": {"method": "histogram"}},
          "weight": 1.0}]}})
-    MultiTargetTracker(_Walk(), lik, ImageBoxObservation(10, 10), n_particles=10,
+    MultiTargetTracker(SampleWalk(3.0), lik, ImageBoxObservation(10, 10), n_particles=10,
                        rng=np.random.default_rng(0))
     assert loaded == [1]  # the integral term loads the kernels; the histogram one needs none
 

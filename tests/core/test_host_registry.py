@@ -12,24 +12,14 @@ from importlib import metadata
 import numpy as np
 import pftrack.host as host_mod
 import pytest
+from conftest import SampleWalk
 from pftrack import hookimpl
-from pftrack.components import Likelihood, MotionModel
+from pftrack.components import Likelihood
 from pftrack.host import Host, PluginLoadWarning, RegistrationError, UnknownComponentError
 
 
-class _Walk(MotionModel):
-    def __init__(self, sigma: float = 1.0) -> None:
-        self.sigma = sigma
-
-    @property
-    def state_dim(self) -> int:
-        return 2
-
-    def predict(self, states, dt, rng, target=None):
-        return states + rng.normal(0.0, self.sigma, states.shape)
-
-    def init_states(self, position, n, rng, spread=1.0):
-        return position + rng.normal(0.0, spread, (n, 2))
+class _Walk(SampleWalk):
+    """The sample walk under this module's own class (registering a class sets its name)."""
 
 
 class _OtherWalk(_Walk):

@@ -76,7 +76,7 @@ def test_view3d_camera_frustum_on_pets(tmp_path):
 
 
 def test_view3d_matches_reference():
-    from test_render_topview import MEAN_ABS_TOL, compare_reference
+    from conftest import MEAN_ABS_TOL, compare_reference
 
     near, cloud = _scene()
     img = render_view3d(volumes=[near], clouds=[cloud], size_wh=(320, 240), title="near")

@@ -2,34 +2,15 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
+from conftest import MEAN_ABS_TOL, compare_reference
 from pftrack.geometry.clouds import ParticleCloud
 from pftrack.geometry.volumes import resolve_volume
 from pftrack.render.topview import render_topview
-
-REF_DIR = Path(__file__).resolve().parent / "reference_images"
-#: mean absolute difference (grey levels, 0-255, over all pixels and channels) allowed
-#: against a reference; renders here differ from the reference by 0.0 on the same machine.
-MEAN_ABS_TOL = 2.0
-
-
-def compare_reference(name: str, image_rgb: np.ndarray) -> float:
-    """Mean abs difference to tests/reference_images/NAME (rewritten when
-    PFTRACK_UPDATE_REFERENCES=1)."""
-    path = REF_DIR / name
-    if os.environ.get("PFTRACK_UPDATE_REFERENCES") == "1":
-        REF_DIR.mkdir(exist_ok=True)
-        assert cv2.imwrite(str(path), np.ascontiguousarray(image_rgb[:, :, ::-1]))
-    ref = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    assert ref is not None, f"missing reference {path}; run with PFTRACK_UPDATE_REFERENCES=1"
-    ref = ref[:, :, ::-1]
-    assert ref.shape == image_rgb.shape
-    return float(np.abs(ref.astype(np.int16) - image_rgb.astype(np.int16)).mean())
 
 
 def _scene():

@@ -12,8 +12,9 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import ROOT
 
-SAMPLE = Path(__file__).parent / "sample_plugin"
+SAMPLE = ROOT / "tests" / "sample_plugin"
 
 
 @pytest.fixture(scope="module")

@@ -9,11 +9,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import ROOT
+from conftest import SampleWalk as _Walk
 from pftrack.components import (
     Assignment,
     Associator,
     Likelihood,
-    MotionModel,
     ObservationModel,
     TrackManager,
 )
@@ -36,21 +37,6 @@ def _failed(obj, **kw):
 
 
 # -- broken components: each breaks one rule -----------------------------------------------------
-
-
-class _Walk(MotionModel):
-    def __init__(self, sigma: float = 1.0) -> None:
-        self.sigma = sigma
-
-    @property
-    def state_dim(self) -> int:
-        return 2
-
-    def predict(self, states, dt, rng, target=None):
-        return states + rng.normal(0.0, self.sigma, states.shape)
-
-    def init_states(self, position, n, rng, spread=1.0):
-        return position + rng.normal(0.0, 1.0, (n, 2)) * spread
 
 
 class GlobalRandomMotion(_Walk):
@@ -270,7 +256,7 @@ def test_instances_are_checked_with_their_own_parameters():
 
 
 def test_sample_third_party_plugin_components_conform(monkeypatch):
-    monkeypatch.syspath_prepend(str(Path(__file__).parent / "sample_plugin"))
+    monkeypatch.syspath_prepend(str(ROOT / "tests" / "sample_plugin"))
     mod = importlib.import_module("pftrack_sample")
     assert_conforms(mod.DriftMotion)
     assert_conforms(mod.BoxAreaLikelihood(area_px=900.0))
