@@ -16,7 +16,7 @@ A small Sphinx extension (``docs/conf.py`` loads it). On ``builder-inited`` it w
 and executes the notebooks (``notebooks/*.ipynb``, stored without outputs) into
 ``docs/gallery/`` on the short slices their tests use (:data:`NOTEBOOKS`), so that myst-nb
 renders them with their pictures. The functions are importable without Sphinx (the test of the
-configuration reference, ``tests/test_docs.py``, calls :func:`config_reference`).
+configuration reference, ``tests/docs/test_docs.py``, calls :func:`config_reference`).
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ ROOT = Path(__file__).resolve().parents[2]
 DOCS = ROOT / "docs"
 
 #: Notebook -> (environment for its kernel, working directory: ``"root"`` or ``"tmp"``), as the
-#: notebook tests in ``tests/test_notebooks_*.py`` run them (their SHORT slices).
+#: notebook tests in ``tests/notebooks/test_notebooks_*.py`` run them (their SHORT slices).
 NOTEBOOKS: dict[str, tuple[dict[str, str], str]] = {
     "00_geometry.ipynb": ({}, "root"),
     "01_cross_entropy.ipynb": ({"PFTRACK_NB_FRAMES": "30", "PFTRACK_NB_PETS_LAST": "20"}, "tmp"),

@@ -19,7 +19,7 @@ Components (registered name -> class):
 * tracks: ``manual`` :class:`pftrack.tracker.ManualTracks` (targets added by the caller),
   ``births`` :class:`~pftrack_basic.tracks.DetectionBirthTracks`, ``confirmed``
   :class:`~pftrack_basic.tracks.ConfirmedTracks` (tentative -> confirmed, merging, appearance);
-* report writer: ``tracks`` (:func:`pftrack.report_world.write_report`: overlays and image
+* report writer: ``tracks`` (:func:`pftrack.render.report.write_report`: overlays and image
   trajectories beside the ground-plane top view), ``pftrack run``'s default;
 * benchmark: ``core`` (:mod:`pftrack_basic.bench_core`: the filter step against Stone Soup).
 
@@ -104,7 +104,7 @@ def pftrack_register_track_managers(register):
 @hookimpl
 def pftrack_register_report_writers(register):
     from pftrack.extensions import ReportWriter
-    from pftrack.report_world import write_report
+    from pftrack.render.report import write_report
 
     register("tracks", ReportWriter(
         summary="overlays (boxes, ids, foot points) and image trajectories beside the top view",

@@ -12,43 +12,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-
 from pftrack.components import Assignment, Associator, Detections, Target
+from pftrack.geometry.boxes import iou_matrix
 
-__all__ = ["GreedyIoUAssociator", "HungarianIoUAssociator", "box_iou", "centre_distance"]
+__all__ = ["GreedyIoUAssociator", "HungarianIoUAssociator", "centre_distance"]
 
 _METRICS = ("iou", "distance")
-
-
-def box_iou(a_xywh: np.ndarray, b_xywh: np.ndarray) -> np.ndarray:
-    """Intersection over union of every pair of boxes.
-
-    Parameters
-    ----------
-    a_xywh : ndarray, shape (T, 4)
-    b_xywh : ndarray, shape (K, 4)
-        Boxes as (left, top, width, height), pixels.
-
-    Returns
-    -------
-    ndarray, shape (T, K), float64
-        IoU in [0, 1]; 0 where a union is empty.
-    """
-    a = np.asarray(a_xywh, dtype=np.float64).reshape(-1, 4)
-    b = np.asarray(b_xywh, dtype=np.float64).reshape(-1, 4)
-    ax0, ay0 = a[:, 0:1], a[:, 1:2]
-    ax1, ay1 = ax0 + a[:, 2:3], ay0 + a[:, 3:4]
-    bx0, by0 = b[None, :, 0], b[None, :, 1]
-    bx1, by1 = bx0 + b[None, :, 2], by0 + b[None, :, 3]
-    iw = np.clip(np.minimum(ax1, bx1) - np.maximum(ax0, bx0), 0.0, None)
-    ih = np.clip(np.minimum(ay1, by1) - np.maximum(ay0, by0), 0.0, None)
-    inter = iw * ih
-    area_a = np.clip(a[:, 2:3], 0, None) * np.clip(a[:, 3:4], 0, None)
-    area_b = np.clip(b[None, :, 2], 0, None) * np.clip(b[None, :, 3], 0, None)
-    union = area_a + area_b - inter
-    with np.errstate(invalid="ignore", divide="ignore"):
-        iou = np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0)
-    return iou
 
 
 def centre_distance(a_xywh: np.ndarray, b_xywh: np.ndarray) -> np.ndarray:
@@ -84,7 +53,7 @@ class _BoxAssociator(Associator):
                       ).reshape(-1, 4)
         db = detections.boxes_xywh_px
         if self.metric == "iou":
-            iou = box_iou(tb, db)
+            iou = iou_matrix(tb, db)
             return 1.0 - iou, iou >= float(self.min_iou)
         dist = centre_distance(tb, db)
         return dist, dist <= float(self.max_distance_px)

@@ -17,9 +17,9 @@ For each particle count N the benchmark times, on one target:
 Each figure is the median of several repeats (``time.perf_counter``) after one untimed warm-up;
 the pftrack and Stone Soup steps are timed alternately so that both meet the same machine load.
 Large N gets fewer repeats (200 / 20 / 5 by default), Stone Soup at most 30 s worth, and it is
-timed once when one step takes longer than ``--slow-s``. The two libraries do not draw the same noise (Stone Soup samples the correlated
-constant-acceleration covariance; pftrack the per-axis noise of seed 001), so the comparison is of
-cost, not of numbers.
+timed once when one step takes longer than ``--slow-s``. The two libraries do not draw the same
+noise (Stone Soup samples the correlated constant-acceleration covariance; pftrack the per-axis
+noise of seed 001), so the comparison is of cost, not of numbers.
 """
 
 from __future__ import annotations
@@ -90,6 +90,7 @@ def _pftrack_step(n: int, seed: int) -> tuple[Callable[[Any], Any], Callable[[],
     from pftrack.components import Target
     from pftrack.filter import normalize_log_weights, systematic_resample, weighted_mean
     from pftrack.tracker import ImageBoxObservation
+
     from pftrack_basic.gaussian import GaussianLikelihood
     from pftrack_basic.motion import ConstantAccelerationMotion
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-
 from pftrack.components import Detections, Frame, Likelihood, Target
 from pftrack.filter import _jit
 

@@ -26,7 +26,6 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-
 from pftrack.components import MotionModel, Target
 from pftrack.filter import _jit
 

@@ -23,8 +23,7 @@ from typing import Any
 
 import numpy as np
 from pftrack.components import Detections, Frame, Target, TrackManager, TrackRecord
-
-from pftrack_basic.association import box_iou
+from pftrack.geometry.boxes import iou_matrix
 
 __all__ = ["ConfirmedTracks", "DetectionBirthTracks"]
 
@@ -226,7 +225,7 @@ class ConfirmedTracks(TrackManager):
         if self.merge_iou >= 1.0:
             return None
         boxes = np.array([t.box_xywh_px for t in targets])
-        return box_iou(boxes, boxes) > self.merge_iou
+        return iou_matrix(boxes, boxes) > self.merge_iou
 
     # -- one frame ----------------------------------------------------------------------------
 
@@ -289,7 +288,7 @@ class ConfirmedTracks(TrackManager):
         valid = engine.valid_region
         for i in cand:
             box = detections.boxes_xywh_px[i]
-            if taken and box_iou(box, np.array(taken)).max() > self.max_iou:
+            if taken and iou_matrix(box, np.array(taken)).max() > self.max_iou:
                 continue
             pos = engine.observation.position_from_box(box)
             if not np.all(np.isfinite(pos)):

@@ -14,7 +14,10 @@ Components (registered name -> class):
   detection groups in cuboid volumes, entry and exit by particle counts, several intruders at
   once, size with the support-plane correction);
 * scene: ``coast`` :class:`~pftrack_coast.scene.CoastScene` (the paper's coast, synthetic,
-  through ``calib/coast_seed003.yaml``: sea, shore, land, boats and a car, training frames);
+  through its camera, package data ``pftrack_coast/data/coast_seed003.yaml``: sea, shore, land,
+  boats and a car, training frames);
+* volumes: ``pets09-walkway`` (package data ``pftrack_coast/data/pets09_walkway.yaml``: the
+  ``walkway`` cuboid of preset ``pets09-volume``);
 * benchmark: ``background`` (:mod:`pftrack_coast.bench_background`: the model against OpenCV's
   background subtractors on real water, campus and thermal video).
 
@@ -65,6 +68,14 @@ def pftrack_register_presets(register):
     presets = resources.files("pftrack_coast") / "presets"
     register("pets09-volume", str(presets / "pets09-volume.yaml"))
     register("coast-volumes", str(presets / "coast-volumes.yaml"))
+
+
+@hookimpl
+def pftrack_register_volumes(register):
+    from importlib import resources
+
+    register("pets09-walkway",
+             str(resources.files("pftrack_coast") / "data" / "pets09_walkway.yaml"))
 
 
 @hookimpl

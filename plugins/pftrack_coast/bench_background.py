@@ -87,11 +87,11 @@ def _pets(folder: Path, step: int, margin: int,
           ) -> tuple[list[np.ndarray], list[np.ndarray], list[bool]]:
     """Grey frames 1..795 (every frame: the OpenCV models need a continuous stream), masks of
     the inflated boxes, and which frames are used (every ``step``-th)."""
+    import cv2
     from pftrack.io.mot import read_mot
     from pftrack.scenes.video import VideoScene
-    from pftrack_coast.detector import boxes_to_mask
 
-    import cv2
+    from pftrack_coast.detector import boxes_to_mask
 
     gt = read_mot(folder / "gt.txt")
     frames, masks, used = [], [], []
@@ -235,7 +235,6 @@ def _thermal(path: Path, bs: int) -> dict[str, Any]:
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
     import cv2
-
     from pftrack.data import data_dir
 
     root = Path(args.data) if args.data else data_dir()

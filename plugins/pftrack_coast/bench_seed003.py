@@ -4,8 +4,9 @@
 
 * ``pets09``: PETS 2009 S2.L1 with the preset ``pets09-volume`` -- the block eigenspace model
   trained on frames 1-400 (people's boxes, grown by 8 px, as foreground) exactly as
-  ``pftrack detector train --config pets09-volume`` trains it, then the people found and tracked in the
-  walkway cuboid (``calib/pets09_walkway.yaml``) on the test frames (default 401-795). Reported:
+  ``pftrack detector train --config pets09-volume`` trains it, then the people found and tracked
+  in the walkway cuboid (``calib/pets09_walkway.yaml``) on the test frames (default 401-795).
+  Reported:
 
   - ``MOTA``, ``IDF1``, ``HOTA``: image boxes (each estimate's cuboid projected) at IoU 0.5;
   - ``MOTA_world``, ``IDF1_world``, ``HOTA_world``: footprints on the ground plane against the
@@ -45,9 +46,12 @@ import copy
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera
 
 #: a person's size (width across the view, height, depth along the view), metres
 PERSON_M = (0.5, 1.75, 0.5)
@@ -78,14 +82,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
-def track_frames(cfg: dict[str, Any], frames: list[Any], camera: Any, seed: int,
+def track_frames(cfg: dict[str, Any], frames: list[Any], camera: Camera, seed: int,
            model: str | None, fit_frames: Any = None,
            snapshot: tuple[int, Any] | None = None) -> dict[str, Any]:
     """Run the configuration over ``frames``: MOT rows, the track manager, timings
     (``fit_frames``: images the likelihood's ``fit`` is shown first, untimed; ``snapshot``:
     ``(frame, f(engine, frame))`` called after that frame, its time not counted)."""
     import cv2
-
     from pftrack.pipeline import build_engine
     from pftrack.tracker import records_to_mot
 
@@ -207,12 +210,16 @@ def score_pets(gt: np.ndarray, run: dict[str, Any], volume: Any) -> dict[str, An
 def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
     import tempfile
 
+    from pftrack.data import pets09_files
     from pftrack.geometry.formats import load_camera
     from pftrack.geometry.volumes import resolve_volume
-    from pftrack.pipeline import iter_frames, load_config, parse_frames, read_ground_truth, \
-        train_detector
-
-    from pftrack.data import pets09_files
+    from pftrack.pipeline import (
+        iter_frames,
+        load_config,
+        parse_frames,
+        read_ground_truth,
+        train_detector,
+    )
 
     video, gt_path, cam_path = pets09_files(root)
     cfg = load_config(args.config)
@@ -264,13 +271,11 @@ def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
     return out
 
 
-def pets_images(folder: Path, engine: Any, frame: Any, camera: Any, volume: Any) -> None:
+def pets_images(folder: Path, engine: Any, frame: Any, camera: Camera, volume: Any) -> None:
     """The frame with particles and corrected cuboids (seed 003 figs. 2-3), and the particle
     clouds in the volume in 3-D (off-screen)."""
-    import cv2
-
     from pftrack.geometry.clouds import ParticleCloud
-    from pftrack.io.atomic import atomic_write_bytes
+    from pftrack.io.images import write_png
     from pftrack.render.view3d import render_view3d
 
     from pftrack_coast.report import intruders_image
@@ -278,16 +283,15 @@ def pets_images(folder: Path, engine: Any, frame: Any, camera: Any, volume: Any)
     folder.mkdir(parents=True, exist_ok=True)
     img = intruders_image(frame.image, camera, [volume], engine, engine.tracks.estimates_,
                           frame.index)
-    ok, png = cv2.imencode(".png", img)
-    if ok:
-        atomic_write_bytes(folder / "pets09_volume_frame.png", png.tobytes())
+    write_png(folder / "pets09_volume_frame.png", img)
     groups = engine.tracks.groups_
     clouds = []
     for t in engine.targets:
         w = np.full(len(t.particles), 0.2 if t.id in groups else 1.0)
         clouds.append(ParticleCloud(t.particles[:, :3], w))
     render_view3d(folder / "pets09_volume_3d.png", volumes=[volume], clouds=clouds,
-                  cameras=[camera], title=f"PETS frame {frame.index}: group (dark), people (bright)")
+                  cameras=[camera],
+                  title=f"PETS frame {frame.index}: group (dark), people (bright)")
 
 
 def pets_topview(folder: Path, run: dict[str, Any], gt: np.ndarray, volume: Any) -> None:

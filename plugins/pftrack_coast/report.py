@@ -4,24 +4,12 @@ Used by ``notebooks/04_block_eigenspace.ipynb``."""
 
 from __future__ import annotations
 
-import io
-
 import numpy as np
+from pftrack.io.images import figure_png
 
 from pftrack_coast.eigenspace import BlockEigenspaceModel, block_fractions
 
 __all__ = ["dims_png", "frame_png", "intruders_image"]
-
-
-def _png(fig) -> bytes:
-    import matplotlib.pyplot as plt
-
-    buf = io.BytesIO()
-    try:
-        fig.savefig(buf, format="png", dpi=100, bbox_inches="tight")
-    finally:
-        plt.close(fig)
-    return buf.getvalue()
 
 
 def frame_png(model: BlockEigenspaceModel, image: np.ndarray, truth: np.ndarray | None = None,
@@ -51,7 +39,7 @@ def frame_png(model: BlockEigenspaceModel, image: np.ndarray, truth: np.ndarray 
     for a in ax:
         a.set_xticks([])
         a.set_yticks([])
-    return _png(fig)
+    return figure_png(fig, dpi=100, tight=True)
 
 
 def dims_png(model: BlockEigenspaceModel, title: str = "") -> bytes:
@@ -75,7 +63,7 @@ def dims_png(model: BlockEigenspaceModel, title: str = "") -> bytes:
     ax.set_title(f"{title} eigenspace dimension D per block".strip())
     ax.set_xticks([])
     ax.set_yticks([])
-    return _png(fig)
+    return figure_png(fig, dpi=100, tight=True)
 
 
 def intruders_image(image_bgr: np.ndarray, camera, volumes, engine, estimates,
@@ -85,7 +73,6 @@ def intruders_image(image_bgr: np.ndarray, camera, volumes, engine, estimates,
     projected (green) with its id. ``estimates`` is :attr:`VolumeTracks.estimates_`;
     ``engine`` the engine right after ``frame_index`` was tracked. Returns a BGR copy."""
     import cv2
-
     from pftrack.render.overlay import draw_points, draw_volume, draw_world_polylines
 
     img = np.ascontiguousarray(image_bgr).copy()

@@ -65,11 +65,14 @@ import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 from pftrack.components import Frame, Scene
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera
 
 __all__ = ["CLIPS", "CoastObject", "CoastScene", "Conditions", "default_coast_camera"]
 
@@ -101,19 +104,14 @@ _SEA, _HAZE = 88.0, 80.0
 _LAND = 138.0
 
 
-def default_coast_camera() -> Any:
-    """The project's coastal camera: ``calib/coast_seed003.yaml`` when the repository is there,
-    else the same camera rebuilt from its recipe (its ``notes``), so a wheel works anywhere."""
-    from pftrack.data import REPO_ROOT
-    from pftrack.geometry.camera import Camera, OpenCVDistortion
+def default_coast_camera() -> Camera:
+    """The project's coastal camera, package data ``pftrack_coast/data/coast_seed003.yaml``
+    (``calib/coast_seed003.yaml`` in a checkout points to it)."""
+    from importlib import resources
+
     from pftrack.geometry.formats import load_camera
 
-    path = REPO_ROOT / "calib" / "coast_seed003.yaml"
-    if path.is_file():
-        return load_camera(path)
-    return Camera.look_at(eye_m=[0, 0, 20], target_m=[0, 150, 0], image_size=list(OUTPUT_WH),
-                          fx=600, cx=384, cy=288, distortion=OpenCVDistortion(k1=-0.05),
-                          name="coast_seed003")
+    return load_camera(Path(str(resources.files("pftrack_coast") / "data" / "coast_seed003.yaml")))
 
 
 # ------------------------------------------------------------------------------------------------
@@ -692,7 +690,7 @@ def _sky(rng: np.random.Generator, ground: np.ndarray) -> np.ndarray:
     return np.broadcast_to(sky, (h, w)).astype(np.float32).copy()
 
 
-def _draw_cuboid(img: np.ndarray, cam: Any, centre: np.ndarray, size: np.ndarray,
+def _draw_cuboid(img: np.ndarray, cam: Camera, centre: np.ndarray, size: np.ndarray,
                  faces: dict[str, float], dist: np.ndarray, ss: int = 4) -> None:
     """Fill the faces of a world-axis-aligned cuboid that face the camera into ``img`` (H, W)
     float32 in place, with ``ss`` x ``ss`` super-sampled coverage; grey levels hazed by

@@ -43,7 +43,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from pftrack.components import (
@@ -56,8 +56,12 @@ from pftrack.components import (
     TrackManager,
     TrackRecord,
 )
+from pftrack.geometry.boxes import iou_matrix
 
 from pftrack_coast.likelihood import _blocks_of_pixels
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera
 
 __all__ = ["InsideBoxesLikelihood", "VolumeTracks", "cloud_box", "cuboid_box", "cuboid_boxes",
            "cuboid_corners", "footprint_size",
@@ -80,7 +84,7 @@ def footprint_size(across_m: float, aspect: float, heading_deg: float | None) ->
     return float(across_m), w * (a * s + c)
 
 
-def _axes(camera: Any, ground_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _axes(camera: Camera, ground_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit vectors (3,) across and along the view on the horizontal plane at ``ground_xy``."""
     c = camera.center_m
     along = np.array([ground_xy[0] - c[0], ground_xy[1] - c[1], 0.0])
@@ -90,7 +94,7 @@ def _axes(camera: Any, ground_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return across, along
 
 
-def support_plane_estimate(camera: Any, pixels: np.ndarray, *, support_z_m: float = 0.0,
+def support_plane_estimate(camera: Camera, pixels: np.ndarray, *, support_z_m: float = 0.0,
                            aspect: float = 1.0, heading_deg: float | None = None,
                            max_height_m: float = 50.0, quantile: float = 0.02,
                            ) -> dict[str, Any] | None:
@@ -155,7 +159,7 @@ def support_plane_estimate(camera: Any, pixels: np.ndarray, *, support_z_m: floa
             "across": across, "along": along}
 
 
-def cuboid_box(camera: Any, centre_m: np.ndarray, size_m: np.ndarray, across: np.ndarray,
+def cuboid_box(camera: Camera, centre_m: np.ndarray, size_m: np.ndarray, across: np.ndarray,
                along: np.ndarray) -> np.ndarray:
     """Image bounding box (4,) of a cuboid with ``size_m`` (across, height, along) about
     ``centre_m``, its faces along the view's axes (NaN when a corner is behind the camera)."""
@@ -196,7 +200,7 @@ def _cloud_ends(pixels: np.ndarray, quantile: float,
     return mid - half, mid + half, mid
 
 
-def cuboid_boxes(camera: Any, centres_m: np.ndarray, sizes_m: np.ndarray, across: np.ndarray,
+def cuboid_boxes(camera: Camera, centres_m: np.ndarray, sizes_m: np.ndarray, across: np.ndarray,
                  along: np.ndarray) -> np.ndarray:
     """:func:`cuboid_box` of K cuboids (K, 3) at once: (K, 4), one projection."""
     c = np.asarray(centres_m, dtype=np.float64)
@@ -225,12 +229,6 @@ def _clip_into(volume: Any, points: np.ndarray) -> np.ndarray:
     local = volume.to_local(points)
     half = 0.5 * np.asarray(volume.size_m, dtype=np.float64)
     return volume.to_world(np.clip(local, -half, half))
-
-
-def _iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    from pftrack.metrics.similarity import box_iou
-
-    return box_iou(a[:, None, :], b[None, :, :])
 
 
 class InsideBoxesLikelihood(Likelihood):
@@ -355,13 +353,13 @@ class VolumeTracks(TrackManager):
         from pftrack.geometry.volumes import CuboidVolume
         from pftrack.observation_world import CameraVolumeObservation
         from pftrack.testing import ConformanceExample
-
         from pftrack_basic.motion import ConstantVelocity3DMotion
 
         cam = Camera.look_at((0.0, -40.0, 20.0), (0.0, 0.0, 0.0), (160, 120), fx=150.0)
         vol = CuboidVolume([0.0, 0.0, 1.0], [60.0, 60.0, 2.0], None, "kit")
         return ConformanceExample(
-            cls(volumes=[vol.to_dict()], entry_particles=3, exit_particles=2, object_size_m=(1, 2, 1)),
+            cls(volumes=[vol.to_dict()], entry_particles=3, exit_particles=2,
+                object_size_m=(1, 2, 1)),
             context=RunContext(camera=cam),
             engine={"motion": ConstantVelocity3DMotion(position_noise=0.3),
                     "likelihood": InsideBoxesLikelihood(),
@@ -440,7 +438,7 @@ class VolumeTracks(TrackManager):
 
     # -- helpers ------------------------------------------------------------------------------
 
-    def _camera(self, engine: Any) -> Any:
+    def _camera(self, engine: Any) -> Camera:
         cam = self.__dict__.get("camera_")
         if cam is None:
             get = getattr(engine.observation, "get_camera", None)
@@ -681,7 +679,7 @@ class VolumeTracks(TrackManager):
         overlaps: dict[tuple[int, int], int] = {}
         if len(out) > 1:
             boxes = np.array([r.box_xywh_px for r in out])
-            same = _iou(boxes, boxes) > float(self.merge_iou)
+            same = iou_matrix(boxes, boxes) > float(self.merge_iou)
             if self.merge_distance_m is not None:
                 xy = np.array([r.world_m[:2] if r.world_m is not None else (np.nan, np.nan)
                                for r in out])

@@ -24,7 +24,7 @@ def _frames(text: str) -> tuple[int, int | None]:
         last = int(b) if b.strip() else None
     except ValueError:
         raise argparse.ArgumentTypeError(f"--frames must be A:B (ground-truth frame numbers), "
-                                         f"got {text!r}")
+                                         f"got {text!r}") from None
     if first < 1 or (last is not None and last < first):
         raise argparse.ArgumentTypeError(f"--frames {text!r}: need 1 <= A <= B")
     return first, last
@@ -50,7 +50,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
     import cv2
-
     from pftrack.host import get_host
 
     get_host().get("likelihood", "cross-entropy-bg")  # a clear error without the plugin

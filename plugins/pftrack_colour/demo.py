@@ -14,10 +14,11 @@ from typing import Any
 import numpy as np
 from pftrack.host import Host, get_host
 from pftrack.io.atomic import atomic_write_text
+from pftrack.io.images import write_png
 
 from pftrack_colour.experiment import centre_errors, cumulative_errors, first_boxes, track
 from pftrack_colour.report import WALKER_COLOURS_BGR as DRAW_COLOURS_BGR
-from pftrack_colour.report import draw_frame, draw_trajectories, line_chart, montage, write_png
+from pftrack_colour.report import draw_frame, draw_trajectories, line_chart, montage
 
 __all__ = ["run_demo"]
 

@@ -4,8 +4,9 @@ Everything here works on BGR ``uint8`` frames (OpenCV's order) and integer pixel
 
 * :class:`ColourBins` maps pixels to histogram bins (seed 000: RGB, 8 x 8 x 8 = 512 bins) with one
   look-up table per channel; no Python loop per pixel.
-* :func:`integer_boxes` / :func:`clip_boxes` turn particle boxes ``(left, top, width, height)`` in
-  float pixels into the integer pixel rectangles the likelihoods read, and clip them to the image.
+* :func:`integer_boxes` turns particle boxes ``(left, top, width, height)`` in float pixels into
+  the integer pixel rectangles the likelihoods read (clipping them to the image:
+  :func:`pftrack.geometry.boxes.clip_boxes`).
 * :class:`ParticleRegion` is the image region that one target's particles cover in one frame (the
   bounding rectangle of their boxes, clipped to the image). The fast likelihoods build an integral
   image over it once per frame and target, then read any box sum with four look-ups; the baselines
@@ -29,10 +30,8 @@ __all__ = [
     "COLOUR_SPACES",
     "ColourBins",
     "ParticleRegion",
-    "clip_boxes",
     "integer_boxes",
     "normalise_histogram",
-    "sub_boxes",
     "subsample",
 ]
 
@@ -246,52 +245,6 @@ def integer_boxes(boxes_xywh_px: np.ndarray) -> np.ndarray:
     out = np.empty((len(b), 4), dtype=np.int64)
     out[:, :2] = b[:, :2]
     out[:, 2:] = b[:, :2] + np.maximum(b[:, 2:], 1.0)
-    return out
-
-
-def clip_boxes(rects: np.ndarray, size_wh: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """Clip integer rectangles (N, 4) ``(x0, y0, x1, y1)`` to an image of ``size_wh``.
-
-    Returns
-    -------
-    clipped : ndarray, shape (N, 4), int64
-        Clipped rectangles; a box wholly outside becomes an empty one (``x0 == x1`` or
-        ``y0 == y1``) on the image border.
-    n_pixels : ndarray, shape (N,), int64
-        Pixels inside the image (0 for a box wholly outside).
-    """
-    r = np.asarray(rects, dtype=np.int64).reshape(-1, 4)
-    w, h = size_wh
-    # clipping both corners into the image keeps x0 <= x1 (clipping is monotone)
-    c = np.minimum(np.maximum(r, 0), np.array([w, h, w, h], dtype=np.int64))
-    wh = c[:, 2:] - c[:, :2]
-    return c, wh[:, 0] * wh[:, 1]
-
-
-def sub_boxes(boxes_xywh_px: np.ndarray,
-              region: tuple[float, float, float, float] | None) -> np.ndarray:
-    """The part of each box the colour model reads.
-
-    Parameters
-    ----------
-    boxes_xywh_px : ndarray, shape (N, 4)
-    region : (fx0, fy0, fx1, fy1) or None
-        Fractions of the box's width and height (e.g. ``(0.15, 0.15, 0.85, 0.55)``: a person's
-        torso); None: the whole box.
-
-    Returns
-    -------
-    ndarray, shape (N, 4), float64, xywh px.
-    """
-    b = np.asarray(boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
-    if region is None:
-        return b
-    fx0, fy0, fx1, fy1 = (float(v) for v in region)
-    out = np.empty_like(b)
-    out[:, 0] = b[:, 0] + fx0 * b[:, 2]
-    out[:, 1] = b[:, 1] + fy0 * b[:, 3]
-    out[:, 2] = (fx1 - fx0) * b[:, 2]
-    out[:, 3] = (fy1 - fy0) * b[:, 3]
     return out
 
 

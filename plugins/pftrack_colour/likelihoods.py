@@ -59,6 +59,7 @@ from typing import Any, NamedTuple
 import cv2
 import numpy as np
 from pftrack.components import Detections, Frame, Likelihood, Param, Target
+from pftrack.geometry.boxes import sub_boxes
 
 from pftrack_colour import _jit
 from pftrack_colour.histograms import (
@@ -66,7 +67,6 @@ from pftrack_colour.histograms import (
     ParticleRegion,
     integer_boxes,
     normalise_histogram,
-    sub_boxes,
     subsample,
 )
 

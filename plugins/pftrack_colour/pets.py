@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 from pftrack.components import Frame
+from pftrack.geometry.boxes import box_iou
 
 from pftrack_colour.experiment import (
     first_boxes,
@@ -48,7 +49,6 @@ from pftrack_colour.experiment import (
 __all__ = [
     "PETS_LIKELIHOOD",
     "PETS_TRACKER",
-    "box_iou_rows",
     "pets_experiment",
     "pets_markdown",
     "pets_overlay",
@@ -90,19 +90,6 @@ def pets_scene(frames: tuple[int, int] | None = None, data: str | Path | None = 
                                     "the folder holding pets09/)")
     first, last = (1, None) if frames is None else frames
     return VideoScene(str(video), str(gt), first=first, last=last)
-
-
-def box_iou_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """IoU of paired xywh boxes (N, 4) and (N, 4); NaN boxes give 0."""
-    a = np.nan_to_num(np.asarray(a, float))
-    b = np.nan_to_num(np.asarray(b, float))
-    x0 = np.maximum(a[:, 0], b[:, 0])
-    y0 = np.maximum(a[:, 1], b[:, 1])
-    x1 = np.minimum(a[:, 0] + a[:, 2], b[:, 0] + b[:, 2])
-    y1 = np.minimum(a[:, 1] + a[:, 3], b[:, 1] + b[:, 3])
-    inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
-    union = a[:, 2] * a[:, 3] + b[:, 2] * b[:, 3] - inter
-    return np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
 
 
 def run_opencv(frames: Iterable[Frame], kind: str,
@@ -161,15 +148,15 @@ def score(track_rows: np.ndarray, gt_rows: np.ndarray) -> dict[str, Any]:
 
     iou = []
     for g, e in track_boxes(track_rows, gt_rows).values():
-        iou.append(box_iou_rows(g, e))
+        iou.append(box_iou(np.nan_to_num(g), np.nan_to_num(e)))
     iou_all = np.concatenate(iou) if iou else np.zeros(0)
     err = []
     per_person = {}
-    for tid, (g, e) in track_boxes(track_rows, gt_rows, hold_last=True).items():
+    for g, e in track_boxes(track_rows, gt_rows, hold_last=True).values():
         d = np.hypot(e[:, 0] + e[:, 2] / 2 - g[:, 0] - g[:, 2] / 2,
                      e[:, 1] + e[:, 3] / 2 - g[:, 1] - g[:, 3] / 2)
         err.append(d)
-    for (tid, (g, _)), i in zip(track_boxes(track_rows, gt_rows).items(), iou):
+    for tid, i in zip(track_boxes(track_rows, gt_rows), iou):
         per_person[int(tid)] = float(np.mean(i >= 0.5)) if len(i) else float("nan")
     err_all = np.concatenate(err) if err else np.zeros(0)
     m = evaluate(gt_rows, track_rows) if len(track_rows) else {"MOTA": float("nan"),
@@ -312,7 +299,8 @@ def pets_markdown(result: dict[str, Any]) -> str:
     s = result["setup"]
     lines = [(f"{s['sequence']}: frames {s['frames'][0]}-{s['frames'][1]}, {s['persons']} "
               f"persons, {s['gt_boxes']} ground-truth boxes\n"),
-             "| method | centre error px | success | updates / s | frames / s | MOTA | IDF1 | HOTA |",
+             "| method | centre error px | success | updates / s | frames / s | MOTA | IDF1 "
+             "| HOTA |",
              "|---|---:|---:|---:|---:|---:|---:|---:|"]
     for r in result["rows"]:
         lines.append(f"| {r['method']} | {r['mean_center_error_px']:.1f} | "

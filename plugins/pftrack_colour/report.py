@@ -1,18 +1,16 @@
 """Report pictures for the colour experiments, drawn with OpenCV (no matplotlib): frames with
 boxes and particles, image-plane trajectories, and line charts (per-frame error curves).
 
-Every function returns a BGR ``uint8`` image; :func:`write_png` writes one atomically.
+Every function returns a BGR ``uint8`` image; :func:`pftrack.io.images.write_png` writes one
+atomically.
 """
 
 from __future__ import annotations
 
-import os
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 
 import cv2
 import numpy as np
-from pftrack.io.atomic import atomic_write_bytes
 
 __all__ = [
     "WALKER_COLOURS_BGR",
@@ -25,8 +23,6 @@ __all__ = [
     "likelihood_maps",
     "line_chart",
     "montage",
-    "png_bytes",
-    "write_png",
 ]
 
 _PALETTE_BGR = [(180, 119, 31), (14, 127, 255), (44, 160, 44), (40, 39, 214), (189, 103, 148),
@@ -184,7 +180,7 @@ def line_chart(series: Sequence[tuple[str, np.ndarray, np.ndarray, tuple[int, in
         cv2.putText(img, f"{t:g}", (int(xx) - 10, top + ph + 18), _FONT, 0.4, (60, 60, 60), 1,
                     cv2.LINE_AA)
     cv2.rectangle(img, (left, top), (left + pw, top + ph), (90, 90, 90), 1)
-    for name, x, y, col, thick in series:
+    for _name, x, y, col, thick in series:
         px_, py_ = px(x, y)
         pts = np.column_stack([px_, py_])[np.isfinite(np.asarray(y, float))]
         if len(pts) > 1:
@@ -218,22 +214,6 @@ def montage(images: Sequence[np.ndarray], cols: int = 2, gap: int = 4) -> np.nda
             im = cv2.resize(im, (w, h), interpolation=cv2.INTER_AREA)
         out[r * (h + gap):r * (h + gap) + h, c * (w + gap):c * (w + gap) + w] = im
     return out
-
-
-def write_png(path: str | os.PathLike[str], image_bgr: np.ndarray) -> Path:
-    """Write a BGR image as PNG, atomically."""
-    ok, buf = cv2.imencode(".png", image_bgr)
-    if not ok:
-        raise ValueError(f"could not encode {path} as PNG")
-    return atomic_write_bytes(path, buf.tobytes())
-
-
-def png_bytes(image_bgr: np.ndarray) -> bytes:
-    """PNG encoding of a BGR image (for ``IPython.display.Image(data=...)``)."""
-    ok, buf = cv2.imencode(".png", image_bgr)
-    if not ok:
-        raise ValueError("could not encode the image as PNG")
-    return buf.tobytes()
 
 
 def _diverging_lut() -> np.ndarray:

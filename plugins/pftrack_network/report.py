@@ -14,7 +14,7 @@ import numpy as np
 
 from pftrack_network.network import CameraNetwork, Tracklet, camera_dropout
 
-__all__ = ["draw_dropout", "draw_person_images", "draw_trajectories", "figure_png", "person_gained",
+__all__ = ["draw_dropout", "draw_person_images", "draw_trajectories", "person_gained",
            "save_figure"]
 
 
@@ -115,18 +115,6 @@ def draw_trajectories(network: CameraNetwork, tracklets: Sequence[Tracklet], per
                      f"(who has {truth_n})", fontsize=9)
     fig.tight_layout()
     return fig
-
-
-def figure_png(fig: Any, dpi: int = 90) -> bytes:
-    """``fig`` as PNG bytes (for a notebook's ``Image``), closed afterwards."""
-    import io
-
-    buf = io.BytesIO()
-    try:
-        fig.savefig(buf, format="png", dpi=dpi)
-    finally:
-        _plt().close(fig)
-    return buf.getvalue()
 
 
 def person_gained(tracklets: Sequence[Tracklet], before: np.ndarray, after: np.ndarray) -> int:

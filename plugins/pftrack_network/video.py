@@ -17,7 +17,8 @@ from pftrack_network.network import Tracklet
 __all__ = ["tracklets_from_tracks"]
 
 
-def tracklets_from_tracks(video: str | os.PathLike[str], tracks: str | os.PathLike[str] | np.ndarray,
+def tracklets_from_tracks(video: str | os.PathLike[str],
+                          tracks: str | os.PathLike[str] | np.ndarray,
                           camera: str, *, fps: float | None = None, t0_s: float = 0.0,
                           images_per_tracklet: int = 8, min_rows: int = 2,
                           min_size_px: int = 8) -> list[Tracklet]:
@@ -50,7 +51,6 @@ def tracklets_from_tracks(video: str | os.PathLike[str], tracks: str | os.PathLi
         track's first and last rows, ``images`` BGR crops, ``rows`` the track's rows.
     """
     import cv2
-
     from pftrack.io.mot import FRAME, HEIGHT, ID, LEFT, TOP, WIDTH, read_mot, validate_mot_rows
 
     video = Path(video)
@@ -103,7 +103,7 @@ def tracklets_from_tracks(video: str | os.PathLike[str], tracks: str | os.PathLi
     finally:
         cap.release()
     out = []
-    for tid, idx in per_id.items():
+    for idx in per_id.values():
         images = [crops[r] for r in idx if r in crops]
         if not images:
             continue

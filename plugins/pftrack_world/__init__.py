@@ -15,9 +15,13 @@ Components (registered name -> class):
 * likelihood: ``detection`` (eq. 6), ``emd`` (eq. 7), ``ncc`` (eq. 8), ``composite`` (eq. 5, 9:
   any likelihood plugins weighted by numbers, beta or 1 - beta);
 * scene: ``soccer`` :class:`~pftrack_world.soccer.SoccerScene`;
-* preset: ``pets09-ground``, ``soccer-ground``, ``people-ground`` and ``people-image`` (package data, ``pftrack_world/presets``);
+* preset: ``pets09-ground``, ``soccer-ground``, ``people-ground`` and ``people-image`` (package
+  data, ``pftrack_world/presets``);
+* volumes: ``world`` (package data ``pftrack_world/data/volumes.yaml``: ``pitch_seed001`` and
+  seed 003's ``near`` / ``far``); the soccer camera ``pftrack_world/data/soccer_seed001.yaml``;
 * benchmark: ``fresh-video`` (:mod:`pftrack_world.bench_fresh_video`: PETS with nothing learnt
-  from its labels or camera, against norfair), ``pets09-ground`` (:mod:`pftrack_world.bench_pets09_ground`) and ``soccer``
+  from its labels or camera, against norfair), ``pets09-ground``
+  (:mod:`pftrack_world.bench_pets09_ground`) and ``soccer``
   (:mod:`pftrack_world.bench_soccer`).
 
 The ground-plane observation model (particles -> image boxes through the camera) is core:
@@ -85,6 +89,13 @@ def pftrack_register_presets(register):
     register("soccer-ground", str(presets / "soccer-ground.yaml"))
     register("people-ground", str(presets / "people-ground.yaml"))
     register("people-image", str(presets / "people-image.yaml"))
+
+
+@hookimpl
+def pftrack_register_volumes(register):
+    from importlib import resources
+
+    register("world", str(resources.files("pftrack_world") / "data" / "volumes.yaml"))
 
 
 @hookimpl

@@ -35,12 +35,9 @@ from collections.abc import Sequence
 
 import numpy as np
 from pftrack.components import Assignment, Associator, Detections, Target
+from pftrack.geometry.boxes import foot_points
 
 __all__ = ["GreedyScoreAssociator", "HungarianScoreAssociator", "greedy_max", "score_matrix"]
-
-
-def _foot(boxes: np.ndarray) -> np.ndarray:
-    return np.stack([boxes[..., 0] + 0.5 * boxes[..., 2], boxes[..., 1] + boxes[..., 3]], -1)
 
 
 def score_matrix(targets: Sequence[Target], detections: Detections, *, alpha: float = 1.0,
@@ -67,7 +64,7 @@ def score_matrix(targets: Sequence[Target], detections: Detections, *, alpha: fl
     if K == 0 or T == 0:
         return S
     db = detections.boxes_xywh_px
-    dfoot = _foot(db)  # (K, 2)
+    dfoot = foot_points(db)  # (K, 2)
     c = detections.scores
     for j, t in enumerate(targets):
         pb = t.particle_boxes_xywh_px
@@ -79,7 +76,7 @@ def score_matrix(targets: Sequence[Target], detections: Detections, *, alpha: fl
         size_tr = float(np.mean(pb[:, 3]))
         if not size_tr > 0:
             continue
-        pf = _foot(pb)  # (N, 2)
+        pf = foot_points(pb)  # (N, 2)
         d = np.linalg.norm(dfoot[:, None, :] - pf[None, :, :], axis=2) / size_tr  # (K, N)
         prox = np.exp(-0.5 * (d / sigma_det) ** 2).mean(axis=1)
         g = np.exp(-0.5 * (((size_tr - db[:, 3]) / size_tr) / sigma_size) ** 2)
@@ -90,7 +87,8 @@ def score_matrix(targets: Sequence[Target], detections: Detections, *, alpha: fl
                 app = appearance_weight * np.asarray(a, dtype=np.float64)
         s = g * (c + app + alpha * prox)
         if max_distance is not None:
-            dc = np.linalg.norm(dfoot - _foot(np.asarray(t.box_xywh_px, float)), axis=1) / size_tr
+            tfoot = foot_points(np.asarray(t.box_xywh_px, float))
+            dc = np.linalg.norm(dfoot - tfoot, axis=1) / size_tr
             s = np.where(dc <= max_distance, s, 0.0)
         S[:, j] = s
     return S

@@ -8,7 +8,8 @@
 and reports, on the test frames (default 401-795, ground-truth numbering):
 
 * ``MOTA``, ``IDF1``, ``HOTA``: image boxes matched at IoU 0.5 (TrackEval's definitions,
-  :func:`pftrack.metrics.evaluate`); ground-truth rows flagged 0 are ignored with the tracks on them;
+  :func:`pftrack.metrics.evaluate`); ground-truth rows flagged 0 are ignored with the tracks on
+  them;
 * ``median_error_m``, ``p90_error_m``: ground-plane distance (m) between each tracked box's world
   position and the ground truth's, over the box pairs matched at IoU >= 0.5 frame by frame;
 * ``accuracy_5px``: seed 001 sec. 4.1, per person the fraction of visible frames whose projected
@@ -123,7 +124,6 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     import tempfile
 
     import cv2
-
     from pftrack.data import pets09_files
     from pftrack.pipeline import load_config, run_pipeline, train_detector
 

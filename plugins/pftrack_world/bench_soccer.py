@@ -51,8 +51,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fps", type=float, default=25.0, help="video frame rate (default 25)")
     parser.add_argument("--scene-seed", type=int, default=0, help="scene seed (default 0)")
     parser.add_argument("--seed", type=int, default=0, help="tracker seed (default 0)")
-    parser.add_argument("--camera", default=None, help="camera file (default the calib/ soccer "
-                        "camera)")
+    parser.add_argument("--camera", default=None, help="camera file (default the plugin's soccer "
+                        "camera, pftrack_world/data/soccer_seed001.yaml)")
     parser.add_argument("--particles", type=int, default=None,
                         help="particles per player (default: the preset's, 300)")
     parser.add_argument("--background-frames", type=int, default=25,
@@ -169,7 +169,6 @@ def track_scene(scene: Any, preset: str | dict[str, Any] = "soccer-ground", *, s
     """
     import cv2
     import numpy as np
-
     from pftrack.geometry.clouds import ParticleCloud
     from pftrack.pipeline import build_engine
     from pftrack.tracker import records_to_mot
@@ -259,7 +258,6 @@ def _clouds(tracker: Any, cloud_cls: Any) -> Any:
 def score_run(run: SoccerRun, threshold_m: float = 1.0) -> dict[str, Any]:
     """The bench's figures for a :class:`SoccerRun` (see the module docstring)."""
     import numpy as np
-
     from pftrack.metrics import evaluate
     from pftrack.pipeline import evaluate_tracks
 
@@ -312,7 +310,6 @@ def _id_errors(gt: Any, rows: Any, threshold_m: float) -> Any:
     """Ground-plane distance (m) of every track row to the player its track follows (the
     IDF1-optimal id map on ground-plane distance); rows of unmapped tracks are left out."""
     import numpy as np
-
     from pftrack.metrics import match_ids
 
     if len(rows) == 0:

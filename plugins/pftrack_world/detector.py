@@ -36,20 +36,22 @@ import os
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from pftrack.components import Detections, Detector, Frame, RunContext
+from pftrack.geometry.boxes import foot_points, iou_matrix, nms
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera, CameraSpec
 
 __all__ = [
     "SVMDetector",
     "SVMModel",
     "ScaleBand",
     "TrainingRecallWarning",
-    "box_iou_matrix",
     "heights_from_boxes",
     "load_model",
-    "nms",
     "save_model",
     "scale_plan",
     "train_svm_model",
@@ -209,19 +211,6 @@ def load_model(path: str | os.PathLike[str]) -> SVMModel:
 # --------------------------------------------------------------------------------------------
 
 
-def box_iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """IoU of every box of ``a`` (A, 4) with every box of ``b`` (B, 4), xywh px -> (A, B)."""
-    a = np.asarray(a, dtype=np.float64).reshape(-1, 4)
-    b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
-    x0 = np.maximum(a[:, None, 0], b[None, :, 0])
-    y0 = np.maximum(a[:, None, 1], b[None, :, 1])
-    x1 = np.minimum(a[:, None, 0] + a[:, None, 2], b[None, :, 0] + b[None, :, 2])
-    y1 = np.minimum(a[:, None, 1] + a[:, None, 3], b[None, :, 1] + b[None, :, 3])
-    inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
-    union = (a[:, 2] * a[:, 3])[:, None] + (b[:, 2] * b[:, 3])[None, :] - inter
-    return np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0)
-
-
 def merge_clusters(boxes_xywh_px: np.ndarray, scores: np.ndarray, keep: np.ndarray,
                    iou_min: float = 0.5, tau: float = 0.1) -> np.ndarray:
     """Refine each kept box by the score-weighted mean of the windows around it.
@@ -233,25 +222,10 @@ def merge_clusters(boxes_xywh_px: np.ndarray, scores: np.ndarray, keep: np.ndarr
     boxes = np.asarray(boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
     if len(keep) == 0:
         return np.zeros((0, 4))
-    iou = box_iou_matrix(boxes[keep], boxes)  # (M, K)
+    iou = iou_matrix(boxes[keep], boxes)  # (M, K)
     w = np.where(iou >= iou_min, np.exp((scores[None, :] - scores[keep][:, None]) / tau), 0.0)
     w[np.arange(len(keep)), keep] = 1.0
     return (w @ boxes) / w.sum(axis=1, keepdims=True)
-
-
-def nms(boxes_xywh_px: np.ndarray, scores: np.ndarray, iou_threshold: float) -> np.ndarray:
-    """Greedy non-maximum suppression; indices of the kept boxes, best score first."""
-    boxes = np.asarray(boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
-    scores = np.asarray(scores, dtype=np.float64).reshape(-1)
-    if len(boxes) == 0:
-        return np.zeros(0, dtype=np.intp)
-    import cv2
-
-    # NMSBoxes wants non-negative scores; a shift keeps their order
-    shifted = scores - scores.min()
-    idx = cv2.dnn.NMSBoxes(boxes.tolist(), shifted.tolist(), 0.0, float(iou_threshold))
-    idx = np.asarray(idx, dtype=np.intp).reshape(-1)
-    return idx[np.argsort(-scores[idx], kind="stable")]
 
 
 # --------------------------------------------------------------------------------------------
@@ -269,7 +243,7 @@ class ScaleBand:
     top_max: int
 
 
-def expected_heights_px(camera: Any, height_m: float, image_size_wh: tuple[int, int],
+def expected_heights_px(camera: Camera, height_m: float, image_size_wh: tuple[int, int],
                         step_px: int = 16) -> tuple[np.ndarray, np.ndarray]:
     """Expected person height (px) for a foot at each pixel of a grid (world frame z up, ground
     z = 0). Returns (foot pixels (M, 2), heights (M,)); NaN above the horizon."""
@@ -315,7 +289,7 @@ def heights_from_boxes(boxes_xywh_px: np.ndarray, image_size_wh: tuple[int, int]
     b = b[np.all(np.isfinite(b), axis=1) & (b[:, 3] > 0)]
     if len(b) < 3:
         raise ValueError(f"heights_from_boxes: need at least 3 boxes, got {len(b)}")
-    A = np.column_stack([b[:, 0] + 0.5 * b[:, 2], b[:, 1] + b[:, 3], np.ones(len(b))])
+    A = np.column_stack([foot_points(b), np.ones(len(b))])
     coef, *_ = np.linalg.lstsq(A, b[:, 3], rcond=None)
     w, h = image_size_wh
     us, vs = np.meshgrid(np.arange(0, w, step_px, dtype=np.float64),
@@ -329,7 +303,7 @@ def heights_from_boxes(boxes_xywh_px: np.ndarray, image_size_wh: tuple[int, int]
 def scale_plan(box_height_win: float, window_h: int, foot_offset_win: float,
                image_size_wh: tuple[int, int], *, scale_step: float = 1.15,
                min_height_px: float = 40.0, max_height_px: float = 400.0,
-               camera: Any = None, height_m: float = 1.75, tolerance: float = 1.25,
+               camera: Camera | None = None, height_m: float = 1.75, tolerance: float = 1.25,
                expected: tuple[np.ndarray, np.ndarray] | None = None,
                ) -> list[ScaleBand]:
     """The scales to search and, with a camera, the band of window tops at each scale.
@@ -572,7 +546,8 @@ class SVMDetector(Detector):
     camera_ : Camera or None
     """
 
-    def __init__(self, model: str | None = None, camera: Any = None, height_m: float = 1.75,
+    def __init__(self, model: str | None = None, camera: CameraSpec | None = None,
+                 height_m: float = 1.75,
                  threshold: float = 0.0, nms_iou: float = 0.3, merge_tau: float | None = 0.1,
                  scale_step: float = 1.15,
                  min_height_px: float = 40.0, max_height_px: float = 400.0,
@@ -624,7 +599,7 @@ class SVMDetector(Detector):
         m = self._model()
         return {**m.params(), "n_features": m.n_features}
 
-    def _camera(self) -> Any:
+    def _camera(self) -> Camera | None:
         if not hasattr(self, "camera_"):
             cam = self.camera
             if isinstance(cam, (str, os.PathLike)):
@@ -727,7 +702,7 @@ class SVMDetector(Detector):
         points = None
         cam = self._camera()
         if cam is not None:
-            feet = np.stack([boxes[:, 0] + 0.5 * boxes[:, 2], boxes[:, 1] + boxes[:, 3]], axis=1)
+            feet = foot_points(boxes)
             points = cam.image_to_ground(feet) if len(feet) else np.zeros((0, 3))
         return Detections(boxes, scores, points)
 
@@ -783,12 +758,13 @@ def _random_negatives(grey: np.ndarray, avoid: np.ndarray, n: int, heights: np.n
     y = rng.uniform(-0.1, 1.0, size=m) * (ih - h * 0.9)
     cand = np.stack([x, y, w, h], axis=1)
     if len(avoid):
-        cand = cand[box_iou_matrix(cand, avoid).max(axis=1) < neg_iou]
+        cand = cand[iou_matrix(cand, avoid).max(axis=1) < neg_iou]
     return cand[:n]
 
 
 def train_svm_model(frames: Iterable[Frame], boxes_by_frame: dict[int, np.ndarray],
-                    rng: np.random.Generator, *, ignore_by_frame: dict[int, np.ndarray] | None = None,
+                    rng: np.random.Generator, *,
+                    ignore_by_frame: dict[int, np.ndarray] | None = None,
                     feature: str = "hog", window_wh: tuple[int, int] = (32, 64),
                     occupancy: float = 0.8, C: float = 0.01, n_negatives: int = 8000,
                     hard_negative_rounds: int = 1, neg_iou: float = 0.3, max_hard: int = 20000,
@@ -896,7 +872,7 @@ def train_svm_model(frames: Iterable[Frame], boxes_by_frame: dict[int, np.ndarra
             keep = nms(boxes, scores, 0.5)
             boxes = boxes[keep]
             if len(avoid):
-                boxes = boxes[box_iou_matrix(boxes, avoid).max(axis=1) < neg_iou]
+                boxes = boxes[iou_matrix(boxes, avoid).max(axis=1) < neg_iou]
             if len(boxes):
                 hard.append(crop_windows(grey, _window_rect(boxes, box_in_window, (W, H)),
                                          (W, H)))

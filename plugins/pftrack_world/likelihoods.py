@@ -59,13 +59,13 @@ from typing import Any
 
 import numpy as np
 from pftrack.components import Detections, Frame, Likelihood, RunContext, Target
+from pftrack.geometry.boxes import foot_points, sub_boxes
 
 from pftrack_world.regions import (
     cell_means,
     check_region,
     grid_samples,
     integral_image,
-    sub_boxes,
 )
 
 __all__ = [
@@ -96,12 +96,64 @@ def _frame_key(frame: Frame) -> tuple[int, int]:
     return (int(frame.index), id(frame.image))
 
 
+class _TemplateLikelihood(Likelihood):
+    """Per-target templates (``templates_``, by target id): taken in the target's first frame
+    (:meth:`init_target`), blended ``T <- (1 - a) T + a T(estimate)`` with ``a = update_rate``
+    each frame the target had support, measured at its last estimate in the previous frame
+    (:meth:`begin_frame`). A subclass says what a frame is reduced to (:meth:`_prepare`, kept
+    with the previous frame's), how a template is measured in it (:meth:`_measure`) and what a
+    new target starts from (:meth:`_first_template`)."""
+
+    update_rate: float
+
+    def _prepare(self, frame: Frame) -> Any:
+        """The current frame's reduced form (cached per frame; the previous one kept)."""
+        raise NotImplementedError
+
+    def _previous(self) -> Any:
+        """The previous frame's reduced form, or None."""
+        raise NotImplementedError
+
+    def _measure(self, source: Any, box: np.ndarray) -> np.ndarray | None:
+        """A template at ``box`` in a reduced frame; None where it cannot be measured whole."""
+        raise NotImplementedError
+
+    def _first_template(self, source: Any, box: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def init_target(self, frame: Frame, target: Target) -> None:
+        self._check()
+        if not hasattr(self, "templates_"):
+            self.templates_: dict[int, np.ndarray] = {}
+        self.templates_[target.id] = self._first_template(self._prepare(frame),
+                                                          target.box_xywh_px)
+
+    def end_target(self, target: Target) -> None:
+        getattr(self, "templates_", {}).pop(target.id, None)
+
+    def begin_frame(self, frame: Frame, targets: Sequence[Target],
+                    detections: Detections | None = None) -> None:
+        self._check()
+        if not hasattr(self, "templates_"):
+            self.templates_ = {}
+        self._prepare(frame)
+        a = float(self.update_rate)
+        prev = self._previous()
+        if a > 0 and prev is not None:
+            # targets' boxes are still last frame's estimates: read them in last frame's image
+            for t in targets:
+                if t.id in self.templates_ and t.frames_tracked > 0:
+                    m = self._measure(prev, t.box_xywh_px)
+                    if m is not None:
+                        self.templates_[t.id] = (1 - a) * self.templates_[t.id] + a * m
+
+
 # --------------------------------------------------------------------------------------------
 # NCC (eq. 8)
 # --------------------------------------------------------------------------------------------
 
 
-class NCCLikelihood(Likelihood):
+class NCCLikelihood(_TemplateLikelihood):
     """Normalised cross-correlation with the target's grey template (seed 001 eq. 8).
 
     Parameters
@@ -150,7 +202,7 @@ class NCCLikelihood(Likelihood):
         if not float(self.eps) > 0:
             raise ValueError(f"{name}: eps must be > 0, got {self.eps!r}")
 
-    def _integral(self, frame: Frame) -> np.ndarray:
+    def _prepare(self, frame: Frame) -> np.ndarray:
         import cv2
 
         key = _frame_key(frame)
@@ -167,34 +219,19 @@ class NCCLikelihood(Likelihood):
         k = means.shape[1] * means.shape[2]
         return means.reshape(len(means), k), valid.reshape(len(valid), k)
 
-    def init_target(self, frame: Frame, target: Target) -> None:
-        self._check()
-        if not hasattr(self, "templates_"):
-            self.templates_: dict[int, np.ndarray] = {}
-        vals, valid = self._cells(self._integral(frame), target.box_xywh_px[None])
+    def _previous(self) -> np.ndarray | None:
+        return getattr(self, "prev_integral_", None)
+
+    def _measure(self, source: np.ndarray, box: np.ndarray) -> np.ndarray | None:
+        vals, valid = self._cells(source, box[None])
+        return vals[0] if valid[0].all() else None
+
+    def _first_template(self, source: np.ndarray, box: np.ndarray) -> np.ndarray:
+        vals, valid = self._cells(source, box[None])
         t = vals[0]
         if not valid[0].all():
             t = np.where(valid[0], t, t[valid[0]].mean() if valid[0].any() else 0.0)
-        self.templates_[target.id] = t
-
-    def end_target(self, target: Target) -> None:
-        getattr(self, "templates_", {}).pop(target.id, None)
-
-    def begin_frame(self, frame: Frame, targets: Sequence[Target],
-                    detections: Detections | None = None) -> None:
-        self._check()
-        if not hasattr(self, "templates_"):
-            self.templates_ = {}
-        self._integral(frame)
-        a = float(self.update_rate)
-        prev = getattr(self, "prev_integral_", None)
-        if a > 0 and prev is not None:
-            # targets' boxes are still last frame's estimates: read them in last frame's image
-            for t in targets:
-                if t.id in self.templates_ and t.frames_tracked > 0:
-                    vals, valid = self._cells(prev, t.box_xywh_px[None])
-                    if valid[0].all():
-                        self.templates_[t.id] = (1 - a) * self.templates_[t.id] + a * vals[0]
+        return t
 
     def ncc(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
         """NCC (N,) in [-1, 1] of each window with the target's template (NaN: too little of
@@ -247,7 +284,7 @@ def emd_1d(hist_a: np.ndarray, hist_b: np.ndarray) -> np.ndarray:
 _COLOUR_SPACES = ("bgr", "hsv", "lab")
 
 
-class EMDLikelihood(Likelihood):
+class EMDLikelihood(_TemplateLikelihood):
     """Histogram likelihood by the Earth Mover's Distance (seed 001 eq. 7).
 
     ``p_H = exp(-d^2 / (2 sigma^2))`` with ``d`` the exact 1-D EMD between the template's and the
@@ -302,7 +339,7 @@ class EMDLikelihood(Likelihood):
         check_region(self.region, name)
         _check_rate(self.update_rate, name)
 
-    def _quantise(self, frame: Frame) -> np.ndarray:
+    def _prepare(self, frame: Frame) -> np.ndarray:
         import cv2
 
         key = _frame_key(frame)
@@ -334,7 +371,10 @@ class EMDLikelihood(Likelihood):
         k = valid.sum(axis=1).astype(np.float64)
         return counts / np.maximum(k, 1.0)[:, None, None], k
 
-    def _template(self, quantised: np.ndarray, box: np.ndarray) -> np.ndarray | None:
+    def _previous(self) -> np.ndarray | None:
+        return getattr(self, "prev_quantised_", None)
+
+    def _measure(self, quantised: np.ndarray, box: np.ndarray) -> np.ndarray | None:
         """Exact histogram (3, bins) of every pixel of the box's region (None if outside)."""
         H, W = quantised.shape[:2]
         b = sub_boxes(box[None], self.region)[0]
@@ -349,32 +389,9 @@ class EMDLikelihood(Likelihood):
         h = np.stack([np.bincount(patch[:, c], minlength=B) for c in range(3)]).astype(float)
         return h / h.sum(axis=1, keepdims=True)
 
-    def init_target(self, frame: Frame, target: Target) -> None:
-        self._check()
-        if not hasattr(self, "templates_"):
-            self.templates_: dict[int, np.ndarray] = {}
-        q = self._quantise(frame)
-        t = self._template(q, target.box_xywh_px)
-        self.templates_[target.id] = (t if t is not None
-                                      else np.full((3, int(self.bins)), 1.0 / int(self.bins)))
-
-    def end_target(self, target: Target) -> None:
-        getattr(self, "templates_", {}).pop(target.id, None)
-
-    def begin_frame(self, frame: Frame, targets: Sequence[Target],
-                    detections: Detections | None = None) -> None:
-        self._check()
-        if not hasattr(self, "templates_"):
-            self.templates_ = {}
-        self._quantise(frame)
-        a = float(self.update_rate)
-        prev = getattr(self, "prev_quantised_", None)
-        if a > 0 and prev is not None:
-            for t in targets:
-                if t.id in self.templates_ and t.frames_tracked > 0:
-                    h = self._template(prev, t.box_xywh_px)
-                    if h is not None:
-                        self.templates_[t.id] = (1 - a) * self.templates_[t.id] + a * h
+    def _first_template(self, quantised: np.ndarray, box: np.ndarray) -> np.ndarray:
+        t = self._measure(quantised, box)
+        return t if t is not None else np.full((3, int(self.bins)), 1.0 / int(self.bins))
 
     def distance(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
         """EMD / (bins - 1) averaged over channels, (N,) in [0, 1]; NaN for windows with no
@@ -392,10 +409,6 @@ class EMDLikelihood(Likelihood):
 # --------------------------------------------------------------------------------------------
 # Detection (eq. 6)
 # --------------------------------------------------------------------------------------------
-
-
-def _foot(boxes: np.ndarray) -> np.ndarray:
-    return np.stack([boxes[..., 0] + 0.5 * boxes[..., 2], boxes[..., 1] + boxes[..., 3]], -1)
 
 
 class DetectionLikelihood(Likelihood):
@@ -440,12 +453,12 @@ class DetectionLikelihood(Likelihood):
 
     def svm_score(self, boxes_xywh_px: np.ndarray) -> np.ndarray:
         """c(p) (N,): ``max_k max(c_k, 0) * IoU(p, det_k)`` over this frame's detections."""
-        from pftrack_world.detector import box_iou_matrix
+        from pftrack.geometry.boxes import iou_matrix
 
         det = getattr(self, "detections_", None)
         if det is None or len(det) == 0:
             return np.zeros(len(boxes_xywh_px))
-        iou = box_iou_matrix(boxes_xywh_px, det.boxes_xywh_px)
+        iou = iou_matrix(boxes_xywh_px, det.boxes_xywh_px)
         return (iou * np.maximum(det.scores, 0.0)[None, :]).max(axis=1)
 
     def probability(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
@@ -455,7 +468,7 @@ class DetectionLikelihood(Likelihood):
         if match is None:
             return np.zeros(len(b))
         d = np.asarray(match.box_xywh_px, dtype=np.float64)
-        dist = np.linalg.norm(_foot(b) - _foot(d), axis=1) / max(float(d[3]), 1e-6)
+        dist = np.linalg.norm(foot_points(b) - foot_points(d), axis=1) / max(float(d[3]), 1e-6)
         pn = np.exp(-0.5 * (dist / float(self.sigma)) ** 2)
         p = float(self.psi) * pn
         if float(self.phi) > 0:

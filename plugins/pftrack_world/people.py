@@ -46,8 +46,9 @@ from typing import Any
 
 import numpy as np
 from pftrack.components import Detections, Frame, RunContext
+from pftrack.geometry.boxes import foot_points, nms
 
-from .detector import SVMDetector, SVMModel, heights_from_boxes, merge_clusters, nms
+from .detector import SVMDetector, SVMModel, heights_from_boxes, merge_clusters
 
 __all__ = ["HOG_PEOPLE_BOX", "HOGPeopleDetector", "default_people_model", "measure_margin"]
 
@@ -233,7 +234,7 @@ class HOGPeopleDetector(SVMDetector):
             self._learn_scales(boxes, scores, (grey.shape[1], grey.shape[0]))
         points = None
         if cam is not None:
-            feet = np.stack([boxes[:, 0] + 0.5 * boxes[:, 2], boxes[:, 1] + boxes[:, 3]], axis=1)
+            feet = foot_points(boxes)
             points = cam.image_to_ground(feet) if len(feet) else np.zeros((0, 3))
         return Detections(boxes, scores, points)
 

@@ -11,22 +11,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["cell_means", "grid_samples", "integral_image", "sub_boxes"]
-
-
-def sub_boxes(boxes_xywh_px: np.ndarray,
-              region: Sequence[float] | None) -> np.ndarray:
-    """The part ``region = (fx0, fy0, fx1, fy1)`` (fractions of width and height) of each box."""
-    b = np.asarray(boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
-    if region is None:
-        return b.copy()
-    fx0, fy0, fx1, fy1 = (float(v) for v in region)
-    out = np.empty_like(b)
-    out[:, 0] = b[:, 0] + fx0 * b[:, 2]
-    out[:, 1] = b[:, 1] + fy0 * b[:, 3]
-    out[:, 2] = (fx1 - fx0) * b[:, 2]
-    out[:, 3] = (fy1 - fy0) * b[:, 3]
-    return out
+__all__ = ["cell_means", "check_region", "grid_samples", "integral_image"]
 
 
 def check_region(region: Sequence[float] | None, owner: str) -> None:

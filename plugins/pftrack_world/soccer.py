@@ -56,10 +56,13 @@ import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from pftrack.components import Detections, Detector, Frame, RunContext, Scene
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera
 
 __all__ = [
     "SOURCES",
@@ -82,9 +85,9 @@ SOURCES: dict[str, str] = {
 }
 
 #: Candidate file names of the project's soccer camera, searched in ``calib/``.
-_CAMERA_FILES = ("soccer_seed001.yaml", "soccer.yaml")
+_CAMERA_FILE = "soccer_seed001.yaml"
 #: Default pitch volume (in the camera's world frame), looked up with
-#: :func:`pftrack.geometry.volumes.resolve_volume` (``calib/volumes.yaml``).
+#: :func:`pftrack.geometry.volumes.resolve_volume` (``pftrack_world/data/volumes.yaml``).
 _DEFAULT_VOLUME = "pitch_seed001"
 
 # Player body plan in metres for a 1.80 m player (scaled by height): (name, z0, z1, half side
@@ -107,26 +110,21 @@ _BOX_HALF_M = 0.30  # ground-truth cuboid: 0.6 x 0.6 m footprint
 
 
 def default_soccer_camera_path() -> Path:
-    """The project's soccer camera file under ``calib/`` (the first that exists).
+    """The plugin's soccer camera, package data ``pftrack_world/data/soccer_seed001.yaml``
+    (seed 001's Table 1 camera; ``calib/soccer_seed001.yaml`` in a checkout points to it).
 
     Raises
     ------
     FileNotFoundError
-        When none of the known names exists, listing the names searched.
+        When the package data is missing (a broken install), naming the path.
     """
-    from pftrack.data import REPO_ROOT
+    from importlib import resources
 
-    calib = REPO_ROOT / "calib"
-    for name in _CAMERA_FILES:
-        p = calib / name
-        if p.is_file():
-            return p
-    found = sorted(p.name for p in calib.glob("*soccer*")) if calib.is_dir() else []
-    if found:
-        return calib / found[0]
-    raise FileNotFoundError(
-        f"soccer scene: no soccer camera in {calib} (looked for {', '.join(_CAMERA_FILES)}); "
-        "pass camera=PATH")
+    path = Path(str(resources.files("pftrack_world") / "data" / _CAMERA_FILE))
+    if not path.is_file():
+        raise FileNotFoundError(f"soccer scene: the plugin's camera {path} is missing (package "
+                                "data of pftrack_world); pass camera=PATH")
+    return path
 
 
 # ---------------------------------------------------------------------------------------------
@@ -570,7 +568,7 @@ class SoccerScene(Scene):
         self.tracks_ = tracks
         return self
 
-    def _load_camera(self, size: tuple[int, int]) -> Any:
+    def _load_camera(self, size: tuple[int, int]) -> Camera:
         from pftrack.geometry.formats import load_camera
 
         path = Path(self.camera) if self.camera is not None else default_soccer_camera_path()
@@ -798,7 +796,7 @@ def _noise_bank(rng: np.random.Generator, shape: tuple[int, int], std: float,
     return bank
 
 
-def _scaled_camera(camera: Any, factor: int) -> Any:
+def _scaled_camera(camera: Camera, factor: int) -> Camera:
     """The same camera rendering at ``factor`` times the resolution (pixel centres kept)."""
     if factor == 1:
         return camera
@@ -862,7 +860,7 @@ def _goal_boxes(pitch: Any) -> np.ndarray:
     return np.array(boxes)
 
 
-def render_pitch_background(camera: Any, pitch: Any, rng: np.random.Generator,
+def render_pitch_background(camera: Camera, pitch: Any, rng: np.random.Generator,
                             centre_m: Any = None, supersample: int = 2,
                             n_stripes: int = 18) -> np.ndarray:
     """The empty pitch seen by ``camera``: grass with mowing stripes, markings, goals, stands.
@@ -1378,13 +1376,3 @@ def draw_tracks(image_bgr: np.ndarray, rows: np.ndarray, frame: int, scene: Socc
         cv2.putText(img, str(int(r[1])), (a[0], a[1] - 3), cv2.FONT_HERSHEY_SIMPLEX, 0.35,
                     col, 1, cv2.LINE_AA)
     return img
-
-
-def png_bytes(image_bgr: np.ndarray) -> bytes:
-    """PNG encoding of a BGR image (for ``IPython.display.Image(data=...)``)."""
-    import cv2
-
-    ok, buf = cv2.imencode(".png", np.ascontiguousarray(image_bgr))
-    if not ok:
-        raise ValueError("png_bytes: OpenCV could not encode the image")
-    return buf.tobytes()

@@ -695,7 +695,7 @@ def run_batch(jobs: Sequence[Job] | str | os.PathLike[str], out_dir: str | os.Pa
     BatchResult
     """
     if not isinstance(jobs, (list, tuple)):
-        jobs = load_jobs(jobs)
+        jobs = load_jobs(jobs)  # type: ignore[arg-type]
     if client is not None and scheduler is not None:
         raise ValueError("give a client or a scheduler address, not both")
     if workers is not None and workers < 1:

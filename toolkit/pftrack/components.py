@@ -23,9 +23,12 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera
 
 __all__ = [
     "Component",
@@ -109,7 +112,7 @@ class Detections:
         return len(self.scores)
 
     @classmethod
-    def empty(cls) -> "Detections":
+    def empty(cls) -> Detections:
         return cls(np.zeros((0, 4)), np.zeros(0))
 
 
@@ -220,7 +223,7 @@ class Assignment:
 
     @classmethod
     def from_matches(cls, matches: Sequence[tuple[int, int]] | np.ndarray, n_tracks: int,
-                     n_detections: int) -> "Assignment":
+                     n_detections: int) -> Assignment:
         m = np.asarray(matches, dtype=np.intp).reshape(-1, 2)
         ut = np.setdiff1d(np.arange(n_tracks), m[:, 0]).astype(np.intp)
         ud = np.setdiff1d(np.arange(n_detections), m[:, 1]).astype(np.intp)
@@ -250,7 +253,7 @@ class RunContext:
     """
 
     host: Any = None
-    camera: Any = None
+    camera: Camera | None = None
     fps: float = 25.0
     detector_model: str | None = None
 
@@ -419,7 +422,7 @@ class Component(ABC):
         camera, fps, detector model, the host). Take dependencies from ``context`` into ``*_``
         attributes here. Default: nothing."""
 
-    def set_params(self, **params: Any) -> "Component":
+    def set_params(self, **params: Any) -> Component:
         valid = set(self._param_names())
         for k, v in params.items():
             if k not in valid:
@@ -433,7 +436,7 @@ class Component(ABC):
         """``{"type": registered name, "params": {...}}``; the inverse is ``Host.build``."""
         return {"type": self.name or type(self).__name__, "params": _plain(self.get_params())}
 
-    def clone(self) -> "Component":
+    def clone(self) -> Component:
         """A fresh, unfitted copy with the same parameters."""
         return type(self)(**copy.deepcopy(self.get_params()))
 
@@ -569,7 +572,7 @@ class Detector(Component):
 
     def fit(self, frames: Sequence[Frame] | Iterator[Frame], boxes_by_frame: dict[int, np.ndarray],
             rng: np.random.Generator | None = None,
-            ignore_by_frame: dict[int, np.ndarray] | None = None) -> "Detector":
+            ignore_by_frame: dict[int, np.ndarray] | None = None) -> Detector:
         """Learn from frames with ground-truth boxes (``{frame index: (K, 4) xywh px}``);
         ``ignore_by_frame`` holds boxes that are neither positives nor negatives (partly hidden
         people). Default: nothing to learn."""
@@ -587,7 +590,7 @@ class Detector(Component):
         raise NotImplementedError(f"detector {self.name or type(self).__name__!r} learns "
                                   "nothing to save")
 
-    def load(self, path: str | os.PathLike[str]) -> "Detector":
+    def load(self, path: str | os.PathLike[str]) -> Detector:
         """Use the model :meth:`save` wrote to ``path`` (returns ``self``). Raises
         ``ValueError`` naming the file when it is not such a model."""
         raise NotImplementedError(f"detector {self.name or type(self).__name__!r} has no model "

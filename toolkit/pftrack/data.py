@@ -1,7 +1,8 @@
 """Where the shared real data lives (PETS 2009 S2.L1, the chessboard set).
 
 The project never ships that data; it is read by path: ``$PFTRACK_DATA`` when set, otherwise
-``../shared/data`` beside the repository checkout.
+``shared/data`` beside the working directory or one of its parents (``../shared/data`` beside the
+repository checkout when run from it). Nothing here depends on where pftrack is installed.
 """
 
 from __future__ import annotations
@@ -9,13 +10,18 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
-
 
 def data_dir() -> Path:
-    """The shared data folder (not checked for existence)."""
+    """The shared data folder: ``$PFTRACK_DATA``, else the first ``shared/data`` folder beside
+    the working directory or one of its parents, else ``../shared/data`` (not checked)."""
     env = os.environ.get("PFTRACK_DATA")
-    return Path(env) if env else (REPO_ROOT.parent / "shared" / "data")
+    if env:
+        return Path(env)
+    cwd = Path.cwd().resolve()
+    for d in (cwd, *cwd.parents):
+        if (d.parent / "shared" / "data").is_dir():
+            return d.parent / "shared" / "data"
+    return cwd.parent / "shared" / "data"
 
 
 def data_path(*parts: str) -> Path:

@@ -105,10 +105,10 @@ class ReportWriter:
     summary : str
         One line for ``pftrack plugins``.
     write : callable
-        ``write(out_dir, rows, frames, *, camera, gt_rows, title) -> list[Path]``: ``rows`` the
-        run's MOTChallenge rows (M, 10), ``frames`` ``{frame number: image (H, W, 3) BGR}`` of
-        the frames kept for the report, ``camera`` the run's camera or None, ``gt_rows`` the
-        ground truth or None. Writes every file atomically and returns the paths written.
+        ``write(out_dir, rows, frames, *, gt_rows, title) -> list[Path]``: ``rows`` the run's
+        MOTChallenge rows (M, 10) (world columns filled where the run had a camera), ``frames``
+        ``{frame number: image (H, W, 3) BGR}`` of the frames kept for the report, ``gt_rows``
+        the ground truth or None. Writes every file atomically and returns the paths written.
     """
 
     summary: str

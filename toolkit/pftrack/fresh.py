@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from pftrack.components import Detections
+from pftrack.geometry.boxes import foot_points
 
 __all__ = [
     "FreshResult",
@@ -226,7 +227,7 @@ def with_ground_points(detections: dict[int, Detections], camera: Any
     out = {}
     for f, d in detections.items():
         b = d.boxes_xywh_px
-        feet = np.stack([b[:, 0] + 0.5 * b[:, 2], b[:, 1] + b[:, 3]], axis=1)
+        feet = foot_points(b)
         pts = camera.image_to_ground(feet) if len(b) else np.zeros((0, 3))
         out[f] = Detections(b, d.scores, pts)
     return out

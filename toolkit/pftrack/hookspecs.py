@@ -119,6 +119,15 @@ def pftrack_register_presets(register: Register[str | PathLike[str]]) -> None:
     path relative to a repository). ``pftrack run NAME`` and ``pftrack presets`` use them."""
 
 
+@hookspec
+def pftrack_register_volumes(register: Register[str | PathLike[str]]) -> None:
+    """Register volume files: ``register(name, path_to_yaml)``, a volumes YAML
+    (:func:`pftrack.geometry.volumes.load_volumes`) shipped as the plugin's package data
+    (``importlib.resources.files(__package__) / "data" / ...``). The volumes it defines are found
+    by name wherever a volume is asked for (:func:`pftrack.geometry.volumes.resolve_volume`,
+    ``pftrack render topview --volume NAME``)."""
+
+
 # -- evaluation ------------------------------------------------------------------------------
 
 
@@ -171,6 +180,7 @@ __all__ = [
     "pftrack_register_motion_models",
     "pftrack_register_observation_models",
     "pftrack_register_presets",
+    "pftrack_register_volumes",
     "pftrack_register_report_writers",
     "pftrack_register_scenes",
     "pftrack_register_track_managers",

@@ -50,6 +50,7 @@ _REGISTER_HOOKS = {
     "pftrack_register_observation_models": "observation",
     "pftrack_register_track_managers": "tracks",
     "pftrack_register_presets": "preset",
+    "pftrack_register_volumes": "volumes",
     "pftrack_register_metrics": "metric",
     "pftrack_register_benchmarks": "benchmark",
     "pftrack_register_commands": "command",
@@ -59,7 +60,7 @@ _REGISTER_HOOKS = {
 _RECORD_TYPES: dict[str, type] = {"benchmark": Benchmark, "command": Command, "demo": Demo,
                                   "report": ReportWriter}
 ALL_KINDS = ("detector", "likelihood", "motion", "associator", "scene", "observation", "tracks",
-             "preset", "metric", "benchmark", "command", "demo", "report")
+             "preset", "volumes", "metric", "benchmark", "command", "demo", "report")
 
 
 class RegistrationError(ValueError):
@@ -160,9 +161,9 @@ class Registry:
                 raise RegistrationError(
                     f"plugin {plugin!r}: {obj.__name__} has kind {obj.kind!r}, registered as {kind}"
                 )
-        elif kind == "preset":
+        elif kind in ("preset", "volumes"):
             if not Path(obj).is_file():
-                raise RegistrationError(f"plugin {plugin!r}: preset {name!r} file not found: {obj}")
+                raise RegistrationError(f"plugin {plugin!r}: {kind} {name!r} file not found: {obj}")
         elif kind == "metric" and not callable(obj):
             raise RegistrationError(f"plugin {plugin!r}: metric {name!r} is not callable")
         elif kind in _RECORD_TYPES:
@@ -184,7 +185,7 @@ class Registry:
             )
         if base is not None and isinstance(obj, type):
             # the registered name is what to_config() writes and Host.build() reads back
-            obj.name = name
+            obj.name = name  # type: ignore[attr-defined]
         self._entries[kind][name] = Entry(kind, name, obj, plugin)
 
     def get(self, kind: str, name: str) -> Entry:

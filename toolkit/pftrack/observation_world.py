@@ -19,11 +19,15 @@ from and moved towards each matched detection's height by :meth:`CameraBoxObserv
 from __future__ import annotations
 
 import os
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from pftrack.components import ObservationModel, RunContext, Target
+from pftrack.geometry.boxes import foot_points
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera, CameraSpec
 
 __all__ = ["CameraBoxObservation", "CameraVolumeObservation"]
 
@@ -61,7 +65,8 @@ class CameraBoxObservation(ObservationModel):
     ``to_boxes`` is vectorised: one projection of 2N points per call.
     """
 
-    def __init__(self, camera: Any = None, height_m: float = 1.75, width_m: float | None = None,
+    def __init__(self, camera: CameraSpec | None = None, height_m: float = 1.75,
+                 width_m: float | None = None,
                  width_ratio: float = 0.355, position_dims: tuple[int, int] = (0, 1),
                  min_visible: float = 0.5, adapt_height: bool = False,
                  height_scale_range: tuple[float, float] = (0.85, 1.2)) -> None:
@@ -111,10 +116,10 @@ class CameraBoxObservation(ObservationModel):
             self.__dict__.pop("dims_", None)
             self.camera_ = context.camera
 
-    def get_camera(self) -> Any:
+    def get_camera(self) -> Camera:
         """The camera in use (``camera``, loaded when a path, or the run's)."""
         self._checked()
-        return _resolve_camera(self)
+        return _required_camera(self)
 
     _cam = get_camera
 
@@ -176,7 +181,8 @@ class CameraBoxObservation(ObservationModel):
         """Per-target height factors (``height_scales_``), created on first use."""
         scales = self.__dict__.get("height_scales_")
         if scales is None:
-            scales = self.height_scales_ = {}
+            scales = {}
+            self.height_scales_: dict[int, float] = scales
         return scales
 
     def end_target(self, target: Target) -> None:
@@ -204,7 +210,7 @@ class CameraBoxObservation(ObservationModel):
         """Ground position (p_x, p_y) in metres under a box's foot point (bottom centre);
         NaN when the foot point's ray does not meet the ground in front of the camera."""
         b = np.asarray(box_xywh_px, dtype=np.float64).reshape(4)
-        g = self._cam().image_to_ground(np.array([[b[0] + 0.5 * b[2], b[1] + b[3]]]))[0]
+        g = self._cam().image_to_ground(foot_points(b)[None])[0]
         return g[:2].copy()
 
     def world_position(self, state: np.ndarray) -> np.ndarray:
@@ -250,7 +256,8 @@ class CameraVolumeObservation(ObservationModel):
         particle; likelihoods of points read the box's corner as the pixel.
     """
 
-    def __init__(self, camera: Any = None, size_m: tuple[float, float, float] = (1.0, 1.0, 1.0),
+    def __init__(self, camera: CameraSpec | None = None,
+                 size_m: tuple[float, float, float] = (1.0, 1.0, 1.0),
                  position_dims: tuple[int, int, int] = (0, 1, 2), support_z_m: float = 0.0,
                  min_visible: float = 0.5, particle_box: str = "cuboid") -> None:
         self.camera = camera
@@ -278,7 +285,7 @@ class CameraVolumeObservation(ObservationModel):
             self.__dict__.pop("half_size_", None)
             self.camera_ = context.camera
 
-    def get_camera(self) -> Any:
+    def get_camera(self) -> Camera:
         """The camera in use (``camera``, loaded when a path, or the run's)."""
         if "half_size_" not in self.__dict__:  # parameters checked once, on first use
             size = np.asarray(self.size_m, dtype=np.float64).reshape(-1)
@@ -288,7 +295,7 @@ class CameraVolumeObservation(ObservationModel):
             if self.particle_box not in ("cuboid", "point"):
                 raise ValueError(f"CameraVolumeObservation: particle_box must be 'cuboid' or "
                                  f"'point', got {self.particle_box!r}")
-            self.camera_ = _resolve_camera(self)
+            self.camera_ = _required_camera(self)
             self.half_size_ = 0.5 * size
         return self.camera_
 
@@ -321,7 +328,7 @@ class CameraVolumeObservation(ObservationModel):
         """The centre (x, y, z) of an object resting on ``z = support_z_m`` whose bottom
         centre is the box's; NaN when that ray misses the plane in front of the camera."""
         b = np.asarray(box_xywh_px, dtype=np.float64).reshape(4)
-        g = self.get_camera().image_to_ground(np.array([[b[0] + 0.5 * b[2], b[1] + b[3]]]),
+        g = self.get_camera().image_to_ground(foot_points(b)[None],
                                               z_m=float(self.support_z_m))[0]
         return np.array([g[0], g[1], float(self.support_z_m) + 0.5 * float(self.size_m[2])])
 
@@ -349,7 +356,7 @@ def _visible_fraction(b: np.ndarray, image_size_wh: tuple[int, int]) -> np.ndarr
         return np.where(area > 0, inside / area, 0.0)
 
 
-def _resolve_camera(model: ObservationModel, required: bool = True) -> Any:
+def _resolve_camera(model: ObservationModel, required: bool = True) -> Camera | None:
     """``model``'s camera: the one :meth:`setup` took from the run (``camera_``) or its
     ``camera`` parameter, loaded when a path; ValueError naming the model when there is none
     and ``required``."""
@@ -361,4 +368,11 @@ def _resolve_camera(model: ObservationModel, required: bool = True) -> Any:
     if cam is None and required:
         raise ValueError(f"{type(model).__name__}: no camera; give camera=... or run with a "
                          "camera (pftrack run --camera PATH)")
+    return cam
+
+
+def _required_camera(model: ObservationModel) -> Camera:
+    """:func:`_resolve_camera` when there must be a camera (ValueError naming ``model`` if not)."""
+    cam = _resolve_camera(model, required=True)
+    assert cam is not None  # _resolve_camera raised otherwise
     return cam

@@ -38,12 +38,15 @@ import time
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from pftrack.components import Detections, Frame, RunContext
 from pftrack.tracker import MultiTargetTracker, TrackRecord, records_to_mot
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera, CameraSpec
 
 __all__ = [
     "RunResult",
@@ -131,19 +134,21 @@ def load_config(spec: str | os.PathLike[str] | dict[str, Any]) -> dict[str, Any]
     return cfg
 
 
-def parse_frames(text: str | Sequence[int] | None) -> tuple[int, int | None]:
+def parse_frames(text: str | tuple[int, int | None] | Sequence[int] | None
+                 ) -> tuple[int, int | None]:
     """``"A:B"`` (inclusive, ground-truth numbering, 1-based) -> (A, B); ``"A:"`` -> (A, None)."""
     if text is None:
         return 1, None
     if not isinstance(text, str):
-        a, b = text
-        return int(a), None if b is None else int(b)
+        lo, hi = text
+        return int(lo), None if hi is None else int(hi)
     a, sep, b = text.partition(":")
     try:
         first = int(a) if a.strip() else 1
         last = int(b) if b.strip() else None
     except ValueError:
-        raise ValueError(f"--frames must look like A:B (1-based, inclusive), got {text!r}") from None
+        raise ValueError(
+            f"--frames must look like A:B (1-based, inclusive), got {text!r}") from None
     if not sep:
         last = first
     if first < 1 or (last is not None and last < first):
@@ -206,7 +211,7 @@ def build_detector(cfg: dict[str, Any], context: RunContext | None = None):
 
 def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
                    frames: str | tuple[int, int | None], *, out: str | os.PathLike[str] | None,
-                   cfg: dict[str, Any] | None = None, camera: Any = None,
+                   cfg: dict[str, Any] | None = None, camera: CameraSpec | None = None,
                    params: dict[str, Any] | None = None, seed: int = 0,
                    progress: bool = False):
     """Train the configured detector on ground-truth boxes and save its model (``out``).
@@ -289,7 +294,7 @@ def _spec(value: Any, default_type: str) -> dict[str, Any]:
     return {"type": default_type, "params": value}
 
 
-def build_engine(cfg: dict[str, Any], *, camera: Any = None, fps: float = 25.0,
+def build_engine(cfg: dict[str, Any], *, camera: Camera | None = None, fps: float = 25.0,
                  seed: int = 0, host: Any = None,
                  detector_model: str | os.PathLike[str] | None = None) -> MultiTargetTracker:
     """The tracking engine of a configuration: observation model, motion, likelihood,
@@ -349,7 +354,7 @@ def _matched_world_errors(gt: np.ndarray, tracks: np.ndarray, iou_threshold: flo
     """Ground-plane distances (m) of gt/track rows matched per frame (Hungarian on IoU >= thr)."""
     from scipy.optimize import linear_sum_assignment
 
-    from pftrack.metrics.similarity import box_iou
+    from pftrack.geometry.boxes import iou_matrix
 
     errs = []
     tf = tracks[:, 0].astype(int)
@@ -358,7 +363,7 @@ def _matched_world_errors(gt: np.ndarray, tracks: np.ndarray, iou_threshold: flo
         t = tracks[tf == f]
         if len(g) == 0 or len(t) == 0:
             continue
-        iou = np.nan_to_num(box_iou(g[:, None, 2:6], t[None, :, 2:6]))
+        iou = iou_matrix(g[:, 2:6], t[:, 2:6])
         r, c = linear_sum_assignment(-iou)
         ok = iou[r, c] >= iou_threshold
         d = np.linalg.norm(g[r[ok], 7:9] - t[c[ok], 7:9], axis=1)
@@ -419,7 +424,7 @@ class RunResult:
     n_frames: int = 0
 
 
-def _load_camera(camera: Any) -> Any:
+def _load_camera(camera: CameraSpec | None) -> Camera | None:
     if camera is None or not isinstance(camera, (str, os.PathLike)):
         return camera
     from pftrack.geometry.formats import load_camera
@@ -428,7 +433,7 @@ def _load_camera(camera: Any) -> Any:
 
 
 def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str | os.PathLike[str],
-                 camera: Any = None, out_dir: str | os.PathLike[str] | None = None,
+                 camera: CameraSpec | None = None, out_dir: str | os.PathLike[str] | None = None,
                  gt: str | os.PathLike[str] | None = None,
                  frames: str | tuple[int, int | None] | None = None,
                  detector_model: str | os.PathLike[str] | None = None, seed: int = 0,
@@ -559,7 +564,7 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
                         "frame_numbers_verified": source.report.numbers_trusted})
     result = RunResult(rows, dets_out, timing, metrics, None, n)
     if out_dir is not None:
-        result.out_dir = write_outputs(out_dir, cfg, result, cam, keep_frames, gt_rows)
+        result.out_dir = write_outputs(out_dir, cfg, result, keep_frames, gt_rows)
     return result
 
 
@@ -584,8 +589,7 @@ def _report_frames(first: int, last: int | None) -> set[int]:
 
 
 def write_outputs(out_dir: str | os.PathLike[str], cfg: dict[str, Any], result: RunResult,
-                  camera: Any, frames: dict[int, np.ndarray],
-                  gt_rows: np.ndarray | None) -> Path:
+                  frames: dict[int, np.ndarray], gt_rows: np.ndarray | None) -> Path:
     """``tracks.txt``, ``metrics.json`` (with ground truth) and ``report/*.png``, as one unit
     (:class:`pftrack.io.outputs.OutputSet`): all replaced or none."""
     import json
@@ -603,7 +607,7 @@ def write_outputs(out_dir: str | os.PathLike[str], cfg: dict[str, Any], result: 
                               json.dumps(result.metrics, indent=2, default=float) + "\n")
         if frames:
             writer = report_writer(cfg)
-            writer.write(out.path("report"), result.rows, frames, camera=camera,
+            writer.write(out.path("report"), result.rows, frames,
                          gt_rows=gt_rows, title=str(cfg.get("name", "")))
     return Path(out_dir)
 

@@ -385,6 +385,8 @@ class MultiTargetTracker:
         # associator, the likelihood and callers (``target.particle_boxes_xywh_px``). Several
         # targets with as many particles each: one (T, N, D) call of each (the same numbers)
         n = self.n_particles
+        predicted: np.ndarray | list[np.ndarray]
+        boxes: np.ndarray | list[np.ndarray]
         if (self._vectorise and len(filters) > 1 and self._rows_pay
                 and all(len(f.particles) == n for f in filters)):
             targets = [f.target for f in filters]
@@ -417,7 +419,7 @@ class MultiTargetTracker:
         for f in filters:
             t = f.target
             try:
-                logl = self.likelihood.log_likelihood(t.particle_boxes_xywh_px, t)
+                logl = self.likelihood.log_likelihood(t.particle_boxes_xywh_px, t)  # type: ignore[arg-type]
             except (ValueError, OSError) as exc:  # bad input met at run time: still exit 2
                 raise ValueError(f"{self._who(self.likelihood)}: {exc}") from exc
             except Exception as exc:
@@ -474,7 +476,7 @@ class MultiTargetTracker:
         for i, f in enumerate(filters):
             t = f.target
             if weights is not None:
-                w, ok = weights[i], bool(ok_rows[i])
+                w, ok = weights[i], bool(ok_rows[i])  # type: ignore[index]
             else:
                 w, ok = normalize_log_weights(f.log_weights + logls[i])
             if not ok:
@@ -488,7 +490,7 @@ class MultiTargetTracker:
             else:
                 best = best_rows[i] if best_rows is not None else float(logls[i].max())
             if states is not None:
-                state, t.extent = states[i], extents[i]
+                state, t.extent = states[i], extents[i]  # type: ignore[index]
             else:
                 state = weighted_mean(f.particles, w)
                 t.extent = weighted_extent(f.particles, w, state)
@@ -556,7 +558,7 @@ class MultiTargetTracker:
         return TrackRecord(
             frame=frame.index, id=t.id, box_xywh_px=t.box_xywh_px.copy(), state=t.state.copy(),
             position=t.state[pos_dims],  # fancy indexing: already a copy
-            extent=t.extent.copy(),
+            extent=t.extent.copy(),  # type: ignore[union-attr]
             confidence=float(expit(best_logl)) if math.isfinite(best_logl) else 0.0,
             world_m=None if world is None else np.asarray(world, dtype=np.float64),
         )

@@ -1,20 +1,18 @@
 """Sample third-party pftrack plugin (test fixture).
 
 It shows the whole surface a plugin author needs: components subclassing the contracts in
-:mod:`pftrack.components` (a detector, likelihoods, a motion model, an associator, a scene, an observation model and a
-track manager), a
-preset shipped as package data, a metric, a report writer, and a command, a benchmark and a demo
-(:mod:`pftrack.extensions`), all registered through ``pftrack_register_*`` hooks and exposed
-through the ``pftrack`` entry-point group in ``pyproject.toml``. The project's tests install it into
-a temporary folder and check that ``pftrack plugins`` lists it, that every piece runs through the
-``pftrack`` command line without editing pftrack, and that the ``PFTRACK_DISABLE_*`` environment
-variables block it.
+:mod:`pftrack.components` (a detector, likelihoods, a motion model, an associator, a scene, an
+observation model and a track manager), a preset shipped as package data, a metric, a report writer,
+and a command, a benchmark and a demo (:mod:`pftrack.extensions`), all registered through
+``pftrack_register_*`` hooks and exposed through the ``pftrack`` entry-point group in
+``pyproject.toml``. The project's tests install it into a temporary folder and check that ``pftrack
+plugins`` lists it, that every piece runs through the ``pftrack`` command line without editing
+pftrack, and that the ``PFTRACK_DISABLE_*`` environment variables block it.
 """
 
 from __future__ import annotations
 
 import numpy as np
-
 from pftrack import hookimpl
 from pftrack.components import (
     Assignment,

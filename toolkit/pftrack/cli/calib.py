@@ -21,7 +21,10 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -164,7 +167,7 @@ def _emit(result: dict[str, Any], as_json: bool, text: str) -> int:
     return 0
 
 
-def _save(camera: Any, path: str | None, fmt: str | None) -> dict[str, Any] | None:
+def _save(camera: Camera, path: str | None, fmt: str | None) -> dict[str, Any] | None:
     if not path:
         return None
     from pftrack.geometry.formats import save_camera
@@ -199,7 +202,7 @@ def _chessboard(args: argparse.Namespace) -> int:
                                radial_terms=args.radial_terms)
     cam = res.camera
     out = {"views": len(res.views), "rms_px": res.rms_px, "fx": cam.fx, "fy": cam.fy,
-           "cx": cam.cx, "cy": cam.cy, "dist": cam.distortion.coeffs.tolist(),
+           "cx": cam.cx, "cy": cam.cy, "dist": cam.distortion.coeffs.tolist(),  # type: ignore[attr-defined]
            "per_view_rms_px": res.per_view_rms_px, "skipped": res.notes,
            "saved": _save(cam, args.out, args.format)}
     text = (f"{len(res.views)} views, rms {res.rms_px:.4f} px\n"

@@ -55,7 +55,7 @@ def train_handler(args: argparse.Namespace) -> int:
     frames = args.frames or train.get("frames")
     seed = args.seed if args.seed is not None else int(train.get("seed", 0))
     params = {"feature": args.feature} if args.feature else {}
-    fitted = train_detector(args.video, args.gt, frames, out=args.out, cfg=cfg,
+    fitted = train_detector(args.video, args.gt, frames, out=args.out, cfg=cfg,  # type: ignore[arg-type]
                             camera=args.camera, params=params, seed=seed,
                             progress=not args.quiet)
     if not args.quiet:

@@ -3,7 +3,8 @@
 ``pftrack plugins --json`` prints ``{"plugins": [{"name", "version", "builtin", "source",
 "components": {kind: [names]}, "hooks": [hook names], ["error"]}, ...]}`` (built-ins first):
 :meth:`pftrack.host.Host.listing` plus the hooks each plugin implements.
-:func:`pftrack.host.list_plugins` gives the same list in a notebook. ``PFTRACK_DISABLE_PLUGINS`` and ``PFTRACK_DISABLE_PLUGIN_AUTOLOAD`` apply as everywhere.
+:func:`pftrack.host.list_plugins` gives the same list in a notebook. ``PFTRACK_DISABLE_PLUGINS``
+and ``PFTRACK_DISABLE_PLUGIN_AUTOLOAD`` apply as everywhere.
 """
 
 from __future__ import annotations

@@ -2,8 +2,8 @@
 
 * ``pftrack render topview TRACKS.txt --out PNG [--gt GT.txt] [--volume NAME|FILE]
   [--size WxH] [--title T] [--label L]`` -- the ground plane from above; trajectories from the
-  MOTChallenge world columns 8-9 (x, y metres), coloured by id; ground truth dashed; the volume's ground
-  lines when ``--volume`` is given, otherwise just the data's bounds with a metre grid.
+  MOTChallenge world columns 8-9 (x, y metres), coloured by id; ground truth dashed; the volume's
+  ground lines when ``--volume`` is given, otherwise just the data's bounds with a metre grid.
 * ``pftrack render overlay --video PATH --frame N --tracks TRACKS.txt [--camera CAM]
   --out PNG`` -- boxes and ids of MOT frame N drawn on the video frame N-1 (MOT frames count
   from 1, video frames from 0); with ``--camera`` and world columns, the ground positions
@@ -42,7 +42,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     t.add_argument("tracks", metavar="TRACKS", help="MOTChallenge CSV with world x, y columns")
     t.add_argument("--out", required=True, help="output PNG")
     t.add_argument("--gt", help="ground-truth MOTChallenge CSV, drawn dashed")
-    t.add_argument("--volume", help="volume name (pitch, near, far, a calib/ name) or YAML file")
+    t.add_argument("--volume", help="volume name (pitch, near, far, or a name in a plugin's "
+                   "volume files: pitch_seed001, walkway), YAML file or FILE:NAME")
     t.add_argument("--size", type=_size, default=(1024, 768), help="WxH pixels (1024x768)")
     t.add_argument("--title", help="title text")
     t.add_argument("--label", default="estimate",
@@ -61,8 +62,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 def topview_handler(args: argparse.Namespace) -> int:
     from pathlib import Path
 
+    from pftrack.io.mot import read_mot
     from pftrack.render.topview import render_topview
-    from pftrack.render.tracks import read_mot, tracks_from_mot
+    from pftrack.render.tracks import tracks_from_mot
 
     if Path(args.out).suffix.lower() != ".png":
         raise ValueError(f"{args.out}: --out must be a .png file")
@@ -83,9 +85,9 @@ def topview_handler(args: argparse.Namespace) -> int:
 def overlay_handler(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from pftrack.io.mot import has_world
-    from pftrack.render.overlay import read_video_frame, render_overlay, write_png_bgr
-    from pftrack.render.tracks import read_mot
+    from pftrack.io.images import write_png
+    from pftrack.io.mot import has_world, read_mot
+    from pftrack.render.overlay import read_video_frame, render_overlay
 
     if not str(args.out).lower().endswith(".png"):
         raise ValueError(f"{args.out}: --out must be a .png file")
@@ -103,6 +105,6 @@ def overlay_handler(args: argparse.Namespace) -> int:
         ground = np.column_stack([w[:, 7:9], np.zeros(len(w))])
     img = render_overlay(frame, camera=camera, boxes_xywh_px=rows[:, 2:6], ids=rows[:, 1],
                          ground_points_m=ground)
-    write_png_bgr(args.out, img)
+    write_png(args.out, img)
     print(f"wrote {args.out} ({len(rows)} boxes in frame {args.frame})")
     return 0

@@ -49,7 +49,7 @@ def handler(args: argparse.Namespace) -> int:
                           detections=args.detections)
     _say_why(args, result)
     if not args.quiet:
-        summary = {"tracks": str(result.out_dir / "tracks.txt"), "frames": result.n_frames,
+        summary = {"tracks": str(result.out_dir / "tracks.txt"), "frames": result.n_frames,  # type: ignore[operator]
                    "rows": len(result.rows),
                    "ids": len(set(result.rows[:, 1].astype(int))) if len(result.rows) else 0,
                    **result.timing}

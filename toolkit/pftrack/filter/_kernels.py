@@ -53,7 +53,7 @@ def _umulh(typingctx, a, b):  # pragma: no cover - compiled
     return sig, codegen
 
 
-@njit(inline="always", **_JIT)
+@njit(inline="always", **_JIT)  # type: ignore[call-overload]
 def _step(hi, lo, inc_hi, inc_lo):  # pragma: no cover - compiled
     """PCG64's state update ``state = state * MUL + inc`` (mod 2**128) on (hi, lo) halves."""
     p_lo = lo * _MUL_LO
@@ -63,7 +63,7 @@ def _step(hi, lo, inc_hi, inc_lo):  # pragma: no cover - compiled
     return p_hi + inc_hi + carry, n_lo
 
 
-@njit(inline="always", **_JIT)
+@njit(inline="always", **_JIT)  # type: ignore[call-overload]
 def _output(hi, lo):  # pragma: no cover - compiled
     """PCG64's XSL-RR output of a state: ``rotr64(hi ^ lo, hi >> 58)``."""
     x = hi ^ lo
@@ -71,7 +71,7 @@ def _output(hi, lo):  # pragma: no cover - compiled
     return (x >> r) | (x << ((-r) & _U63))
 
 
-@njit(inline="always", **_JIT)
+@njit(inline="always", **_JIT)  # type: ignore[call-overload]
 def _normal(hi, lo, inc_hi, inc_lo):  # pragma: no cover - compiled
     """One ``random_standard_normal`` (numpy/random/src/distributions/distributions.c): the
     ziggurat, drawing from PCG64 as numpy's ``next_uint64``/``next_double`` do. Returns
@@ -105,7 +105,7 @@ def _normal(hi, lo, inc_hi, inc_lo):  # pragma: no cover - compiled
         # rejected: a new candidate
 
 
-@njit(**_JIT)
+@njit(**_JIT)  # type: ignore[call-overload]
 def pcg64_standard_normal(out, state):  # pragma: no cover - compiled
     """Fill ``out`` (1-D, contiguous) with ``Generator(PCG64).standard_normal``'s numbers;
     ``state`` (4,) uint64 ``(hi, lo, inc_hi, inc_lo)`` is advanced in place."""
@@ -119,7 +119,7 @@ def pcg64_standard_normal(out, state):  # pragma: no cover - compiled
 _BLOCK = 2048  # rows per block of constant_acceleration_predict: 96 kB, in cache
 
 
-@njit(**_JIT)
+@njit(**_JIT)  # type: ignore[call-overload]
 def constant_acceleration_predict(states, std, dt, half, out, state):  # pragma: no cover
     """The (N, 6) constant-acceleration step with the noise drawn in row order, as
     ``standard_normal((N, 6))`` draws it, and each output computed as the numpy path does::
@@ -150,7 +150,7 @@ def constant_acceleration_predict(states, std, dt, half, out, state):  # pragma:
     state[1] = lo
 
 
-@njit(**_JIT)
+@njit(**_JIT)  # type: ignore[call-overload]
 def gaussian_centre_log_likelihood(boxes, ox, oy, scale, out):  # pragma: no cover - compiled
     """``out = ((b0 + 0.5 b2 - ox)^2 + (b1 + 0.5 b3 - oy)^2) * scale`` per box row, in the numpy
     path's order of operations."""
@@ -161,7 +161,7 @@ def gaussian_centre_log_likelihood(boxes, ox, oy, scale, out):  # pragma: no cov
         out[i] = (dx * dx + dy * dy) * scale
 
 
-@njit(**_JIT)
+@njit(**_JIT)  # type: ignore[call-overload]
 def weight_total(w):  # pragma: no cover - compiled
     """The last running sum of ``w`` (``np.add.accumulate(w)[-1]``: summed in order, the same
     number) and whether every weight is >= 0 (False for NaN too)."""
@@ -175,7 +175,7 @@ def weight_total(w):  # pragma: no cover - compiled
     return s, ok
 
 
-@njit(**_JIT)
+@njit(**_JIT)  # type: ignore[call-overload]
 def systematic_indices(w, inv_total, n, u, idx):  # pragma: no cover - compiled
     """Indices of systematic resampling of the weights ``w``: with ``c_i`` the running sum
     (recomputed here in :func:`weight_total`'s order, so without an (N,) array), particle
@@ -202,7 +202,7 @@ def systematic_indices(w, inv_total, n, u, idx):  # pragma: no cover - compiled
         idx[j] = run
 
 
-@njit(**_JIT)
+@njit(**_JIT)  # type: ignore[call-overload]
 def shift_for_exp(lw, m, zero_below, out, mask):  # pragma: no cover - compiled
     """``d = lw - m``; where ``d > zero_below``: ``out = d``, ``mask = True``; elsewhere
     ``out = 0.0``, ``mask = False``. ``np.exp(out, out=out, where=mask)`` then gives
@@ -214,7 +214,7 @@ def shift_for_exp(lw, m, zero_below, out, mask):  # pragma: no cover - compiled
         out[i] = d if keep else 0.0
 
 
-@njit(**_JIT)
+@njit(**_JIT)  # type: ignore[call-overload]
 def weighted_sum(w, s, out):  # pragma: no cover - compiled
     """``out[k] = sum_i w[i] s[i, k]``, each sum running over i in order from 0.0, as
     ``np.einsum("n,nd->d", w, s)`` sums a C-contiguous ``s`` (the tests check it)."""

@@ -221,7 +221,7 @@ def systematic_resample_rows(weights: np.ndarray, rng: np.random.Generator) -> n
     c[:, -1] = 1.0  # guard the last bin against round-off
     u = rng.random(t)
     c *= n
-    c -= u[:, None]
+    c -= u[:, None]  # type: ignore[index]
     np.ceil(c, out=c)
     cum = c.astype(np.intp)
     np.minimum(cum, n, out=cum)

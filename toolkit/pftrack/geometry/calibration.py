@@ -538,7 +538,7 @@ def calibrate_points(points_world_m: Any, pixels: Any, image_size: Sequence[int]
             desc = "non-coplanar: DLT guess + calibrateCamera"
         if fix_principal_point:
             K0[0, 2], K0[1, 2] = pp
-        Xp = ((X - c) @ Q.T)
+        Xp = ((X - c) @ Q.T)  # type: ignore[assignment]
         if coplanar:
             Xp[:, 2] = 0.0
         rms, K, dist, rvecs, tvecs = cv2.calibrateCamera(
@@ -578,8 +578,9 @@ def read_mot_world(path: str | os.PathLike[str], flagged_only: bool = False
                    ) -> tuple[np.ndarray, np.ndarray]:
     """Foot points and world positions from a MOTChallenge file with world columns.
 
-    Rows: ``frame, id, left, top, width, height, flag, x, y, z`` (pixels, metres). Rows whose
-    world columns are all -1 (MOTChallenge's "unknown") are skipped.
+    Rows: ``frame, id, left, top, width, height, flag, x, y, z`` (pixels, metres), read by
+    :func:`pftrack.io.mot.read_mot`. Rows whose world columns are all -1 (MOTChallenge's
+    "unknown", also what a file without them reads as) are skipped.
 
     Returns
     -------
@@ -587,24 +588,18 @@ def read_mot_world(path: str | os.PathLike[str], flagged_only: bool = False
         Bottom centre of each box, ``(left + width / 2, top + height)``.
     world_m : ndarray, shape (N, 3)
     """
-    p = Path(path)
-    if not p.is_file():
-        raise FileNotFoundError(f"ground-truth file {p} not found")
-    try:
-        a = np.loadtxt(p, delimiter=",", ndmin=2)
-    except ValueError as exc:
-        raise ValueError(f"{p}: not a numeric MOTChallenge CSV: {exc}") from None
-    if a.shape[1] < 10:
-        raise ValueError(f"{p}: needs 10 columns (frame,id,left,top,width,height,flag,x,y,z) "
-                         f"with world positions; has {a.shape[1]}")
-    keep = ~np.all(a[:, 7:10] == -1, axis=1) & np.all(np.isfinite(a[:, 7:10]), axis=1)
+    from pftrack.geometry.boxes import foot_points
+    from pftrack.io.mot import read_mot
+
+    a = read_mot(path, check_unique=False)
+    keep = ~np.all(a[:, 7:10] == -1, axis=1)
     if flagged_only:
         keep &= a[:, 6] != 0
     a = a[keep]
     if len(a) == 0:
-        raise ValueError(f"{p}: no rows with world positions")
-    foot = np.stack([a[:, 2] + a[:, 4] / 2, a[:, 3] + a[:, 5]], axis=1)
-    return foot, a[:, 7:10].copy()
+        raise ValueError(f"{path}: no rows with world positions: needs 10 columns (frame,id,left,"
+                         "top,width,height,flag,x,y,z) with x, y, z known")
+    return foot_points(a[:, 2:6]), a[:, 7:10].copy()
 
 
 def check_against_mot(camera: Camera, gt_path: str | os.PathLike[str],

@@ -31,14 +31,16 @@ from __future__ import annotations
 
 import copy
 import math
+import os
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from typing import Any, ClassVar
+from typing import Any, ClassVar, TypeAlias
 
 import numpy as np
 
 __all__ = [
     "Camera",
+    "CameraSpec",
     "LensDistortion",
     "NoDistortion",
     "OpenCVDistortion",
@@ -101,7 +103,7 @@ def look_at_rotation(eye: Sequence[float], target: Sequence[float],
     The camera's y axis points down along ``-up`` projected on the image plane, so the horizon
     is level.
     """
-    eye = np.asarray(eye, dtype=np.float64)
+    eye = np.asarray(eye, dtype=np.float64)  # type: ignore[assignment]
     z = np.asarray(target, dtype=np.float64) - eye
     if np.linalg.norm(z) == 0:
         raise ValueError("look_at_rotation: eye and target coincide")
@@ -184,7 +186,7 @@ class OpenCVDistortion(LensDistortion):
         self.k3, self.k4, self.k5, self.k6 = float(k3), float(k4), float(k5), float(k6)
 
     @classmethod
-    def from_coeffs(cls, coeffs: Sequence[float]) -> OpenCVDistortion:
+    def from_coeffs(cls, coeffs: Sequence[float] | np.ndarray) -> OpenCVDistortion:
         """From OpenCV's ``distCoeffs`` (4, 5 or 8 numbers)."""
         c = np.asarray(coeffs, dtype=np.float64).ravel()
         if c.size not in (4, 5, 8):
@@ -245,7 +247,7 @@ class OpenCVDistortion(LensDistortion):
         ok = np.all(np.isfinite(xy), axis=1)
         if ok.any():
             crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-15)
-            und = cv2.undistortPointsIter(xy[ok].reshape(-1, 1, 2), np.eye(3), self.coeffs,
+            und = cv2.undistortPointsIter(xy[ok].reshape(-1, 1, 2), np.eye(3), self.coeffs,  # type: ignore[call-overload]
                                           None, None, crit)
             out[ok] = und.reshape(-1, 2)
         return out
@@ -310,7 +312,8 @@ def distortion_from_dict(d: dict[str, Any] | None) -> LensDistortion:
         if model == "tsai":
             return TsaiDistortion(**{k: float(v) for k, v in d.items()})
     except TypeError as exc:
-        raise ValueError(f"distortion model {model!r}: bad coefficients {sorted(d)}: {exc}") from exc
+        raise ValueError(f"distortion model {model!r}: bad coefficients {sorted(d)}: "
+                         f"{exc}") from exc
     raise ValueError(f"unknown distortion model {model!r} (known: none, opencv, tsai)")
 
 
@@ -648,3 +651,8 @@ class Camera:
     def image_to_ground(self, pixels: Any, z_m: float = 0.0) -> np.ndarray:
         """Back-project pixels onto the horizontal plane z = ``z_m`` (metres), shape (N, 3)."""
         return self.image_to_plane(pixels, ((0.0, 0.0, 1.0), z_m))
+
+
+#: What a component's ``camera`` parameter takes: a :class:`Camera` or a camera file path
+#: (anything :func:`pftrack.geometry.formats.load_camera` reads).
+CameraSpec: TypeAlias = "Camera | str | os.PathLike[str]"

@@ -131,7 +131,7 @@ class ParticleCloud:
 
     def colours(self, vmax: float | None = None) -> np.ndarray:
         """(N, 3) uint8 colours of the weights (see :func:`weights_to_colours`)."""
-        return weights_to_colours(self.weights, vmax)
+        return weights_to_colours(self.weights, vmax)  # type: ignore[arg-type]
 
     # -- Open3D ---------------------------------------------------------------------------
     def to_open3d(self) -> Any:
@@ -139,11 +139,11 @@ class ParticleCloud:
         ``weights`` (float64, (N, 1)) and, when set, ``labels`` (int32, (N, 1))."""
         import open3d as o3d
 
-        pc = o3d.t.geometry.PointCloud(o3d.core.Tensor(self.points_world_m))
-        pc.point.colors = o3d.core.Tensor(self.colours())
-        pc.point.weights = o3d.core.Tensor(self.weights[:, None].copy())
+        pc = o3d.t.geometry.PointCloud(o3d.core.Tensor(self.points_world_m))  # type: ignore[call-overload]
+        pc.point.colors = o3d.core.Tensor(self.colours())  # type: ignore[call-overload]
+        pc.point.weights = o3d.core.Tensor(self.weights[:, None].copy())  # type: ignore[call-overload, index]
         if self.labels is not None:
-            pc.point.labels = o3d.core.Tensor(self.labels.astype(np.int32)[:, None].copy())
+            pc.point.labels = o3d.core.Tensor(self.labels.astype(np.int32)[:, None].copy())  # type: ignore[call-overload]
         return pc
 
     def to_legacy_open3d(self) -> Any:
@@ -199,7 +199,7 @@ def save_ply(path: str | os.PathLike[str], cloud: ParticleCloud) -> Path:
     pc = cloud.to_open3d()
 
     def write(tmp: Path) -> None:
-        if not o3d.t.io.write_point_cloud(str(tmp), pc, write_ascii=False):
+        if not o3d.t.io.write_point_cloud(str(tmp), pc, write_ascii=False):  # type: ignore[arg-type]
             raise OSError(f"Open3D could not write {path}")
 
     return atomic_write_with(path, write)
@@ -212,7 +212,7 @@ def load_ply(path: str | os.PathLike[str]) -> ParticleCloud:
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"point cloud {path} not found")
-    pc = o3d.t.io.read_point_cloud(str(path))
+    pc = o3d.t.io.read_point_cloud(str(path))  # type: ignore[arg-type]
     if pc.is_empty():
         # Open3D returns an empty cloud (not an error) for a file it cannot parse
         raise ValueError(f"{path}: no points read (not a valid PLY point cloud)")

@@ -250,11 +250,11 @@ def convert_camera(camera: Camera, target: str, fit_step_px: float = 16.0,
                                f"{names} = {lens.coeffs.round(8).tolist()}")
             report.fitted = lens.to_dict()
         elif "tsai" in holds:
-            lens = _fit_tsai(camera, fit_step_px)
+            lens = _fit_tsai(camera, fit_step_px)  # type: ignore[assignment]
             out = camera.with_distortion(lens)
             report.lost.append(f"{target} holds only Tsai's one-coefficient radial lens: "
                                f"{model} lens {camera.distortion.params()} refitted as "
-                               f"kappa1 = {lens.kappa1:.8g} (normalised)")
+                               f"kappa1 = {lens.kappa1:.8g} (normalised)")  # type: ignore[attr-defined]
             report.fitted = lens.to_dict()
         else:
             K = _fit_pinhole(camera, fit_step_px)
@@ -331,7 +331,7 @@ def _tsai_block(block: dict[str, Any], image_size: Any, name: str, where: str) -
         cam = Camera.from_tsai(
             focal_mm=float(b.pop("focal_mm")), kappa1_per_mm2=float(b.pop("kappa1_per_mm2", 0)),
             sx=float(b.pop("sx", 1.0)), dpx_mm=dpx, dpy_mm=dpy, cx_px=float(b.pop("cx_px")),
-            cy_px=float(b.pop("cy_px")), rx=rx, ry=ry, rz=rz, t_mm=t_mm, image_size=image_size,
+            cy_px=float(b.pop("cy_px")), rx=rx, ry=ry, rz=rz, t_mm=t_mm, image_size=image_size,  # type: ignore[arg-type]
             name=name, sensor=sensor)
     except KeyError as exc:
         raise ValueError(f"{where}: 'tsai' block lacks {exc.args[0]!r}") from None
@@ -492,7 +492,7 @@ def _load_opencv(path: Path) -> Camera:
         if ext is not None:
             e = np.asarray(ext.mat(), dtype=np.float64).reshape(-1, 6)
             if len(e) == 1:
-                R = cv2.Rodrigues(e[0, :3])[0]
+                R = cv2.Rodrigues(e[0, :3])[0]  # type: ignore[assignment]
                 t = e[0, 3:]
             else:
                 meta["note"] = (f"{len(e)} views' extrinsics in the file; camera placed at the "
@@ -547,7 +547,7 @@ def _load_open3d(path: Path) -> Camera:
                          "(needs 'intrinsic' and 'extrinsic')")
     import open3d as o3d
 
-    p = o3d.io.read_pinhole_camera_parameters(str(path))
+    p = o3d.io.read_pinhole_camera_parameters(str(path))  # type: ignore[arg-type]
     K = np.asarray(p.intrinsic.intrinsic_matrix, dtype=np.float64)
     E = np.asarray(p.extrinsic, dtype=np.float64)
     size = (int(p.intrinsic.width), int(p.intrinsic.height))
@@ -572,7 +572,7 @@ def _save_open3d(camera: Camera, path: Path) -> None:
     p.extrinsic = E
 
     def write(tmp: Path) -> None:
-        if not o3d.io.write_pinhole_camera_parameters(str(tmp), p):
+        if not o3d.io.write_pinhole_camera_parameters(str(tmp), p):  # type: ignore[arg-type]
             raise OSError(f"Open3D could not write {path}")
 
     atomic_write_with(path, write)

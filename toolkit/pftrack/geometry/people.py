@@ -70,6 +70,7 @@ from typing import Any
 
 import numpy as np
 
+from pftrack.geometry.boxes import foot_points, nms
 from pftrack.geometry.camera import Camera
 
 __all__ = [
@@ -478,7 +479,7 @@ def estimate_camera_from_people(boxes_xywh: Any, image_size: tuple[int, int],
                              f"{n_all} boxes")
         sl_all = sl[ids]
     b = boxes[ids]
-    feet = np.column_stack([b[:, 0] + b[:, 2] / 2, b[:, 1] + b[:, 3]])
+    feet = foot_points(b)
     hgt = b[:, 3]
     centre = np.array([(w - 1) / 2, (h - 1) / 2])
     notes: list[str] = []
@@ -699,7 +700,7 @@ def compare_with_reference(camera_or_fit: Any, reference: Camera, boxes_xywh: An
     """
     cam = getattr(camera_or_fit, "camera", camera_or_fit)
     b = np.asarray(boxes_xywh, dtype=np.float64)
-    feet = np.column_stack([b[:, 0] + b[:, 2] / 2, b[:, 1] + b[:, 3]])
+    feet = foot_points(b)
     g = ground_error_after_alignment(cam, feet, world_xy_m)
     col = (cam.width - 1) / 2
     hz, hz_ref = horizon_row(cam, col), horizon_row(reference, col)
@@ -849,8 +850,9 @@ def detect_people(video: Any, first: int = 1, last: int | None = None, stride: i
             boxes = np.asarray(b, dtype=np.float64).reshape(-1, 4) / upscale
             scores = np.asarray(s, dtype=np.float64).reshape(-1)
             if len(boxes):
-                keep = cv2.dnn.NMSBoxes(boxes.tolist(), scores.tolist(), min_score, 0.4)
-                keep = np.asarray(keep, dtype=int).reshape(-1)
+                sel = scores >= min_score
+                boxes, scores = boxes[sel], scores[sel]
+                keep = nms(boxes, scores, 0.4)
                 boxes, scores = boxes[keep], scores[keep]
                 boxes = np.column_stack([boxes[:, 0] + HOG_MARGIN_X * boxes[:, 2],
                                          boxes[:, 1] + HOG_MARGIN_Y * boxes[:, 3],

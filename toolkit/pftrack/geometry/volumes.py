@@ -227,7 +227,7 @@ class CuboidVolume(Volume):
         """``open3d.geometry.OrientedBoundingBox`` with the same centre, rotation and extent."""
         import open3d as o3d
 
-        return o3d.geometry.OrientedBoundingBox(self.center_m, self.rotation, self.size_m)
+        return o3d.geometry.OrientedBoundingBox(self.center_m, self.rotation, self.size_m)  # type: ignore[arg-type]
 
     # -- Volume API -----------------------------------------------------------------------
     def to_local(self, points_world_m: np.ndarray) -> np.ndarray:
@@ -237,7 +237,7 @@ class CuboidVolume(Volume):
 
     def to_world(self, points_local_m: np.ndarray) -> np.ndarray:
         """Box coordinates (N, 3) -> world metres (N, 3)."""
-        return _as_points(points_local_m, "points_local_m") @ self.rotation.T + self.center_m
+        return _as_points(points_local_m, "points_local_m") @ self.rotation.T + self.center_m  # type: ignore[union-attr]
 
     def contains(self, points_world_m: np.ndarray) -> np.ndarray:
         local = self.to_local(points_world_m)
@@ -273,8 +273,8 @@ class CuboidVolume(Volume):
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {"name": self.name, "type": "cuboid",
                              "center_m": self.center_m.tolist(), "size_m": self.size_m.tolist()}
-        if not np.allclose(self.rotation, np.eye(3)):
-            d["rotation"] = self.rotation.tolist()
+        if not np.allclose(self.rotation, np.eye(3)):  # type: ignore[arg-type]
+            d["rotation"] = self.rotation.tolist()  # type: ignore[union-attr]
         return d
 
 
@@ -486,8 +486,8 @@ def seed003_volumes() -> dict[str, CuboidVolume]:
     (z from 0 up). Frame: origin at the camera mast foot, y away from the camera, z up.
     """
     return {
-        "near": CuboidVolume([0.0, 100.0, 3.0], [43.0, 10.0, 6.0], None, "near"),
-        "far": CuboidVolume([0.0, 300.0, 4.5], [170.0, 310.0, 9.0], None, "far"),
+        "near": CuboidVolume([0.0, 100.0, 3.0], [43.0, 10.0, 6.0], None, "near"),  # type: ignore[arg-type]
+        "far": CuboidVolume([0.0, 300.0, 4.5], [170.0, 310.0, 9.0], None, "far"),  # type: ignore[arg-type]
     }
 
 
@@ -579,8 +579,8 @@ def resolve_volume(spec: str | os.PathLike[str] | Volume,
         ``"pitch"``, ``"near"``, ``"far"`` (built in), a name defined in one of the ``search``
         YAML files, or a YAML file path (``FILE`` -- its only/first volume -- or ``FILE:NAME``).
     search : list of paths, optional
-        Volumes YAML files whose names are looked up; missing files are skipped. Default: every
-        ``*.yaml`` under the repository's ``calib/`` that holds a ``volumes:`` list.
+        Volumes YAML files whose names are looked up; missing files are skipped. Default: the volume
+        files the loaded plugins register (``pftrack_register_volumes``, their package data).
     """
     if isinstance(spec, Volume):
         return spec
@@ -597,7 +597,7 @@ def resolve_volume(spec: str | os.PathLike[str] | Volume,
     builtins = builtin_volumes()
     if s in builtins:
         return builtins[s]
-    files = search if search is not None else _calib_volume_files()
+    files = search if search is not None else _plugin_volume_files()
     seen: list[str] = list(builtins)
     for f in files:
         if not Path(f).exists():
@@ -612,18 +612,9 @@ def resolve_volume(spec: str | os.PathLike[str] | Volume,
     raise ValueError(f"unknown volume {s!r}: not a file and not one of {sorted(set(seen))}")
 
 
-def _calib_volume_files() -> list[Path]:
-    from pftrack.data import REPO_ROOT
+def _plugin_volume_files() -> list[Path]:
+    """The volume files the loaded plugins ship (``pftrack_register_volumes``)."""
+    from pftrack.host import get_host
 
-    calib = REPO_ROOT / "calib"
-    if not calib.is_dir():
-        return []
-    out = []
-    for f in sorted(calib.glob("*.y*ml")):
-        try:
-            head = f.read_text(errors="replace")
-        except OSError:
-            continue
-        if "volumes" in head:
-            out.append(f)
-    return out
+    host = get_host()
+    return [Path(host.get("volumes", n)) for n in host.names("volumes")]

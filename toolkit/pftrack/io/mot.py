@@ -270,8 +270,9 @@ class MotTable:
     @property
     def foot_px(self) -> np.ndarray:
         """Bottom-centre points (u, v) of the boxes in pixels, shape (M, 2)."""
-        b = self.rows
-        return np.column_stack([b[:, LEFT] + b[:, WIDTH] / 2, b[:, TOP] + b[:, HEIGHT]])
+        from pftrack.geometry.boxes import foot_points
+
+        return foot_points(self.rows[:, LEFT:HEIGHT + 1])
 
     @property
     def conf(self) -> np.ndarray:

@@ -13,6 +13,8 @@ counting over alphas and the whole-sequence sums are vectorised.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
@@ -41,8 +43,8 @@ def hota_metrics(seq: SequenceData) -> dict[str, object]:
     G, T = seq.num_gt_ids, seq.num_tracker_ids
     n_gt, n_tr = seq.num_gt_dets, seq.num_tracker_dets
     if n_tr == 0 or n_gt == 0:  # TrackEval's early return
-        res = {k: np.zeros(A) for k in ("HOTA", "DetA", "AssA", "DetRe", "DetPr", "AssRe",
-                                         "AssPr", "OWTA", "HOTA_TP")}
+        res: dict[str, Any] = {k: np.zeros(A) for k in (
+            "HOTA", "DetA", "AssA", "DetRe", "DetPr", "AssRe", "AssPr", "OWTA", "HOTA_TP")}
         res["HOTA_FN"] = np.full(A, float(n_gt))
         res["HOTA_FP"] = np.full(A, float(n_tr))
         res["LocA"] = np.ones(A)

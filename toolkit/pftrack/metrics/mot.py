@@ -92,7 +92,7 @@ def evaluate(gt_rows: np.ndarray | MotTable, track_rows: np.ndarray | MotTable, 
 
     out: dict[str, Any] = {}
     for k in _HOTA_MEANS:
-        out[k] = float(np.mean(hota[k]))
+        out[k] = float(np.mean(hota[k]))  # type: ignore[call-overload]
     out.update({"HOTA(0)": hota["HOTA(0)"], "LocA(0)": hota["LocA(0)"]})
     for k in ("MOTA", "MOTP", "MODA", "sMOTA", "MTR", "PTR", "MLR"):
         out[k] = float(clear[k])

@@ -11,36 +11,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from pftrack.geometry.boxes import box_iou
+
+__all__ = ["box_iou", "world_similarity"]
+
 _EPS = np.finfo(float).eps
-
-
-def box_iou(a_xywh_px: np.ndarray, b_xywh_px: np.ndarray) -> np.ndarray:
-    """Intersection over union of image boxes.
-
-    Parameters
-    ----------
-    a_xywh_px, b_xywh_px : array_like, shape (..., 4)
-        Boxes (left, top, width, height) in pixels; broadcast against each other.
-
-    Returns
-    -------
-    ndarray, shape (...)
-        IoU in [0, 1]; 0 where either box has zero area.
-    """
-    a = np.asarray(a_xywh_px, dtype=np.float64)
-    b = np.asarray(b_xywh_px, dtype=np.float64)
-    ax0, ay0 = a[..., 0], a[..., 1]
-    ax1, ay1 = ax0 + a[..., 2], ay0 + a[..., 3]
-    bx0, by0 = b[..., 0], b[..., 1]
-    bx1, by1 = bx0 + b[..., 2], by0 + b[..., 3]
-    inter = (np.maximum(np.minimum(ax1, bx1) - np.maximum(ax0, bx0), 0)
-             * np.maximum(np.minimum(ay1, by1) - np.maximum(ay0, by0), 0))
-    area_a = (ax1 - ax0) * (ay1 - ay0)
-    area_b = (bx1 - bx0) * (by1 - by0)
-    union = area_a + area_b - inter
-    inter = np.where((area_a <= _EPS) | (area_b <= _EPS) | (union <= _EPS), 0.0, inter)
-    union = np.where(union <= _EPS, 1.0, union)
-    return inter / union
 
 
 def world_similarity(a_xy_m: np.ndarray, b_xy_m: np.ndarray, zero_distance_m: float) -> np.ndarray:

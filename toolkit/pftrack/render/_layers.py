@@ -111,7 +111,7 @@ def add_clouds(p: pv.Plotter, clouds: Sequence[ParticleCloud], point_size: float
     clouds = [c for c in clouds if len(c)]
     if not clouds:
         return
-    vmax = max(float(c.weights.max()) for c in clouds)
+    vmax = max(float(c.weights.max()) for c in clouds)  # type: ignore[union-attr]
     pts = np.vstack([c.points_world_m for c in clouds]).copy()
     rgb = np.vstack([c.colours(vmax) for c in clouds])
     if flatten_z is not None:

@@ -15,12 +15,11 @@ os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
 
 from collections.abc import Iterator
 from contextlib import contextmanager
-from pathlib import Path
 
 import numpy as np
 import pyvista as pv
 
-__all__ = ["plotter", "polyline_cells", "pv", "screenshot", "segment_cells", "theme", "write_png"]
+__all__ = ["plotter", "polyline_cells", "pv", "screenshot", "segment_cells", "theme"]
 
 BACKGROUND = "white"
 FOREGROUND = "black"
@@ -50,7 +49,7 @@ def plotter(size_wh: tuple[int, int]) -> Iterator[pv.Plotter]:
     w, h = int(size_wh[0]), int(size_wh[1])
     if w < 16 or h < 16:
         raise ValueError(f"render size must be at least 16x16 px, got {w}x{h}")
-    p = pv.Plotter(off_screen=True, window_size=(w, h), theme=theme())
+    p = pv.Plotter(off_screen=True, window_size=(w, h), theme=theme())  # type: ignore[arg-type]
     try:
         yield p
     finally:
@@ -62,21 +61,6 @@ def screenshot(p: pv.Plotter) -> np.ndarray:
     """Render and return the picture as (H, W, 3) uint8 RGB."""
     img = p.screenshot(return_img=True, transparent_background=False)
     return np.ascontiguousarray(np.asarray(img)[:, :, :3], dtype=np.uint8)
-
-
-def write_png(path: str | os.PathLike[str], image_rgb: np.ndarray) -> Path:
-    """Write an (H, W, 3) uint8 RGB image as PNG, atomically."""
-    import cv2
-
-    from pftrack.io.atomic import atomic_path
-
-    path = Path(path)
-    if path.suffix.lower() != ".png":
-        raise ValueError(f"{path}: the output must be a .png file")
-    with atomic_path(path) as tmp:
-        if not cv2.imwrite(str(tmp), np.ascontiguousarray(image_rgb[:, :, ::-1])):
-            raise OSError(f"OpenCV could not write {path}")
-    return path
 
 
 def polyline_cells(polylines: list[np.ndarray]) -> pv.PolyData:

@@ -38,7 +38,6 @@ __all__ = [
     "project_polylines",
     "read_video_frame",
     "render_overlay",
-    "write_png_bgr",
 ]
 
 #: Colour of projected ground positions (BGR): pure magenta, rare in natural video.
@@ -245,7 +244,7 @@ def draw_particles(image_bgr: np.ndarray, camera: Camera, clouds: Sequence[Parti
     clouds = [c for c in clouds if len(c)]
     if not clouds:
         return _check_image(image_bgr)
-    vmax = max(float(c.weights.max()) for c in clouds)
+    vmax = max(float(c.weights.max()) for c in clouds)  # type: ignore[union-attr]
     pts = np.vstack([c.points_world_m for c in clouds])
     rgb = np.vstack([c.colours(vmax) for c in clouds])
     order = np.argsort(np.concatenate([c.weights for c in clouds]), kind="stable")
@@ -277,14 +276,14 @@ def render_overlay(frame_bgr: np.ndarray, *, camera: Camera | None = None,
     if camera is None and (volume is not None or len(clouds) or ground_points_m is not None):
         raise ValueError("render_overlay: volume, clouds and ground points need a camera")
     if volume is not None:
-        img = draw_volume(img, camera, volume, thickness=max(1, thickness - 1))
+        img = draw_volume(img, camera, volume, thickness=max(1, thickness - 1))  # type: ignore[arg-type]
     if len(clouds):
-        img = draw_particles(img, camera, clouds)
+        img = draw_particles(img, camera, clouds)  # type: ignore[arg-type]
     if boxes_xywh_px is not None:
         ids_ = np.arange(len(boxes_xywh_px)) if ids is None else ids
         img = draw_boxes(img, boxes_xywh_px, ids_, thickness)
     if ground_points_m is not None:
-        img = draw_ground_points(img, camera, ground_points_m, radius=max(2, thickness + 1))
+        img = draw_ground_points(img, camera, ground_points_m, radius=max(2, thickness + 1))  # type: ignore[arg-type]
     return img
 
 
@@ -315,18 +314,3 @@ def read_video_frame(path: str | os.PathLike[str], index: int) -> np.ndarray:
     if not ok or frame is None:
         raise ValueError(f"{path}: could not read frame index {index}")
     return np.ascontiguousarray(frame)
-
-
-def write_png_bgr(path: str | os.PathLike[str], image_bgr: np.ndarray) -> Path:
-    """Write an (H, W, 3) uint8 BGR image as PNG, atomically."""
-    import cv2
-
-    from pftrack.io.atomic import atomic_path
-
-    path = Path(path)
-    if path.suffix.lower() != ".png":
-        raise ValueError(f"{path}: the output must be a .png file")
-    with atomic_path(path) as tmp:
-        if not cv2.imwrite(str(tmp), np.ascontiguousarray(image_bgr)):
-            raise OSError(f"OpenCV could not write {path}")
-    return path

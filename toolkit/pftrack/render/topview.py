@@ -17,8 +17,9 @@ import numpy as np
 
 from pftrack.geometry.clouds import ParticleCloud
 from pftrack.geometry.volumes import Volume
+from pftrack.io.images import write_png
 from pftrack.render import _layers
-from pftrack.render._pyvista import plotter, polyline_cells, screenshot, write_png
+from pftrack.render._pyvista import plotter, polyline_cells, screenshot
 
 __all__ = ["draw_legend", "nice_step", "render_topview"]
 
@@ -241,5 +242,5 @@ def render_topview(
             entries.append((str(volume.name), _layers.MARKING_RGB, "line"))
         img = draw_legend(img, entries, scale)
     if out is not None:
-        write_png(Path(out), img)
+        write_png(Path(out), img[:, :, ::-1])
     return img

@@ -6,31 +6,12 @@ tracks is ``{track_id: trajectory}``. Nothing here imports pyvista or OpenCV.
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 import numpy as np
 
-__all__ = ["dashed_segments", "polyline_length", "read_mot", "tracks_from_mot"]
+__all__ = ["dashed_segments", "polyline_length", "tracks_from_mot"]
 
 #: MOTChallenge columns (0-based): frame, id, left, top, width, height, conf/flag, x, y, z.
 MOT_WORLD_COLS = (7, 8)
-
-
-def read_mot(path: str | os.PathLike[str]) -> np.ndarray:
-    """Read a MOTChallenge text file into an (M, 10) float64 array.
-
-    Delegates to :func:`pftrack.io.mot.read_mot`.
-
-    Raises FileNotFoundError / ValueError naming ``path`` on a missing or malformed file.
-    """
-    from pftrack.io.mot import read_mot as _io_read_mot
-
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"tracks file {path} not found")
-    rows = np.asarray(_io_read_mot(path), dtype=np.float64)
-    return rows.reshape(-1, 10) if rows.size else np.zeros((0, 10))
 
 
 def tracks_from_mot(rows: np.ndarray, world_cols: tuple[int, int] = MOT_WORLD_COLS,

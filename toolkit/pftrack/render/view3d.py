@@ -21,6 +21,7 @@ import numpy as np
 from pftrack.geometry.camera import Camera
 from pftrack.geometry.clouds import ParticleCloud
 from pftrack.geometry.volumes import Volume
+from pftrack.io.images import write_png
 from pftrack.render import _layers
 from pftrack.render._pyvista import (
     plotter,
@@ -28,7 +29,6 @@ from pftrack.render._pyvista import (
     pv,
     screenshot,
     segment_cells,
-    write_png,
 )
 
 __all__ = ["camera_frustum", "render_view3d"]
@@ -187,7 +187,7 @@ def render_view3d(
             p.add_mesh(centre_pt, color=CAMERA_RGB, point_size=max(4.0, 8.0 * scale),
                        render_points_as_spheres=True, lighting=False)
         if axes:
-            p.show_bounds(bounds=[float(b[0, 0]), float(b[1, 0]), float(b[0, 1]),
+            p.show_bounds(bounds=[float(b[0, 0]), float(b[1, 0]), float(b[0, 1]),  # type: ignore[call-arg]
                                   float(b[1, 1]), float(b[0, 2]), float(b[1, 2])],
                           xtitle="x (m)", ytitle="y (m)", ztitle="z (m)", grid=None,
                           location="outer", color="black", font_size=max(8, round(12 * scale)),
@@ -205,5 +205,5 @@ def render_view3d(
         cam.clipping_range = (max(dist - 2 * radius, dist * 1e-3), dist + 2 * radius)
         img = screenshot(p)
     if out is not None:
-        write_png(Path(out), img)
+        write_png(Path(out), img[:, :, ::-1])
     return img

@@ -84,7 +84,7 @@ class VideoScene(Scene):
             raise ValueError(f"video scene: last ({self.last}) is before first ({self.first})")
 
     @property
-    def fps(self) -> float:  # type: ignore[override]
+    def fps(self) -> float:
         if self.frame_rate is not None:
             return float(self.frame_rate)
         import cv2
@@ -159,7 +159,7 @@ def write_test_clip(video_path: str | os.PathLike[str], gt_path: str | os.PathLi
     w, h = size_wh
     rows = []
     with atomic_path(video_path) as tmp:
-        out = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"MJPG"), 10.0, (w, h))
+        out = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"MJPG"), 10.0, (w, h))  # type: ignore[attr-defined]
         if not out.isOpened():
             raise ValueError(f"OpenCV cannot write an MJPG video to {video_path}")
         try:

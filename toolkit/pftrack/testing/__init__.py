@@ -9,7 +9,17 @@ A plugin author runs it on a component and learns at once whether it honours the
         assert_conforms(MyColourLikelihood)          # a class: built with its defaults
         assert_conforms(MyColourLikelihood(bins=4))  # or a configured instance
 
-:func:`check_component` returns one :class:`CheckResult` per check instead of raising.
+:func:`check_component` returns one :class:`CheckResult` per check instead of raising;
+:func:`run_check` runs one check by name (each is a function, ``check_<name>`` in
+:mod:`pftrack.testing.checks`, listed in :data:`CHECK_FUNCTIONS`). For a test suite,
+:func:`parametrize_with_checks` gives one pytest item per (component, check), as scikit-learn's
+``parametrize_with_checks`` does, so that a failing check is named and selected on its own::
+
+    from pftrack.testing import parametrize_with_checks
+
+    @parametrize_with_checks([MyColourLikelihood, MyMotion(noise=2.0)])
+    def test_conforms(component, check):
+        check(component)
 
 The checks (:data:`CHECKS`)
 ---------------------------
@@ -65,21 +75,27 @@ instance each time (and be cheap: a run calls it about ten times).
 """
 
 from pftrack.testing.checks import (
+    CHECK_FUNCTIONS,
     CHECKS,
     CheckResult,
     ConformanceExample,
     assert_conforms,
     check_component,
+    parametrize_with_checks,
+    run_check,
 )
 from pftrack.testing.synthetic import SyntheticScene, synthetic_scene, target_from_box
 
 __all__ = [
     "CHECKS",
+    "CHECK_FUNCTIONS",
     "CheckResult",
     "ConformanceExample",
     "SyntheticScene",
     "assert_conforms",
     "check_component",
+    "parametrize_with_checks",
+    "run_check",
     "synthetic_scene",
     "target_from_box",
 ]

@@ -41,10 +41,13 @@ from pftrack.testing.synthetic import SyntheticScene, synthetic_scene, target_fr
 
 __all__ = [
     "CHECKS",
+    "CHECK_FUNCTIONS",
     "CheckResult",
     "ConformanceExample",
     "assert_conforms",
     "check_component",
+    "parametrize_with_checks",
+    "run_check",
 ]
 
 PASS, FAIL, SKIP = "pass", "fail", "skip"
@@ -368,11 +371,11 @@ def _likelihood_workflow(ex: ConformanceExample, rng: np.random.Generator, run: 
             t.particles = t.particle_boxes_xywh_px[:, :2] + 0.5 * t.particle_boxes_xywh_px[:, 2:]
         lik.begin_frame(frame, targets, dets)
         for j, t in enumerate(targets[:2]):
-            inp = t.particle_boxes_xywh_px.copy()
+            inp = t.particle_boxes_xywh_px.copy()  # type: ignore[union-attr]
             ll = lik.log_likelihood(inp, t)
             tag = f"frame {frame.index} target {t.id}"
             _float_array(run, ll, (len(boxes),), f"log_likelihood(({len(boxes)}, 4)) [{tag}]")
-            run.need(np.array_equal(inp, t.particle_boxes_xywh_px), "inputs_unchanged",
+            run.need(np.array_equal(inp, t.particle_boxes_xywh_px), "inputs_unchanged",  # type: ignore[arg-type]
                      "log_likelihood modified the boxes it was given")
             if isinstance(ll, np.ndarray) and ll.shape == (len(boxes),):
                 run.need(not np.any(np.isnan(ll)), "finite_output",
@@ -744,42 +747,90 @@ def check_component(obj: type[Component] | Component, *, rng_seed: int = 0,
     list of CheckResult
         One per name in :data:`CHECKS`, in that order.
     """
-    saved = _global_state()
-    try:
-        return _check_component(obj, rng_seed, host)
-    finally:  # a component that draws from the global generators must not disturb the caller
-        np.random.set_state(saved[0])
-        random.setstate(saved[1])
+    return _check_component(obj, rng_seed, host)
 
 
-def _check_component(obj: type[Component] | Component, rng_seed: int,
-                     host: Any) -> list[CheckResult]:
-    label = _label(obj)
-    results: list[CheckResult] = []
+class _Session:
+    """The shared work of the checks on one component: its example factory and the reference
+    runs, each made once on first use, so that the checks can run one at a time (one pytest
+    item each) or all together without repeating a run."""
 
-    def add(check: str, status: str, message: str = "") -> None:
-        results.append(CheckResult(check, status, message, label))
+    def __init__(self, obj: type[Component] | Component, rng_seed: int = 0,
+                 host: Any = None) -> None:
+        self.obj, self.rng_seed, self.host = obj, rng_seed, host
+        self.label = _label(obj)
+        self.factory: Callable[[], ConformanceExample] | None = None
+        self.comp: Component | None = None
+        self.construct_error = ""
+        try:
+            self.factory = _make_factory(obj)
+            ex = self.factory()
+            self.comp = ex.component
+            if self.comp.kind not in _WORKFLOWS:
+                raise TypeError(f"kind {self.comp.kind!r} has no conformance workflow; kinds: "
+                                f"{sorted(_WORKFLOWS)}")
+        except Exception as exc:  # noqa: BLE001 - reported as a failed check, not a crash
+            hint = ("" if hasattr(obj, "_conformance_example") else
+                    "; if it needs set-up, give the class a _conformance_example() classmethod "
+                    "(see pftrack.testing)")
+            self.construct_error = f"could not build an example: {_describe_exc(exc)}{hint}"
+        self._runs: dict[str, _Run | None] = {}
 
-    # -- construct ----------------------------------------------------------------------------
-    try:
-        factory = _make_factory(obj)
-        ex = factory()
-        comp = ex.component
-        if comp.kind not in _WORKFLOWS:
-            raise TypeError(f"kind {comp.kind!r} has no conformance workflow; kinds: "
-                            f"{sorted(_WORKFLOWS)}")
-        add("construct", PASS)
-    except Exception as exc:  # noqa: BLE001
-        hint = ("" if hasattr(obj, "_conformance_example") else
-                "; if it needs set-up, give the class a _conformance_example() classmethod "
-                "(see pftrack.testing)")
-        add("construct", FAIL, f"could not build an example: {_describe_exc(exc)}{hint}")
-        for name in CHECKS[1:]:
-            add(name, SKIP, "no example could be built")
-        return results
-    cls = type(comp)
+    @property
+    def cls(self) -> type[Component]:
+        assert self.comp is not None
+        return type(self.comp)
 
-    # -- __init__ stores parameters only ------------------------------------------------------
+    def execute(self, seed: int, component: Component | None = None) -> _Run:
+        assert self.factory is not None
+        return _execute(self.factory, seed, component)
+
+    @property
+    def ref(self) -> _Run:
+        """The reference run (seed ``rng_seed``)."""
+        if "ref" not in self._runs:
+            self._runs["ref"] = self.execute(self.rng_seed)
+        run = self._runs["ref"]
+        assert run is not None
+        return run
+
+    @property
+    def same(self) -> _Run | None:
+        """A second run with the same seed (None when the reference run raised)."""
+        if "same" not in self._runs:
+            self._runs["same"] = self.execute(self.rng_seed) if self.ref.error is None else None
+        return self._runs["same"]
+
+    @property
+    def ref_error(self) -> str:
+        return f"the workflow raised {self.ref.error}" if self.ref.error else ""
+
+    @property
+    def same_diff(self) -> list[str]:
+        same = self.same
+        return (_diff_keys(self.ref.outputs, same.outputs)
+                if same is not None and same.error is None else [])
+
+    @property
+    def comparable(self) -> bool:
+        """Outputs of rebuilt/cloned/unpickled copies are compared only when two plain runs
+        agree; otherwise the nondeterminism is reported once, by deterministic_same_seed."""
+        same = self.same
+        return same is not None and same.error is None and not self.same_diff
+
+
+_Outcome = tuple[str, str]  # (status, message)
+
+
+def check_construct(s: _Session) -> _Outcome:
+    """The class builds with its defaults (or through ``_conformance_example()``)."""
+    return (FAIL, s.construct_error) if s.construct_error else (PASS, "")
+
+
+def check_init_stores_params(s: _Session) -> _Outcome:
+    """``__init__`` only stores each parameter unchanged; ``cls(**get_params())`` rebuilds."""
+    cls, comp = s.cls, s.comp
+    assert comp is not None
     msgs = []
     try:
         names = cls._param_names()
@@ -806,19 +857,13 @@ def _check_component(obj: type[Component] | Component, rng_seed: int,
             msgs.append("cls(**get_params()) has different parameters")
     except Exception as exc:  # noqa: BLE001
         msgs.append(_describe_exc(exc))
-    add("init_stores_params", FAIL if msgs else PASS, "; ".join(msgs))
+    return (FAIL if msgs else PASS), "; ".join(msgs)
 
-    # reference runs (used by several checks)
-    ref = _execute(factory, rng_seed)
-    ref_error = f"the workflow raised {ref.error}" if ref.error else ""
-    same = _execute(factory, rng_seed) if ref.error is None else None
-    same_diff = (_diff_keys(ref.outputs, same.outputs)
-                 if same is not None and same.error is None else [])
-    # outputs of rebuilt/cloned/unpickled copies are compared only when two plain runs agree;
-    # otherwise the nondeterminism is reported once, by deterministic_same_seed
-    comparable = same is not None and same.error is None and not same_diff
 
-    # -- config round trip --------------------------------------------------------------------
+def check_config_round_trip(s: _Session) -> _Outcome:
+    """``to_config()`` is JSON, names the registered type and rebuilds the same component."""
+    cls, comp, host = s.cls, s.comp, s.host
+    assert comp is not None
     msgs = []
     try:
         cfg = comp.to_config()
@@ -836,21 +881,25 @@ def _check_component(obj: type[Component] | Component, rng_seed: int,
             rebuilt = cls(**cfg2["params"])
         if not _equal(_plain(rebuilt.get_params()), _plain(comp.get_params())):
             msgs.append("the rebuilt component has different parameters")
-        elif comparable:
-            again = _execute(factory, rng_seed, component=rebuilt)
+        elif s.comparable:
+            again = s.execute(s.rng_seed, component=rebuilt)
             if again.error:
                 msgs.append(f"the component rebuilt from JSON config failed: {again.error}")
-            elif _diff_keys(ref.outputs, again.outputs):
+            elif _diff_keys(s.ref.outputs, again.outputs):
                 msgs.append(f"the component rebuilt from its JSON config gives different outputs: "
-                            f"{_diff_keys(ref.outputs, again.outputs)}")
+                            f"{_diff_keys(s.ref.outputs, again.outputs)}")
     except Exception as exc:  # noqa: BLE001
         msgs.append(f"to_config -> JSON -> rebuild failed: {_describe_exc(exc)}")
-    add("config_round_trip", FAIL if msgs else PASS, "; ".join(msgs))
+    return (FAIL if msgs else PASS), "; ".join(msgs)
 
-    # -- clone --------------------------------------------------------------------------------
+
+def check_clone(s: _Session) -> _Outcome:
+    """``clone()`` is a new, stateless instance with the same parameters and outputs."""
+    assert s.factory is not None
+    cls = s.cls
     msgs = []
     try:
-        fresh = factory().component
+        fresh = s.factory().component
         c = fresh.clone()
         if c is fresh or type(c) is not cls:
             msgs.append("clone() must return a new instance of the same class")
@@ -859,53 +908,69 @@ def _check_component(obj: type[Component] | Component, rng_seed: int,
         state = [k for k in vars(c) if k.endswith("_") and not k.startswith("__")]
         if state:
             msgs.append(f"clone() carries state attributes {state}")
-        if comparable and not isinstance(obj, Component):
-            again = _execute(factory, rng_seed, component=c)
+        if s.comparable and not isinstance(s.obj, Component):
+            again = s.execute(s.rng_seed, component=c)
             if again.error:
                 msgs.append(f"the clone failed: {again.error}")
-            elif _diff_keys(ref.outputs, again.outputs):
+            elif _diff_keys(s.ref.outputs, again.outputs):
                 msgs.append(f"the clone gives different outputs: "
-                            f"{_diff_keys(ref.outputs, again.outputs)}")
+                            f"{_diff_keys(s.ref.outputs, again.outputs)}")
     except Exception as exc:  # noqa: BLE001
         msgs.append(_describe_exc(exc))
-    add("clone", FAIL if msgs else PASS, "; ".join(msgs))
+    return (FAIL if msgs else PASS), "; ".join(msgs)
 
-    # -- contract checks from the reference run -----------------------------------------------
-    for check in ("shapes_dtypes", "empty_input", "inputs_unchanged", "finite_output"):
-        probs = [p.message for p in ref.problems if p.category == check]
-        if ref.error and not probs:
-            add(check, FAIL, ref_error)
-        else:
-            add(check, FAIL if probs else PASS, "; ".join(probs))
 
-    # -- seeding ------------------------------------------------------------------------------
-    if ref.error:
-        add("deterministic_same_seed", SKIP, ref_error)
-        add("different_seeds_differ", SKIP, ref_error)
-    else:
-        assert same is not None
-        if same.error:
-            add("deterministic_same_seed", FAIL, f"second run raised {same.error}")
-        else:
-            add("deterministic_same_seed", FAIL if same_diff else PASS,
-                f"two runs with seed {rng_seed} differ in {same_diff} (hidden randomness: use "
-                "only the Generator passed in)" if same_diff else "")
-        if not ref.rng_used:
-            add("different_seeds_differ", SKIP, "deterministic: draws nothing from the rng")
-        else:
-            other = _execute(factory, rng_seed + 1)
-            if other.error:
-                add("different_seeds_differ", FAIL, f"run with seed {rng_seed + 1} raised "
-                                                    f"{other.error}")
-            else:
-                # every output computed with draws from the Generator must change with its seed
-                unchanged = sorted(k for k in ref.rng_keys if k in other.outputs
-                                   and _equal(ref.outputs[k], other.outputs[k]))
-                add("different_seeds_differ", FAIL if unchanged else PASS,
-                    f"{unchanged} draw from the Generator but do not depend on its seed"
-                    if unchanged else "")
+def _contract(check: str) -> Callable[[_Session], _Outcome]:
+    def run(s: _Session) -> _Outcome:
+        probs = [p.message for p in s.ref.problems if p.category == check]
+        if s.ref.error and not probs:
+            return FAIL, s.ref_error
+        return (FAIL if probs else PASS), "; ".join(probs)
 
-    # -- pickling -----------------------------------------------------------------------------
+    run.__name__ = f"check_{check}"
+    run.__doc__ = f"The reference run's {check.replace('_', ' ')} contract (per kind)."
+    return run
+
+
+check_shapes_dtypes = _contract("shapes_dtypes")
+check_empty_input = _contract("empty_input")
+check_inputs_unchanged = _contract("inputs_unchanged")
+check_finite_output = _contract("finite_output")
+
+
+def check_deterministic_same_seed(s: _Session) -> _Outcome:
+    """The same Generator seed gives bit-identical outputs."""
+    if s.ref.error:
+        return SKIP, s.ref_error
+    same = s.same
+    assert same is not None
+    if same.error:
+        return FAIL, f"second run raised {same.error}"
+    diff = s.same_diff
+    return ((FAIL, f"two runs with seed {s.rng_seed} differ in {diff} (hidden randomness: use "
+                   "only the Generator passed in)") if diff else (PASS, ""))
+
+
+def check_different_seeds_differ(s: _Session) -> _Outcome:
+    """Outputs drawn from the Generator change with its seed (skipped when none are)."""
+    if s.ref.error:
+        return SKIP, s.ref_error
+    if not s.ref.rng_used:
+        return SKIP, "deterministic: draws nothing from the rng"
+    other = s.execute(s.rng_seed + 1)
+    if other.error:
+        return FAIL, f"run with seed {s.rng_seed + 1} raised {other.error}"
+    # every output computed with draws from the Generator must change with its seed
+    unchanged = sorted(k for k in s.ref.rng_keys if k in other.outputs
+                       and _equal(s.ref.outputs[k], other.outputs[k]))
+    return ((FAIL, f"{unchanged} draw from the Generator but do not depend on its seed")
+            if unchanged else (PASS, ""))
+
+
+def check_pickle_round_trip(s: _Session) -> _Outcome:
+    """An unpickled component gives the same outputs; a used one still pickles."""
+    assert s.factory is not None
+    cls, factory = s.cls, s.factory
     msgs = []
     try:
         fresh = factory().component
@@ -913,39 +978,148 @@ def _check_component(obj: type[Component] | Component, rng_seed: int,
         if type(copy_) is not cls or not _equal(_plain(copy_.get_params()),
                                                 _plain(fresh.get_params())):
             msgs.append("the unpickled component differs in class or parameters")
-        elif comparable:
-            again = _execute(factory, rng_seed, component=copy_)
+        elif s.comparable:
+            again = s.execute(s.rng_seed, component=copy_)
             if again.error:
                 msgs.append(f"the unpickled component failed: {again.error}")
-            elif _diff_keys(ref.outputs, again.outputs):
+            elif _diff_keys(s.ref.outputs, again.outputs):
                 msgs.append(f"the unpickled component gives different outputs: "
-                            f"{_diff_keys(ref.outputs, again.outputs)}")
+                            f"{_diff_keys(s.ref.outputs, again.outputs)}")
         used = factory().component
         ex_used = _with(factory(), used)
         if ex_used.context is not None:
             used.setup(ex_used.context)
-        _WORKFLOWS[cls.kind](ex_used, np.random.default_rng(rng_seed), _Run())
+        _WORKFLOWS[cls.kind](ex_used, np.random.default_rng(s.rng_seed), _Run())
         pickle.loads(pickle.dumps(used))  # mid-stream state must pickle too (worker processes)
     except Exception as exc:  # noqa: BLE001
         msgs.append(f"pickle round trip failed: {_describe_exc(exc)}")
-    add("pickle_round_trip", FAIL if msgs else PASS, "; ".join(msgs))
+    return (FAIL if msgs else PASS), "; ".join(msgs)
 
-    # -- global random state ------------------------------------------------------------------
+
+def check_no_global_random_state(s: _Session) -> _Outcome:
+    """A whole run leaves the global ``numpy.random`` and ``random`` states alone."""
     np.random.seed(987654321)
     random.seed(987654321)
     before = _global_state()
-    run = _execute(factory, rng_seed)
+    run = s.execute(s.rng_seed)
     np_same, py_same = _same_global_state(before, _global_state())
     bad = [n for n, ok in (("numpy.random (global)", np_same), ("random", py_same)) if not ok]
     if bad:
-        add("no_global_random_state", FAIL, f"the component changed the global state of "
-                                            f"{' and '.join(bad)}: draw from the Generator "
-                                            "passed in instead")
-    elif run.error:
-        add("no_global_random_state", SKIP, f"the workflow raised {run.error}")
-    else:
-        add("no_global_random_state", PASS)
-    return results
+        return FAIL, (f"the component changed the global state of {' and '.join(bad)}: draw "
+                      "from the Generator passed in instead")
+    if run.error:
+        return SKIP, f"the workflow raised {run.error}"
+    return PASS, ""
+
+
+#: Every check by name, in the order they run (:data:`CHECKS` is its keys).
+CHECK_FUNCTIONS: dict[str, Callable[[_Session], _Outcome]] = {
+    "construct": check_construct,
+    "init_stores_params": check_init_stores_params,
+    "config_round_trip": check_config_round_trip,
+    "clone": check_clone,
+    "shapes_dtypes": check_shapes_dtypes,
+    "empty_input": check_empty_input,
+    "inputs_unchanged": check_inputs_unchanged,
+    "finite_output": check_finite_output,
+    "deterministic_same_seed": check_deterministic_same_seed,
+    "different_seeds_differ": check_different_seeds_differ,
+    "pickle_round_trip": check_pickle_round_trip,
+    "no_global_random_state": check_no_global_random_state,
+}
+assert tuple(CHECK_FUNCTIONS) == CHECKS
+
+
+def _run_check(s: _Session, check: str) -> CheckResult:
+    """One check on a session, the caller's global random states kept."""
+    if check not in CHECK_FUNCTIONS:
+        raise ValueError(f"unknown conformance check {check!r}; checks: {list(CHECKS)}")
+    if s.construct_error and check != "construct":
+        return CheckResult(check, SKIP, "no example could be built", s.label)
+    saved = _global_state()
+    try:
+        status, message = CHECK_FUNCTIONS[check](s)
+    finally:  # a component that draws from the global generators must not disturb the caller
+        np.random.set_state(saved[0])
+        random.setstate(saved[1])
+    return CheckResult(check, status, message, s.label)
+
+
+def run_check(obj: type[Component] | Component, check: str, *, rng_seed: int = 0,
+              host: Any = None) -> CheckResult:
+    """Run the one conformance check named ``check`` (one of :data:`CHECKS`) on a component."""
+    return _run_check(_Session(obj, rng_seed, host), check)
+
+
+def parametrize_with_checks(components: Sequence[type[Component] | Component], *,
+                            host: Any = None, rng_seed: int = 0,
+                            ids: Sequence[str] | None = None, skip: Sequence[str] = (),
+                            must_run: Sequence[str] = ()) -> Any:
+    """A ``pytest.mark.parametrize`` giving one test item per (component, check), as
+    scikit-learn's ``parametrize_with_checks`` does::
+
+        from pftrack.testing import parametrize_with_checks
+
+        @parametrize_with_checks([MyLikelihood, MyMotion(noise=2.0)])
+        def test_conforms(component, check):
+            check(component)
+
+    Each item is named ``LABEL-CHECK`` (``-k clone`` selects one check everywhere); ``check``
+    raises ``AssertionError`` naming the component and the check when it fails and skips the
+    item when the check does not apply. The runs the checks share (the reference run and its
+    repeat) are made once per component and process.
+
+    Parameters
+    ----------
+    components : sequence of Component classes or instances
+    host : pftrack.host.Host, optional
+        As for :func:`check_component`.
+    rng_seed : int
+    ids : sequence of str, optional
+        Labels of the components in the item names (default ``ClassName (registered-name)``).
+    skip : sequence of str
+        Checks left out (say why in your test).
+    must_run : sequence of str
+        Checks that must pass, not skip: a skip of one of these fails its item.
+    """
+    import pytest
+
+    unknown = (set(skip) | set(must_run)) - set(CHECKS)
+    if unknown:
+        raise ValueError(f"parametrize_with_checks: unknown checks {sorted(unknown)}; "
+                         f"checks: {list(CHECKS)}")
+    comps = list(components)
+    labels = list(ids) if ids is not None else [_label(c) for c in comps]
+    if len(labels) != len(comps):
+        raise ValueError(f"parametrize_with_checks: {len(labels)} ids for {len(comps)} "
+                         "components")
+    sessions: dict[int, _Session] = {}
+
+    def make(name: str) -> Callable[[type[Component] | Component], None]:
+        def check(component: type[Component] | Component) -> None:
+            session = sessions.get(id(component))
+            if session is None:
+                session = sessions[id(component)] = _Session(component, rng_seed, host)
+            r = _run_check(session, name)
+            if r.status == FAIL or (r.status == SKIP and name in must_run):
+                raise AssertionError(f"{r.component} does not conform to the pftrack component "
+                                     f"contract: {r}")
+            if r.status == SKIP:
+                pytest.skip(str(r))
+
+        check.__name__ = f"check_{name}"
+        return check
+
+    checks = {name: make(name) for name in CHECKS if name not in skip}
+    params = [pytest.param(c, fn, id=f"{label}-{name}")
+              for c, label in zip(comps, labels) for name, fn in checks.items()]
+    return pytest.mark.parametrize(("component", "check"), params)
+
+
+def _check_component(obj: type[Component] | Component, rng_seed: int,
+                     host: Any) -> list[CheckResult]:
+    s = _Session(obj, rng_seed, host)
+    return [_run_check(s, c) for c in CHECKS]
 
 
 def _with(ex: ConformanceExample, component: Component) -> ConformanceExample:

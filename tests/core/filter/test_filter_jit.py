@@ -1,0 +1,198 @@
+"""The compiled (numba) path of the filter step (:mod:`pftrack.filter._jit`) returns the numpy
+path's numbers bit for bit and leaves the Generator where the numpy path leaves it; under
+``PFTRACK_NO_JIT=1`` the numpy path runs."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from pftrack.components import Target
+from pftrack.filter import (
+    _jit,
+    normalize_log_weights,
+    systematic_resample,
+    weighted_extent,
+    weighted_mean,
+)
+from pftrack_basic.gaussian import GaussianLikelihood
+from pftrack_basic.motion import ConstantAccelerationMotion
+
+pytestmark = pytest.mark.skipif(not _jit.ENABLED, reason="PFTRACK_NO_JIT is set")
+
+BIG = _jit.MIN_PARTICLES + 3
+
+
+@pytest.fixture
+def numpy_path(monkeypatch):
+    """Call ``numpy_path(fn, *args)`` to run ``fn`` with the kernels switched off."""
+
+    def run(fn, *args, **kw):
+        with monkeypatch.context() as m:
+            m.setattr(_jit, "ENABLED", False)
+            return fn(*args, **kw)
+
+    return run
+
+
+def _same_generator_state(a: np.random.Generator, b: np.random.Generator) -> bool:
+    """Whether ``a`` and ``b`` are in the same state (compared by value: Philox's state holds
+    arrays); advances neither."""
+    sa, sb = a.bit_generator.state, b.bit_generator.state
+    return repr(sa) == repr(sb)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 12345])
+@pytest.mark.parametrize("n", [1, 7, 1000, 200_001])
+def test_pcg64_normals_are_numpys(seed, n):
+    a, b = np.random.default_rng(seed), np.random.default_rng(seed)
+    a.integers(0, 10, dtype=np.uint32)  # a buffered 32-bit half: has_uint32 must survive
+    b.integers(0, 10, dtype=np.uint32)
+    out = np.empty(n)
+    assert _jit.pcg64_standard_normal(a, out)
+    assert np.array_equal(out, b.standard_normal(n))
+    assert _same_generator_state(a, b)
+    assert a.integers(0, 2**32, dtype=np.uint32) == b.integers(0, 2**32, dtype=np.uint32)
+
+
+def test_pcg64_normals_cover_the_ziggurat_tail_and_rejections():
+    a, b = np.random.default_rng(7), np.random.default_rng(7)
+    out = np.empty(2_000_000)
+    _jit.pcg64_standard_normal(a, out)
+    ref = b.standard_normal(len(out))
+    assert np.abs(ref).max() > 3.6  # the tail (|x| > r = 3.654...) is reached
+    assert np.array_equal(out, ref) and _same_generator_state(a, b)
+
+
+def test_other_bit_generators_are_not_handled():
+    rng = np.random.Generator(np.random.Philox(3))
+    before = repr(rng.bit_generator.state)
+    assert not _jit.pcg64_standard_normal(rng, np.empty(10))
+    assert repr(rng.bit_generator.state) == before
+
+
+def _target(frames=3, size=1.0):
+    t = Target(id=1, state=np.zeros(6), box_xywh_px=np.zeros(4), frames_tracked=frames,
+               size_m=size)
+    t.observation_px = np.array([203.0, 148.0])
+    return t
+
+
+@pytest.mark.parametrize("n", [BIG, 100_001])
+@pytest.mark.parametrize("dt", [1.0, 0.37, 0.0])
+@pytest.mark.parametrize("bitgen", [np.random.PCG64, np.random.Philox])
+def test_constant_acceleration_predict_equals_the_numpy_path(numpy_path, n, dt, bitgen):
+    states = np.random.default_rng(1).normal(0.0, 50.0, (n, 6))
+    model = ConstantAccelerationMotion(position_noise=(2.0, 0.5), velocity_noise=1.0,
+                                       acceleration_noise=0.3)
+    target = _target(frames=4, size=1.7)
+    a, b = np.random.Generator(bitgen(5)), np.random.Generator(bitgen(5))
+    got = model.predict(states, dt, a, target)
+    ref = numpy_path(model.predict, states, dt, b, target)
+    assert got.shape == (n, 6) and got.dtype == np.float64
+    assert np.array_equal(got, ref)
+    assert _same_generator_state(a, b)
+    # a non-contiguous input gives the same numbers
+    wide = np.zeros((n, 8))
+    wide[:, 1:7] = states
+    a2 = np.random.Generator(bitgen(5))
+    assert np.array_equal(model.predict(wide[:, 1:7], dt, a2, target), ref)
+
+
+@pytest.mark.parametrize("n", [BIG, 100_001])
+def test_gaussian_likelihood_equals_the_numpy_path(numpy_path, n):
+    rng = np.random.default_rng(2)
+    boxes = np.empty((n, 4))
+    boxes[:, :2] = rng.normal(180.0, 20.0, (n, 2))
+    boxes[:, 2:] = rng.uniform(10.0, 40.0, (n, 2))
+    lik = GaussianLikelihood(sigma_px=3.7)
+    target = _target()
+    got = lik.log_likelihood(boxes, target)
+    assert np.array_equal(got, numpy_path(lik.log_likelihood, boxes, target))
+    # Fortran-ordered boxes too
+    assert np.array_equal(lik.log_likelihood(np.asfortranarray(boxes), target), got)
+
+
+@pytest.mark.parametrize("n_draws", [None, BIG + 1000, 3 * BIG, 5000])
+@pytest.mark.parametrize("kind", ["peaked", "flat", "zeros"])
+def test_systematic_resample_equals_the_numpy_path(numpy_path, n_draws, kind):
+    rng = np.random.default_rng(3)
+    if kind == "peaked":
+        lw = -0.5 * rng.normal(0.0, 4.0, BIG) ** 2
+        w = np.exp(lw - lw.max())
+    elif kind == "flat":
+        w = rng.uniform(0.5, 1.0, BIG)
+    else:
+        w = rng.uniform(0.0, 1.0, BIG)
+        w[rng.random(BIG) < 0.8] = 0.0
+        w[-50:] = 0.0  # trailing empty bins
+    w /= w.sum()
+    a, b = np.random.default_rng(9), np.random.default_rng(9)
+    got = systematic_resample(w, a, n_draws)
+    ref = numpy_path(systematic_resample, w, b, n_draws)
+    assert got.dtype == ref.dtype == np.intp
+    assert np.array_equal(got, ref) and _same_generator_state(a, b)
+
+
+def test_systematic_resample_rejects_bad_weights_like_the_numpy_path(numpy_path):
+    rng = np.random.default_rng(0)
+    for bad in (np.zeros(BIG), np.full(BIG, np.nan), np.r_[np.ones(BIG - 1), np.inf],
+                np.r_[np.ones(BIG - 1), -1.0]):
+        with pytest.raises(ValueError, match="non-negative") as e1:
+            systematic_resample(bad, rng)
+        with pytest.raises(ValueError, match="non-negative") as e2:
+            numpy_path(systematic_resample, bad, rng)
+        assert str(e1.value) == str(e2.value)
+    with pytest.raises(ValueError, match="at least one weight"):
+        systematic_resample(np.zeros(0), rng, BIG)
+
+
+@pytest.mark.parametrize("kind", ["gaussian", "underflow", "with-inf", "nan", "all-inf"])
+def test_normalize_log_weights_equals_the_numpy_path(numpy_path, kind):
+    rng = np.random.default_rng(4)
+    lw = -0.5 * rng.normal(0.0, 3.0, BIG) ** 2 - 7.0
+    if kind == "underflow":  # most arguments below log(2**-1075): exactly 0, not evaluated
+        lw *= 300.0
+    elif kind == "with-inf":
+        lw[::7] = -np.inf
+    elif kind == "nan":
+        lw[5] = np.nan
+    elif kind == "all-inf":
+        lw[:] = -np.inf
+    w, ok = normalize_log_weights(lw)
+    w_ref, ok_ref = numpy_path(normalize_log_weights, lw)
+    assert ok == ok_ref and np.array_equal(w, w_ref)
+    if kind == "underflow":
+        assert 0 < np.count_nonzero(w) < BIG
+
+
+@pytest.mark.parametrize("n", [BIG, 8193, 100_001, 1_000_000])
+@pytest.mark.parametrize("d", [2, 6])
+def test_weighted_mean_equals_einsum(numpy_path, n, d):
+    rng = np.random.default_rng(n + d)
+    states = rng.normal(150.0, 40.0, (n, d))
+    states[::3, 0] *= -1.0
+    w = rng.random(n)
+    w[::11] = 0.0
+    w /= w.sum()
+    got = weighted_mean(states, w)
+    assert np.array_equal(got, numpy_path(weighted_mean, states, w))
+    assert np.array_equal(got, np.einsum("n,nd->d", w, states))
+    # a strided view takes einsum itself; the extent (einsum of a fresh array) agrees too
+    wide = np.zeros((n, d + 1))
+    wide[:, :d] = states
+    assert np.allclose(weighted_mean(wide[:, :d], w), got, rtol=1e-14)
+    assert np.array_equal(weighted_extent(states, w), numpy_path(weighted_extent, states, w))
+
+
+def test_no_jit_environment_variable_selects_the_numpy_path():
+    code = ("from pftrack.filter import _jit; "
+            "print(_jit.ENABLED, _jit.use(10**6))")
+    env = dict(os.environ, PFTRACK_NO_JIT="1")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         check=True).stdout.split()
+    assert out == ["False", "False"]
+    assert _jit.use(_jit.MIN_PARTICLES) and not _jit.use(_jit.MIN_PARTICLES - 1)

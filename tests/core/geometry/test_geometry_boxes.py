@@ -1,0 +1,85 @@
+"""pftrack.geometry.boxes (the one home of box primitives) and pftrack.io.images (the one PNG
+writer)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from pftrack.geometry.boxes import (
+    box_iou,
+    clip_boxes,
+    foot_points,
+    iou_matrix,
+    nms,
+    sub_boxes,
+)
+from pftrack.io.images import figure_png, png_bytes, write_png
+
+
+def test_box_iou_numbers_broadcast_and_degenerate_boxes():
+    a = np.array([0.0, 0.0, 10.0, 10.0])
+    assert box_iou(a, [5.0, 0.0, 10.0, 10.0]) == pytest.approx(50 / 150)
+    # integer boxes meeting exactly at 0.5 stay exactly 0.5 (TrackEval's arithmetic)
+    assert box_iou([0, 0, 4, 4], [0, 0, 4, 2]) == 0.5
+    assert box_iou(a, [20.0, 20.0, 5.0, 5.0]) == 0.0
+    assert box_iou(a, [0.0, 0.0, 0.0, 0.0]) == 0.0
+    assert box_iou(a, [0.0, 0.0, -3.0, 10.0]) == 0.0
+    assert box_iou(a, [np.nan, 0.0, 10.0, 10.0]) == 0.0
+    b = np.array([[0.0, 0, 10, 10], [5.0, 5, 10, 10], [100.0, 0, 1, 1]])
+    m = iou_matrix(b, b)
+    assert m.shape == (3, 3) and np.allclose(np.diag(m), 1.0) and np.allclose(m, m.T)
+    assert m[0, 1] == pytest.approx(25 / 175)
+    np.testing.assert_array_equal(m, box_iou(b[:, None, :], b[None, :, :]))
+    assert iou_matrix(np.zeros((0, 4)), b).shape == (0, 3)
+
+
+def test_nms_keeps_the_best_of_each_overlapping_group():
+    boxes = np.array([[0.0, 0, 10, 20], [1.0, 1, 10, 20], [50.0, 0, 10, 20], [51.0, 0, 10, 20]])
+    scores = np.array([-0.5, 0.2, -1.0, -0.9])
+    keep = nms(boxes, scores, 0.5)
+    assert keep.tolist() == [1, 3]
+    assert nms(np.zeros((0, 4)), np.zeros(0), 0.5).shape == (0,)
+
+
+def test_sub_boxes_foot_points_and_clipping():
+    b = np.array([[10.0, 20.0, 40.0, 100.0]])
+    np.testing.assert_allclose(sub_boxes(b, (0.25, 0.1, 0.75, 0.5)), [[20.0, 30.0, 20.0, 40.0]])
+    whole = sub_boxes(b, None)
+    whole[0, 0] = -1.0
+    assert b[0, 0] == 10.0  # a new array, never a view of the input
+    np.testing.assert_array_equal(foot_points(b), [[30.0, 120.0]])
+    assert foot_points(np.zeros((2, 3, 4))).shape == (2, 3, 2)
+    c, n = clip_boxes(np.array([[-5, -5, 10, 10], [90, 10, 120, 20], [200, 0, 210, 5]]),
+                      (100, 50))
+    assert c.tolist() == [[0, 0, 10, 10], [90, 10, 100, 20], [100, 0, 100, 5]]
+    assert n.tolist() == [100, 100, 0]
+
+
+def test_png_bytes_and_write_png_round_trip(tmp_path):
+    img = np.random.default_rng(0).integers(0, 256, (12, 17, 3), dtype=np.uint8)
+    data = png_bytes(img)
+    np.testing.assert_array_equal(cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR),
+                                  img)
+    out = write_png(tmp_path / "a.png", img[:, ::-1])  # a non-contiguous view is fine
+    np.testing.assert_array_equal(cv2.imread(str(out)), img[:, ::-1])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png"]  # no temporary left
+    with pytest.raises(ValueError, match=r"b\.jpg: the output must be a \.png file"):
+        write_png(tmp_path / "b.jpg", img)
+    with pytest.raises(ValueError, match=r"c\.png: .*shape \(2, 2, 7\)"):
+        write_png(tmp_path / "c.png", np.zeros((2, 2, 7), np.uint8))
+    assert not (tmp_path / "c.png").exists()
+
+
+def test_figure_png_closes_the_figure():
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(2, 1))
+    ax.plot([0, 1], [0, 1])
+    data = figure_png(fig, dpi=50)
+    img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
+    assert img.shape == (50, 100, 3)
+    assert not plt.fignum_exists(fig.number)

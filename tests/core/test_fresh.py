@@ -1,0 +1,139 @@
+"""``pftrack track VIDEO``: one command from a video to tracks (pftrack.fresh), the image-plane
+fallback said aloud, and the reasons a run gives when nothing came out."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from pftrack.components import Detections
+from pftrack.data import data_dir
+from pftrack.fresh import check_thresholds, explain_no_tracks, track_video
+from pftrack.pipeline import load_config
+
+PETS = data_dir() / "pets09"
+needs_pets = pytest.mark.skipif(not (PETS / "gt.txt").is_file(), reason="PETS 2009 not found")
+NO_ROWS = np.zeros((0, 10))
+
+
+def _dets(*scores):
+    return {1: Detections(np.tile([10.0, 10, 20, 60], (len(scores), 1)), np.array(scores))}
+
+
+def test_explain_no_tracks_names_the_parameter():
+    cfg = load_config("people-ground")
+    assert explain_no_tracks(cfg, np.ones((1, 10)), _dets(0.9), 10) == []
+    msg = explain_no_tracks(cfg, NO_ROWS, {1: Detections.empty()}, 10)
+    assert len(msg) == 1 and "found nothing in 10 frames" in msg[0]
+    assert "detector.params.threshold (now 0.5)" in msg[0]
+    msg = explain_no_tracks(cfg, NO_ROWS, _dets(0.3, 0.45), 10)
+    assert "tracks.params.min_score = 0.5" in msg[0] and "best of 2 scored 0.45" in msg[0]
+    msg = explain_no_tracks(cfg, NO_ROWS, _dets(0.9, 0.8), 10)
+    assert "2 detections scored" in msg[0] and "confirm_hits = 3" in msg[0]
+    assert "no frame was read" in explain_no_tracks(cfg, NO_ROWS, {}, 0)[-1]
+
+
+def test_a_threshold_that_can_never_start_a_track():
+    cfg = load_config("people-ground")
+    assert check_thresholds(cfg) == []
+    cfg["tracks"]["params"]["min_score"] = 1.2
+    cfg["detector"]["params"]["threshold"] = 1.5
+    msgs = check_thresholds(cfg)
+    assert len(msgs) == 2
+    assert "tracks.params.min_score = 1.2" in msgs[0] and "no track can ever start" in msgs[0]
+    assert "detector.params.threshold = 1.5 is outside (0, 1)" in msgs[1]
+
+
+@needs_pets
+def test_run_without_tracks_says_why(tmp_path, capsys):
+    from pftrack.cli import main
+
+    det = tmp_path / "det.txt"
+    det.write_text("1,-1,100,100,30,90,0.3\n2,-1,102,100,30,90,0.3\n")
+    assert main(["run", "people-image", "--video", str(PETS / "vtest.avi"), "--frames", "1:5",
+                 "--detections", str(det), "--out", str(tmp_path / "o"), "--no-report",
+                 "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert "no detection reached tracks.params.min_score = 0.5" in err
+    assert (tmp_path / "o" / "tracks.txt").read_text() == ""
+
+
+@needs_pets
+def test_track_command_on_a_pets_slice(tmp_path, capsys):
+    """Frames 201-260: hog-people, a camera estimated from the people, people-ground; tracks,
+    report, summary and the camera written; scored against the ground truth for the test."""
+    from pftrack.cli import main
+    from pftrack.geometry.formats import load_camera
+    from pftrack.io.mot import read_mot
+
+    out = tmp_path / "out"
+    assert main(["track", str(PETS / "vtest.avi"), "--out", str(out), "--frames", "201:260",
+                 "--gt", str(PETS / "gt.txt"), "--quiet"]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["preset"] == "people-ground" and s["camera"].startswith("estimated from")
+    assert s["frames"] == 60 and 3 <= s["tracks"] <= 20
+    fit = s["camera_fit"]
+    assert 4.0 < fit["camera_height_m"] < 12.0  # the real camera is 6.7 m... up to the 1.7 m
+    rows = read_mot(out / "tracks.txt")
+    assert rows[:, 0].min() >= 201 and rows[:, 0].max() <= 260
+    assert s["metrics"]["MOTA"] > 0.4 and s["metrics"]["IDF1"] > 0.4, s["metrics"]
+    assert load_camera(out / "camera.yaml").image_size == (768, 576)
+    assert sorted(p.suffix for p in (out / "report").iterdir()) and \
+        all(p.suffix == ".png" for p in (out / "report").iterdir())
+
+
+@needs_pets
+def test_too_few_people_falls_back_to_the_image_plane(tmp_path):
+    det = tmp_path / "det.txt"
+    det.write_text("".join(f"{f},-1,{100 + 2 * f},100,30,90,0.9\n" for f in range(1, 11)))
+    res = track_video(PETS / "vtest.avi", tmp_path / "o", detections=det, frames="1:10",
+                      report=False)
+    assert res.summary["preset"] == "people-image" and res.summary["state"] == "image"
+    assert res.summary["camera"].startswith("none: only 10 person boxes")
+    assert any("tracking in the image plane" in m for m in res.messages)
+    assert res.summary["tracks"] == 1
+
+
+@needs_pets
+def test_an_earlier_camera_does_not_stay_beside_image_plane_tracks(tmp_path):
+    det = tmp_path / "det.txt"
+    det.write_text("".join(f"{f},-1,{100 + 2 * f},100,30,90,0.9\n" for f in range(1, 11)))
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "camera.yaml").write_text("an earlier run's estimate\n")
+    res = track_video(PETS / "vtest.avi", out, detections=det, frames="1:10", report=False)
+    assert res.summary["state"] == "image" and "camera_file" not in res.summary
+    assert not (out / "camera.yaml").exists()
+
+
+@needs_pets
+def test_track_checks_its_outputs_before_detecting(tmp_path, monkeypatch):
+    import pftrack.fresh as fresh
+
+    def no_detection(*a, **k):
+        raise AssertionError("the detector ran before --out was checked")
+
+    monkeypatch.setattr(fresh, "detect_video", no_detection)
+    out = tmp_path / "o"
+    (out / "summary.json").mkdir(parents=True)
+    with pytest.raises(IsADirectoryError, match="summary.json is a folder"):
+        track_video(PETS / "vtest.avi", out, frames="1:10", report=False)
+    with pytest.raises(FileNotFoundError, match="--gt .*none.txt not found"):
+        track_video(PETS / "vtest.avi", tmp_path / "p", gt=tmp_path / "none.txt")
+
+
+@needs_pets
+def test_pitch_blob_takes_the_run_camera_file(tmp_path):
+    """Issue 16 item 7: ``pftrack run soccer-ground --camera calib/soccer_seed001.yaml`` stopped
+    with ``TypeError: expected str ... not Camera`` in pitch-blob; the run's camera object is
+    used as is (on any video: the camera is resized to its frames)."""
+    from pathlib import Path
+
+    from pftrack.cli import main
+
+    cam = Path(__file__).resolve().parents[2] / "calib" / "soccer_seed001.yaml"
+    assert main(["run", "soccer-ground", "--video", str(PETS / "vtest.avi"), "--camera",
+                 str(cam), "--frames", "1:3", "--out", str(tmp_path / "s"), "--no-report",
+                 "--quiet"]) == 0
+    assert (tmp_path / "s" / "tracks.txt").is_file()

@@ -1,0 +1,244 @@
+"""The multi-target tracker loop: tracking, seeding, recovery, birth and death, streaming."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import SampleWalk
+from pftrack.components import Detections, Detector, Frame, Likelihood, Target
+from pftrack.tracker import ImageBoxObservation, MultiTargetTracker, records_to_mot
+from pftrack_basic.motion import RandomWalkMotion
+from pftrack_basic.tracks import DetectionBirthTracks
+
+
+class _TruthLikelihood(Likelihood):
+    """Gaussian around a per-target truth the test sets each frame (``truth_`` by id)."""
+
+    def __init__(self, sigma_px: float = 4.0) -> None:
+        self.sigma_px = sigma_px
+
+    def begin_frame(self, frame, targets, detections=None):
+        self.frame_ = frame.index
+
+    def log_likelihood(self, boxes, target):
+        c = boxes[:, :2] + boxes[:, 2:] / 2
+        truth = self.truth_[target.id](self.frame_)
+        if truth is None:
+            return np.full(len(boxes), -np.inf)
+        d2 = np.sum((c - truth) ** 2, axis=1)
+        return -d2 / (2 * self.sigma_px**2)
+
+
+def _frames(n, size=(200, 100)):
+    img = np.zeros((size[1], size[0], 3), np.uint8)
+    for k in range(1, n + 1):
+        yield Frame(k, img, k / 25.0)
+
+
+def _track(seed, n_frames=60, truth=None):
+    lik = _TruthLikelihood()
+    truth = truth or {1: lambda k: np.array([20.0 + 2 * k, 50.0])}
+    lik.truth_ = truth
+    tr = MultiTargetTracker(SampleWalk(3.0), lik, ImageBoxObservation(10, 10), n_particles=300,
+                            rng=np.random.default_rng(seed), kill_out_of_view=False)
+    frames = list(_frames(n_frames))
+    tr.add_target(frames[0], np.array([20.0, 50.0]), target_id=1)
+    recs = [r for f in frames[1:] for r in tr.step(f)]
+    return tr, records_to_mot(recs)
+
+
+def test_follows_a_moving_target_within_a_few_pixels():
+    _, mot = _track(0)
+    centres = mot[:, 2:4] + mot[:, 4:6] / 2
+    truth = np.stack([20.0 + 2 * mot[:, 0], np.full(len(mot), 50.0)], axis=1)
+    err = np.linalg.norm(centres - truth, axis=1)
+    assert len(mot) == 59
+    assert np.median(err[10:]) < 3.0, err
+
+
+def test_same_seed_bit_identical_other_seed_differs():
+    _, a = _track(7)
+    _, b = _track(7)
+    _, c = _track(8)
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a, c)
+
+
+def test_recovers_when_every_weight_vanishes_and_never_returns_nan():
+    # truth disappears for frames 20..24 (likelihood -inf everywhere), then comes back
+    truth = {1: lambda k: None if 20 <= k < 25 else np.array([100.0, 50.0])}
+    tr, mot = _track(1, truth=truth)
+    assert np.all(np.isfinite(mot[:, 2:7]))
+    assert tr.recoveries == 5
+    centre = mot[-1, 2:4] + 5
+    assert np.linalg.norm(centre - [100, 50]) < 3.0
+
+
+class _ListDetector(Detector):
+    def __init__(self, boxes_by_frame: dict | None = None) -> None:
+        self.boxes_by_frame = boxes_by_frame
+
+    def detect(self, frame):
+        b = self.boxes_by_frame.get(frame.index, np.zeros((0, 4)))
+        return Detections(b, np.ones(len(b)))
+
+
+class _NearestAssociator:
+    kind = "associator"
+
+    def associate(self, targets, detections):
+        from pftrack.components import Assignment
+
+        m = []
+        used = set()
+        for ti, t in enumerate(targets):
+            c = t.box_xywh_px[:2] + t.box_xywh_px[2:] / 2
+            d = np.linalg.norm(detections.boxes_xywh_px[:, :2] + 5 - c, axis=1)
+            for di in np.argsort(d):
+                if d[di] < 15 and di not in used:
+                    m.append((ti, di))
+                    used.add(di)
+                    break
+        return Assignment.from_matches(m, len(targets), len(detections))
+
+
+def test_birth_from_detections_and_death_after_misses():
+    # one object detected in frames 5..30 at a fixed place
+    boxes = {k: np.array([[45.0, 45.0, 10.0, 10.0]]) for k in range(5, 31)}
+    lik = _TruthLikelihood()
+    lik.truth_ = {}
+    lik.truth_ = type("T", (), {"__getitem__": lambda s, i: (lambda k: np.array([50.0, 50.0]))})()
+    tr = MultiTargetTracker(SampleWalk(1.0), lik, ImageBoxObservation(10, 10), n_particles=100,
+                            detector=_ListDetector(boxes), associator=_NearestAssociator(),
+                            tracks=DetectionBirthTracks(min_score=0.5), max_misses=3,
+                            rng=np.random.default_rng(0))
+    out = {f.index: tr.step(f) for f in _frames(50)}
+    alive = [k for k, recs in out.items() if recs]
+    assert alive[0] == 5                      # born on its first detection
+    assert alive[-1] == 33                    # 30 + 3 misses tolerated, dead at the 4th
+    assert {r.id for recs in out.values() for r in recs} == {1}
+    assert tr.targets == []
+
+
+def test_valid_region_zeroes_particles_outside_and_kills_target_leaving_it():
+    lik = _TruthLikelihood()
+    lik.truth_ = {1: lambda k: np.array([20.0 + 4 * k, 50.0])}
+    region = lambda p: p[:, 0] < 120.0  # noqa: E731
+    tr = MultiTargetTracker(SampleWalk(3.0), lik, ImageBoxObservation(10, 10), n_particles=200,
+                            valid_region=region, min_log_likelihood=-8.0, max_misses=2,
+                            rng=np.random.default_rng(0))
+    frames = list(_frames(60))
+    tr.add_target(frames[0], np.array([24.0, 50.0]), target_id=1)
+    last = 0
+    for f in frames[1:]:
+        recs = tr.step(f)
+        for r in recs:
+            assert r.position[0] < 120.0
+            last = f.index
+    # the truth crosses x = 120 at frame 25; particles are held inside the region, so the best
+    # one falls 16 px (log-lik -8) behind at frame 28.75, and 3 misses later the target dies
+    assert 28 <= last <= 31
+    assert tr.targets == []
+
+
+def test_rejects_missing_rng_and_bad_scheme():
+    with pytest.raises(ValueError, match="rng"):
+        MultiTargetTracker(SampleWalk(3.0), _TruthLikelihood(), ImageBoxObservation())
+    with pytest.raises(ValueError, match="resampling scheme"):
+        MultiTargetTracker(SampleWalk(3.0), _TruthLikelihood(), ImageBoxObservation(),
+                           resampling="bogus", rng=np.random.default_rng(0))
+
+
+def test_size_from_box_keeps_each_targets_initial_size():
+    lik = _TruthLikelihood()
+    lik.truth_ = {1: lambda k: np.array([50.0, 50.0]), 2: lambda k: np.array([150.0, 50.0])}
+    tr = MultiTargetTracker(SampleWalk(3.0), lik, ImageBoxObservation(size_from_box=True),
+                            n_particles=50, rng=np.random.default_rng(0))
+    f = Frame(1, np.zeros((100, 200, 3), np.uint8))
+    tr.add_target(f, box_xywh_px=np.array([40.0, 30.0, 20.0, 40.0]), target_id=1)
+    tr.add_target(f, box_xywh_px=np.array([145.0, 45.0, 10.0, 10.0]), target_id=2)
+    recs = {r.id: r for r in tr.step(Frame(2, f.image))}
+    assert tuple(recs[1].box_xywh_px[2:]) == (20.0, 40.0)
+    assert tuple(recs[2].box_xywh_px[2:]) == (10.0, 10.0)
+
+
+@pytest.mark.parametrize("scheme, ess, motion", [("systematic", 1.0, "test"),
+                                                 ("stratified", 1.0, "test"),
+                                                 ("systematic", 0.5, "test"),
+                                                 ("systematic", 1.0, "random-walk")])
+def test_targets_vectorised_equal_one_at_a_time_bit_for_bit(scheme, ess, motion):
+    """The tracker normalises, estimates and resamples all targets' filters as rows of one
+    array; the per-target path (used when filters differ in size) gives the same tracks."""
+    truth = {1: lambda k: np.array([20.0 + 2 * k, 50.0]),
+             2: lambda k: None if 30 <= k < 33 else np.array([150.0 - k, 40.0]),  # recoveries
+             3: lambda k: np.array([100.0, 20.0 + 0.5 * k])}
+
+    def run(vectorise):
+        lik = _TruthLikelihood()
+        lik.truth_ = truth
+        walk = SampleWalk(3.0) if motion == "test" else RandomWalkMotion(sigma_px=1.0)
+        tr = MultiTargetTracker(walk, lik, ImageBoxObservation(10, 10), n_particles=200,
+                                resampling=scheme, ess_threshold=ess,
+                                rng=np.random.default_rng(5), kill_out_of_view=False)
+        tr._vectorise = vectorise
+        frames = list(_frames(60))
+        for tid, path in truth.items():
+            tr.add_target(frames[0], path(0), target_id=tid)
+        recs = [r for f in frames[1:] for r in tr.step(f)]
+        return records_to_mot(recs), tr.recoveries
+
+    (a, rec_a), (b, rec_b) = run(True), run(False)
+    assert rec_a == rec_b == 3
+    assert len(a) == 3 * 59
+    assert np.array_equal(a, b)
+
+
+def test_the_likelihood_is_prepared_once_when_the_tracker_is_built_before_any_frame():
+    class Counting(_TruthLikelihood):
+        def prepare(self):
+            self.prepared_ = getattr(self, "prepared_", 0) + 1
+
+        def begin_frame(self, frame, targets, detections=None):
+            assert self.prepared_ == 1  # prepared before the first frame
+            super().begin_frame(frame, targets, detections)
+
+    lik = Counting()
+    lik.truth_ = {1: lambda k: np.array([20.0, 50.0])}
+    tr = MultiTargetTracker(SampleWalk(3.0), lik, ImageBoxObservation(10, 10), n_particles=50,
+                            rng=np.random.default_rng(0))
+    assert lik.prepared_ == 1
+    frames = list(_frames(3))
+    tr.add_target(frames[0], np.array([20.0, 50.0]), target_id=1)
+    for f in frames[1:]:
+        tr.step(f)
+    assert lik.prepared_ == 1
+
+
+def test_a_composite_likelihood_prepares_its_terms(monkeypatch):
+    from pftrack.host import get_host
+    from pftrack_colour import _jit
+
+    loaded = []
+    monkeypatch.setattr(_jit, "warm_up", lambda: loaded.append(1))
+    lik = get_host().build("likelihood", {"type": "composite", "params": {"terms": [
+        {"likelihood": {"type": "cross-entropy-bg"}, "weight": 1.0},
+        {"likelihood": {"type": "cross-entropy", "params": {"method": "histogram"}},
+         "weight": 1.0}]}})
+    MultiTargetTracker(SampleWalk(3.0), lik, ImageBoxObservation(10, 10), n_particles=10,
+                       rng=np.random.default_rng(0))
+    assert loaded == [1]  # the integral term loads the kernels; the histogram one needs none
+
+
+def test_image_boxes_of_every_target_in_one_call_equal_one_target_at_a_time():
+    from pftrack.components import ObservationModel
+
+    obs = ImageBoxObservation(30.0, 20.0, size_from_box=True)
+    targets = [Target(id=i, state=np.zeros(2), box_xywh_px=np.zeros(4)) for i in (1, 2, 3)]
+    obs.init_target(targets[1], np.array([0.0, 0.0, 12.0, 7.0]))  # its own size
+    states = np.random.default_rng(0).normal(size=(3, 40, 2)) * 100
+    rows = obs.to_boxes_rows(states, targets)
+    assert rows.shape == (3, 40, 4)
+    for i, t in enumerate(targets):
+        assert np.array_equal(rows[i], obs.to_boxes(states[i], t))
+    assert np.array_equal(rows, ObservationModel.to_boxes_rows(obs, states, targets))
+    assert np.all(rows[1, :, 2:] == [12.0, 7.0]) and np.all(rows[0, :, 2:] == [30.0, 20.0])

@@ -1,0 +1,140 @@
+"""Seed 004's virtual experiment on real CAVIAR4REID images, the ``seed004`` benchmark on a
+small case and the plugin's registration (pftrack_network)."""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+
+import numpy as np
+import pytest
+from pftrack.data import data_dir
+
+CAVIAR = data_dir() / "reid" / "caviar4reid"
+pytestmark = pytest.mark.skipif(not CAVIAR.is_dir(), reason="no CAVIAR4REID data")
+
+
+def test_plugin_registers_the_benchmark_through_a_host():
+    import pftrack_network
+    from pftrack.extensions import Benchmark
+    from pftrack.host import Host
+
+    host = Host(load_entry_points=False, plugins=[("network", pftrack_network)])
+    bench = host.get("benchmark", "seed004")
+    assert isinstance(bench, Benchmark)
+    assert bench.summary.startswith("Seed 004's experiment")
+    assert host.listing()["plugins"][0]["components"] == {"benchmark": ["seed004"]}
+
+
+def test_virtual_dataset_follows_the_protocol():
+    from pftrack_network.virtual import load_caviar4reid, make_dataset
+
+    people = load_caviar4reid()
+    assert len(people) == 50 and all(len(a) == len(b) == 10 for a, b in people.values())
+    ds = make_dataset(np.random.default_rng(11))
+    net = ds.network
+    assert len(net.cameras) == 16
+    import networkx as nx
+
+    assert nx.is_connected(net.graph)
+    truth = ds.truth
+    assert sorted(set(truth.tolist())) == list(range(24))
+    means = [k * t for u in net.cameras for v in net.cameras for k, t in net.edge_params(u, v)]
+    assert max(means) < 6 * 60  # transits up to about 5 minutes
+    assert set(ds.real_camera.values()) == {0, 1}
+    enters = sorted(min(t.t_start_s for t in ds.tracklets if t.person == p) for p in range(24))
+    gaps = np.diff(enters)
+    assert gaps.min() >= 20 - 1e-9 and gaps.max() <= 300 + 1e-9
+    for p in range(24):
+        mine = [t for t in ds.tracklets if t.person == p]
+        assert len({t.camera for t in mine}) >= 7
+        for a, b in itertools.pairwise(mine):  # consecutive cameras are neighbours, time moves on
+            assert b.camera in net.neighbours(a.camera) and b.t_start_s > a.t_end_s
+        cav = ds.caviar_person[p]
+        for t in mine:  # the images are the real camera's images of that CAVIAR person
+            real = people[cav][ds.real_camera[t.camera]]
+            assert len(t.images) == 3
+            assert all(any(im is r for r in real) for im in t.images)
+    again = make_dataset(np.random.default_rng(11))
+    assert [(t.camera, t.t_start_s) for t in again.tracklets] == \
+        [(t.camera, t.t_start_s) for t in ds.tracklets]
+
+
+def test_project_ari_matches_scikit_learn_on_linker_output():
+    from pftrack.metrics import adjusted_rand_index
+    from pftrack_network.bench_seed004 import dataset
+    from pftrack_network.linkers import GreedyLinker, MinCostFlowLinker
+    from sklearn.metrics import adjusted_rand_score
+
+    ds, app = dataset(1000)
+    for linker in (GreedyLinker(), MinCostFlowLinker()):
+        labels = linker.link(ds.tracklets, ds.network, appearance=app)
+        assert adjusted_rand_index(ds.truth, labels) == \
+            pytest.approx(adjusted_rand_score(ds.truth, labels), abs=1e-12)
+    assert adjusted_rand_index(ds.truth, ds.truth) == 1.0
+
+
+def test_seed004_benchmark_small_case_prints_both_tables():
+    from pftrack_network import bench_seed004
+
+    parser = argparse.ArgumentParser()
+    bench_seed004.add_arguments(parser)
+    args = parser.parse_args(["--datasets", "2", "--runs", "2", "--subnetworks", "10",
+                              "--table3", "5,9:10", "--quiet"])
+    result = bench_seed004.run(args)
+    json.dumps(result)  # serialisable
+    methods = [r["method"] for r in result["table1"]]
+    assert methods[:3] == ["greedy", "min-cost-flow", "trajectory-ensemble"]
+    for r in result["table1"]:
+        assert -1 <= r["ari_mean"] <= 1 and r["ari_var"] >= 0 and len(r["per_dataset"]) == 2
+        assert r["ari_var"] == pytest.approx(np.var(r["per_dataset"]))
+    # min-cost flow beats greedy on these two datasets (real images, deterministic linkers)
+    t1 = {r["method"]: r["ari_mean"] for r in result["table1"]}
+    assert t1["min-cost-flow"] > t1["greedy"] > 0.2
+    assert [(c["dropped"], c["subnetworks"]) for c in result["table3"]] == [(5, 10), (9, 10)]
+    assert len(result["table2"]) == 2
+    assert result["seconds"]["trajectory_ensemble_one_run_median"] > 0
+    text = bench_seed004.format_table(result)
+    assert "min-cost-flow" in text and "C_d=9" in text
+    # the grid's unit of work is independent and seeded: the same cell twice, the same ARI
+    from pftrack_network.bench_seed004 import table3_cell
+
+    cell = table3_cell(9, 10, datasets=2, runs=2)
+    assert cell["ari_mean"] == result["table3"][1]["ari_mean"]
+    assert cell["ari_var"] == result["table3"][1]["ari_var"]
+
+
+def test_trajectory_ensemble_of_s100_runs_in_about_a_second():
+    """Not a timed goal (the benchmark reports seconds); guards against an accidental
+    slow path (a Python loop over pairs) that would make it ten times slower."""
+    import time
+
+    from pftrack_network.bench_seed004 import dataset
+    from pftrack_network.linkers import TrajectoryEnsemble
+
+    ds, app = dataset(1000)
+    t0 = time.perf_counter()
+    TrajectoryEnsemble(9, 100).link(ds.tracklets, ds.network, appearance=app,
+                                    rng=np.random.default_rng(0))
+    assert time.perf_counter() - t0 < 10
+
+
+def test_seed004_table3_on_two_dask_workers_equals_in_process():
+    """Table 3's cells mapped over a real 2-worker local Dask cluster give the in-process
+    figures exactly (each cell is seeded)."""
+    pytest.importorskip("distributed")
+    from pftrack_network import bench_seed004
+
+    parser = argparse.ArgumentParser()
+    bench_seed004.add_arguments(parser)
+    common = ["--datasets", "1", "--runs", "2", "--subnetworks", "10", "--tuned-dropped", "0",
+              "--table3", "5,9:5,10", "--quiet"]
+    serial = bench_seed004.run(parser.parse_args(common))
+    dask = bench_seed004.run(parser.parse_args(common + ["--workers", "2"]))
+    assert dask["setup"]["table3_workers"] == 2
+    key = [(c["dropped"], c["subnetworks"], c["ari_mean"], c["ari_var"])
+           for c in serial["table3"]]
+    assert key == [(c["dropped"], c["subnetworks"], c["ari_mean"], c["ari_var"])
+                   for c in dask["table3"]]
+    assert [c[:2] for c in key] == [(5, 5), (5, 10), (9, 5), (9, 10)]
