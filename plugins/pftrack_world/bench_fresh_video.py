@@ -71,9 +71,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def detector_recall_precision(gt_rows: np.ndarray, detections: dict, min_score: float
                               ) -> dict[str, float]:
     """Detector recall and precision at IoU 0.5 (see the module docstring)."""
-    from scipy.optimize import linear_sum_assignment
-
     from pftrack.geometry.boxes import iou_matrix as box_iou_matrix
+    from scipy.optimize import linear_sum_assignment
 
     tp = fp = n_gt = 0
     for f in np.unique(gt_rows[:, 0]).astype(int):

@@ -332,8 +332,9 @@ def _check_mapping(f: Field, v: Mapping[str, Any], path: str, out: list[ConfigIs
         _check_value(c, val, sub, out, host)
     if f is _DETECTOR and isinstance(v.get("type"), str):
         params = {**(v.get("params") or {})} if isinstance(v.get("params"), Mapping) else {}
-        train = v.get("train") if isinstance(v.get("train"), Mapping) else {}
-        tparams = train.get("params") if isinstance(train.get("params"), Mapping) else {}
+        train: Mapping[str, Any] = v["train"] if isinstance(v.get("train"), Mapping) else {}
+        tparams: Mapping[str, Any] = (train["params"] if isinstance(train.get("params"), Mapping)
+                                      else {})
         out.extend(component_param_issues("detector", v["type"], {**params, **tparams},
                                           f"{path}.params", host))
     if f.name == "births" and f.kind == "tracks":
@@ -401,7 +402,7 @@ def _param_types(cls: type) -> dict[str, str]:
     """Parameter name -> declared simple type (``int``, ``float``, ``bool``, ``str``; others
     unchecked) from ``__init__``'s annotations (Param-declared classes included)."""
     try:
-        sig = inspect.signature(cls.__init__)
+        sig = inspect.signature(cls.__init__)  # type: ignore[misc]  # the class's own
     except (TypeError, ValueError):
         return {}
     types: dict[str, str] = {}
@@ -437,7 +438,7 @@ def component_param_issues(kind: str, name: str, params: Mapping[str, Any], path
     if not isinstance(cls, type):
         return []
     try:
-        names = cls._param_names()
+        names = cls._param_names()  # type: ignore[attr-defined]  # a Component, or not: except
     except (AttributeError, TypeError):
         return []
     types = _param_types(cls)

@@ -278,9 +278,8 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
         Ground truth: metrics in the summary and ``metrics.json``.
     """
     from pftrack.io.detections import read_detections
-    from pftrack.pipeline import _load_camera, load_config, run_pipeline
-
     from pftrack.io.outputs import check_input_file, check_output_tree
+    from pftrack.pipeline import _load_camera, load_config, run_pipeline
 
     # everything that can be checked is checked before the detector's pass over the video
     video = check_input_file(video, "video")
@@ -305,7 +304,8 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
                 else detections)
         from pftrack.scenes.video import VideoScene
 
-        size = tuple(int(v) for v in VideoScene(str(video)).size_wh)
+        w, h = VideoScene(str(video)).size_wh
+        size = (int(w), int(h))
     # 2. the camera
     fit = None
     if cam is not None:

@@ -339,8 +339,12 @@ def _people(args: argparse.Namespace) -> int:
             lean=not args.no_lean, min_score=args.min_score or 0.0, **fit_kw)
         source = source or found
     else:
+        if rows is None:
+            raise ValueError("calib people: give --video, or --boxes / --detections")
         fit = pp.estimate_camera_from_people(rows[:, :4], size, args.person_height, rng,
                                              **fit_kw)
+    if rows is None:  # (estimate_camera_from_video returns the rows it found)
+        raise RuntimeError("calib people: no person boxes")
     out = fit.summary()
     out["source"] = source
     out["image_size"] = list(size)

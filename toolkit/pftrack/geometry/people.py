@@ -829,7 +829,7 @@ def detect_people(video: Any, first: int = 1, last: int | None = None, stride: i
         name = "hog-people (registered detector)"
     else:
         hog = cv2.HOGDescriptor()
-        hog.setSVMDetector(cv2.HOGDescriptor_getDefaultPeopleDetector())
+        hog.setSVMDetector(cv2.HOGDescriptor_getDefaultPeopleDetector())  # type: ignore[attr-defined]
         name = "OpenCV HOG default people detector"
     out: list[np.ndarray] = []
     for frame in iter_frames(video, first, last):

@@ -226,7 +226,7 @@ class OutputSet:
         """Drop the staged outputs; the earlier ones stay."""
         _remove(self.staging)
 
-    def __enter__(self) -> "OutputSet":  # noqa: PYI034, UP037
+    def __enter__(self) -> "OutputSet":  # noqa: UP037
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
