@@ -42,11 +42,14 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from pftrack.components import Detections, Frame, RunContext
 from pftrack.geometry.boxes import foot_points, nms
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import CameraSpec
 
 from .detector import SVMDetector, SVMModel, heights_from_boxes, merge_clusters
 
@@ -109,7 +112,8 @@ class HOGPeopleDetector(SVMDetector):
         factor (times sqrt(scale_step)) of the scale's height. Unit: 1.
     """
 
-    def __init__(self, camera: Any = None, height_m: float = 1.7, threshold: float = 0.5,
+    def __init__(self, camera: CameraSpec | None = None, height_m: float = 1.7,
+                 threshold: float = 0.5,
                  nms_iou: float = 0.3, merge_tau: float | None = 0.3, scale_step: float = 1.2,
                  min_height_px: float = 48.0, max_height_px: float = 480.0,
                  box_fraction: Sequence[float] = HOG_PEOPLE_BOX,

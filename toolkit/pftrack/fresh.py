@@ -29,12 +29,15 @@ import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from pftrack.components import Detections
 from pftrack.geometry.boxes import foot_points
+
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera, CameraSpec
 
 __all__ = [
     "FreshResult",
@@ -134,7 +137,7 @@ def explain_no_tracks(cfg: dict[str, Any], rows: np.ndarray,
 
 
 def detect_video(video: str | os.PathLike[str], cfg: dict[str, Any], frames: Any = None,
-                 camera: Any = None, progress: bool = False
+                 camera: CameraSpec | None = None, progress: bool = False
                  ) -> tuple[dict[int, Detections], tuple[int, int], dict[str, float]]:
     """Run the configuration's detector over the frames once.
 
@@ -147,10 +150,10 @@ def detect_video(video: str | os.PathLike[str], cfg: dict[str, Any], frames: Any
         ``wall_s``, ``cpu_s``, ``frames``.
     """
     from pftrack.components import RunContext
-    from pftrack.pipeline import build_detector, iter_frames, parse_frames
+    from pftrack.pipeline import _load_camera, build_detector, iter_frames, parse_frames
 
     first, last = parse_frames(frames)
-    det = build_detector(cfg, RunContext(camera=camera))
+    det = build_detector(cfg, RunContext(camera=_load_camera(camera)))
     if det is None:
         raise ValueError(f"config {cfg.get('_source', '')}: no detector to find people with; "
                          "give --detections FILE or a configuration with a detector")
@@ -221,7 +224,7 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
                  f"frames {use[0]}-{use[-1]} (mean height {person_height_m} m{lean})")
 
 
-def with_ground_points(detections: dict[int, Detections], camera: Any
+def with_ground_points(detections: dict[int, Detections], camera: Camera
                        ) -> dict[int, Detections]:
     """The same detections with their foot points back-projected to the ground (z = 0)."""
     out = {}
@@ -250,7 +253,7 @@ TRACK_OUTPUTS = ("tracks.txt", "metrics.json", "summary.json", "camera.yaml")
 
 
 def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] | None, *,
-                camera: Any = None, detections: Any = None, preset: Any = None,
+                camera: CameraSpec | None = None, detections: Any = None, preset: Any = None,
                 frames: Any = None, seed: int = 0, person_height_m: float = 1.7,
                 calib_min_score: float = 0.5, gt: Any = None, progress: bool = False,
                 report: bool = True) -> FreshResult:

@@ -11,16 +11,19 @@ reads as score 1.
 from __future__ import annotations
 
 import os
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from pftrack.components import Detections
 
+if TYPE_CHECKING:
+    from pftrack.geometry.camera import Camera
+
 __all__ = ["detections_to_mot", "read_detections", "write_detections"]
 
 
-def read_detections(path: str | os.PathLike[str], camera: Any = None,
+def read_detections(path: str | os.PathLike[str], camera: Camera | None = None,
                     min_score: float | None = None) -> dict[int, Detections]:
     """Per-frame detections of a MOTChallenge detection file.
 
