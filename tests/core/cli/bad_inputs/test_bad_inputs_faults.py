@@ -20,7 +20,10 @@ import pytest
 from ._catalogue import assert_untouched, snapshot
 
 DRIVER = r'''
-import os, pathlib, sys, time
+import os, pathlib, signal, sys, time
+# Ctrl-C as a terminal delivers it: a test runner started in the background (nohup, `cmd &` in a
+# script) hands its children SIGINT ignored, and Python then installs no KeyboardInterrupt
+signal.signal(signal.SIGINT, signal.default_int_handler)
 import numpy as np
 marker, stage = pathlib.Path(sys.argv[1]), sys.argv[2]
 import pftrack.host as hm
