@@ -86,6 +86,8 @@ def slow_run(work):
     cfg.write_text(work.config.read_text().replace("type: gaussian", "type: slow-gaussian")
                    + "report: {writer: slow}\n")
 
+    started: list[subprocess.Popen] = []
+
     def start(stage: str) -> tuple[subprocess.Popen, Path]:
         marker = work.dir / f"held-{stage}"
         proc = subprocess.Popen(
@@ -93,6 +95,7 @@ def slow_run(work):
              str(work.video), "--gt", str(work.gt), "--out", str(work.out), "--quiet"],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(),
             start_new_session=True)
+        started.append(proc)
         deadline = time.monotonic() + 90
         while not marker.exists():
             if proc.poll() is not None:
@@ -103,7 +106,11 @@ def slow_run(work):
             time.sleep(0.05)
         return proc, marker
 
-    return start
+    yield start
+    for proc in started:  # a failed case leaves no held run behind
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
 
 
 STAGES = ["setup", "tracking", "writing"]
