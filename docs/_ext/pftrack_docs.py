@@ -560,6 +560,12 @@ def write_api_pages(out: Path) -> list[str]:
 # --------------------------------------------------------------------------------------------
 
 
+def _data_dir() -> Path:
+    """``$PFTRACK_DATA``, else the ``shared/data`` beside the repository (as the tests set it)."""
+    env = os.environ.get("PFTRACK_DATA")
+    return Path(env) if env else ROOT.parent / "shared" / "data"
+
+
 def execute_notebooks(out: Path, *, force: bool = False, log: Any = print) -> dict[str, float]:
     """Execute every notebook of :data:`NOTEBOOKS` into ``out`` (same name) with nbclient and
     the ``python3`` kernel, on its short slice; a notebook whose source and settings are
@@ -590,6 +596,9 @@ def execute_notebooks(out: Path, *, force: bool = False, log: Any = print) -> di
                 stamp.read_text() == key.hexdigest():
             continue
         nb = nbformat.read(src, as_version=4)
+        # the shared data as this process finds it (beside the repository): a kernel working in
+        # a temporary folder would not find it from its own working directory
+        env = {"PFTRACK_DATA": str(_data_dir()), **env}
         saved = {k: os.environ.get(k) for k in env}
         t0 = time.perf_counter()
         log(f"pftrack docs: executing notebooks/{name} {env or ''}")
