@@ -624,6 +624,18 @@ class SVMDetector(Detector):
             self.__dict__.pop(attr, None)
         return self
 
+    def _plan_options(self) -> dict[str, Any]:
+        """Further :func:`scale_plan` options of a subclass (none here)."""
+        return {}
+
+    def _new_hog(self, m: SVMModel) -> Any:
+        """The OpenCV HOG descriptor with the model's weights (None: not a HOG model)."""
+        if m.feature != "hog":
+            return None
+        hog = _hog(m.window_wh)
+        hog.setSVMDetector(np.r_[m.weights, np.float32(m.bias)].astype(np.float32))
+        return hog
+
     def _prepare(self, image_size_wh: tuple[int, int]) -> None:
         m = self._model()
         if getattr(self, "plan_size_", None) != image_size_wh:
@@ -632,12 +644,13 @@ class SVMDetector(Detector):
                                     scale_step=self.scale_step, min_height_px=self.min_height_px,
                                     max_height_px=self.max_height_px, camera=self._camera(),
                                     height_m=self.height_m,
-                                    expected=getattr(self, "expected_heights_", None))
+                                    expected=getattr(self, "expected_heights_", None),
+                                    **self._plan_options())
             self.plan_size_ = image_size_wh
-        if m.feature == "hog" and not hasattr(self, "hog_"):
-            hog = _hog(m.window_wh)
-            hog.setSVMDetector(np.r_[m.weights, np.float32(m.bias)].astype(np.float32))
-            self.hog_ = hog
+        if not hasattr(self, "hog_"):
+            hog = self._new_hog(m)
+            if hog is not None:
+                self.hog_ = hog
 
     def __getstate__(self) -> dict[str, Any]:
         # cv2.HOGDescriptor does not pickle; it is rebuilt from the model on first use

@@ -175,24 +175,16 @@ class HOGPeopleDetector(SVMDetector):
             self.model_ = default_people_model(self.box_fraction)
         return self.model_
 
-    def _prepare(self, image_size_wh: tuple[int, int]) -> None:
+    def _plan_options(self) -> dict[str, Any]:
+        return {"tolerance": self.tolerance}
+
+    def _new_hog(self, m: SVMModel) -> Any:
+        """OpenCV's own people detector (its INRIA-trained weights), not a trained model's."""
         import cv2
 
-        m = self._model()
-        if getattr(self, "plan_size_", None) != image_size_wh:
-            from .detector import scale_plan
-
-            _, bt, _, bh = m.box_in_window
-            self.plan_ = scale_plan(bh, m.window_wh[1], bt + bh, image_size_wh,
-                                    scale_step=self.scale_step, min_height_px=self.min_height_px,
-                                    max_height_px=self.max_height_px, camera=self._camera(),
-                                    height_m=self.height_m, tolerance=self.tolerance,
-                                    expected=getattr(self, "expected_heights_", None))
-            self.plan_size_ = image_size_wh
-        if not hasattr(self, "hog_"):
-            hog = cv2.HOGDescriptor()
-            hog.setSVMDetector(cv2.HOGDescriptor_getDefaultPeopleDetector())
-            self.hog_ = hog
+        hog = cv2.HOGDescriptor()
+        hog.setSVMDetector(cv2.HOGDescriptor_getDefaultPeopleDetector())
+        return hog
 
     # -- scores ---------------------------------------------------------------------------
 
