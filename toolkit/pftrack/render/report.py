@@ -124,7 +124,9 @@ def draw_trajectories(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
         rgb = render_topview(tracks=tracks, ground_truth=gt_tracks, size_wh=size, title=label,
                              bounds_m=np.array([lo, hi]), legend=False)
         top = cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)
-        note = "solid: tracks (track ids)   dashed: ground truth (gt ids)"
+        # the ground truth's line only when there is one (a run without --gt draws none)
+        note = "solid: tracks (track ids)" + ("   dashed: ground truth (gt ids)"
+                                              if gt_tracks else "")
         cv2.putText(top, note, (60, 44), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
                     (60, 60, 60), 1, cv2.LINE_AA)
     if top is None:
