@@ -133,8 +133,9 @@ def test_people_colour_tracks_die_when_lost():
 @pytest.mark.slow
 def test_pftrack_run_people_colour_on_a_pets_slice(tmp_path):
     """``pftrack run people-colour`` with the registered hog-people detector on PETS 2009 S2.L1
-    frames 1-120 (the tuning frames): tracks.txt, metrics.json and report images, MOTA above a
-    measured floor (measured 0.70 at seed 0; people-image on the same frames: 0.45)."""
+    frames 1-120 (tuning frames): tracks.txt, metrics.json and report images, MOTA and IDF1 above
+    measured floors (measured at seed 0: MOTA 0.769, IDF1 0.768; people-image on the same frames
+    and detector: 0.569, 0.709). About 15 s of CPU time (the detector's pass is most of it)."""
     from pftrack.cli import main
 
     out = tmp_path / "run"
@@ -143,6 +144,6 @@ def test_pftrack_run_people_colour_on_a_pets_slice(tmp_path):
     rows = np.loadtxt(out / "tracks.txt", delimiter=",")
     assert rows.shape[1] == 10 and rows[:, 0].min() >= 1 and rows[:, 0].max() <= 120
     m = json.loads((out / "metrics.json").read_text())
-    assert m["MOTA"] > 0.6, m
-    assert m["IDF1"] > 0.6, m
+    assert m["MOTA"] > 0.68, m
+    assert m["IDF1"] > 0.68, m
     assert sorted(p.name for p in (out / "report").glob("*.png"))
