@@ -52,10 +52,11 @@ def pftrack_register_scenes(register):
 def pftrack_register_benchmarks(register):
     from pftrack.extensions import Benchmark
 
-    from pftrack_colour import bench_pets09, bench_seed000
+    from pftrack_colour import bench_people_colour, bench_pets09, bench_seed000
 
     register("seed000", Benchmark.from_module(bench_seed000))
     register("pets09-colour", Benchmark.from_module(bench_pets09))
+    register("people-colour", Benchmark.from_module(bench_people_colour))
 
 
 @hookimpl
