@@ -40,9 +40,13 @@ class SizedImageBoxObservation(ImageBoxObservation):
         Each live target's starting size, by id.
     """
 
+    #: always: each target starts with the size of the box it was started from
+    size_from_box = True
+
     def __init__(self, width_px: float = 30.0, height_px: float = 30.0, size_rate: float = 0.2,
                  size_limits: tuple[float, float] = (0.5, 2.0)) -> None:
-        super().__init__(width_px=width_px, height_px=height_px, size_from_box=True)
+        self.width_px = width_px
+        self.height_px = height_px
         self.size_rate = size_rate
         self.size_limits = size_limits
 
