@@ -5,6 +5,20 @@ A cheap, learning-free detector for a fixed camera (PETS09, the seed 003 coast).
 background model of the stream it is watching, so one instance serves one video; call
 :meth:`BackgroundSubtractionDetector.reset` (or :meth:`~pftrack.components.Component.clone`)
 before another.
+
+Person boxes (``person_height_m`` set, with the run's camera): a blob's box is not a person's
+(people come out in fragments, and two people walking side by side are one blob). Through the
+camera, the image height of an upright person of ``person_height_m`` standing at any foot pixel
+is known (:func:`pftrack.geometry.people.predicted_box_heights`); the blobs are then
+
+1. merged when stacked: a blob whose column span overlaps a lower blob's, and whose top lies
+   within one person's height (at the lower blob's foot, times ``merge_slack``) above that
+   foot, is a fragment of the same person (head, torso, legs cut apart by the clean-up);
+2. split when wide: a group wider than ``split_ratio`` person widths (``person_aspect`` times
+   the height) is cut into ``round(width / person width)`` equal column slices;
+3. made person-shaped: each group or slice becomes a box of the person's height and width at
+   its foot point (the lowest foreground row of the slice, at the centre column of its
+   foreground), scored with the fraction of that box covered by foreground.
 """
 
 from __future__ import annotations
@@ -12,7 +26,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from pftrack.components import Detections, Detector, Frame
+from pftrack.components import Detections, Detector, Frame, RunContext
 
 __all__ = ["BackgroundSubtractionDetector"]
 
@@ -46,6 +60,16 @@ class BackgroundSubtractionDetector(Detector):
         Unit: px.
     warmup_frames : int
         Frames at the start of a stream that only update the background. Unit: frames.
+    person_height_m : float, optional
+        With the run's camera: turn the blobs into boxes of upright people this tall (module
+        docstring); None (default): each blob's bounding box. Unit: m.
+    person_aspect : float
+        Width / height of a person box (person boxes only). Unit: 1.
+    merge_slack : float
+        Stacked blobs merge when their span is within this many person heights (person boxes
+        only). Unit: 1.
+    split_ratio : float
+        A group wider than this many person widths is split (person boxes only). Unit: 1.
 
     Attributes
     ----------
@@ -57,7 +81,9 @@ class BackgroundSubtractionDetector(Detector):
 
     def __init__(self, history: int = 500, var_threshold: float = 16.0,
                  detect_shadows: bool = True, learning_rate: float = -1.0,
-                 min_area_px: int = 100, morph_px: int = 3, warmup_frames: int = 1) -> None:
+                 min_area_px: int = 100, morph_px: int = 3, warmup_frames: int = 1,
+                 person_height_m: float | None = None, person_aspect: float = 0.4,
+                 merge_slack: float = 1.2, split_ratio: float = 1.5) -> None:
         self.history = history
         self.var_threshold = var_threshold
         self.detect_shadows = detect_shadows
@@ -65,6 +91,24 @@ class BackgroundSubtractionDetector(Detector):
         self.min_area_px = min_area_px
         self.morph_px = morph_px
         self.warmup_frames = warmup_frames
+        self.person_height_m = person_height_m
+        self.person_aspect = person_aspect
+        self.merge_slack = merge_slack
+        self.split_ratio = split_ratio
+
+    def setup(self, context: RunContext) -> None:
+        """Person boxes need the run's camera: keep it, or stop naming the parameter."""
+        if self.person_height_m is None:
+            return
+        for name in ("person_height_m", "person_aspect", "merge_slack", "split_ratio"):
+            if not float(getattr(self, name)) > 0:
+                raise ValueError(f"detector mog2: {name} must be > 0, got "
+                                 f"{getattr(self, name)!r}")
+        if context.camera is None:
+            raise ValueError(f"detector mog2: person_height_m={self.person_height_m} makes "
+                             "person-shaped boxes through the run's camera, and the run has none "
+                             "(give --camera, or set person_height_m: null for blob boxes)")
+        self.camera_ = context.camera
 
     def reset(self) -> BackgroundSubtractionDetector:
         """Forget the background model (start of a new stream)."""
@@ -125,5 +169,134 @@ class BackgroundSubtractionDetector(Detector):
         stats, area = stats[keep], area[keep]
         boxes = stats[:, [cv2.CC_STAT_LEFT, cv2.CC_STAT_TOP, cv2.CC_STAT_WIDTH,
                           cv2.CC_STAT_HEIGHT]].astype(np.float64)
+        if self.person_height_m is not None:
+            camera = getattr(self, "camera_", None)
+            if camera is None:
+                raise ValueError("detector mog2: person_height_m is set but no camera was given "
+                                 "to setup() (the run's camera makes the person boxes)")
+            return person_boxes(mask, boxes, camera, float(self.person_height_m),
+                                float(self.person_aspect), float(self.merge_slack),
+                                float(self.split_ratio))
         scores = area / np.maximum(boxes[:, 2] * boxes[:, 3], 1.0)
         return Detections(boxes, scores)
+
+
+def _person_heights(camera: Any, feet: np.ndarray, person_height_m: float) -> np.ndarray:
+    from pftrack.geometry.people import predicted_box_heights
+
+    if len(feet) == 0:
+        return np.zeros(0)
+    return predicted_box_heights(camera, feet, person_height_m)
+
+
+def merge_stacked(boxes_xywh_px: np.ndarray, heights_px: np.ndarray, slack: float
+                  ) -> np.ndarray:
+    """Group label (B,) of each blob box: blobs stacked within one person's height merge.
+
+    Blobs are visited from the lowest foot up; a blob joins the group of a lower blob whose
+    column span overlaps its own when the group's foot minus the blob's top is at most
+    ``slack`` times the person height at that foot (``heights_px``, per blob, NaN: none).
+    """
+    b = np.asarray(boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
+    n = len(b)
+    label = np.arange(n)
+    if n < 2:
+        return label
+    order = np.argsort(-(b[:, 1] + b[:, 3]), kind="stable")  # lowest foot first
+    x0, x1, top = b[:, 0], b[:, 0] + b[:, 2], b[:, 1]
+    # columns overlap (B, B); a group is described by its anchor (its lowest blob)
+    overlap = (x0[:, None] < x1[None, :]) & (x0[None, :] < x1[:, None])
+    foot = b[:, 1] + b[:, 3]
+    reach = foot - slack * np.where(np.isfinite(heights_px), heights_px, 0.0)  # highest top
+    anchor_of = np.full(n, -1)
+    g_x0, g_x1 = x0.copy(), x1.copy()
+    for i in order:
+        if anchor_of[i] >= 0:
+            continue
+        anchor_of[i] = i
+        for j in order:
+            if anchor_of[j] >= 0 or foot[j] > foot[i] or top[j] < reach[i]:
+                continue
+            if overlap[i, j] or (x0[j] < g_x1[i] and g_x0[i] < x1[j]):
+                anchor_of[j] = i
+                g_x0[i], g_x1[i] = min(g_x0[i], x0[j]), max(g_x1[i], x1[j])
+    label[:] = anchor_of
+    return label
+
+
+def person_boxes(mask: np.ndarray, blob_boxes_xywh_px: np.ndarray, camera: Any,
+                 person_height_m: float, aspect: float, merge_slack: float = 1.2,
+                 split_ratio: float = 1.5) -> Detections:
+    """Person-shaped boxes from foreground blobs through a camera (the module docstring's
+    steps 1-3).
+
+    Parameters
+    ----------
+    mask : ndarray (H, W) uint8
+        The foreground mask (non-zero: foreground).
+    blob_boxes_xywh_px : ndarray (B, 4)
+        The blobs' bounding boxes. Unit: px.
+    camera : Camera
+        Ground-plane camera (world metres, z up).
+    person_height_m : float
+        Height of an upright person. Unit: m.
+    aspect : float
+        Width / height of a person box. Unit: 1.
+    merge_slack, split_ratio : float
+        See :class:`BackgroundSubtractionDetector`. Unit: 1.
+
+    Returns
+    -------
+    Detections
+        One box per person found, score = the foreground fraction of its box.
+    """
+    b = np.asarray(blob_boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
+    if len(b) == 0:
+        return Detections.empty()
+    fg = np.asarray(mask) > 0
+    img_h, img_w = fg.shape
+    feet = np.column_stack([b[:, 0] + 0.5 * b[:, 2], b[:, 1] + b[:, 3]])
+    label = merge_stacked(b, _person_heights(camera, feet, person_height_m), merge_slack)
+    groups = np.unique(label)
+    gx0 = np.array([b[label == g, 0].min() for g in groups])
+    gy0 = np.array([b[label == g, 1].min() for g in groups])
+    gx1 = np.array([(b[label == g, 0] + b[label == g, 2]).max() for g in groups])
+    gy1 = np.array([(b[label == g, 1] + b[label == g, 3]).max() for g in groups])
+    gh = _person_heights(camera, np.column_stack([0.5 * (gx0 + gx1), gy1]), person_height_m)
+    slices = []  # (x0, x1, y0, y1) integer column slices of the groups
+    for x0, x1, y0, y1, h in zip(gx0, gx1, gy0, gy1, gh):
+        pw = aspect * h if np.isfinite(h) and h > 0 else x1 - x0
+        k = int(round((x1 - x0) / pw)) if (x1 - x0) > split_ratio * pw else 1
+        edges = np.linspace(x0, x1, max(k, 1) + 1).round().astype(int)
+        for a, c in zip(edges[:-1], edges[1:]):
+            if c > a:
+                slices.append((a, c, int(y0), int(y1)))
+    boxes = []
+    for x0, x1, y0, y1 in slices:
+        sub = fg[y0:y1, x0:x1]
+        rows = np.flatnonzero(sub.any(axis=1))
+        cols = sub.sum(axis=0)
+        if len(rows) == 0 or cols.sum() == 0:
+            continue
+        foot_y = y0 + rows[-1] + 1.0
+        cx = x0 + float((np.arange(x1 - x0) + 0.5) @ cols) / float(cols.sum())
+        boxes.append((cx, foot_y))
+    if not boxes:
+        return Detections.empty()
+    feet = np.array(boxes)
+    h = _person_heights(camera, feet, person_height_m)
+    ok = np.isfinite(h) & (h > 1.0)
+    feet, h = feet[ok], h[ok]
+    w = aspect * h
+    out = np.column_stack([feet[:, 0] - 0.5 * w, feet[:, 1] - h, w, h])
+    # score: the foreground fraction of each box, through one integral image
+    ii = np.zeros((img_h + 1, img_w + 1), dtype=np.int64)
+    ii[1:, 1:] = fg.cumsum(axis=0, dtype=np.int64).cumsum(axis=1)
+    xa = np.clip(np.floor(out[:, 0]), 0, img_w).astype(int)
+    xb = np.clip(np.ceil(out[:, 0] + out[:, 2]), 0, img_w).astype(int)
+    ya = np.clip(np.floor(out[:, 1]), 0, img_h).astype(int)
+    yb = np.clip(np.ceil(out[:, 1] + out[:, 3]), 0, img_h).astype(int)
+    area = np.maximum((xb - xa) * (yb - ya), 1)
+    count = ii[yb, xb] - ii[ya, xb] - ii[yb, xa] + ii[ya, xa]
+    keep = count > 0
+    return Detections(out[keep], (count / area)[keep].astype(np.float64))

@@ -2,7 +2,9 @@
 entropy, with and without a background histogram), the synthetic ``walkers`` scene and a generic
 ``video`` scene (a video file with optional MOTChallenge ground truth); the benchmarks
 ``seed000`` (the paper's Tables 1-4) and ``pets09-colour`` (every person of PETS 2009 S2.L1,
-against OpenCV's MIL and CSRT), and the default demo ``walkers`` (``pftrack demo``).
+against OpenCV's MIL and CSRT), the default demo ``walkers`` (``pftrack demo``), the
+``image-box-sized`` observation model (box size following the matched detections) and the
+``people-colour`` preset (the colour likelihood for a user's own detections, ``pftrack run``).
 
 Registered through the ``pftrack`` entry-point group exactly as a third-party plugin is; nothing
 is imported from here until the host loads the plugin.
@@ -50,10 +52,11 @@ def pftrack_register_scenes(register):
 def pftrack_register_benchmarks(register):
     from pftrack.extensions import Benchmark
 
-    from pftrack_colour import bench_pets09, bench_seed000
+    from pftrack_colour import bench_people_colour, bench_pets09, bench_seed000
 
     register("seed000", Benchmark.from_module(bench_seed000))
     register("pets09-colour", Benchmark.from_module(bench_pets09))
+    register("people-colour", Benchmark.from_module(bench_people_colour))
 
 
 @hookimpl
@@ -71,3 +74,18 @@ def pftrack_register_track_managers(register):
     from pftrack_colour.experiment import GivenBoxTracks
 
     register("given-boxes", GivenBoxTracks)
+
+
+@hookimpl
+def pftrack_register_observation_models(register):
+    from pftrack_colour.observation import SizedImageBoxObservation
+
+    register("image-box-sized", SizedImageBoxObservation)
+
+
+@hookimpl
+def pftrack_register_presets(register):
+    from importlib import resources
+
+    presets = resources.files("pftrack_colour") / "presets"
+    register("people-colour", str(presets / "people-colour.yaml"))

@@ -102,9 +102,16 @@ def pftrack_register_volumes(register):
 def pftrack_register_benchmarks(register):
     from pftrack.extensions import Benchmark
 
-    from pftrack_world import bench_batch, bench_fresh_video, bench_pets09_ground, bench_soccer
+    from pftrack_world import (
+        bench_batch,
+        bench_fresh_video,
+        bench_mog2_people,
+        bench_pets09_ground,
+        bench_soccer,
+    )
 
     register("batch", Benchmark.from_module(bench_batch))
     register("fresh-video", Benchmark.from_module(bench_fresh_video))
+    register("mog2-people", Benchmark.from_module(bench_mog2_people))
     register("pets09-ground", Benchmark.from_module(bench_pets09_ground))
     register("soccer", Benchmark.from_module(bench_soccer))
