@@ -43,16 +43,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--subnetworks", type=int, default=100,
                         help="Table 1's S, sub-networks (default 100)")
     parser.add_argument("--path-cost", type=float, default=None,
-                        help="trajectory break cost of min-cost flow and the ensemble (default "
-                             "pftrack_network.linkers.DEFAULT_PATH_COST)")
+                        help="trajectory break cost of min-cost flow on the full network "
+                             "(default pftrack_network.linkers.DEFAULT_PATH_COST)")
+    parser.add_argument("--ensemble-path-cost", type=float, default=None,
+                        help="the same for the min-cost flow on each sub-network of the "
+                             "ensemble (default ENSEMBLE_PATH_COST)")
     parser.add_argument("--greedy-path-cost", type=float, default=None,
                         help="the greedy linker's (default GREEDY_PATH_COST)")
-    parser.add_argument("--tuned-dropped", type=int, default=3,
+    parser.add_argument("--tuned-dropped", type=int, default=7,
                         help="C_d of Table 1's extra ensemble row, chosen on the tuning "
-                             "seeds 1000-1002 (default 3); 0 skips the row")
-    parser.add_argument("--transit-sum", choices=("parameters", "moments"), default="parameters",
-                        help="how Camera Dropout joins two edges (default: parameters, the "
-                             "paper's; Table 1 also reports the other as a second row)")
+                             "seeds 1000-1002 (default 7); 0 skips the row")
+    parser.add_argument("--transit-sum", choices=("parameters", "moments"), default="moments",
+                        help="how Camera Dropout joins two edges (default: moments, see "
+                             "TrajectoryEnsemble; Table 1 also reports the other, the paper's "
+                             "words, as a second row)")
     parser.add_argument("--table3", default=",".join(map(str, DROPPED)) + ":"
                         + ",".join(map(str, SUBNETWORKS)),
                         help="Table 3's grid 'C_d,...:S,...' (default 5,7,9,11,13:50,100,150); "
@@ -84,9 +88,10 @@ def _ari(truth: np.ndarray, labels: np.ndarray) -> float:
 
 
 def ensemble_runs(dataset_seed: int, dropped: int, subnetworks: int, runs: int, *,
-                  path_cost: float | None = None, transit_sum: str = "parameters",
+                  path_cost: float | None = None, transit_sum: str = "moments",
                   data: str | None = None) -> dict[str, list[float]]:
-    """Trajectory Ensemble ``runs`` times on one dataset.
+    """Trajectory Ensemble ``runs`` times on one dataset (``path_cost``: its sub-networks'
+    min-cost flow, default :data:`~pftrack_network.linkers.ENSEMBLE_PATH_COST`).
 
     Returns
     -------
@@ -94,10 +99,10 @@ def ensemble_runs(dataset_seed: int, dropped: int, subnetworks: int, runs: int, 
         ``{"ari": [...], "seconds": [...]}`` per run (seconds: the ensemble alone, the
         dataset's appearance matrix excluded: it is computed once per dataset).
     """
-    from pftrack_network.linkers import DEFAULT_PATH_COST, MinCostFlowLinker, TrajectoryEnsemble
+    from pftrack_network.linkers import ENSEMBLE_PATH_COST, MinCostFlowLinker, TrajectoryEnsemble
 
     ds, app = dataset(dataset_seed, data)
-    pc = DEFAULT_PATH_COST if path_cost is None else path_cost
+    pc = ENSEMBLE_PATH_COST if path_cost is None else path_cost
     te = TrajectoryEnsemble(dropped, subnetworks, MinCostFlowLinker(pc), transit_sum=transit_sum)
     aris, secs = [], []
     for r in range(runs):
@@ -112,7 +117,7 @@ def ensemble_runs(dataset_seed: int, dropped: int, subnetworks: int, runs: int, 
 
 def table3_cell(dropped: int, subnetworks: int, *, seed: int = 0, datasets: int = 5,
                 runs: int = 10, path_cost: float | None = None,
-                transit_sum: str = "parameters", data: str | None = None) -> dict[str, Any]:
+                transit_sum: str = "moments", data: str | None = None) -> dict[str, Any]:
     """One cell of Table 3: the ensemble with C_d = ``dropped`` and S = ``subnetworks`` over
     ``datasets`` datasets x ``runs`` runs (independent of every other cell: the unit a
     scale-out engine maps)."""
@@ -135,11 +140,11 @@ def _grid(spec: str) -> list[tuple[int, int]]:
         raise ValueError(f"--table3 must be 'C_d,...:S,...' or 'none', got {spec!r}") from None
 
 
-def _table3(grid: list[tuple[int, int]], args: argparse.Namespace, pc: float,
+def _table3(grid: list[tuple[int, int]], args: argparse.Namespace, epc: float,
             say: Any) -> list[dict[str, Any]]:
     """Table 3's cells in grid order: in this process, or mapped over Dask workers (the
     scale-out engine of ``pftrack batch``; each cell is seeded, so the figures are the same)."""
-    kw = {"seed": args.seed, "datasets": args.datasets, "runs": args.runs, "path_cost": pc,
+    kw = {"seed": args.seed, "datasets": args.datasets, "runs": args.runs, "path_cost": epc,
           "transit_sum": args.transit_sum, "data": args.data}
     workers = int(getattr(args, "workers", 1) or 1)
     scheduler = getattr(args, "scheduler", None)
@@ -173,6 +178,7 @@ def _table3(grid: list[tuple[int, int]], args: argparse.Namespace, pc: float,
 def run(args: argparse.Namespace) -> dict[str, Any]:
     from pftrack_network.linkers import (
         DEFAULT_PATH_COST,
+        ENSEMBLE_PATH_COST,
         GREEDY_PATH_COST,
         GreedyLinker,
         MinCostFlowLinker,
@@ -184,6 +190,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     say = (lambda s: None) if args.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     pc = DEFAULT_PATH_COST if args.path_cost is None else args.path_cost
     gpc = GREEDY_PATH_COST if args.greedy_path_cost is None else args.greedy_path_cost
+    epc = (ENSEMBLE_PATH_COST if getattr(args, "ensemble_path_cost", None) is None
+           else args.ensemble_path_cost)
     other = "moments" if args.transit_sum == "parameters" else "parameters"
     seconds: dict[str, float] = {}
     tuned = f"trajectory-ensemble (C_d={args.tuned_dropped}, tuned)"
@@ -212,7 +220,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         t0 = time.perf_counter()
         for d in range(args.datasets):
             res = ensemble_runs(args.seed + d, cd, args.subnetworks, args.runs,
-                                path_cost=pc, transit_sum=how, data=args.data)
+                                path_cost=epc, transit_sum=how, data=args.data)
             per[label].append(float(np.mean(res["ari"])))
             if label == "trajectory-ensemble":
                 te_secs += res["seconds"]
@@ -223,7 +231,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     table1 = [{"method": m, "ari_mean": float(np.mean(v)), "ari_var": float(np.var(v)),
                "per_dataset": [float(x) for x in v]} for m, v in per.items()]
     t0 = time.perf_counter()
-    table3 = _table3(grid, args, pc, say)
+    table3 = _table3(grid, args, epc, say)
     seconds["table3"] = time.perf_counter() - t0
     seconds["trajectory_ensemble_one_run_median"] = float(np.median(te_secs))
     seconds["trajectory_ensemble_one_run_max"] = float(np.max(te_secs))
@@ -235,6 +243,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                   "table3_workers": int(getattr(args, "workers", 1) or 1),
                   "table3_scheduler": getattr(args, "scheduler", None),
                   "dropped": args.dropped, "subnetworks": args.subnetworks, "path_cost": pc,
+                  "ensemble_path_cost": epc,
                   "greedy_path_cost": gpc, "tuned_dropped": args.tuned_dropped,
                   "transit_sum": args.transit_sum, "cameras": len(ds0.network.cameras),
                   "people": int(ds0.truth.max() + 1),

@@ -324,6 +324,8 @@ def camera_dropout(network: CameraNetwork, n_dropped: int, rng: np.random.Genera
         theta_jl``. ``"moments"``: the gamma with the mean and variance of the sum of the two
         transit times (``k theta`` and ``k theta^2`` add up), which is exact when the scales
         are equal; the paper's rule roughly doubles the mean of a two-hop route.
+        :class:`~pftrack_network.linkers.TrajectoryEnsemble` uses ``"moments"`` by default
+        (its docstring has the measurements).
     max_parallel : int or None
         At most this many edges per camera pair: a new combined edge beyond it is not added
         (the combined edges are added shortest mean transit first; edges already present are

@@ -7,6 +7,8 @@ import json
 import numpy as np
 import pytest
 from pftrack_network.linkers import (
+    DEFAULT_PATH_COST,
+    ENSEMBLE_PATH_COST,
     NA,
     GreedyLinker,
     MinCostFlowLinker,
@@ -285,3 +287,49 @@ def test_linkers_only_link_forward_in_time(linker):
     # equal start times: never linked
     labels = linker.link_matrix(sim, np.array([0.0, 0.0]), np.ones(2, bool))
     assert labels.tolist() == [0, 1]
+
+
+def _one_person_over_b():
+    """a - b - c, 60 s mean transit per hop (k 10, theta 6); one person: a 0-10 s, b 70-80 s,
+    c 140-150 s (130 s from leaving a to entering c, over b)."""
+    net = CameraNetwork()
+    for i, c in enumerate("abc"):
+        net.add_camera(c, 100.0 * i, 0.0)
+    net.add_edge("a", "b", 10.0, 6.0)
+    net.add_edge("b", "c", 10.0, 6.0)
+    red = _patch((0, 0, 200))
+    tr = [Tracklet("a", 0, 10, [red], person=0), Tracklet("b", 70, 80, [red], person=0),
+          Tracklet("c", 140, 150, [red], person=0)]
+    return net, tr
+
+
+def test_ensemble_sub_networks_link_across_a_dropped_camera_by_moments_not_by_parameters():
+    net, tr = _one_person_over_b()
+    seed = next(s for s in range(100)
+                if camera_dropout(net, 1, np.random.default_rng(s))[1] == ["b"])
+    by = {how: camera_dropout(net, 1, np.random.default_rng(seed), transit_sum=how)[0]
+          for how in ("moments", "parameters")}
+    assert by["moments"].edge_params("a", "c") == [(pytest.approx(20.0), pytest.approx(6.0))]
+    assert by["parameters"].edge_params("a", "c") == [(20.0, 12.0)]  # mean 240 s, not 120
+    from scipy.stats import gamma
+
+    t_m = transit_matrix(tr, by["moments"])[0, 2]
+    t_p = transit_matrix(tr, by["parameters"])[0, 2]
+    assert t_m == pytest.approx(gamma.pdf(130, 20, scale=6))
+    assert t_p == pytest.approx(gamma.pdf(130, 20, scale=12))
+    assert -np.log(t_m) < ENSEMBLE_PATH_COST < -np.log(t_p)  # ~4.3 against ~7.4
+    # the sub-network's weak tracker (the ensemble's default) links a to c only by moments
+    for how, linked in (("moments", True), ("parameters", False)):
+        te = TrajectoryEnsemble(n_dropped=1, n_subnetworks=1, transit_sum=how)
+        te.link(tr, net, rng=np.random.default_rng(seed))
+        assert te.dropped_ == [["b"]]
+        runs = te.run_labels_[:, 0]
+        assert runs[1] == NA and bool(runs[0] == runs[2]) == linked
+
+
+def test_trajectory_ensemble_defaults_are_the_tuned_ones():
+    te = TrajectoryEnsemble()
+    assert (te.n_dropped, te.n_subnetworks, te.transit_sum, te.linkage) == (
+        9, 100, "moments", "average")
+    # the sub-networks' break cost is below the full network's (links more sparingly)
+    assert ENSEMBLE_PATH_COST < DEFAULT_PATH_COST
