@@ -134,8 +134,9 @@ def test_people_colour_tracks_die_when_lost():
 def test_pftrack_run_people_colour_on_a_pets_slice(tmp_path):
     """``pftrack run people-colour`` with the registered hog-people detector on PETS 2009 S2.L1
     frames 1-120 (tuning frames): tracks.txt, metrics.json and report images, MOTA and IDF1 above
-    measured floors (measured at seed 0: MOTA 0.745, IDF1 0.753; people-image with its birth size kept,
-    on the same frames and detector: 0.569, 0.709). About 15 s of CPU time (the detector's pass is most of it)."""
+    measured floors (measured at seed 0: MOTA 0.745, IDF1 0.753; people-image with its birth
+    size kept, on the same frames and detector: 0.569, 0.709). About 15 s of CPU time (the
+    detector's pass is most of it)."""
     from pftrack.cli import main
 
     out = tmp_path / "run"
