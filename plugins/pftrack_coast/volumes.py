@@ -333,6 +333,11 @@ class VolumeTracks(TrackManager):
         0.5, "With object_size_m: an entry whose particles span less than this fraction of the "
         "typical width or height (on the support plane) is a fringe or noise: no new track.",
         unit="1")
+    gather_frames: int = Param(
+        0, "With object_size_m: a detection group whose entry candidate is too small "
+        "(min_size_fraction) keeps gathering on it, without being spread again, for up to this "
+        "many frames (its few hits are resampled and spread over the intruder, which then "
+        "looks its size); 0: it is spread again at once.", unit="frames")
     spawn_overlap: float = Param(0.5, "An entry whose particles' image box lies more than this "
                                       "fraction inside a tracked intruder's box is that "
                                       "intruder's fringe: no new track.", unit="1")
@@ -414,6 +419,9 @@ class VolumeTracks(TrackManager):
             if int(getattr(self, k)) < 1:
                 raise ValueError(f"tracks 'volumes': {k} must be >= 1, got "
                                  f"{getattr(self, k)!r}")
+        if int(self.gather_frames) < 0:
+            raise ValueError(f"tracks 'volumes': gather_frames must be >= 0, got "
+                             f"{self.gather_frames!r}")
         if not float(self.footprint_aspect) > 0:
             raise ValueError(f"tracks 'volumes': footprint_aspect must be > 0, got "
                              f"{self.footprint_aspect!r}")
@@ -433,6 +441,7 @@ class VolumeTracks(TrackManager):
         self.gates_: dict[int, np.ndarray] = {}
         self.targets_: dict[int, Target] = {}
         self.pending_: dict[int, list[TrackRecord]] = {}
+        self.gather_: dict[int, int] = {}
         self.estimates_: list[dict[str, Any]] = []
         self.events_: list[dict[str, Any]] = []
 
@@ -456,6 +465,7 @@ class VolumeTracks(TrackManager):
         p[:, list(engine.motion.position_dims)] = volume.sample(n, engine.rng)
         engine.set_particles(tid, p)
         self.idle_[tid] = 0
+        self.gather_[tid] = 0
 
     def _pixels(self, tid: int, points: np.ndarray) -> np.ndarray:
         """Image positions (N, 2) of a target's particles: the engine's particle boxes when they
@@ -646,7 +656,7 @@ class VolumeTracks(TrackManager):
     def end_target(self, target: Target) -> None:
         tid = target.id
         for d in (self.groups_, self.tracks_, self.idle_, self.low_, self.boxes_, self.paths_,
-                  self.pending_, self.gates_, self.targets_):
+                  self.pending_, self.gates_, self.targets_, self.gather_):
             d.pop(tid, None)
 
     def after_frame(self, engine: Any, frame: Frame, detections: Detections | None,
@@ -715,7 +725,13 @@ class VolumeTracks(TrackManager):
                 continue
             if above(g) >= int(self.entry_particles):
                 parts = self._blob(engine, g.particles, frame)
-                if self._explained(parts, engine):
+                why = self._refusal(parts, engine)
+                if why == "small" and self.gather_.get(gid, 0) < int(self.gather_frames):
+                    # too small for an intruder yet: the group keeps gathering on it (the
+                    # few particles that hit it are resampled and spread over it)
+                    self.gather_[gid] = self.gather_.get(gid, 0) + 1
+                    continue
+                if why is not None:
                     self._spread(engine, gid, vol)  # a tracked intruder's fringe, not a new one
                     continue
                 pos_dims = list(engine.motion.position_dims)
@@ -779,32 +795,39 @@ class VolumeTracks(TrackManager):
         return shown
 
     def _explained(self, particles: np.ndarray, engine: Any) -> bool:
-        """Whether ``particles`` are not a new intruder: too small for one (``object_size_m``,
-        ``min_size_fraction``), on a tracked one's footprint (``merge_distance_m``) or mostly
-        (``spawn_overlap``) inside a tracked intruder's image box."""
+        """Whether ``particles`` are not a new intruder (:meth:`_refusal` gives a reason)."""
+        return self._refusal(particles, engine) is not None
+
+    def _refusal(self, particles: np.ndarray, engine: Any) -> str | None:
+        """Why ``particles`` are not a new intruder: ``"small"`` (smaller than
+        ``min_size_fraction`` of ``object_size_m``), ``"tracked"`` (on a tracked one's footprint,
+        ``merge_distance_m``, or mostly -- ``spawn_overlap`` -- inside a tracked intruder's image
+        box), ``"none"`` (no footprint: nothing projects, or the cloud's foot row misses the
+        support plane); None: a new intruder."""
         px = self.camera_.project(particles[:, list(engine.motion.position_dims)])
         px = px[np.isfinite(px).all(axis=1)]
         if not len(px):
-            return True
+            return "none"
         if self.object_size_m is not None or self.merge_distance_m is not None:
             est = support_plane_estimate(self.camera_, px, support_z_m=float(self.support_z_m))
             if est is None:
-                return True
-            if self.object_size_m is not None:
-                size = np.asarray(self.object_size_m, dtype=np.float64)
-                f = float(self.min_size_fraction)
-                if est["size_m"][0] < f * size[0] or est["size_m"][1] < f * size[1]:
-                    return True
+                return "none"
             if self.merge_distance_m is not None and self.paths_:
                 xy = np.array([p[-1] for p in self.paths_.values() if p])
                 if len(xy) and np.hypot(*(xy - est["footprint_m"][:2]).T).min() \
                         < float(self.merge_distance_m):
-                    return True
+                    return "tracked"
+            if self.object_size_m is not None:
+                size = np.asarray(self.object_size_m, dtype=np.float64)
+                f = float(self.min_size_fraction)
+                if est["size_m"][0] < f * size[0] or est["size_m"][1] < f * size[1]:
+                    return "small"
         if not self.boxes_:
-            return False
+            return None
         box = cloud_box(px) if len(px) >= 2 else np.concatenate([px[0], np.zeros(2)])
         lo, hi = box[:2], box[:2] + box[2:]
         area = max(float(np.prod(hi - lo)), 1e-9)
         b = np.array(list(self.boxes_.values()))
         ov = np.clip(np.minimum(hi, b[:, :2] + b[:, 2:]) - np.maximum(lo, b[:, :2]), 0, None)
-        return bool((ov.prod(axis=1) / area > float(self.spawn_overlap)).any())
+        return "tracked" if bool((ov.prod(axis=1) / area > float(self.spawn_overlap)).any()) \
+            else None
