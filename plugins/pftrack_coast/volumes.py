@@ -302,6 +302,12 @@ class VolumeTracks(TrackManager):
     merge_frames: int = Param(5, "Frames in a row of overlap before two tracks merge (two "
                                  "intruders crossing overlap for a while and stay two).",
                               unit="frames")
+    merge_speed_m: float | None = Param(
+        None, "Two tracks whose footprint velocities (over merge_speed_frames) differ by more "
+        "than this (metres per frame) do not merge however close: two intruders crossing, not "
+        "one tracked twice (which moves as one). None: no velocity test.", unit="m/frame")
+    merge_speed_frames: int = Param(4, "Frames over which merge_speed_m's velocities are "
+                                       "measured.", unit="frames")
     confirm_frames: int = Param(3, "A new track is output once it has lived this many frames "
                                    "(its records from the entry on, so confirmation costs no "
                                    "frames); one that ends sooner was noise and is never "
@@ -415,10 +421,13 @@ class VolumeTracks(TrackManager):
         if not 0.0 < float(self.v_pi) < 1.0:
             raise ValueError(f"tracks 'volumes': v_pi must be in (0, 1), got {self.v_pi!r}")
         for k in ("exit_frames", "idle_frames", "heading_frames", "blob_block_px",
-                  "merge_frames", "confirm_frames"):
+                  "merge_frames", "confirm_frames", "merge_speed_frames"):
             if int(getattr(self, k)) < 1:
                 raise ValueError(f"tracks 'volumes': {k} must be >= 1, got "
                                  f"{getattr(self, k)!r}")
+        if self.merge_speed_m is not None and not float(self.merge_speed_m) > 0:
+            raise ValueError(f"tracks 'volumes': merge_speed_m must be > 0 (metres per frame) "
+                             f"or null, got {self.merge_speed_m!r}")
         if int(self.gather_frames) < 0:
             raise ValueError(f"tracks 'volumes': gather_frames must be >= 0, got "
                              f"{self.gather_frames!r}")
@@ -695,6 +704,10 @@ class VolumeTracks(TrackManager):
                                for r in out])
                 d = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
                 same |= d < float(self.merge_distance_m)
+            if self.merge_speed_m is not None:  # crossing intruders move apart: not one
+                v = np.array([self._velocity(r.id) for r in out])
+                dv = np.hypot(v[:, None, 0] - v[None, :, 0], v[:, None, 1] - v[None, :, 1])
+                same &= ~(dv > float(self.merge_speed_m))  # (NaN: not known yet, may merge)
             drop: set[int] = set()
             order = sorted(range(len(out)), key=lambda i: out[i].id)  # older first
             for a_i, i in enumerate(order):
@@ -763,6 +776,15 @@ class VolumeTracks(TrackManager):
             if tid not in self.tracks_:
                 del self.boxes_[tid]
         return self._confirmed([r for r in out if self._shown(r)])
+
+    def _velocity(self, tid: int) -> np.ndarray:
+        """A track's footprint velocity (2,), metres per frame, over its last
+        ``merge_speed_frames`` footprints (NaN before it has that many)."""
+        path = self.paths_.get(tid)
+        k = int(self.merge_speed_frames)
+        if not path or len(path) <= k:
+            return np.full(2, np.nan)
+        return (path[-1] - path[-1 - k]) / k
 
     def _shown(self, record: TrackRecord) -> bool:
         """With ``footprint_inside``: whether the record's footprint lies inside its volume's

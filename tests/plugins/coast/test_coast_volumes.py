@@ -51,7 +51,7 @@ def _boxes(cam: Camera, centres: np.ndarray) -> np.ndarray:
     return obs.to_boxes(np.column_stack([centres, np.zeros((len(centres), 3))]))
 
 
-def _run(seed: int = 0, n_frames: int = 80, **params):
+def _run(seed: int = 0, n_frames: int = 80, walk=None, **params):
     cam = _camera()
     vol = CuboidVolume([0.0, 0.0, 1.25], [30.0, 30.0, 2.5], None, "yard")
     kw = dict(volumes=[vol.to_dict()], entry_particles=5, exit_particles=100,
@@ -66,7 +66,7 @@ def _run(seed: int = 0, n_frames: int = 80, **params):
                                 InsideBoxesLikelihood(), obs, tracks=tracks, n_particles=2000,
                                 kill_out_of_view=False, rng=np.random.default_rng(seed))
     image = np.zeros((480, 640, 3), np.uint8)
-    truth = _walk(n_frames)
+    truth = (walk or _walk)(n_frames)
     records, gt = [], []
     for f, centres in truth.items():
         boxes = _boxes(cam, centres)
@@ -168,6 +168,12 @@ def test_volume_tracks_bad_parameters_are_named():
         VolumeTracks(volumes="nowhere").setup(ctx)
     with pytest.raises(ValueError, match="entry_particles"):
         VolumeTracks(volumes="near", entry_particles=0).setup(ctx)
+    with pytest.raises(ValueError, match="gather_frames must be >= 0"):
+        VolumeTracks(volumes="near", gather_frames=-1).setup(ctx)
+    with pytest.raises(ValueError, match="merge_speed_frames must be >= 1"):
+        VolumeTracks(volumes="near", merge_speed_frames=0).setup(ctx)
+    with pytest.raises(ValueError, match="merge_speed_m must be > 0"):
+        VolumeTracks(volumes="near", merge_speed_m=-0.1).setup(ctx)
 
 
 def test_engine_target_region_masks_likelihood_and_set_particles_checks_shape():
@@ -267,3 +273,65 @@ def test_coast_boat_is_found_and_its_depth_corrected(tmp_path):
     assert np.median(raw[:, 2]) > 10.0  # eq. 10: the spread along the rays
     assert abs(np.median(sizes[:, 2]) - 2.3) < 2.0  # corrected depth
     assert abs(np.median(sizes[:, 0]) - 7.5) < 3.0  # width across the view
+
+
+def test_gather_frames_keeps_a_too_small_candidate_gathering_before_spreading_again():
+    """A candidate entry too small for an intruder (here every one: min_size_fraction 10) is
+    refused; with gather_frames = 3 the group keeps its particles for 3 such frames and is
+    spread again on the 4th, with 0 at once (the paper)."""
+    counts = {}
+    for g in (0, 3):
+        spreads: list[int] = []
+        orig = VolumeTracks._spread
+
+        def spy(self, engine, tid, volume, _orig=orig, _log=spreads):
+            _log.append(tid)
+            return _orig(self, engine, tid, volume)
+
+        VolumeTracks._spread = spy
+        try:
+            engine, tracks, rows, *_ = _run(n_frames=30, min_size_fraction=10.0,
+                                             gather_frames=g, idle_frames=1000)
+        finally:
+            VolumeTracks._spread = orig
+        assert len(rows) == 0  # nothing is large enough to be an intruder
+        counts[g] = len(spreads)
+    # the first spread is the start; then one per refused frame, against one per 4
+    assert counts[0] > 10 and counts[0] - 1 >= 3 * (counts[3] - 1), counts
+
+
+def test_refusal_reasons_and_tracked_before_small():
+    engine, tracks, rows, gt, vol, truth = _run(n_frames=30)
+    cam = _camera()
+    tid = next(iter(tracks.tracks_))
+    t = next(t for t in engine.targets if t.id == tid)
+    assert tracks._refusal(t.particles, engine) == "tracked"  # its own particles: on a track
+    far = np.zeros((50, 6))
+    far[:, :3] = [0.0, 14.0, 0.5] + np.random.default_rng(1).uniform(-0.02, 0.02, (50, 3))
+    assert tracks._refusal(far, engine) == "small"  # a 4 cm speck, far from every track
+    behind = np.zeros((50, 6))
+    behind[:, :3] = cam.center_m - 5 * cam.optical_axis
+    assert tracks._refusal(behind, engine) == "none"
+
+
+def _cross(n_frames: int) -> dict[int, np.ndarray]:
+    """Two people crossing on the same line, 0.3 m apart across it: A along +x, B along -x,
+    at 0.3 m/frame each (they meet at frame 34)."""
+    return {f: np.array([[-10.0 + 0.3 * (f - 1), 0.0, 0.875],
+                         [10.0 - 0.3 * (f - 1), 0.3, 0.875]]) for f in range(1, n_frames + 1)}
+
+
+@pytest.mark.parametrize("speed", [None, 0.1])
+def test_merge_speed_keeps_two_people_crossing_apart(speed):
+    """Two tracks close on the ground for merge_frames frames merge (one intruder tracked
+    twice), unless their footprints move apart faster than merge_speed_m: two crossing."""
+    engine, tracks, rows, gt, vol, truth = _run(n_frames=60, walk=_cross, merge_distance_m=1.0,
+                                                merge_frames=2, merge_speed_m=speed)
+    merged = [e for e in tracks.events_ if e["event"] == "merged"]
+    m = evaluate(gt, rows, metric="world", threshold=1.0)
+    if speed is None:
+        assert merged, tracks.events_  # they meet: one of them is dropped
+    else:
+        assert not merged, merged
+        assert len(np.unique(rows[:, 1])) == 2 and m["IDSW"] == 0, m
+        assert m["IDF1"] > 0.85, m
