@@ -273,7 +273,8 @@ class VolumeTracks(TrackManager):
         ``size_raw_m`` (eq. 8-10; size across, height, along the view), ``footprint_m``,
         ``size_m`` (the support-plane correction), ``n_above`` (particles above ``v_pi``).
     events_ : list of dict
-        ``{"frame", "id", "volume", "event": "entry"|"exit"|"merged"}``.
+        ``{"frame", "id", "volume", "event": "entry"|"exit"|"merged"|"reidentified"}`` (engine
+        target ids; "reidentified" adds ``"as"``, the output id the track takes up).
     """
 
     volumes: Sequence[str | dict] | str = Param(
@@ -308,6 +309,12 @@ class VolumeTracks(TrackManager):
         "one tracked twice (which moves as one). None: no velocity test.", unit="m/frame")
     merge_speed_frames: int = Param(4, "Frames over which merge_speed_m's velocities are "
                                        "measured.", unit="frames")
+    reid_frames: int = Param(
+        0, "A new track whose first output footprint lies within reid_m of where an output "
+        "track ended (exit or merge) at most this many frames before takes up that track's id "
+        "(a person lost in an occlusion and found again); 0: every track a new id (the "
+        "paper).", unit="frames")
+    reid_m: float = Param(1.5, "Distance on the support plane for reid_frames.", unit="m")
     confirm_frames: int = Param(3, "A new track is output once it has lived this many frames "
                                    "(its records from the entry on, so confirmation costs no "
                                    "frames); one that ends sooner was noise and is never "
@@ -428,6 +435,9 @@ class VolumeTracks(TrackManager):
         if self.merge_speed_m is not None and not float(self.merge_speed_m) > 0:
             raise ValueError(f"tracks 'volumes': merge_speed_m must be > 0 (metres per frame) "
                              f"or null, got {self.merge_speed_m!r}")
+        if int(self.reid_frames) < 0 or not float(self.reid_m) > 0:
+            raise ValueError(f"tracks 'volumes': need reid_frames >= 0 and reid_m > 0, got "
+                             f"{self.reid_frames!r}, {self.reid_m!r}")
         if int(self.gather_frames) < 0:
             raise ValueError(f"tracks 'volumes': gather_frames must be >= 0, got "
                              f"{self.gather_frames!r}")
@@ -451,6 +461,9 @@ class VolumeTracks(TrackManager):
         self.targets_: dict[int, Target] = {}
         self.pending_: dict[int, list[TrackRecord]] = {}
         self.gather_: dict[int, int] = {}
+        self.alias_: dict[int, int] = {}
+        self.shown_: set[int] = set()
+        self.ended_: list[tuple[int, int, np.ndarray]] = []
         self.estimates_: list[dict[str, Any]] = []
         self.events_: list[dict[str, Any]] = []
 
@@ -607,7 +620,8 @@ class VolumeTracks(TrackManager):
         up = np.array([0.0, 0.0, 1.0])
         size_raw = np.array([2.0 * math.sqrt(max(float(a @ cov @ a), 0.0))
                              for a in (across, up, along)])
-        entry = {"frame": frame.index, "id": t.id, "volume": self.tracks_[t.id],
+        entry = {"frame": frame.index, "id": self.alias_.get(t.id, t.id),
+                 "volume": self.tracks_[t.id],
                  "centre_raw_m": raw_centre, "size_raw_m": size_raw, "n_above": int(n_above)}
         if est is None:  # no footprint: the particles' mean, put on the support plane
             record.world_m = np.array([raw_centre[0], raw_centre[1], float(self.support_z_m)])
@@ -659,11 +673,19 @@ class VolumeTracks(TrackManager):
         """Start the detection groups on the first frame."""
         self._check()
         self._camera(engine)
+        self.frame_ = frame.index
         if not self.groups_:
             self._start_groups(engine, frame)
 
     def end_target(self, target: Target) -> None:
         tid = target.id
+        path = self.paths_.get(tid)
+        if tid in self.tracks_ and tid not in self.pending_ and tid in self.shown_ and path:
+            # an output track ends: its id may be taken up again (reid_frames, reid_m)
+            self.ended_.append((int(self.__dict__.get("frame_", 0)),
+                                self.alias_.get(tid, tid), np.array(path[-1], dtype=float)))
+        self.alias_.pop(tid, None)
+        self.shown_.discard(tid)
         for d in (self.groups_, self.tracks_, self.idle_, self.low_, self.boxes_, self.paths_,
                   self.pending_, self.gates_, self.targets_, self.gather_):
             d.pop(tid, None)
@@ -775,7 +797,48 @@ class VolumeTracks(TrackManager):
         for tid in list(self.boxes_):
             if tid not in self.tracks_:
                 del self.boxes_[tid]
-        return self._confirmed([r for r in out if self._shown(r)])
+        return self._reidentified(self._confirmed([r for r in out if self._shown(r)]))
+
+    def _reidentified(self, out: list[TrackRecord]) -> list[TrackRecord]:
+        """The records with their output ids: a track output for the first time whose
+        footprint lies within ``reid_m`` of where an output track ended at most
+        ``reid_frames`` frames ago takes up that track's id (the nearest; each id once)."""
+        n, r_m = int(self.reid_frames), float(self.reid_m)
+        if n > 0 and self.ended_:
+            now = int(self.__dict__.get("frame_", 0))
+            self.ended_ = [e for e in self.ended_ if now - e[0] <= n]
+        new = sorted({r.id for r in out if r.id not in self.shown_})
+        for tid in new:
+            self.shown_.add(tid)
+            if n <= 0 or not self.ended_:
+                continue
+            first = next(r for r in out if r.id == tid)
+            if first.world_m is None:
+                continue
+            # (a track confirmed late outputs from its entry on: only ids ended by then)
+            xy = np.array([e[2] for e in self.ended_])
+            d = np.hypot(xy[:, 0] - first.world_m[0], xy[:, 1] - first.world_m[1])
+            d[np.array([e[0] > first.frame for e in self.ended_])] = np.inf
+            k = int(np.argmin(d))
+            if d[k] <= r_m:
+                self.alias_[tid] = self.ended_.pop(k)[1]
+                self.events_.append({"frame": first.frame, "id": tid, "volume":
+                                     self.tracks_.get(tid), "event": "reidentified",
+                                     "as": self.alias_[tid]})
+                self._rename_estimates(tid, self.alias_[tid], first.frame)
+        for r in out:
+            if r.id in self.alias_:
+                r.id = self.alias_[r.id]
+        return out
+
+    def _rename_estimates(self, tid: int, new_id: int, since: int) -> None:
+        """The estimates of track ``tid`` from frame ``since`` on, under ``new_id`` (the
+        estimates of a track waiting for confirmation were kept under its own id)."""
+        for e in reversed(self.estimates_):
+            if e["frame"] < since:
+                break
+            if e["id"] == tid:
+                e["id"] = new_id
 
     def _velocity(self, tid: int) -> np.ndarray:
         """A track's footprint velocity (2,), metres per frame, over its last
