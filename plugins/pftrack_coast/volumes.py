@@ -498,6 +498,16 @@ class VolumeTracks(TrackManager):
             return b[:, :2]
         return self.camera_.project(points)
 
+    def _current_pixels(self, t: Target, points: np.ndarray) -> np.ndarray:
+        """Image positions (N, 2) of a target's current (resampled) particles: the weighted
+        particles' pixels taken through the engine's ``resample_index`` when this frame
+        projected them as points (the same pixels without projecting again), else projected."""
+        b, ri = t.particle_boxes_xywh_px, t.resample_index
+        if b is not None and ri is not None and len(ri) == len(points) and \
+                not b[:, 2:].any():
+            return b[ri, :2]
+        return self.camera_.project(points)
+
     def _group_region(self, volume: Any, tid: int) -> Any:
         return _Region(self, volume, tid, "exclude")
 
@@ -545,19 +555,21 @@ class VolumeTracks(TrackManager):
             t.valid_region = self._group_region(vol, t.id)
             self._spread(engine, t.id, vol)
 
-    def _blob(self, engine: Any, particles: np.ndarray, frame: Frame) -> np.ndarray:
+    def _blob(self, engine: Any, particles: np.ndarray, frame: Frame,
+              px: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The particles of the largest 8-connected patch (in cells of ``blob_block_px``) of
-        the image they cover, resampled to the engine's count."""
+        the image they cover, resampled to the engine's count, and their pixels (``px``: the
+        particles' pixels when known, else projected)."""
         import cv2
 
-        pos = particles[:, list(engine.motion.position_dims)]
-        px = self.camera_.project(pos)
+        if px is None:
+            px = self.camera_.project(particles[:, list(engine.motion.position_dims)])
         w, h = frame.size_wh
         bs = int(self.blob_block_px)
         gw, gh = -(-w // bs), -(-h // bs)
         ok, cells = _blocks_of_pixels(px, bs, (gh, gw))
         if not ok.any():
-            return particles
+            return particles, px
         cell = np.full(len(px), -1, dtype=np.intp)
         cell[ok] = cells
         counts = np.bincount(cell[ok], minlength=gw * gh).reshape(gh, gw)
@@ -571,11 +583,12 @@ class VolumeTracks(TrackManager):
             best = int(np.argmax(per))
             chosen = ok.copy()
             chosen[ok] = lab[cell[ok]] == best
-        sel = particles[chosen]
+        sel, sel_px = particles[chosen], px[chosen]
         n = engine.n_particles
         if len(sel) == n:
-            return sel
-        return sel[engine.rng.integers(0, len(sel), size=n)]
+            return sel, sel_px
+        pick = engine.rng.integers(0, len(sel), size=n)
+        return sel[pick], sel_px[pick]
 
     def _heading(self, tid: int, across: np.ndarray, velocity: np.ndarray | None = None,
                  ) -> float | None:
@@ -601,7 +614,7 @@ class VolumeTracks(TrackManager):
         cam = self.camera_
         pos_dims = list(engine.motion.position_dims)
         pos = t.particles[:, pos_dims]
-        px = cam.project(pos)
+        px = self._current_pixels(t, pos)
         fine = np.isfinite(px).all(axis=1)
         raw_centre = t.state[pos_dims].copy()
         across, along = _axes(cam, raw_centre[:2])
@@ -759,8 +772,10 @@ class VolumeTracks(TrackManager):
                 self._spread(engine, gid, vol)
                 continue
             if above(g) >= int(self.entry_particles):
-                parts = self._blob(engine, g.particles, frame)
-                why = self._refusal(parts, engine)
+                pos_dims = list(engine.motion.position_dims)
+                parts, parts_px = self._blob(engine, g.particles, frame,
+                                             self._current_pixels(g, g.particles[:, pos_dims]))
+                why = self._refusal(parts, engine, parts_px)
                 if why == "small" and self.gather_.get(gid, 0) < int(self.gather_frames):
                     # too small for an intruder yet: the group keeps gathering on it (the
                     # few particles that hit it are resampled and spread over it)
@@ -883,13 +898,15 @@ class VolumeTracks(TrackManager):
         """Whether ``particles`` are not a new intruder (:meth:`_refusal` gives a reason)."""
         return self._refusal(particles, engine) is not None
 
-    def _refusal(self, particles: np.ndarray, engine: Any) -> str | None:
+    def _refusal(self, particles: np.ndarray, engine: Any,
+                 px: np.ndarray | None = None) -> str | None:
         """Why ``particles`` are not a new intruder: ``"small"`` (smaller than
         ``min_size_fraction`` of ``object_size_m``), ``"tracked"`` (on a tracked one's footprint,
         ``merge_distance_m``, or mostly -- ``spawn_overlap`` -- inside a tracked intruder's image
         box), ``"none"`` (no footprint: nothing projects, or the cloud's foot row misses the
-        support plane); None: a new intruder."""
-        px = self.camera_.project(particles[:, list(engine.motion.position_dims)])
+        support plane); None: a new intruder. ``px``: the particles' pixels when known."""
+        if px is None:
+            px = self.camera_.project(particles[:, list(engine.motion.position_dims)])
         px = px[np.isfinite(px).all(axis=1)]
         if not len(px):
             return "none"
