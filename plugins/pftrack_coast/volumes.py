@@ -17,6 +17,12 @@ engine (:class:`pftrack.tracker.MultiTargetTracker`):
 * **exit** when no more than ``exit_particles`` (N_out) of a track's particles have likelihood
   above ``v_pi`` for ``exit_frames`` frames in a row (1: the paper): the track ends.
 
+Identities beyond the paper (each off by default): a candidate entry too small for an intruder
+keeps its group gathering on it for ``gather_frames`` frames instead of being spread again at
+once (an intruder half-seen by the uniform spread looks small); two tracks moving apart faster
+than ``merge_speed_m`` do not merge (people crossing); a new track starting within ``reid_m`` of
+where an output track ended at most ``reid_frames`` frames before takes up its id.
+
 Estimates per frame (each output :class:`~pftrack.components.TrackRecord`):
 
 * the paper's (eq. 8-10): centre = weighted mean of the particles, size l = 2 sqrt(weighted
