@@ -17,6 +17,12 @@ engine (:class:`pftrack.tracker.MultiTargetTracker`):
 * **exit** when no more than ``exit_particles`` (N_out) of a track's particles have likelihood
   above ``v_pi`` for ``exit_frames`` frames in a row (1: the paper): the track ends.
 
+Identities beyond the paper (each off by default): a candidate entry too small for an intruder
+keeps its group gathering on it for ``gather_frames`` frames instead of being spread again at
+once (an intruder half-seen by the uniform spread looks small); two tracks moving apart faster
+than ``merge_speed_m`` do not merge (people crossing); a new track starting within ``reid_m`` of
+where an output track ended at most ``reid_frames`` frames before takes up its id.
+
 Estimates per frame (each output :class:`~pftrack.components.TrackRecord`):
 
 * the paper's (eq. 8-10): centre = weighted mean of the particles, size l = 2 sqrt(weighted
@@ -273,7 +279,8 @@ class VolumeTracks(TrackManager):
         ``size_raw_m`` (eq. 8-10; size across, height, along the view), ``footprint_m``,
         ``size_m`` (the support-plane correction), ``n_above`` (particles above ``v_pi``).
     events_ : list of dict
-        ``{"frame", "id", "volume", "event": "entry"|"exit"|"merged"}``.
+        ``{"frame", "id", "volume", "event": "entry"|"exit"|"merged"|"reidentified"}`` (engine
+        target ids; "reidentified" adds ``"as"``, the output id the track takes up).
     """
 
     volumes: Sequence[str | dict] | str = Param(
@@ -302,6 +309,18 @@ class VolumeTracks(TrackManager):
     merge_frames: int = Param(5, "Frames in a row of overlap before two tracks merge (two "
                                  "intruders crossing overlap for a while and stay two).",
                               unit="frames")
+    merge_speed_m: float | None = Param(
+        None, "Two tracks whose footprint velocities (over merge_speed_frames) differ by more "
+        "than this (metres per frame) do not merge however close: two intruders crossing, not "
+        "one tracked twice (which moves as one). None: no velocity test.", unit="m/frame")
+    merge_speed_frames: int = Param(4, "Frames over which merge_speed_m's velocities are "
+                                       "measured.", unit="frames")
+    reid_frames: int = Param(
+        0, "A new track whose first output footprint lies within reid_m of where an output "
+        "track ended (exit or merge) at most this many frames before takes up that track's id "
+        "(a person lost in an occlusion and found again); 0: every track a new id (the "
+        "paper).", unit="frames")
+    reid_m: float = Param(1.5, "Distance on the support plane for reid_frames.", unit="m")
     confirm_frames: int = Param(3, "A new track is output once it has lived this many frames "
                                    "(its records from the entry on, so confirmation costs no "
                                    "frames); one that ends sooner was noise and is never "
@@ -333,6 +352,11 @@ class VolumeTracks(TrackManager):
         0.5, "With object_size_m: an entry whose particles span less than this fraction of the "
         "typical width or height (on the support plane) is a fringe or noise: no new track.",
         unit="1")
+    gather_frames: int = Param(
+        0, "With object_size_m: a detection group whose entry candidate is too small "
+        "(min_size_fraction) keeps gathering on it, without being spread again, for up to this "
+        "many frames (its few hits are resampled and spread over the intruder, which then "
+        "looks its size); 0: it is spread again at once.", unit="frames")
     spawn_overlap: float = Param(0.5, "An entry whose particles' image box lies more than this "
                                       "fraction inside a tracked intruder's box is that "
                                       "intruder's fringe: no new track.", unit="1")
@@ -410,10 +434,19 @@ class VolumeTracks(TrackManager):
         if not 0.0 < float(self.v_pi) < 1.0:
             raise ValueError(f"tracks 'volumes': v_pi must be in (0, 1), got {self.v_pi!r}")
         for k in ("exit_frames", "idle_frames", "heading_frames", "blob_block_px",
-                  "merge_frames", "confirm_frames"):
+                  "merge_frames", "confirm_frames", "merge_speed_frames"):
             if int(getattr(self, k)) < 1:
                 raise ValueError(f"tracks 'volumes': {k} must be >= 1, got "
                                  f"{getattr(self, k)!r}")
+        if self.merge_speed_m is not None and not float(self.merge_speed_m) > 0:
+            raise ValueError(f"tracks 'volumes': merge_speed_m must be > 0 (metres per frame) "
+                             f"or null, got {self.merge_speed_m!r}")
+        if int(self.reid_frames) < 0 or not float(self.reid_m) > 0:
+            raise ValueError(f"tracks 'volumes': need reid_frames >= 0 and reid_m > 0, got "
+                             f"{self.reid_frames!r}, {self.reid_m!r}")
+        if int(self.gather_frames) < 0:
+            raise ValueError(f"tracks 'volumes': gather_frames must be >= 0, got "
+                             f"{self.gather_frames!r}")
         if not float(self.footprint_aspect) > 0:
             raise ValueError(f"tracks 'volumes': footprint_aspect must be > 0, got "
                              f"{self.footprint_aspect!r}")
@@ -433,6 +466,10 @@ class VolumeTracks(TrackManager):
         self.gates_: dict[int, np.ndarray] = {}
         self.targets_: dict[int, Target] = {}
         self.pending_: dict[int, list[TrackRecord]] = {}
+        self.gather_: dict[int, int] = {}
+        self.alias_: dict[int, int] = {}
+        self.shown_: set[int] = set()
+        self.ended_: list[tuple[int, int, np.ndarray]] = []
         self.estimates_: list[dict[str, Any]] = []
         self.events_: list[dict[str, Any]] = []
 
@@ -456,6 +493,7 @@ class VolumeTracks(TrackManager):
         p[:, list(engine.motion.position_dims)] = volume.sample(n, engine.rng)
         engine.set_particles(tid, p)
         self.idle_[tid] = 0
+        self.gather_[tid] = 0
 
     def _pixels(self, tid: int, points: np.ndarray) -> np.ndarray:
         """Image positions (N, 2) of a target's particles: the engine's particle boxes when they
@@ -464,6 +502,16 @@ class VolumeTracks(TrackManager):
         b = None if t is None else t.particle_boxes_xywh_px
         if b is not None and len(b) == len(points) and not b[:, 2:].any():
             return b[:, :2]
+        return self.camera_.project(points)
+
+    def _current_pixels(self, t: Target, points: np.ndarray) -> np.ndarray:
+        """Image positions (N, 2) of a target's current (resampled) particles: the weighted
+        particles' pixels taken through the engine's ``resample_index`` when this frame
+        projected them as points (the same pixels without projecting again), else projected."""
+        b, ri = t.particle_boxes_xywh_px, t.resample_index
+        if b is not None and ri is not None and len(ri) == len(points) and \
+                not b[:, 2:].any():
+            return b[ri, :2]
         return self.camera_.project(points)
 
     def _group_region(self, volume: Any, tid: int) -> Any:
@@ -513,19 +561,21 @@ class VolumeTracks(TrackManager):
             t.valid_region = self._group_region(vol, t.id)
             self._spread(engine, t.id, vol)
 
-    def _blob(self, engine: Any, particles: np.ndarray, frame: Frame) -> np.ndarray:
+    def _blob(self, engine: Any, particles: np.ndarray, frame: Frame,
+              px: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The particles of the largest 8-connected patch (in cells of ``blob_block_px``) of
-        the image they cover, resampled to the engine's count."""
+        the image they cover, resampled to the engine's count, and their pixels (``px``: the
+        particles' pixels when known, else projected)."""
         import cv2
 
-        pos = particles[:, list(engine.motion.position_dims)]
-        px = self.camera_.project(pos)
+        if px is None:
+            px = self.camera_.project(particles[:, list(engine.motion.position_dims)])
         w, h = frame.size_wh
         bs = int(self.blob_block_px)
         gw, gh = -(-w // bs), -(-h // bs)
         ok, cells = _blocks_of_pixels(px, bs, (gh, gw))
         if not ok.any():
-            return particles
+            return particles, px
         cell = np.full(len(px), -1, dtype=np.intp)
         cell[ok] = cells
         counts = np.bincount(cell[ok], minlength=gw * gh).reshape(gh, gw)
@@ -539,11 +589,12 @@ class VolumeTracks(TrackManager):
             best = int(np.argmax(per))
             chosen = ok.copy()
             chosen[ok] = lab[cell[ok]] == best
-        sel = particles[chosen]
+        sel, sel_px = particles[chosen], px[chosen]
         n = engine.n_particles
         if len(sel) == n:
-            return sel
-        return sel[engine.rng.integers(0, len(sel), size=n)]
+            return sel, sel_px
+        pick = engine.rng.integers(0, len(sel), size=n)
+        return sel[pick], sel_px[pick]
 
     def _heading(self, tid: int, across: np.ndarray, velocity: np.ndarray | None = None,
                  ) -> float | None:
@@ -569,7 +620,7 @@ class VolumeTracks(TrackManager):
         cam = self.camera_
         pos_dims = list(engine.motion.position_dims)
         pos = t.particles[:, pos_dims]
-        px = cam.project(pos)
+        px = self._current_pixels(t, pos)
         fine = np.isfinite(px).all(axis=1)
         raw_centre = t.state[pos_dims].copy()
         across, along = _axes(cam, raw_centre[:2])
@@ -588,7 +639,8 @@ class VolumeTracks(TrackManager):
         up = np.array([0.0, 0.0, 1.0])
         size_raw = np.array([2.0 * math.sqrt(max(float(a @ cov @ a), 0.0))
                              for a in (across, up, along)])
-        entry = {"frame": frame.index, "id": t.id, "volume": self.tracks_[t.id],
+        entry = {"frame": frame.index, "id": self.alias_.get(t.id, t.id),
+                 "volume": self.tracks_[t.id],
                  "centre_raw_m": raw_centre, "size_raw_m": size_raw, "n_above": int(n_above)}
         if est is None:  # no footprint: the particles' mean, put on the support plane
             record.world_m = np.array([raw_centre[0], raw_centre[1], float(self.support_z_m)])
@@ -640,13 +692,21 @@ class VolumeTracks(TrackManager):
         """Start the detection groups on the first frame."""
         self._check()
         self._camera(engine)
+        self.frame_ = frame.index
         if not self.groups_:
             self._start_groups(engine, frame)
 
     def end_target(self, target: Target) -> None:
         tid = target.id
+        path = self.paths_.get(tid)
+        if tid in self.tracks_ and tid not in self.pending_ and tid in self.shown_ and path:
+            # an output track ends: its id may be taken up again (reid_frames, reid_m)
+            self.ended_.append((int(self.__dict__.get("frame_", 0)),
+                                self.alias_.get(tid, tid), np.array(path[-1], dtype=float)))
+        self.alias_.pop(tid, None)
+        self.shown_.discard(tid)
         for d in (self.groups_, self.tracks_, self.idle_, self.low_, self.boxes_, self.paths_,
-                  self.pending_, self.gates_, self.targets_):
+                  self.pending_, self.gates_, self.targets_, self.gather_):
             d.pop(tid, None)
 
     def after_frame(self, engine: Any, frame: Frame, detections: Detections | None,
@@ -685,6 +745,10 @@ class VolumeTracks(TrackManager):
                                for r in out])
                 d = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
                 same |= d < float(self.merge_distance_m)
+            if self.merge_speed_m is not None:  # crossing intruders move apart: not one
+                v = np.array([self._velocity(r.id) for r in out])
+                dv = np.hypot(v[:, None, 0] - v[None, :, 0], v[:, None, 1] - v[None, :, 1])
+                same &= ~(dv > float(self.merge_speed_m))  # (NaN: not known yet, may merge)
             drop: set[int] = set()
             order = sorted(range(len(out)), key=lambda i: out[i].id)  # older first
             for a_i, i in enumerate(order):
@@ -714,8 +778,16 @@ class VolumeTracks(TrackManager):
                 self._spread(engine, gid, vol)
                 continue
             if above(g) >= int(self.entry_particles):
-                parts = self._blob(engine, g.particles, frame)
-                if self._explained(parts, engine):
+                pos_dims = list(engine.motion.position_dims)
+                parts, parts_px = self._blob(engine, g.particles, frame,
+                                             self._current_pixels(g, g.particles[:, pos_dims]))
+                why = self._refusal(parts, engine, parts_px)
+                if why == "small" and self.gather_.get(gid, 0) < int(self.gather_frames):
+                    # too small for an intruder yet: the group keeps gathering on it (the
+                    # few particles that hit it are resampled and spread over it)
+                    self.gather_[gid] = self.gather_.get(gid, 0) + 1
+                    continue
+                if why is not None:
                     self._spread(engine, gid, vol)  # a tracked intruder's fringe, not a new one
                     continue
                 pos_dims = list(engine.motion.position_dims)
@@ -746,7 +818,57 @@ class VolumeTracks(TrackManager):
         for tid in list(self.boxes_):
             if tid not in self.tracks_:
                 del self.boxes_[tid]
-        return self._confirmed([r for r in out if self._shown(r)])
+        return self._reidentified(self._confirmed([r for r in out if self._shown(r)]))
+
+    def _reidentified(self, out: list[TrackRecord]) -> list[TrackRecord]:
+        """The records with their output ids: a track output for the first time whose
+        footprint lies within ``reid_m`` of where an output track ended at most
+        ``reid_frames`` frames ago takes up that track's id (the nearest; each id once)."""
+        n, r_m = int(self.reid_frames), float(self.reid_m)
+        if n > 0 and self.ended_:
+            now = int(self.__dict__.get("frame_", 0))
+            self.ended_ = [e for e in self.ended_ if now - e[0] <= n]
+        new = sorted({r.id for r in out if r.id not in self.shown_})
+        for tid in new:
+            self.shown_.add(tid)
+            if n <= 0 or not self.ended_:
+                continue
+            first = next(r for r in out if r.id == tid)
+            if first.world_m is None:
+                continue
+            # (a track confirmed late outputs from its entry on: only ids ended by then)
+            xy = np.array([e[2] for e in self.ended_])
+            d = np.hypot(xy[:, 0] - first.world_m[0], xy[:, 1] - first.world_m[1])
+            d[np.array([e[0] > first.frame for e in self.ended_])] = np.inf
+            k = int(np.argmin(d))
+            if d[k] <= r_m:
+                self.alias_[tid] = self.ended_.pop(k)[1]
+                self.events_.append({"frame": first.frame, "id": tid, "volume":
+                                     self.tracks_.get(tid), "event": "reidentified",
+                                     "as": self.alias_[tid]})
+                self._rename_estimates(tid, self.alias_[tid], first.frame)
+        for r in out:
+            if r.id in self.alias_:
+                r.id = self.alias_[r.id]
+        return out
+
+    def _rename_estimates(self, tid: int, new_id: int, since: int) -> None:
+        """The estimates of track ``tid`` from frame ``since`` on, under ``new_id`` (the
+        estimates of a track waiting for confirmation were kept under its own id)."""
+        for e in reversed(self.estimates_):
+            if e["frame"] < since:
+                break
+            if e["id"] == tid:
+                e["id"] = new_id
+
+    def _velocity(self, tid: int) -> np.ndarray:
+        """A track's footprint velocity (2,), metres per frame, over its last
+        ``merge_speed_frames`` footprints (NaN before it has that many)."""
+        path = self.paths_.get(tid)
+        k = int(self.merge_speed_frames)
+        if not path or len(path) <= k:
+            return np.full(2, np.nan)
+        return (path[-1] - path[-1 - k]) / k
 
     def _shown(self, record: TrackRecord) -> bool:
         """With ``footprint_inside``: whether the record's footprint lies inside its volume's
@@ -779,32 +901,41 @@ class VolumeTracks(TrackManager):
         return shown
 
     def _explained(self, particles: np.ndarray, engine: Any) -> bool:
-        """Whether ``particles`` are not a new intruder: too small for one (``object_size_m``,
-        ``min_size_fraction``), on a tracked one's footprint (``merge_distance_m``) or mostly
-        (``spawn_overlap``) inside a tracked intruder's image box."""
-        px = self.camera_.project(particles[:, list(engine.motion.position_dims)])
+        """Whether ``particles`` are not a new intruder (:meth:`_refusal` gives a reason)."""
+        return self._refusal(particles, engine) is not None
+
+    def _refusal(self, particles: np.ndarray, engine: Any,
+                 px: np.ndarray | None = None) -> str | None:
+        """Why ``particles`` are not a new intruder: ``"small"`` (smaller than
+        ``min_size_fraction`` of ``object_size_m``), ``"tracked"`` (on a tracked one's footprint,
+        ``merge_distance_m``, or mostly -- ``spawn_overlap`` -- inside a tracked intruder's image
+        box), ``"none"`` (no footprint: nothing projects, or the cloud's foot row misses the
+        support plane); None: a new intruder. ``px``: the particles' pixels when known."""
+        if px is None:
+            px = self.camera_.project(particles[:, list(engine.motion.position_dims)])
         px = px[np.isfinite(px).all(axis=1)]
         if not len(px):
-            return True
+            return "none"
         if self.object_size_m is not None or self.merge_distance_m is not None:
             est = support_plane_estimate(self.camera_, px, support_z_m=float(self.support_z_m))
             if est is None:
-                return True
-            if self.object_size_m is not None:
-                size = np.asarray(self.object_size_m, dtype=np.float64)
-                f = float(self.min_size_fraction)
-                if est["size_m"][0] < f * size[0] or est["size_m"][1] < f * size[1]:
-                    return True
+                return "none"
             if self.merge_distance_m is not None and self.paths_:
                 xy = np.array([p[-1] for p in self.paths_.values() if p])
                 if len(xy) and np.hypot(*(xy - est["footprint_m"][:2]).T).min() \
                         < float(self.merge_distance_m):
-                    return True
+                    return "tracked"
+            if self.object_size_m is not None:
+                size = np.asarray(self.object_size_m, dtype=np.float64)
+                f = float(self.min_size_fraction)
+                if est["size_m"][0] < f * size[0] or est["size_m"][1] < f * size[1]:
+                    return "small"
         if not self.boxes_:
-            return False
+            return None
         box = cloud_box(px) if len(px) >= 2 else np.concatenate([px[0], np.zeros(2)])
         lo, hi = box[:2], box[:2] + box[2:]
         area = max(float(np.prod(hi - lo)), 1e-9)
         b = np.array(list(self.boxes_.values()))
         ov = np.clip(np.minimum(hi, b[:, :2] + b[:, 2:]) - np.maximum(lo, b[:, :2]), 0, None)
-        return bool((ov.prod(axis=1) / area > float(self.spawn_overlap)).any())
+        return "tracked" if bool((ov.prod(axis=1) / area > float(self.spawn_overlap)).any()) \
+            else None

@@ -242,3 +242,33 @@ def test_image_boxes_of_every_target_in_one_call_equal_one_target_at_a_time():
         assert np.array_equal(rows[i], obs.to_boxes(states[i], t))
     assert np.array_equal(rows, ObservationModel.to_boxes_rows(obs, states, targets))
     assert np.all(rows[1, :, 2:] == [12.0, 7.0]) and np.all(rows[0, :, 2:] == [30.0, 20.0])
+
+
+@pytest.mark.parametrize("vectorise, ess", [(True, 1.0), (False, 1.0), (False, 0.0)])
+def test_resample_index_says_which_weighted_particle_each_particle_copies(vectorise, ess):
+    """After a step, ``particle_boxes_xywh_px[resample_index]`` are the boxes of the current
+    particles (vectorised rows and one target at a time); None when the frame kept its
+    weights (ess 0: no resampling), after a recovery's re-spread and after set_particles."""
+    truth = {1: lambda k: np.array([20.0 + 2 * k, 50.0]),
+             2: lambda k: None if k == 3 else np.array([150.0 - k, 40.0])}
+    lik = _TruthLikelihood()
+    lik.truth_ = truth
+    obs = ImageBoxObservation(10, 10)
+    tr = MultiTargetTracker(SampleWalk(3.0), lik, obs, n_particles=200, ess_threshold=ess,
+                            rng=np.random.default_rng(2), kill_out_of_view=False)
+    tr._vectorise = vectorise
+    frames = list(_frames(6))
+    for tid, path in truth.items():
+        tr.add_target(frames[0], path(0), target_id=tid)
+    for f in frames[1:5]:
+        tr.step(f)
+        for t in tr.targets:
+            ri = t.resample_index
+            if ess == 0.0 or (t.id == 2 and f.index == 3):  # kept weights / re-spread
+                assert ri is None
+                continue
+            assert ri is not None and ri.shape == (200,) and len(np.unique(ri)) < 200
+            assert np.array_equal(t.particle_boxes_xywh_px[ri], obs.to_boxes(t.particles, t))
+    if ess == 1.0:
+        t = tr.set_particles(1, np.zeros((200, tr.motion.state_dim)))
+        assert t.resample_index is None

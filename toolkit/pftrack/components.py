@@ -185,6 +185,11 @@ class Target:
         likelihood zero, as with the engine's ``valid_region`` (seed 003: each particle group
         in its volume, a detection group kept off the intruders already tracked); unlike the
         engine's, leaving it does not end the target (its track manager decides).
+    resample_index : ndarray, shape (N,), or None
+        Which of the weighted particles (the rows of ``particle_boxes_xywh_px`` and
+        ``log_likelihoods``) each particle is a copy of after this frame's resampling; None
+        when the frame did not resample. ``particle_boxes_xywh_px[resample_index]`` are the
+        boxes of the current particles without projecting them again.
     """
 
     id: int
@@ -203,6 +208,7 @@ class Target:
     observation_px: np.ndarray | None = None
     log_likelihoods: np.ndarray | None = None
     valid_region: Callable[[np.ndarray], np.ndarray] | None = None
+    resample_index: np.ndarray | None = None
 
 
 @dataclass

@@ -350,6 +350,7 @@ class MultiTargetTracker:
                              f"({self.n_particles}, {self.motion.state_dim}), got {p.shape}")
         t = f.target
         f.particles = t.particles = p
+        t.resample_index = None  # (its particles are not copies of the weighted ones)
         f.weights, f.log_weights = self._uniform, self._uniform_log
         t.state = weighted_mean(p, self._uniform)
         t.extent = weighted_extent(p, self._uniform, t.state)
@@ -401,6 +402,7 @@ class MultiTargetTracker:
             t = f.target
             f.particles = t.particles = p
             t.particle_boxes_xywh_px = b
+            t.resample_index = None
             t.age += 1
             t.detection = None
         # 2. associate
@@ -449,7 +451,7 @@ class MultiTargetTracker:
         resampler = RESAMPLERS[self.resampling]
         always_resample = self.ess_threshold >= 1.0  # ESS <= N: no need to compute it
         ess_min = self.ess_threshold * n + 1e-9
-        weights = ok_rows = best_rows = states = extents = resampled = None
+        weights = ok_rows = best_rows = states = extents = resampled = resample_rows = None
         if self._vectorise and filters and all(len(f.particles) == n for f in filters):
             lw = np.array(logls)  # (T, N); np.array is cheaper than np.stack for a few rows
             best_rows = lw.max(axis=1).tolist()
@@ -464,6 +466,7 @@ class MultiTargetTracker:
                 extents = weighted_extent(p, weights, states)
                 if always_resample and self.resampling == "systematic":
                     idx = systematic_resample_rows(weights, rng)
+                    resample_rows = idx.copy()
                     idx += (np.arange(len(filters), dtype=np.intp) * n)[:, None]
                     resampled = p.reshape(-1, p.shape[2]).take(idx.ravel(), axis=0)
                     resampled = resampled.reshape(p.shape)
@@ -504,15 +507,19 @@ class MultiTargetTracker:
             t.frames_tracked = t.frames_tracked + 1 if supported else 0
             t.misses = 0 if supported else t.misses + 1
             f.anchor = state[pos_dims]  # fancy indexing: a copy
-            # resample
+            # resample (``t.resample_index``: which weighted particle each new one copies)
             if resampled is not None:
                 f.particles = resampled[i]
+                t.resample_index = resample_rows[i]  # type: ignore[index]
                 f.weights, f.log_weights = self._uniform, self._uniform_log
             elif always_resample or effective_sample_size(w) < ess_min:
                 # take() is several times faster than fancy indexing for small N, same values
-                f.particles = f.particles.take(resampler(w, rng, None), axis=0)
+                ri = resampler(w, rng, None)
+                f.particles = f.particles.take(ri, axis=0)
+                t.resample_index = None if not ok else ri  # (re-spread: not copies)
                 f.weights, f.log_weights = self._uniform, self._uniform_log
             else:
+                t.resample_index = None
                 f.weights, f.log_weights = w, np.log(w)
             t.particles = f.particles
             # 5. death

@@ -282,14 +282,19 @@ class TsaiDistortion(LensDistortion):
             return xy.copy()
         ru = np.hypot(xy[:, 0], xy[:, 1])
         rd = ru.copy()
+        tol = 1e-15 * (1 + ru)
         # Newton on f(r) = k r^3 + r - ru from r = ru: monotone convergence for k > 0; for k < 0
-        # it climbs to the smaller root, which exists only if ru <= 2 / (3 sqrt(-3k)).
+        # it climbs to the smaller root, which exists only if ru <= 2 / (3 sqrt(-3k)). Stops
+        # when every finite step is within tol (NaN / inf steps are ignored): one pass over the
+        # steps instead of masked copies (the same iterations, the same numbers)
         for _ in range(60):
             f = k * rd**3 + rd - ru
             step = f / (3 * k * rd * rd + 1)
             rd = rd - step
-            if np.all(np.abs(step[np.isfinite(step)]) <= 1e-15 * (1 + ru[np.isfinite(step)])):
-                break
+            a = np.abs(step)
+            with np.errstate(invalid="ignore"):
+                if not ((a > tol) & (a < np.inf)).any():
+                    break
         bad = ~np.isfinite(rd) | (np.abs(k * rd**3 + rd - ru) > 1e-9 * (1 + ru))
         if k < 0:
             bad |= 3 * k * rd * rd + 1 <= 0  # beyond the fold: not the physical root
