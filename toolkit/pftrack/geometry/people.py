@@ -1211,7 +1211,6 @@ def estimate_camera_from_video(video: Any, boxes: Any = None, first: int = 1,
                                person_height_m: float = 1.7,
                                rng: np.random.Generator | int | None = None, *,
                                lean: bool = True, silhouettes: bool = True,
-                               min_silhouettes: int = 30,
                                min_score: float = 0.0, host: Any = None,
                                **fit_kw: Any) -> tuple[PeopleCameraFit, np.ndarray, str]:
     """A camera from a video alone: people detected (or given), their lean measured, the fit.
@@ -1239,9 +1238,6 @@ def estimate_camera_from_video(video: Any, boxes: Any = None, first: int = 1,
         pass over the frames) and fit the camera from the silhouettes' top and bottom rows where
         they agree with the box (:func:`refine_boxes_by_silhouettes`), the lean from the
         silhouette too; False: the boxes as given, the lean from :func:`measure_slants`.
-    min_silhouettes : int
-        With at least this many boxes refined by their silhouettes, the others are left out of
-        the fit (their inlier flag is False).
     min_score : float
         Detections scoring below are dropped (detection only).
     host : pftrack.host.Host, optional
@@ -1284,9 +1280,6 @@ def estimate_camera_from_video(video: Any, boxes: Any = None, first: int = 1,
             sil = measure_silhouettes(video, rows[:, :4], rows[:, 4])
             fit_boxes, refined = refine_boxes_by_silhouettes(rows[:, :4], sil)
             slants = sil[:, 0] if use_lean else None
-            if refined.sum() >= min_silhouettes:
-                # the others' heights are the detector's coarse ones: left out of the fit
-                fit_boxes[~refined] = np.nan
             source += f"; {int(refined.sum())} of {len(rows)} boxes' rows from silhouettes"
         elif use_lean:
             slants = measure_slants(video, rows[:, :4], rows[:, 4])
