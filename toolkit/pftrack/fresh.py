@@ -209,7 +209,7 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
     try:
         if video is not None:  # what `pftrack calib people` does with these boxes
             fit, _, _ = estimate_camera_from_video(
-                video, np.column_stack([b, fr]), first=int(use[0]),
+                video, np.column_stack([b, fr]), first=int(use[0]), silhouettes=True,
                 person_height_m=person_height_m, rng=np.random.default_rng(seed))
         else:
             fit = estimate_camera_from_people(b, image_size=image_size,

@@ -1210,7 +1210,7 @@ def estimate_camera_from_video(video: Any, boxes: Any = None, first: int = 1,
                                last: int | None = None, stride: int = 4,
                                person_height_m: float = 1.7,
                                rng: np.random.Generator | int | None = None, *,
-                               lean: bool = True, silhouettes: bool = True,
+                               lean: bool = True, silhouettes: bool | None = None,
                                min_score: float = 0.0, host: Any = None,
                                **fit_kw: Any) -> tuple[PeopleCameraFit, np.ndarray, str]:
     """A camera from a video alone: people detected (or given), their lean measured, the fit.
@@ -1233,11 +1233,14 @@ def estimate_camera_from_video(video: Any, boxes: Any = None, first: int = 1,
     lean : bool
         Use the people's lean for the focal length; skipped when ``focal_px`` is given in
         ``fit_kw``.
-    silhouettes : bool
+    silhouettes : bool, optional
         Measure each person's silhouette in the moving pixels (:func:`measure_silhouettes`, one
         pass over the frames) and fit the camera from the silhouettes' top and bottom rows where
         they agree with the box (:func:`refine_boxes_by_silhouettes`), the lean from the
-        silhouette too; False: the boxes as given, the lean from :func:`measure_slants`.
+        silhouette too, and resample people (:func:`link_boxes`) in the bootstrap; False: the
+        boxes as given, the lean from :func:`measure_slants`. Default: True for boxes a
+        detector finds here (coarse heights), False for given boxes (a user's clicks or
+        ground truth hug the person already; pass True for another detector's boxes).
     min_score : float
         Detections scoring below are dropped (detection only).
     host : pftrack.host.Host, optional
@@ -1274,6 +1277,8 @@ def estimate_camera_from_video(video: Any, boxes: Any = None, first: int = 1,
                          "min_score, widen the frames or give boxes")
     slants = None
     fit_boxes = rows[:, :4]
+    if silhouettes is None:
+        silhouettes = boxes is None
     use_lean = lean and fit_kw.get("focal_px") is None
     if np.all(rows[:, 4] >= 1):
         if silhouettes:
