@@ -1007,7 +1007,8 @@ def _silhouette_run(rows: np.ndarray, centre: int, gap: int) -> tuple[int, int, 
 def measure_silhouettes(video: Any, boxes_xywh: Any, frames: Any, *, warmup: int = 20,
                         min_row_fill: float = 0.2, search_pad: float = 0.3,
                         side_pad: float = 0.5, top_fraction: float = SILHOUETTE_TOP_FRACTION,
-                        min_fill: float = 0.2) -> np.ndarray:
+                        min_fill: float = 0.2, every: int = 1, scale: float = 1.0
+                        ) -> np.ndarray:
     """Each person's silhouette in the moving pixels: its top and bottom rows and its lean.
 
     A detector's box height is coarse (a scale pyramid quantises it, 20 % steps for
@@ -1049,6 +1050,15 @@ def measure_silhouettes(video: Any, boxes_xywh: Any, frames: Any, *, warmup: int
         The part of the silhouette, from its top, whose rows give the lean. Unit: 1.
     min_fill : float
         Boxes whose foreground covers less than this fraction are not measured. Unit: 1.
+    every : int
+        The background model sees every ``every``-th frame from the first box's frame (and the
+        warm-up frames at the same spacing); boxes in other frames are not measured. The cost
+        is the background model's, per frame it sees: ``every=2`` over 400 frames costs what
+        every frame of 200 does and sees more people.
+    scale : float
+        The background model runs on the frames resized by this factor (its mask is resized
+        back, nearest neighbour): its cost, most of this function's, falls with the square.
+        Unit: 1.
 
     Returns
     -------
@@ -1064,6 +1074,10 @@ def measure_silhouettes(video: Any, boxes_xywh: Any, frames: Any, *, warmup: int
     fr = np.asarray(frames, dtype=np.int64).reshape(-1)
     if len(fr) != len(b):
         raise ValueError(f"measure_silhouettes: {len(b)} boxes but {len(fr)} frames")
+    if int(every) < 1:
+        raise ValueError(f"measure_silhouettes: every must be >= 1, got {every}")
+    if not 0 < scale <= 1:
+        raise ValueError(f"measure_silhouettes: scale must be in (0, 1], got {scale}")
     out = np.full((len(b), 3), np.nan)
     if not len(b):
         return out
@@ -1071,8 +1085,16 @@ def measure_silhouettes(video: Any, boxes_xywh: Any, frames: Any, *, warmup: int
     mog = cv2.createBackgroundSubtractorMOG2(history=200, varThreshold=16, detectShadows=True)
     order = np.argsort(fr, kind="stable")
     starts = np.searchsorted(fr[order], np.arange(first, last + 2))
-    for frame in iter_frames(video, max(1, first - warmup), last):
-        fg = mog.apply(frame.image) == 255
+    for frame in iter_frames(video, max(1, first - warmup * every), last):
+        if (frame.index - first) % every:
+            continue
+        if scale == 1:
+            fg = mog.apply(frame.image) == 255
+        else:
+            small = mog.apply(cv2.resize(frame.image, None, fx=scale, fy=scale,
+                                         interpolation=cv2.INTER_AREA))
+            fg = cv2.resize(small, frame.image.shape[1::-1],
+                            interpolation=cv2.INTER_NEAREST) == 255
         if frame.index < first:
             continue
         k = frame.index - first
@@ -1116,13 +1138,14 @@ def measure_silhouettes(video: Any, boxes_xywh: Any, frames: Any, *, warmup: int
     return out
 
 
-def link_boxes(boxes_xywh: Any, frames: Any, min_iou: float = 0.3) -> np.ndarray:
+def link_boxes(boxes_xywh: Any, frames: Any, min_iou: float = 0.3, max_gap: int = 1
+               ) -> np.ndarray:
     """Which person each box is: boxes in consecutive frames linked greedily by overlap.
 
     A minimal tracker for the camera fit (no camera yet): in every frame, pairs of a box of the
     previous frame and one of this frame are taken in decreasing IoU while the IoU is at least
-    ``min_iou``, each box at most once; an unlinked box starts a new person, a frame without
-    boxes ends everyone.
+    ``min_iou``, each box at most once; an unlinked box starts a new person, and a gap of more
+    than ``max_gap`` frames without boxes ends everyone.
 
     Parameters
     ----------
@@ -1132,6 +1155,9 @@ def link_boxes(boxes_xywh: Any, frames: Any, min_iou: float = 0.3) -> np.ndarray
         Frame of each box.
     min_iou : float
         Least overlap of a link. Unit: 1.
+    max_gap : int
+        Frames from one frame with boxes to the next that still link (1: consecutive frames;
+        2 for boxes of every other frame). Unit: frames.
 
     Returns
     -------
@@ -1153,7 +1179,7 @@ def link_boxes(boxes_xywh: Any, frames: Any, min_iou: float = 0.3) -> np.ndarray
     n_people = 0
     for j, f in enumerate(uniq):
         cur = order[bounds[j]:bounds[j + 1]]
-        if len(prev) and prev_frame == f - 1:
+        if len(prev) and prev_frame is not None and f - prev_frame <= max_gap:
             iou = iou_matrix(b[prev], b[cur])
             flat = np.argsort(-iou, axis=None, kind="stable")
             flat = flat[iou.ravel()[flat] >= min_iou]
@@ -1211,6 +1237,7 @@ def estimate_camera_from_video(video: Any, boxes: Any = None, first: int = 1,
                                person_height_m: float = 1.7,
                                rng: np.random.Generator | int | None = None, *,
                                lean: bool = True, silhouettes: bool | None = None,
+                               silhouette_every: int = 1, silhouette_scale: float = 1.0,
                                min_score: float = 0.0, host: Any = None,
                                **fit_kw: Any) -> tuple[PeopleCameraFit, np.ndarray, str]:
     """A camera from a video alone: people detected (or given), their lean measured, the fit.
@@ -1241,6 +1268,11 @@ def estimate_camera_from_video(video: Any, boxes: Any = None, first: int = 1,
         boxes as given, the lean from :func:`measure_slants`. Default: True for boxes a
         detector finds here (coarse heights), False for given boxes (a user's clicks or
         ground truth hug the person already; pass True for another detector's boxes).
+    silhouette_every : int
+        :func:`measure_silhouettes`' ``every``: the background model sees every so many
+        frames, and only boxes in those frames are measured.
+    silhouette_scale : float
+        :func:`measure_silhouettes`' ``scale``.
     min_score : float
         Detections scoring below are dropped (detection only).
     host : pftrack.host.Host, optional
@@ -1282,14 +1314,16 @@ def estimate_camera_from_video(video: Any, boxes: Any = None, first: int = 1,
     use_lean = lean and fit_kw.get("focal_px") is None
     if np.all(rows[:, 4] >= 1):
         if silhouettes:
-            sil = measure_silhouettes(video, rows[:, :4], rows[:, 4])
+            sil = measure_silhouettes(video, rows[:, :4], rows[:, 4], every=silhouette_every,
+                                      scale=silhouette_scale)
             fit_boxes, refined = refine_boxes_by_silhouettes(rows[:, :4], sil)
             slants = sil[:, 0] if use_lean else None
             source += f"; {int(refined.sum())} of {len(rows)} boxes' rows from silhouettes"
         elif use_lean:
             slants = measure_slants(video, rows[:, :4], rows[:, 4])
     if silhouettes and slants is not None:
-        fit_kw.setdefault("groups", link_boxes(rows[:, :4], rows[:, 4]))
+        fit_kw.setdefault("groups", link_boxes(rows[:, :4], rows[:, 4],
+                                               max_gap=silhouette_every))
         fit_kw.setdefault("slant_top_fraction", SILHOUETTE_TOP_FRACTION)
     fit = estimate_camera_from_people(fit_boxes, size, person_height_m, rng, slants=slants,
                                       **fit_kw)
