@@ -512,3 +512,34 @@ def test_people_bootstrap_is_wider_when_a_persons_leans_share_an_error():
     assert len(people) == 1 and 0.8 * n <= people[0] <= n
     with pytest.raises(ValueError, match="groups has 3 values"):
         estimate_camera_from_people(bx, SIZE, groups=[1, 2, 3])
+
+
+@pytest.mark.slow
+def test_pftrack_track_camera_on_pets_frames_1_200_is_within_half_a_metre():
+    # what `pftrack track` does on a new video: hog-people over frames 1-200 (no labels), the
+    # camera from every 2nd frame's confident people (silhouettes at half size, their lean);
+    # scored against the real Tsai camera on the ground truth's feet of all 795 frames.
+    # Measured: f 1202 px, 0.10-0.16 m, horizon 1-2 px (every frame); see the README
+    import cv2
+    from pftrack.fresh import detect_video, estimate_camera
+    from pftrack.pipeline import load_config
+
+    video = data_path("pets09", "vtest.avi")
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+    try:
+        dets, size, _ = detect_video(video, load_config("people-ground"), (1, 200))
+    finally:
+        cv2.setNumThreads(threads)
+    fit, why = estimate_camera(dets, size, seed=0, video=video)
+    assert fit is not None and "every 2" in why and "lean" in why
+    gt = _pets_gt(1, 795)
+    r = compare_with_reference(fit, load_camera(data_path("pets09", "View_001.xml")),
+                               gt[:, 2:6], gt[:, 7:9])
+    assert r["median_error_m"] <= 0.5
+    assert r["horizon_error_px"] <= 25
+    assert fit.camera_height_m == pytest.approx(7.07, rel=0.08)
+    assert fit.focal_px == pytest.approx(1185.0, rel=0.2)
+    # the people's bootstrap: an honest 1-sigma of tens of per cent of the focal's error
+    assert abs(fit.focal_px - 1185.0) < 3 * fit.uncertainty["focal_px"]
+    assert fit.slants_used >= 200
