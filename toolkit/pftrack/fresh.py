@@ -203,7 +203,6 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
     use = sorted(detections)
     if max_frames is not None:
         use = use[: int(max_frames)]
-    use = [f for f in use if (f - use[0]) % int(every) == 0] if use else use
     for f in use:
         d = detections[f]
         keep = d.scores >= min_score
@@ -214,6 +213,11 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
     if len(b) < min_boxes:
         return None, (f"only {len(b)} person boxes scored >= {min_score} (need {min_boxes}) to "
                       "estimate a camera")
+    thin = (fr - use[0]) % int(every) == 0
+    if every > 1 and thin.sum() >= min_boxes:
+        b, fr = b[thin], fr[thin]
+    else:
+        every = 1
     try:
         if video is not None:  # what `pftrack calib people` does with these boxes
             fit, _, _ = estimate_camera_from_video(
