@@ -56,6 +56,14 @@ World frame of the result: metres, z up, the ground is z = 0, the camera centre 
 frame differs from it by a rigid motion in the ground plane: compare ground positions after a 2-D
 rigid alignment (:func:`rigid_align_2d`, :func:`compare_with_reference`).
 
+Silhouettes: a detector's box heights are coarse (a scale pyramid's steps) and biased with the
+person's size, which bends the height-row relation: :func:`measure_silhouettes` finds each
+person's top and bottom rows and lean in the moving pixels (MOG2), and
+:func:`refine_boxes_by_silhouettes` puts those rows into the boxes (on PETS 2009 S2.L1's
+``hog-people`` boxes the horizon error falls from 60-70 px to 1-25 px and the camera height from
+8.3-8.5 m to 6.6-7.2 m, real 7.07 m). :func:`link_boxes` links boxes into people for a bootstrap
+over people (``groups``), whose 1-sigma is the honest one (a person's boxes share errors).
+
 Where the boxes come from: :func:`read_boxes_csv` (a user's clicked boxes),
 :func:`read_detection_boxes` (a MOTChallenge ``det.txt``), :func:`detect_people` (a registered
 ``hog-people`` detector, else OpenCV's HOG people detector); :func:`estimate_camera_from_video`
