@@ -1330,8 +1330,10 @@ def estimate_camera_from_video(video: Any, boxes: Any = None, first: int = 1,
         elif use_lean:
             slants = measure_slants(video, rows[:, :4], rows[:, 4])
     if silhouettes and slants is not None:
-        fit_kw.setdefault("groups", link_boxes(rows[:, :4], rows[:, 4],
-                                               max_gap=silhouette_every))
+        # boxes of every k-th frame (--stride, every) link across k frames
+        step = np.diff(np.unique(rows[:, 4]))
+        gap = max(int(silhouette_every), int(np.median(step)) if len(step) else 1)
+        fit_kw.setdefault("groups", link_boxes(rows[:, :4], rows[:, 4], max_gap=gap))
         fit_kw.setdefault("slant_top_fraction", SILHOUETTE_TOP_FRACTION)
     fit = estimate_camera_from_people(fit_boxes, size, person_height_m, rng, slants=slants,
                                       **fit_kw)
