@@ -4,9 +4,11 @@
 (:mod:`pftrack.fresh`), on PETS 2009 S2.L1, and scores it:
 
 * the built-in ``hog-people`` detector (OpenCV's INRIA people model, no training), run once;
-* a camera estimated from those detections alone
-  (:func:`pftrack.geometry.people.estimate_camera_from_people`, mean person height 1.7 m, the
-  focal length from the people's lean, :func:`~pftrack.geometry.people.measure_slants`);
+* a camera estimated from those detections alone (:func:`pftrack.fresh.estimate_camera`:
+  :func:`pftrack.geometry.people.estimate_camera_from_people` on every 2nd of the first 600
+  frames' confident detections, mean person height 1.7 m, their top and bottom rows and the
+  focal length from their silhouettes in the moving pixels,
+  :func:`~pftrack.geometry.people.measure_silhouettes`);
 * the ``people-ground`` preset on the same detections, their ground points through that camera;
 * the same detections (score >= the detector's threshold) tracked by a peer a user would pick:
   norfair (``norfair-enough``, the ``bench`` extra) with IoU distance, its constant-velocity

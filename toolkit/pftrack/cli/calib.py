@@ -144,6 +144,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--no-lean", action="store_true",
                    help="do not measure people's lean in the video (the focal length then "
                         "comes from the prior unless --focal/--hfov)")
+    e.add_argument("--silhouettes", action=argparse.BooleanOptionalAction, default=None,
+                   help="fit from the people's silhouettes in the moving pixels (their top and "
+                        "bottom rows, their lean) rather than the boxes' rows (default: on when "
+                        "people are detected here, off for --boxes / --detections)")
     e.add_argument("--bootstrap", type=int, default=100,
                    help="bootstrap refits for the uncertainty (0: from the Jacobian)")
     e.add_argument("--seed", type=int, default=0, help="seed of the RANSAC and bootstrap")
@@ -336,7 +340,8 @@ def _people(args: argparse.Namespace) -> int:
         # detection (when no boxes), the people's lean and the fit, as a library call
         fit, rows, found = pp.estimate_camera_from_video(
             args.video, rows, first, last, args.stride, args.person_height, rng,
-            lean=not args.no_lean, min_score=args.min_score or 0.0, **fit_kw)
+            lean=not args.no_lean, silhouettes=args.silhouettes,
+            min_score=args.min_score or 0.0, **fit_kw)
         source = source or found
     else:
         if rows is None:
