@@ -6,7 +6,8 @@ For each particle count N the benchmark times, on one target:
   (:class:`pftrack_basic.motion.ConstantAccelerationMotion`), states -> image boxes
   (:class:`pftrack.tracker.ImageBoxObservation`), Gaussian log-likelihood of the box centre
   (:class:`pftrack_basic.gaussian.GaussianLikelihood`), weight normalisation, weighted-mean
-  estimate, systematic resampling and the gather ``particles[idx]``;
+  estimate, systematic resampling and the gather ``particles.take(idx, axis=0)`` (as the
+  tracker gathers; the same rows as ``particles[idx]``, in about half the time);
 * ``stonesoup_step_s``: the same step with Stone Soup's ``ParticlePredictor`` (a
   ``CombinedLinearGaussianTransitionModel`` of two ``ConstantAcceleration`` models),
   ``ParticleUpdater`` with a ``LinearGaussian`` position measurement and its
@@ -111,7 +112,8 @@ def _pftrack_step(n: int, seed: int) -> tuple[Callable[[Any], Any], Callable[[],
         logl = likelihood.log_likelihood(boxes, target)
         w, _ = normalize_log_weights(log_w0 + logl)
         target.state = weighted_mean(particles, w)
-        return particles[systematic_resample(w, rng)]
+        # the gather as the tracker does it: take() is about twice as fast as particles[idx]
+        return particles.take(systematic_resample(w, rng), axis=0)
 
     def weights() -> np.ndarray:
         p = motion.predict(start, 1.0, rng, target)

@@ -59,6 +59,7 @@ from pftrack.filter import (
     weighted_extent,
     weighted_mean,
 )
+from pftrack.filter import _jit
 
 log = logging.getLogger(__name__)
 
@@ -116,6 +117,8 @@ class ImageBoxObservation(ObservationModel):
         if len(s) == 1:  # an estimate: Python floats are the same IEEE doubles, and faster
             x, y = s[0, :2].tolist()
             return np.array([[x - 0.5 * w, y - 0.5 * h, w, h]])
+        if _jit.use(len(s)) and s.ndim == 2 and s.shape[1] >= 2:
+            return _jit.centre_boxes(s, w, h)  # one compiled pass: the same numbers as below
         out = np.empty((len(s), 4))
         out[:, 0] = s[:, 0] - 0.5 * w
         out[:, 1] = s[:, 1] - 0.5 * h

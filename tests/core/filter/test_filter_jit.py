@@ -116,6 +116,34 @@ def test_gaussian_likelihood_equals_the_numpy_path(numpy_path, n):
     assert np.array_equal(lik.log_likelihood(np.asfortranarray(boxes), target), got)
 
 
+@pytest.mark.parametrize("n", [BIG, 100_001])
+@pytest.mark.parametrize("layout", ["c", "fortran", "strided"])
+@pytest.mark.parametrize("size_from_target", [False, True])
+def test_image_boxes_equal_the_numpy_path(numpy_path, n, layout, size_from_target):
+    from pftrack.tracker import ImageBoxObservation
+
+    rng = np.random.default_rng(4)
+    states = rng.normal(180.0, 60.0, (n, 6))
+    if layout == "fortran":
+        states = np.asfortranarray(states)
+    elif layout == "strided":
+        wide = np.zeros((n, 9))
+        wide[:, 2:8] = states
+        states = wide[:, 2:8]
+    obs = ImageBoxObservation(29.3, 41.7)
+    target = _target()
+    if size_from_target:
+        target.box_wh_px = (17.1, 33.3)
+    got = obs.to_boxes(states, target)
+    ref = numpy_path(obs.to_boxes, states, target)
+    assert got.shape == (n, 4) and got.dtype == np.float64 and got.flags.c_contiguous
+    assert np.array_equal(got, ref)
+    w, h = (17.1, 33.3) if size_from_target else (29.3, 41.7)
+    assert np.array_equal(got[:, 2:], np.broadcast_to([w, h], (n, 2)))
+    # x - w/2 in float64: the centre comes back within an ulp of the box's scale
+    assert np.allclose(got[:, 0] + 0.5 * w, states[:, 0], rtol=0, atol=1e-12)
+
+
 @pytest.mark.parametrize("n_draws", [None, BIG + 1000, 3 * BIG, 5000])
 @pytest.mark.parametrize("kind", ["peaked", "flat", "zeros"])
 def test_systematic_resample_equals_the_numpy_path(numpy_path, n_draws, kind):

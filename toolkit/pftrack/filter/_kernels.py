@@ -162,6 +162,19 @@ def gaussian_centre_log_likelihood(boxes, ox, oy, scale, out):  # pragma: no cov
 
 
 @njit(**_JIT)  # type: ignore[call-overload]
+def centre_boxes(states, hw, hh, w, h, out):  # pragma: no cover - compiled
+    """``out[i] = (s0 - hw, s1 - hh, w, h)`` per state row: the boxes of
+    :meth:`pftrack.tracker.ImageBoxObservation.to_boxes` (``hw = 0.5 w``, ``hh = 0.5 h``),
+    written row by row in one pass."""
+    n = states.shape[0]
+    for i in range(n):
+        out[i, 0] = states[i, 0] - hw
+        out[i, 1] = states[i, 1] - hh
+        out[i, 2] = w
+        out[i, 3] = h
+
+
+@njit(**_JIT)  # type: ignore[call-overload]
 def weight_total(w):  # pragma: no cover - compiled
     """The last running sum of ``w`` (``np.add.accumulate(w)[-1]``: summed in order, the same
     number) and whether every weight is >= 0 (False for NaN too)."""
