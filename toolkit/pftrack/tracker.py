@@ -129,11 +129,14 @@ class ImageBoxObservation(ObservationModel):
     def to_boxes_rows(self, states: np.ndarray, targets: Sequence[Target]) -> np.ndarray:
         """(T, N, D) -> (T, N, 4) in one pass, each row's size its target's."""
         s = np.asarray(states, dtype=np.float64)
-        wh = np.array([t.box_wh_px if t.box_wh_px is not None
-                       else (float(self.width_px), float(self.height_px)) for t in targets])
+        size = (float(self.width_px), float(self.height_px))
+        wh = np.array([size if t.box_wh_px is None else t.box_wh_px for t in targets])
         out = np.empty(s.shape[:2] + (4,))
-        out[:, :, 2:] = wh[:, None, :]
-        np.subtract(s[:, :, :2], 0.5 * out[:, :, 2:], out=out[:, :, :2])
+        # column by column: inner loops run over the N particles, not over the 2 axes
+        half = 0.5 * wh
+        for k in range(2):
+            np.subtract(s[:, :, k], half[:, k:k + 1], out=out[:, :, k])
+            out[:, :, 2 + k] = wh[:, k:k + 1]
         return out
 
     def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:
