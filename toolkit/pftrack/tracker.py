@@ -283,6 +283,9 @@ class MultiTargetTracker:
                           and type(observation).to_boxes_rows
                           is not ObservationModel.to_boxes_rows)
         likelihood.prepare()  # compiled kernels and the like: before the first frame
+        # a likelihood that imported numba: the engine's own kernels serve its small per-frame
+        # calls too (same numbers), loaded now rather than in the first frame
+        _jit.warm_up_small()
 
     # -- checks of what components return ----------------------------------------------------
 

@@ -216,6 +216,28 @@ def systematic_indices(w, inv_total, n, u, idx):  # pragma: no cover - compiled
 
 
 @njit(**_JIT)  # type: ignore[call-overload]
+def weight_totals_rows(w, totals):  # pragma: no cover - compiled
+    """:func:`weight_total` of every row of a C-contiguous (T, N) ``w`` into ``totals`` (T,);
+    returns whether every weight is >= 0 (False for NaN too)."""
+    ok = True
+    for r in range(w.shape[0]):
+        total, nonneg = weight_total(w[r])
+        totals[r] = total
+        ok = ok and nonneg
+    return ok
+
+
+@njit(**_JIT)  # type: ignore[call-overload]
+def systematic_indices_rows(w, inv_totals, u, idx):  # pragma: no cover - compiled
+    """:func:`systematic_indices` of every row of a C-contiguous (T, N) ``w`` with its own
+    ``inv_totals[r]`` and offset ``u[r]``; ``idx`` (T, N + 1) intp, the indices in
+    ``idx[:, :N]``."""
+    n = w.shape[1]
+    for r in range(w.shape[0]):
+        systematic_indices(w[r], inv_totals[r], n, u[r], idx[r])
+
+
+@njit(**_JIT)  # type: ignore[call-overload]
 def shift_for_exp(lw, m, zero_below, out, mask):  # pragma: no cover - compiled
     """``d = lw - m``; where ``d > zero_below``: ``out = d``, ``mask = True``; elsewhere
     ``out = 0.0``, ``mask = False``. ``np.exp(out, out=out, where=mask)`` then gives
