@@ -305,6 +305,15 @@ class MultiTargetTracker:
                 "expected floating point")
         return arr.astype(np.float64, copy=False)
 
+    def _check_finite(self, logl: np.ndarray, frame: Frame, target: Target) -> None:
+        """Stop the run, naming the likelihood, when ``logl`` holds NaN or +inf (-inf, an
+        impossible particle, is allowed)."""
+        if not (logl < np.inf).all():
+            bad = int(np.count_nonzero(~(logl < np.inf)))
+            raise ComponentOutputError(
+                f"{self._who(self.likelihood)} returned {bad} NaN or +inf log-likelihood(s) "
+                f"of {len(logl)} at frame {frame.index} (target {target.id})")
+
     # -- targets ------------------------------------------------------------------------------
 
     @property
@@ -425,6 +434,10 @@ class MultiTargetTracker:
         targets = [f.target for f in filters]
         self.likelihood.begin_frame(frame, targets, detections)
         logls = []
+        # step 4 takes all targets as one (T, N) array: the NaN / +inf check then runs once on
+        # it (rows a valid region masks are checked before the mask, one by one)
+        rows = bool(self._vectorise and filters and all(len(f.particles) == n for f in filters))
+        check_stacked = rows and self.valid_region is None
         for f in filters:
             t = f.target
             try:
@@ -441,11 +454,8 @@ class MultiTargetTracker:
                 raise ComponentOutputError(
                     f"{self._who(self.likelihood)} returned log-likelihoods of shape "
                     f"{logl.shape}, expected ({len(f.particles)},) (one per particle)")
-            if not (logl < np.inf).all():  # NaN or +inf; -inf (impossible) is allowed
-                bad = int(np.count_nonzero(~(logl < np.inf)))
-                raise ComponentOutputError(
-                    f"{self._who(self.likelihood)} returned {bad} NaN or +inf log-likelihood(s) "
-                    f"of {len(logl)} at frame {frame.index} (target {t.id})")
+            if not check_stacked or t.valid_region is not None:
+                self._check_finite(logl, frame, t)
             if self.valid_region is not None:
                 logl = np.where(self.valid_region(f.particles[:, pos_dims]), logl, -np.inf)
             if t.valid_region is not None:
@@ -459,8 +469,11 @@ class MultiTargetTracker:
         always_resample = self.ess_threshold >= 1.0  # ESS <= N: no need to compute it
         ess_min = self.ess_threshold * n + 1e-9
         weights = ok_rows = best_rows = states = extents = resampled = None
-        if self._vectorise and filters and all(len(f.particles) == n for f in filters):
+        if rows:
             lw = np.array(logls)  # (T, N); np.array is cheaper than np.stack for a few rows
+            if check_stacked and not (lw < np.inf).all():
+                i = int(np.flatnonzero(~(lw < np.inf).all(axis=1))[0])
+                self._check_finite(logls[i], frame, filters[i].target)
             best_rows = lw.max(axis=1).tolist()
             if all(f.log_weights is self._uniform_log for f in filters):
                 lw += self._uniform_log
@@ -468,7 +481,11 @@ class MultiTargetTracker:
                 lw += np.array([f.log_weights for f in filters])
             weights, ok_rows = normalize_log_weight_rows(lw)
             if ok_rows.all():  # no recovery draws random numbers between the targets
-                p = np.array([f.particles for f in filters])  # (T, N, D)
+                if (isinstance(predicted, np.ndarray)
+                        and all(f.particles.base is predicted for f in filters)):
+                    p = predicted  # still the rows step 1 made (T, N, D): no new stack
+                else:
+                    p = np.array([f.particles for f in filters])  # (T, N, D)
                 states = weighted_mean(p, weights)
                 extents = weighted_extent(p, weights, states)
                 if always_resample and self.resampling == "systematic":

@@ -165,6 +165,71 @@ def test_systematic_resample_equals_the_numpy_path(numpy_path, n_draws, kind):
     assert np.array_equal(got, ref) and _same_generator_state(a, b)
 
 
+@pytest.mark.parametrize("shape", [(1, 7), (3, 500), (4, BIG)])
+@pytest.mark.parametrize("kind", ["peaked", "flat", "zeros"])
+def test_systematic_resample_rows_equals_the_numpy_path(numpy_path, monkeypatch, shape, kind):
+    """The compiled rows (small counts once warmed up, large counts always) give the numpy
+    rows path's indices, which are T successive 1-D calls' indices, and leave the Generator
+    where it leaves it."""
+    from pftrack.filter import systematic_resample_rows
+
+    monkeypatch.setattr(_jit, "_small_warm", True)
+    rng = np.random.default_rng(3)
+    t, n = shape
+    if kind == "peaked":
+        lw = -0.5 * rng.normal(0.0, 4.0, shape) ** 2
+        w = np.exp(lw - lw.max(axis=1, keepdims=True))
+    elif kind == "flat":
+        w = rng.uniform(0.5, 1.0, shape)
+    else:
+        w = rng.uniform(0.0, 1.0, shape)
+        w[rng.random(shape) < 0.8] = 0.0
+        w[:, 0] = 1.0  # every row keeps some weight
+        w[:, -min(n - 1, 50):] = 0.0  # trailing empty bins
+    w /= w.sum(axis=1, keepdims=True)
+    a, b, c = (np.random.default_rng(9) for _ in range(3))
+    got = systematic_resample_rows(w, a)
+    ref = numpy_path(systematic_resample_rows, w, b)
+    one_by_one = numpy_path(lambda: np.array([systematic_resample(r, c) for r in w]))
+    assert got.shape == shape and got.dtype == np.intp
+    assert np.array_equal(got, ref) and np.array_equal(ref, one_by_one)
+    assert _same_generator_state(a, b) and _same_generator_state(b, c)
+
+
+def test_systematic_resample_rows_rejects_bad_weights_like_the_numpy_path(numpy_path,
+                                                                          monkeypatch):
+    from pftrack.filter import systematic_resample_rows
+
+    monkeypatch.setattr(_jit, "_small_warm", True)
+    good = np.full(5, 0.2)
+    for bad in (np.array([0.5, -0.1, 0.6, 0.0, 0.0]), np.array([np.nan, 0.5, 0.5, 0.0, 0.0]),
+                np.zeros(5), np.array([np.inf, 0.0, 0.0, 0.0, 0.0])):
+        w = np.array([good, bad])
+        msgs = []
+        for fn in (systematic_resample_rows, lambda *a: numpy_path(systematic_resample_rows, *a)):
+            rng = np.random.default_rng(0)
+            with pytest.raises(ValueError, match="resampling weights") as e:
+                fn(w, rng)
+            msgs.append(str(e.value))
+            assert _same_generator_state(rng, np.random.default_rng(0))  # nothing drawn
+        assert msgs[0] == msgs[1]
+
+
+@pytest.mark.parametrize("shape", [(3, 500, 2), (1, 1), (2, 7, 2)])
+def test_small_normal_draws_equal_numpys(monkeypatch, shape):
+    from pftrack_basic.motion import _standard_normal
+
+    _jit.warm_up_small()
+    monkeypatch.setattr(_jit, "_small_warm", True)
+    a, b = np.random.default_rng(21), np.random.default_rng(21)
+    got = _standard_normal(a, shape)
+    assert got.shape == shape and np.array_equal(got, b.standard_normal(shape))
+    assert _same_generator_state(a, b)
+    philox = np.random.Generator(np.random.Philox(2))  # not PCG64: numpy draws
+    assert np.array_equal(_standard_normal(philox, shape),
+                          np.random.Generator(np.random.Philox(2)).standard_normal(shape))
+
+
 def test_systematic_resample_rejects_bad_weights_like_the_numpy_path(numpy_path):
     rng = np.random.default_rng(0)
     for bad in (np.zeros(BIG), np.full(BIG, np.nan), np.r_[np.ones(BIG - 1), np.inf],

@@ -82,7 +82,7 @@ def small_ready() -> bool:
     inside its timed loop. Used by the engine's per-frame calls on all targets at once
     (:meth:`RandomWalkMotion.predict_rows`, :func:`pftrack.filter.systematic_resample_rows`),
     whose numpy paths are a dozen calls of a few microseconds each."""
-    return _small_warm
+    return ENABLED and _small_warm
 
 
 def warm_up_small() -> bool:
