@@ -181,3 +181,30 @@ def test_random_walk_predict_rows_equals_row_by_row_bit_for_bit():
     assert np.array_equal(a, c)
     with pytest.raises(ValueError, match=r"\(T, N, 2\)"):
         m.predict_rows(states[0], 1.0, np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("std", [[2.5, 2.5], [2.5, 0.7], [1.0, 1.0, 1.0, 3.0, 3.0, 3.0]])
+@pytest.mark.parametrize("lead", [(500,), (3, 500), (1,)])
+def test_noise_scaling_equals_the_broadcast_product(std, lead):
+    """The random walk scales its noise by one scalar when both axes share a deviation: the
+    same products as numpy's broadcast of the (D,) deviations, bit for bit."""
+    from pftrack_basic.motion import _scale_axes
+
+    std = np.asarray(std)
+    z = np.random.default_rng(8).standard_normal(lead + std.shape)
+    got = z.copy()
+    _scale_axes(got, std)
+    assert got.tobytes() == (z * std).tobytes()
+
+
+def test_random_walk_rows_equal_one_target_at_a_time_with_per_axis_noise():
+    """(T, N, 2) in one call: the numbers T successive single-target calls draw, with one
+    deviation for both axes and with one per axis."""
+    for sigma in (3.0, (3.0, 1.5)):
+        m = RandomWalkMotion(sigma_px=sigma)
+        s = np.random.default_rng(1).normal(100.0, 5.0, (3, 400, 2))
+        a, b = np.random.default_rng(4), np.random.default_rng(4)
+        rows = m.predict_rows(s, 1.0, a)
+        one = np.array([m.predict(s[i], 1.0, b) for i in range(3)])
+        assert rows.tobytes() == one.tobytes()
+        assert a.random() == b.random()
