@@ -170,11 +170,25 @@ class RandomWalkMotion(MotionModel):
     def state_dim(self) -> int:
         return 2
 
+    def _std(self, dt: float) -> np.ndarray:
+        """The (2,) noise deviations for a step of ``dt``, validated; kept for a number
+        ``sigma_px`` and the same ``dt`` (every frame of a run), so the checks and the square
+        root run once."""
+        raw = self.sigma_px
+        key = (raw, dt) if type(raw) in (int, float) and type(dt) in (int, float) else None
+        hit = self.__dict__.get("_noise_std")
+        if key is not None and hit is not None and hit[0] == key:
+            return hit[1]
+        std = _axis_std(self, "sigma_px", 2) * np.sqrt(_check_dt(self, dt))
+        if key is not None:
+            std.flags.writeable = False
+            self._noise_std = (key, std)
+        return std
+
     def predict(self, states: np.ndarray, dt: float, rng: np.random.Generator,
                 target: Target | None = None) -> np.ndarray:
         s = _check_states(self, states)
-        dt = _check_dt(self, dt)
-        std = _axis_std(self, "sigma_px", 2) * np.sqrt(dt)
+        std = self._std(dt)
         out = _standard_normal(rng, s.shape)
         _scale_axes(out, std)
         out += s
@@ -188,7 +202,7 @@ class RandomWalkMotion(MotionModel):
         if s.ndim != 3 or s.shape[2] != 2:
             raise ValueError(f"RandomWalkMotion.predict_rows: states must have shape (T, N, 2), "
                              f"got {s.shape}")
-        std = _axis_std(self, "sigma_px", 2) * np.sqrt(_check_dt(self, dt))
+        std = self._std(dt)
         out = _standard_normal(rng, s.shape)
         _scale_axes(out, std)
         out += s

@@ -208,3 +208,21 @@ def test_random_walk_rows_equal_one_target_at_a_time_with_per_axis_noise():
         one = np.array([m.predict(s[i], 1.0, b) for i in range(3)])
         assert rows.tobytes() == one.tobytes()
         assert a.random() == b.random()
+
+
+def test_random_walk_noise_follows_sigma_and_dt_changes_between_steps():
+    """The deviations are kept between steps, but a changed ``sigma_px`` or ``dt`` is used at
+    once and a bad value still raises."""
+    m = RandomWalkMotion(sigma_px=2.0)
+    s = np.zeros((20000, 2))
+    for sigma, dt in ((2.0, 1.0), (2.0, 1.0), (5.0, 1.0), (5.0, 0.25), ((1.0, 3.0), 1.0)):
+        m.sigma_px = sigma
+        d = m.predict(s, dt, np.random.default_rng(0))
+        want = np.broadcast_to(np.asarray(sigma, float) * np.sqrt(dt), (2,))
+        np.testing.assert_allclose(d.std(axis=0), want, rtol=0.03)
+    m.sigma_px = 2.0
+    with pytest.raises(ValueError, match="dt must be finite and >= 0"):
+        m.predict(s, -1.0, np.random.default_rng(0))
+    m.sigma_px = float("nan")
+    with pytest.raises(ValueError, match="sigma_px must be finite"):
+        m.predict(s, 1.0, np.random.default_rng(0))
