@@ -305,7 +305,10 @@ def test_a_nan_from_one_of_several_targets_stops_the_run_naming_that_target(vect
 
     lik = _NaNForOne()
     lik.truth_ = {i: (lambda k, i=i: np.array([30.0 * i, 50.0])) for i in (1, 2, 3)}
-    inside = (lambda xy: np.ones(len(xy), dtype=bool))
+
+    def inside(xy):
+        return np.ones(len(xy), dtype=bool)
+
     tr = MultiTargetTracker(SampleWalk(3.0), lik, ImageBoxObservation(10, 10), n_particles=50,
                             rng=np.random.default_rng(1), kill_out_of_view=False,
                             valid_region=inside if region == "engine" else None)

@@ -52,6 +52,7 @@ from pftrack.components import (
 )
 from pftrack.filter import (
     RESAMPLERS,
+    _jit,
     effective_sample_size,
     normalize_log_weight_rows,
     normalize_log_weights,
@@ -59,7 +60,6 @@ from pftrack.filter import (
     weighted_extent,
     weighted_mean,
 )
-from pftrack.filter import _jit
 
 log = logging.getLogger(__name__)
 
