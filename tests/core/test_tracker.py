@@ -193,6 +193,45 @@ def test_targets_vectorised_equal_one_at_a_time_bit_for_bit(scheme, ess, motion)
     assert np.array_equal(a, b)
 
 
+@pytest.mark.skipif(not __import__("pftrack.filter._jit").filter._jit.ENABLED,
+                    reason="PFTRACK_NO_JIT is set")
+@pytest.mark.parametrize("scheme", ["systematic", "stratified"])
+def test_small_count_kernels_give_the_numpy_paths_tracks_bit_for_bit(monkeypatch, scheme):
+    """Once a likelihood has imported numba, the engine's small per-frame calls (random-walk
+    noise of (T, N, 2), systematic resampling of (T, N) weights) run compiled: the tracks,
+    recoveries and the Generator's final state are those of the numpy path."""
+    import numba  # noqa: F401  (what a compiled likelihood does first)
+    from pftrack.filter import _jit
+
+    truth = {1: lambda k: np.array([20.0 + 2 * k, 50.0]),
+             2: lambda k: None if 30 <= k < 33 else np.array([150.0 - k, 40.0]),
+             3: lambda k: np.array([100.0, 20.0 + 0.5 * k])}
+
+    def run(small):
+        with monkeypatch.context() as m:
+            m.setattr(_jit, "_small_warm", False)
+            if not small:
+                m.setattr(_jit, "warm_up_small", lambda: False)
+            lik = _TruthLikelihood()
+            lik.truth_ = truth
+            rng = np.random.default_rng(11)
+            tr = MultiTargetTracker(RandomWalkMotion(sigma_px=1.5), lik,
+                                    ImageBoxObservation(10, 10), n_particles=300,
+                                    resampling=scheme, rng=rng, kill_out_of_view=False)
+            assert _jit.small_ready() is small
+            frames = list(_frames(60))
+            for tid, path in truth.items():
+                tr.add_target(frames[0], path(0), target_id=tid)
+            recs = [r for f in frames[1:] for r in tr.step(f)]
+            return records_to_mot(recs), tr.recoveries, rng.random()
+
+    (a, rec_a, next_a), (b, rec_b, next_b) = run(True), run(False)
+    assert rec_a == rec_b == 3
+    assert len(a) == 3 * 59
+    assert a.tobytes() == b.tobytes()
+    assert next_a == next_b  # the Generator ends in the same state
+
+
 def test_the_likelihood_is_prepared_once_when_the_tracker_is_built_before_any_frame():
     class Counting(_TruthLikelihood):
         def prepare(self):
@@ -272,3 +311,46 @@ def test_resample_index_says_which_weighted_particle_each_particle_copies(vector
     if ess == 1.0:
         t = tr.set_particles(1, np.zeros((200, tr.motion.state_dim)))
         assert t.resample_index is None
+
+
+class _NaNForOne(_TruthLikelihood):
+    """``_TruthLikelihood`` whose target ``bad_id`` gets one NaN at frame ``bad_frame``."""
+
+    bad_id, bad_frame = 2, 4
+
+    def log_likelihood(self, boxes, target):
+        out = super().log_likelihood(boxes, target)
+        if target.id == self.bad_id and self.frame_ == self.bad_frame:
+            out[7] = np.nan
+        return out
+
+
+@pytest.mark.parametrize("vectorise", [True, False])
+@pytest.mark.parametrize("region", [None, "engine", "target"])
+def test_a_nan_from_one_of_several_targets_stops_the_run_naming_that_target(vectorise, region):
+    """All targets' log-likelihoods are checked once as the stacked (T, N) array; the error
+    still names the likelihood, the frame and the target at fault, as the per-target check
+    does (which runs where a valid region masks a row)."""
+    from pftrack.tracker import ComponentOutputError
+
+    lik = _NaNForOne()
+    lik.truth_ = {i: (lambda k, i=i: np.array([30.0 * i, 50.0])) for i in (1, 2, 3)}
+
+    def inside(xy):
+        return np.ones(len(xy), dtype=bool)
+
+    tr = MultiTargetTracker(SampleWalk(3.0), lik, ImageBoxObservation(10, 10), n_particles=50,
+                            rng=np.random.default_rng(1), kill_out_of_view=False,
+                            valid_region=inside if region == "engine" else None)
+    tr._vectorise = vectorise
+    frames = list(_frames(6))
+    for i in (1, 2, 3):
+        t = tr.add_target(frames[0], np.array([30.0 * i, 50.0]), target_id=i)
+        if region == "target":
+            t.valid_region = inside
+    for f in frames[1:3]:
+        assert len(tr.step(f)) == 3
+    with pytest.raises(ComponentOutputError,
+                       match=r"_NaNForOne.*returned 1 NaN or \+inf log-likelihood\(s\) of 50 "
+                             r"at frame 4 \(target 2\)"):
+        tr.step(frames[3])

@@ -52,6 +52,7 @@ from pftrack.components import (
 )
 from pftrack.filter import (
     RESAMPLERS,
+    _jit,
     effective_sample_size,
     normalize_log_weight_rows,
     normalize_log_weights,
@@ -116,6 +117,8 @@ class ImageBoxObservation(ObservationModel):
         if len(s) == 1:  # an estimate: Python floats are the same IEEE doubles, and faster
             x, y = s[0, :2].tolist()
             return np.array([[x - 0.5 * w, y - 0.5 * h, w, h]])
+        if _jit.use(len(s)) and s.ndim == 2 and s.shape[1] >= 2:
+            return _jit.centre_boxes(s, w, h)  # one compiled pass: the same numbers as below
         out = np.empty((len(s), 4))
         out[:, 0] = s[:, 0] - 0.5 * w
         out[:, 1] = s[:, 1] - 0.5 * h
@@ -126,11 +129,14 @@ class ImageBoxObservation(ObservationModel):
     def to_boxes_rows(self, states: np.ndarray, targets: Sequence[Target]) -> np.ndarray:
         """(T, N, D) -> (T, N, 4) in one pass, each row's size its target's."""
         s = np.asarray(states, dtype=np.float64)
-        wh = np.array([t.box_wh_px if t.box_wh_px is not None
-                       else (float(self.width_px), float(self.height_px)) for t in targets])
+        size = (float(self.width_px), float(self.height_px))
+        wh = np.array([size if t.box_wh_px is None else t.box_wh_px for t in targets])
         out = np.empty(s.shape[:2] + (4,))
-        out[:, :, 2:] = wh[:, None, :]
-        np.subtract(s[:, :, :2], 0.5 * out[:, :, 2:], out=out[:, :, :2])
+        # column by column: inner loops run over the N particles, not over the 2 axes
+        half = 0.5 * wh
+        for k in range(2):
+            np.subtract(s[:, :, k], half[:, k:k + 1], out=out[:, :, k])
+            out[:, :, 2 + k] = wh[:, k:k + 1]
         return out
 
     def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:
@@ -277,6 +283,9 @@ class MultiTargetTracker:
                           and type(observation).to_boxes_rows
                           is not ObservationModel.to_boxes_rows)
         likelihood.prepare()  # compiled kernels and the like: before the first frame
+        # a likelihood that imported numba: the engine's own kernels serve its small per-frame
+        # calls too (same numbers), loaded now rather than in the first frame
+        _jit.warm_up_small()
 
     # -- checks of what components return ----------------------------------------------------
 
@@ -295,6 +304,15 @@ class MultiTargetTracker:
                 f"{self._who(self.likelihood)} returned log-likelihoods of dtype {arr.dtype}, "
                 "expected floating point")
         return arr.astype(np.float64, copy=False)
+
+    def _check_finite(self, logl: np.ndarray, frame: Frame, target: Target) -> None:
+        """Stop the run, naming the likelihood, when ``logl`` holds NaN or +inf (-inf, an
+        impossible particle, is allowed)."""
+        if not (logl < np.inf).all():
+            bad = int(np.count_nonzero(~(logl < np.inf)))
+            raise ComponentOutputError(
+                f"{self._who(self.likelihood)} returned {bad} NaN or +inf log-likelihood(s) "
+                f"of {len(logl)} at frame {frame.index} (target {target.id})")
 
     # -- targets ------------------------------------------------------------------------------
 
@@ -418,6 +436,10 @@ class MultiTargetTracker:
         targets = [f.target for f in filters]
         self.likelihood.begin_frame(frame, targets, detections)
         logls = []
+        # step 4 takes all targets as one (T, N) array: the NaN / +inf check then runs once on
+        # it (rows a valid region masks are checked before the mask, one by one)
+        rows = bool(self._vectorise and filters and all(len(f.particles) == n for f in filters))
+        check_stacked = rows and self.valid_region is None
         for f in filters:
             t = f.target
             try:
@@ -434,11 +456,8 @@ class MultiTargetTracker:
                 raise ComponentOutputError(
                     f"{self._who(self.likelihood)} returned log-likelihoods of shape "
                     f"{logl.shape}, expected ({len(f.particles)},) (one per particle)")
-            if not (logl < np.inf).all():  # NaN or +inf; -inf (impossible) is allowed
-                bad = int(np.count_nonzero(~(logl < np.inf)))
-                raise ComponentOutputError(
-                    f"{self._who(self.likelihood)} returned {bad} NaN or +inf log-likelihood(s) "
-                    f"of {len(logl)} at frame {frame.index} (target {t.id})")
+            if not check_stacked or t.valid_region is not None:
+                self._check_finite(logl, frame, t)
             if self.valid_region is not None:
                 logl = np.where(self.valid_region(f.particles[:, pos_dims]), logl, -np.inf)
             if t.valid_region is not None:
@@ -452,8 +471,11 @@ class MultiTargetTracker:
         always_resample = self.ess_threshold >= 1.0  # ESS <= N: no need to compute it
         ess_min = self.ess_threshold * n + 1e-9
         weights = ok_rows = best_rows = states = extents = resampled = resample_rows = None
-        if self._vectorise and filters and all(len(f.particles) == n for f in filters):
+        if rows:
             lw = np.array(logls)  # (T, N); np.array is cheaper than np.stack for a few rows
+            if check_stacked and not (lw < np.inf).all():
+                i = int(np.flatnonzero(~(lw < np.inf).all(axis=1))[0])
+                self._check_finite(logls[i], frame, filters[i].target)
             best_rows = lw.max(axis=1).tolist()
             if all(f.log_weights is self._uniform_log for f in filters):
                 lw += self._uniform_log
@@ -461,7 +483,11 @@ class MultiTargetTracker:
                 lw += np.array([f.log_weights for f in filters])
             weights, ok_rows = normalize_log_weight_rows(lw)
             if ok_rows.all():  # no recovery draws random numbers between the targets
-                p = np.array([f.particles for f in filters])  # (T, N, D)
+                if (isinstance(predicted, np.ndarray)
+                        and all(f.particles.base is predicted for f in filters)):
+                    p = predicted  # still the rows step 1 made (T, N, D): no new stack
+                else:
+                    p = np.array([f.particles for f in filters])  # (T, N, D)
                 states = weighted_mean(p, weights)
                 extents = weighted_extent(p, weights, states)
                 if always_resample and self.resampling == "systematic":

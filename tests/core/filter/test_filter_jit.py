@@ -116,6 +116,34 @@ def test_gaussian_likelihood_equals_the_numpy_path(numpy_path, n):
     assert np.array_equal(lik.log_likelihood(np.asfortranarray(boxes), target), got)
 
 
+@pytest.mark.parametrize("n", [BIG, 100_001])
+@pytest.mark.parametrize("layout", ["c", "fortran", "strided"])
+@pytest.mark.parametrize("size_from_target", [False, True])
+def test_image_boxes_equal_the_numpy_path(numpy_path, n, layout, size_from_target):
+    from pftrack.tracker import ImageBoxObservation
+
+    rng = np.random.default_rng(4)
+    states = rng.normal(180.0, 60.0, (n, 6))
+    if layout == "fortran":
+        states = np.asfortranarray(states)
+    elif layout == "strided":
+        wide = np.zeros((n, 9))
+        wide[:, 2:8] = states
+        states = wide[:, 2:8]
+    obs = ImageBoxObservation(29.3, 41.7)
+    target = _target()
+    if size_from_target:
+        target.box_wh_px = (17.1, 33.3)
+    got = obs.to_boxes(states, target)
+    ref = numpy_path(obs.to_boxes, states, target)
+    assert got.shape == (n, 4) and got.dtype == np.float64 and got.flags.c_contiguous
+    assert np.array_equal(got, ref)
+    w, h = (17.1, 33.3) if size_from_target else (29.3, 41.7)
+    assert np.array_equal(got[:, 2:], np.broadcast_to([w, h], (n, 2)))
+    # x - w/2 in float64: the centre comes back within an ulp of the box's scale
+    assert np.allclose(got[:, 0] + 0.5 * w, states[:, 0], rtol=0, atol=1e-12)
+
+
 @pytest.mark.parametrize("n_draws", [None, BIG + 1000, 3 * BIG, 5000])
 @pytest.mark.parametrize("kind", ["peaked", "flat", "zeros"])
 def test_systematic_resample_equals_the_numpy_path(numpy_path, n_draws, kind):
@@ -135,6 +163,71 @@ def test_systematic_resample_equals_the_numpy_path(numpy_path, n_draws, kind):
     ref = numpy_path(systematic_resample, w, b, n_draws)
     assert got.dtype == ref.dtype == np.intp
     assert np.array_equal(got, ref) and _same_generator_state(a, b)
+
+
+@pytest.mark.parametrize("shape", [(1, 7), (3, 500), (4, BIG)])
+@pytest.mark.parametrize("kind", ["peaked", "flat", "zeros"])
+def test_systematic_resample_rows_equals_the_numpy_path(numpy_path, monkeypatch, shape, kind):
+    """The compiled rows (small counts once warmed up, large counts always) give the numpy
+    rows path's indices, which are T successive 1-D calls' indices, and leave the Generator
+    where it leaves it."""
+    from pftrack.filter import systematic_resample_rows
+
+    monkeypatch.setattr(_jit, "_small_warm", True)
+    rng = np.random.default_rng(3)
+    t, n = shape
+    if kind == "peaked":
+        lw = -0.5 * rng.normal(0.0, 4.0, shape) ** 2
+        w = np.exp(lw - lw.max(axis=1, keepdims=True))
+    elif kind == "flat":
+        w = rng.uniform(0.5, 1.0, shape)
+    else:
+        w = rng.uniform(0.0, 1.0, shape)
+        w[rng.random(shape) < 0.8] = 0.0
+        w[:, 0] = 1.0  # every row keeps some weight
+        w[:, -min(n - 1, 50):] = 0.0  # trailing empty bins
+    w /= w.sum(axis=1, keepdims=True)
+    a, b, c = (np.random.default_rng(9) for _ in range(3))
+    got = systematic_resample_rows(w, a)
+    ref = numpy_path(systematic_resample_rows, w, b)
+    one_by_one = numpy_path(lambda: np.array([systematic_resample(r, c) for r in w]))
+    assert got.shape == shape and got.dtype == np.intp
+    assert np.array_equal(got, ref) and np.array_equal(ref, one_by_one)
+    assert _same_generator_state(a, b) and _same_generator_state(b, c)
+
+
+def test_systematic_resample_rows_rejects_bad_weights_like_the_numpy_path(numpy_path,
+                                                                          monkeypatch):
+    from pftrack.filter import systematic_resample_rows
+
+    monkeypatch.setattr(_jit, "_small_warm", True)
+    good = np.full(5, 0.2)
+    for bad in (np.array([0.5, -0.1, 0.6, 0.0, 0.0]), np.array([np.nan, 0.5, 0.5, 0.0, 0.0]),
+                np.zeros(5), np.array([np.inf, 0.0, 0.0, 0.0, 0.0])):
+        w = np.array([good, bad])
+        msgs = []
+        for fn in (systematic_resample_rows, lambda *a: numpy_path(systematic_resample_rows, *a)):
+            rng = np.random.default_rng(0)
+            with pytest.raises(ValueError, match="resampling weights") as e:
+                fn(w, rng)
+            msgs.append(str(e.value))
+            assert _same_generator_state(rng, np.random.default_rng(0))  # nothing drawn
+        assert msgs[0] == msgs[1]
+
+
+@pytest.mark.parametrize("shape", [(3, 500, 2), (1, 1), (2, 7, 2)])
+def test_small_normal_draws_equal_numpys(monkeypatch, shape):
+    from pftrack_basic.motion import _standard_normal
+
+    _jit.warm_up_small()
+    monkeypatch.setattr(_jit, "_small_warm", True)
+    a, b = np.random.default_rng(21), np.random.default_rng(21)
+    got = _standard_normal(a, shape)
+    assert got.shape == shape and np.array_equal(got, b.standard_normal(shape))
+    assert _same_generator_state(a, b)
+    philox = np.random.Generator(np.random.Philox(2))  # not PCG64: numpy draws
+    assert np.array_equal(_standard_normal(philox, shape),
+                          np.random.Generator(np.random.Philox(2)).standard_normal(shape))
 
 
 def test_systematic_resample_rejects_bad_weights_like_the_numpy_path(numpy_path):

@@ -181,3 +181,48 @@ def test_random_walk_predict_rows_equals_row_by_row_bit_for_bit():
     assert np.array_equal(a, c)
     with pytest.raises(ValueError, match=r"\(T, N, 2\)"):
         m.predict_rows(states[0], 1.0, np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("std", [[2.5, 2.5], [2.5, 0.7], [1.0, 1.0, 1.0, 3.0, 3.0, 3.0]])
+@pytest.mark.parametrize("lead", [(500,), (3, 500), (1,)])
+def test_noise_scaling_equals_the_broadcast_product(std, lead):
+    """The random walk scales its noise by one scalar when both axes share a deviation: the
+    same products as numpy's broadcast of the (D,) deviations, bit for bit."""
+    from pftrack_basic.motion import _scale_axes
+
+    std = np.asarray(std)
+    z = np.random.default_rng(8).standard_normal(lead + std.shape)
+    got = z.copy()
+    _scale_axes(got, std)
+    assert got.tobytes() == (z * std).tobytes()
+
+
+def test_random_walk_rows_equal_one_target_at_a_time_with_per_axis_noise():
+    """(T, N, 2) in one call: the numbers T successive single-target calls draw, with one
+    deviation for both axes and with one per axis."""
+    for sigma in (3.0, (3.0, 1.5)):
+        m = RandomWalkMotion(sigma_px=sigma)
+        s = np.random.default_rng(1).normal(100.0, 5.0, (3, 400, 2))
+        a, b = np.random.default_rng(4), np.random.default_rng(4)
+        rows = m.predict_rows(s, 1.0, a)
+        one = np.array([m.predict(s[i], 1.0, b) for i in range(3)])
+        assert rows.tobytes() == one.tobytes()
+        assert a.random() == b.random()
+
+
+def test_random_walk_noise_follows_sigma_and_dt_changes_between_steps():
+    """The deviations are kept between steps, but a changed ``sigma_px`` or ``dt`` is used at
+    once and a bad value still raises."""
+    m = RandomWalkMotion(sigma_px=2.0)
+    s = np.zeros((20000, 2))
+    for sigma, dt in ((2.0, 1.0), (2.0, 1.0), (5.0, 1.0), (5.0, 0.25), ((1.0, 3.0), 1.0)):
+        m.sigma_px = sigma
+        d = m.predict(s, dt, np.random.default_rng(0))
+        want = np.broadcast_to(np.asarray(sigma, float) * np.sqrt(dt), (2,))
+        np.testing.assert_allclose(d.std(axis=0), want, rtol=0.03)
+    m.sigma_px = 2.0
+    with pytest.raises(ValueError, match="dt must be finite and >= 0"):
+        m.predict(s, -1.0, np.random.default_rng(0))
+    m.sigma_px = float("nan")
+    with pytest.raises(ValueError, match="sigma_px must be finite"):
+        m.predict(s, 1.0, np.random.default_rng(0))

@@ -59,8 +59,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run a command; every exception becomes one line and an exit code (0 ok, 1 internal
     error, 2 bad input, 130 interrupted, 141 closed output pipe; see
     :mod:`pftrack.cli._errors`). ``--debug`` anywhere prints the traceback too."""
-    from pftrack.cli import _errors
+    from pftrack.cli import _alloc, _errors
 
+    _alloc.keep_large_arrays()  # per-frame arrays reused from the heap (glibc; see _alloc)
     argv, debug = _errors.split_debug(list(sys.argv[1:] if argv is None else argv))
     command = None
     args = None

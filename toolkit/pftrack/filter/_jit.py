@@ -12,6 +12,8 @@ bit for bit:
   the Generator's PCG64 state, which is read before and written back after, so the Generator
   ends where ``standard_normal((N, 6))`` leaves it. Only an exact ``PCG64`` bit generator takes
   this path (``np.random.default_rng``'s); any other takes the numpy path;
+* :func:`centre_boxes`: the (N, 4) boxes of :class:`pftrack.tracker.ImageBoxObservation`
+  (centre minus half the size, then the size), one row at a time;
 * :func:`gaussian_centre_log_likelihood`: the box-centre Gaussian of
   :class:`pftrack_basic.gaussian.GaussianLikelihood` for one observed point;
 * :func:`shifted_exp`: the shift and mask of :func:`pftrack.filter.normalize_log_weights`
@@ -35,18 +37,23 @@ seconds when the cache is cold).
 from __future__ import annotations
 
 import os
+import sys
 
 import numpy as np
 
 __all__ = [
     "ENABLED",
     "MIN_PARTICLES",
+    "centre_boxes",
     "constant_acceleration_predict",
     "gaussian_centre_log_likelihood",
     "pcg64_standard_normal",
     "shifted_exp",
+    "small_ready",
     "systematic_indices",
+    "systematic_indices_rows",
     "use",
+    "warm_up_small",
     "weight_total",
     "weighted_sum",
 ]
@@ -63,6 +70,36 @@ _M64 = (1 << 64) - 1
 def use(n: int) -> bool:
     """Whether a call on ``n`` particles takes the compiled path."""
     return ENABLED and n >= MIN_PARTICLES
+
+
+_small_warm = False
+
+
+def small_ready() -> bool:
+    """Whether the kernels may also serve small particle counts (below
+    :data:`MIN_PARTICLES`): only after :func:`warm_up_small` found numba already imported
+    and loaded them, so a small filter never pays numba's import or a kernel's first load
+    inside its timed loop. Used by the engine's per-frame calls on all targets at once
+    (:meth:`RandomWalkMotion.predict_rows`, :func:`pftrack.filter.systematic_resample_rows`),
+    whose numpy paths are a dozen calls of a few microseconds each."""
+    return ENABLED and _small_warm
+
+
+def warm_up_small() -> bool:
+    """Load the kernels :func:`small_ready` gates, when numba is already imported (a plugin's
+    own kernels, e.g. the colour likelihoods', imported it); else do nothing. Returns
+    :func:`small_ready`. The engine calls it once, when it is built."""
+    global _small_warm
+    if _small_warm or not ENABLED or "numba" not in sys.modules:
+        return _small_warm
+    k = _k()
+    k.pcg64_standard_normal(np.zeros(1), np.zeros(4, dtype=np.uint64))
+    w = np.full((1, 2), 0.5)
+    totals = np.empty(1)
+    k.weight_totals_rows(w, totals)
+    k.systematic_indices_rows(w, 1.0 / totals, np.zeros(1), np.empty((1, 3), dtype=np.intp))
+    _small_warm = True
+    return True
 
 
 def _k():
@@ -119,6 +156,17 @@ def gaussian_centre_log_likelihood(boxes: np.ndarray, ox: float, oy: float,
     return out
 
 
+def centre_boxes(states: np.ndarray, w: float, h: float) -> np.ndarray:
+    """(N, 4) boxes ``(x - 0.5 w, y - 0.5 h, w, h)`` of the states' first two columns (the box
+    centres), as :meth:`pftrack.tracker.ImageBoxObservation.to_boxes` computes them with numpy,
+    in one pass instead of four strided ones."""
+    s = np.asarray(states, dtype=np.float64)
+    out = np.empty((len(s), 4))
+    w, h = float(w), float(h)
+    _k().centre_boxes(s, 0.5 * w, 0.5 * h, w, h, out)
+    return out
+
+
 def weight_total(w: np.ndarray) -> tuple[float, bool]:
     """``(np.add.accumulate(w)[-1], all(w >= 0))`` of a contiguous 1-D float64 array."""
     total, ok = _k().weight_total(w)
@@ -131,6 +179,25 @@ def systematic_indices(w: np.ndarray, inv_total: float, n: int, u: float) -> np.
     idx = np.empty(n + 1, dtype=np.intp)
     _k().systematic_indices(w, float(inv_total), n, float(u), idx)
     return idx[:n]
+
+
+def systematic_indices_rows(w: np.ndarray, rng: np.random.Generator) -> np.ndarray | None:
+    """Systematic resampling indices (T, N) of every row of the weights (T, N), row ``r`` what
+    the ``r``-th of T successive 1-D calls returns (the offsets from one ``rng.random(T)``,
+    drawn after the check as the numpy path draws them); None (nothing drawn) when a row's
+    weights are negative, NaN or sum to zero or infinity (the numpy path then raises)."""
+    w = np.ascontiguousarray(w, dtype=np.float64)
+    t, n = w.shape
+    totals = np.empty(t)
+    k = _k()
+    if not k.weight_totals_rows(w, totals):
+        return None
+    if not all(0.0 < v < np.inf for v in totals.tolist()):
+        return None
+    u = rng.random(t)
+    idx = np.empty((t, n + 1), dtype=np.intp)
+    k.systematic_indices_rows(w, 1.0 / totals, u, idx)
+    return idx[:, :n]
 
 
 def shifted_exp(lw: np.ndarray, m: float, zero_below: float) -> np.ndarray:

@@ -162,6 +162,19 @@ def gaussian_centre_log_likelihood(boxes, ox, oy, scale, out):  # pragma: no cov
 
 
 @njit(**_JIT)  # type: ignore[call-overload]
+def centre_boxes(states, hw, hh, w, h, out):  # pragma: no cover - compiled
+    """``out[i] = (s0 - hw, s1 - hh, w, h)`` per state row: the boxes of
+    :meth:`pftrack.tracker.ImageBoxObservation.to_boxes` (``hw = 0.5 w``, ``hh = 0.5 h``),
+    written row by row in one pass."""
+    n = states.shape[0]
+    for i in range(n):
+        out[i, 0] = states[i, 0] - hw
+        out[i, 1] = states[i, 1] - hh
+        out[i, 2] = w
+        out[i, 3] = h
+
+
+@njit(**_JIT)  # type: ignore[call-overload]
 def weight_total(w):  # pragma: no cover - compiled
     """The last running sum of ``w`` (``np.add.accumulate(w)[-1]``: summed in order, the same
     number) and whether every weight is >= 0 (False for NaN too)."""
@@ -200,6 +213,28 @@ def systematic_indices(w, inv_total, n, u, idx):  # pragma: no cover - compiled
     for j in range(n):
         run += idx[j]
         idx[j] = run
+
+
+@njit(**_JIT)  # type: ignore[call-overload]
+def weight_totals_rows(w, totals):  # pragma: no cover - compiled
+    """:func:`weight_total` of every row of a C-contiguous (T, N) ``w`` into ``totals`` (T,);
+    returns whether every weight is >= 0 (False for NaN too)."""
+    ok = True
+    for r in range(w.shape[0]):
+        total, nonneg = weight_total(w[r])
+        totals[r] = total
+        ok = ok and nonneg
+    return ok
+
+
+@njit(**_JIT)  # type: ignore[call-overload]
+def systematic_indices_rows(w, inv_totals, u, idx):  # pragma: no cover - compiled
+    """:func:`systematic_indices` of every row of a C-contiguous (T, N) ``w`` with its own
+    ``inv_totals[r]`` and offset ``u[r]``; ``idx`` (T, N + 1) intp, the indices in
+    ``idx[:, :N]``."""
+    n = w.shape[1]
+    for r in range(w.shape[0]):
+        systematic_indices(w[r], inv_totals[r], n, u[r], idx[r])
 
 
 @njit(**_JIT)  # type: ignore[call-overload]

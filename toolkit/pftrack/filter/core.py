@@ -211,6 +211,11 @@ def systematic_resample_rows(weights: np.ndarray, rng: np.random.Generator) -> n
         raise ValueError(f"systematic_resample_rows expects a (T, N) array with N >= 1, got "
                          f"shape {w.shape}")
     t, n = w.shape
+    if _jit.small_ready() or _jit.use(n):
+        # compiled, row by row: the 1-D kernel's numbers, which are the numpy path's
+        idx = _jit.systematic_indices_rows(w, rng)
+        if idx is not None:
+            return idx
     c = np.add.accumulate(w, axis=1)
     total = c[:, -1].tolist()
     if not all(0.0 < v < math.inf for v in total) or (t and w.min() < 0):  # NaN fails too
