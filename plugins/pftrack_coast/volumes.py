@@ -21,7 +21,11 @@ Identities beyond the paper (each off by default): a candidate entry too small f
 keeps its group gathering on it for ``gather_frames`` frames instead of being spread again at
 once (an intruder half-seen by the uniform spread looks small); two tracks moving apart faster
 than ``merge_speed_m`` do not merge (people crossing); a new track starting within ``reid_m`` of
-where an output track ended at most ``reid_frames`` frames before takes up its id.
+where an output track ended at most ``reid_frames`` frames before takes up its id; with
+``appearance`` each track keeps an HSV colour histogram of its cuboid's image region (updated while
+no other track is within ``appearance_near_m``), two tracks that were together and separate swap
+their output ids when the swapped histograms match their templates better, and a re-identified
+track takes up the ended id whose template it matches best.
 
 Estimates per frame (each output :class:`~pftrack.components.TrackRecord`):
 
@@ -69,9 +73,58 @@ from pftrack_coast.likelihood import _blocks_of_pixels
 if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera
 
-__all__ = ["InsideBoxesLikelihood", "VolumeTracks", "cloud_box", "cuboid_box", "cuboid_boxes",
-           "cuboid_corners", "footprint_size",
+__all__ = ["InsideBoxesLikelihood", "VolumeTracks", "bhattacharyya", "cloud_box", "cuboid_box",
+           "cuboid_boxes", "cuboid_corners", "footprint_size", "hsv_histogram",
            "support_plane_estimate"]
+
+HSV_BINS = (8, 4, 4)
+
+
+def hsv_histogram(image: np.ndarray, box_xywh_px: np.ndarray, inner: float = 0.4,
+                  bins: tuple[int, int, int] = HSV_BINS) -> np.ndarray | None:
+    """Normalised HSV colour histogram of the central part of an image box.
+
+    Parameters
+    ----------
+    image : ndarray, shape (H, W, 3), uint8
+        BGR picture.
+    box_xywh_px : ndarray, shape (4,)
+        (left, top, width, height), pixels.
+    inner : float
+        Fraction of the box's width kept about its centre (its height is kept from 5 % to
+        95 %): the region is mostly the intruder, not the background beside it.
+    bins : tuple of int
+        Bins of hue (0-180), saturation and value.
+
+    Returns
+    -------
+    ndarray, shape (prod(bins),) or None
+        The histogram (sums to 1); None when the region holds fewer than 16 pixels of the image.
+    """
+    import cv2
+
+    b = np.asarray(box_xywh_px, dtype=np.float64)
+    if b.shape != (4,) or not np.isfinite(b).all():
+        return None
+    h_img, w_img = image.shape[:2]
+    cx = b[0] + 0.5 * b[2]
+    x0, x1 = int(max(cx - 0.5 * inner * b[2], 0)), int(min(cx + 0.5 * inner * b[2], w_img))
+    y0, y1 = int(max(b[1] + 0.05 * b[3], 0)), int(min(b[1] + 0.95 * b[3], h_img))
+    if (x1 - x0) * (y1 - y0) < 16:
+        return None
+    hsv = cv2.cvtColor(np.ascontiguousarray(image[y0:y1, x0:x1]), cv2.COLOR_BGR2HSV)
+    nh, ns, nv = bins
+    hsv = hsv.reshape(-1, 3).astype(np.intp)
+    idx = (np.minimum(hsv[:, 0] * nh // 180, nh - 1) * ns + hsv[:, 1] * ns // 256) * nv \
+        + hsv[:, 2] * nv // 256
+    hist = np.bincount(idx, minlength=nh * ns * nv).astype(np.float64)
+    return hist / hist.sum()
+
+
+def bhattacharyya(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Bhattacharyya distance sqrt(1 - sum sqrt(p q)) between histograms (last axis)."""
+    bc = np.sqrt(np.asarray(p) * np.asarray(q)).sum(axis=-1)
+    return np.sqrt(np.clip(1.0 - bc, 0.0, None))
 
 
 def footprint_size(across_m: float, aspect: float, heading_deg: float | None) -> tuple[float,
@@ -279,8 +332,9 @@ class VolumeTracks(TrackManager):
         ``size_raw_m`` (eq. 8-10; size across, height, along the view), ``footprint_m``,
         ``size_m`` (the support-plane correction), ``n_above`` (particles above ``v_pi``).
     events_ : list of dict
-        ``{"frame", "id", "volume", "event": "entry"|"exit"|"merged"|"reidentified"}`` (engine
-        target ids; "reidentified" adds ``"as"``, the output id the track takes up).
+        ``{"frame", "id", "volume", "event": "entry"|"exit"|"merged"|"reidentified"|"swapped"}``
+        (engine target ids; "reidentified" adds ``"as"``, the output id the track takes up;
+        "swapped" adds ``"with"``, the track it swapped output ids with).
     """
 
     volumes: Sequence[str | dict] | str = Param(
@@ -321,6 +375,32 @@ class VolumeTracks(TrackManager):
         "(a person lost in an occlusion and found again); 0: every track a new id (the "
         "paper).", unit="frames")
     reid_m: float = Param(1.5, "Distance on the support plane for reid_frames.", unit="m")
+    appearance: bool = Param(
+        False, "Per-track appearance: an HSV histogram of each track's cuboid image region "
+        "(updated while alone); two tracks that were within appearance_near_m and separate "
+        "swap output ids when the swapped histograms match the templates better by "
+        "appearance_margin, and re-identification takes the best-matching ended id within "
+        "reid_m (False: positions only).")
+    appearance_rate: float = Param(0.1, "Template update rate per frame while a track is alone.",
+                                   unit="1")
+    appearance_near_m: float = Param(
+        1.0, "Tracks whose footprints are closer than this are together; a track is alone (its "
+        "template updated) with no other within twice this.", unit="m")
+    appearance_apart: float = Param(
+        1.5, "Two tracks together are apart (a swap is tested) once their footprints are "
+        "farther than this times appearance_near_m and their image boxes are disjoint.",
+        unit="1")
+    appearance_inner: float = Param(
+        0.4, "Fraction of the region's width (about its centre) whose colours are counted.",
+        unit="1")
+    appearance_reid_max: float | None = Param(
+        None, "With appearance: re-identification only when the best match's Bhattacharyya "
+        "distance is at most this (None: any).", unit="1")
+    appearance_margin: float = Param(
+        0.05, "Bhattacharyya distance (sum over the pair) by which the swapped match must beat "
+        "the kept one.", unit="1")
+    appearance_min_frames: int = Param(
+        5, "Frames alone before a track's template is used.", unit="frames")
     confirm_frames: int = Param(3, "A new track is output once it has lived this many frames "
                                    "(its records from the entry on, so confirmation costs no "
                                    "frames); one that ends sooner was noise and is never "
@@ -444,6 +524,12 @@ class VolumeTracks(TrackManager):
         if int(self.reid_frames) < 0 or not float(self.reid_m) > 0:
             raise ValueError(f"tracks 'volumes': need reid_frames >= 0 and reid_m > 0, got "
                              f"{self.reid_frames!r}, {self.reid_m!r}")
+        if not 0.0 < float(self.appearance_rate) <= 1.0 or \
+                not float(self.appearance_near_m) > 0 or int(self.appearance_min_frames) < 1:
+            raise ValueError(f"tracks 'volumes': need 0 < appearance_rate <= 1, "
+                             f"appearance_near_m > 0 and appearance_min_frames >= 1, got "
+                             f"{self.appearance_rate!r}, {self.appearance_near_m!r}, "
+                             f"{self.appearance_min_frames!r}")
         if int(self.gather_frames) < 0:
             raise ValueError(f"tracks 'volumes': gather_frames must be >= 0, got "
                              f"{self.gather_frames!r}")
@@ -470,6 +556,11 @@ class VolumeTracks(TrackManager):
         self.alias_: dict[int, int] = {}
         self.shown_: set[int] = set()
         self.ended_: list[tuple[int, int, np.ndarray]] = []
+        self.templates_: dict[int, tuple[np.ndarray, int]] = {}
+        self.ended_templates_: dict[int, tuple[np.ndarray, int]] = {}
+        self.together_: set[tuple[int, int]] = set()
+        self.hists_: dict[int, np.ndarray] = {}
+        self.look_: dict[int, np.ndarray] = {}
         self.estimates_: list[dict[str, Any]] = []
         self.events_: list[dict[str, Any]] = []
 
@@ -672,6 +763,7 @@ class VolumeTracks(TrackManager):
         box = record.box_xywh_px.copy()
         if self.object_size_m is not None and np.isfinite(boxes[1]).all():
             prior = boxes[1]
+            self.look_[t.id] = prior  # (appearance: a typical intruder on the footprint)
             ahead = boxes[2] if np.isfinite(boxes[2]).all() else prior
             if self.gate_margin is not None:
                 lo = np.minimum(prior[:2], ahead[:2])
@@ -703,10 +795,13 @@ class VolumeTracks(TrackManager):
             # an output track ends: its id may be taken up again (reid_frames, reid_m)
             self.ended_.append((int(self.__dict__.get("frame_", 0)),
                                 self.alias_.get(tid, tid), np.array(path[-1], dtype=float)))
+            if tid in self.templates_:
+                self.ended_templates_[self.alias_.get(tid, tid)] = self.templates_[tid]
+        self.templates_.pop(tid, None)
         self.alias_.pop(tid, None)
         self.shown_.discard(tid)
         for d in (self.groups_, self.tracks_, self.idle_, self.low_, self.boxes_, self.paths_,
-                  self.pending_, self.gates_, self.targets_, self.gather_):
+                  self.pending_, self.gates_, self.targets_, self.gather_, self.look_):
             d.pop(tid, None)
 
     def after_frame(self, engine: Any, frame: Frame, detections: Detections | None,
@@ -760,6 +855,12 @@ class VolumeTracks(TrackManager):
                     key = (out[i].id, out[j].id)
                     overlaps[key] = self.overlaps_.get(key, 0) + 1
                     if overlaps[key] >= int(self.merge_frames):
+                        if self.appearance and out[i].id in self.shown_ and \
+                                out[j].id in self.shown_ and \
+                                self._mismatch(frame, out[i], out[j]):
+                            # the older is on the younger's person: it goes on under the
+                            # younger's output id (and template); the older's id ends
+                            self._swap(frame, out[i].id, out[j].id)
                         drop.add(out[j].id)
             for tid in drop:
                 self.events_.append({"frame": frame.index, "id": tid,
@@ -818,6 +919,8 @@ class VolumeTracks(TrackManager):
         for tid in list(self.boxes_):
             if tid not in self.tracks_:
                 del self.boxes_[tid]
+        if self.appearance:
+            self._appearance(frame, out)
         return self._reidentified(self._confirmed([r for r in out if self._shown(r)]))
 
     def _reidentified(self, out: list[TrackRecord]) -> list[TrackRecord]:
@@ -841,6 +944,8 @@ class VolumeTracks(TrackManager):
             d = np.hypot(xy[:, 0] - first.world_m[0], xy[:, 1] - first.world_m[1])
             d[np.array([e[0] > first.frame for e in self.ended_])] = np.inf
             k = int(np.argmin(d))
+            if self.appearance and d[k] <= r_m:  # of the ids within reid_m: the best match
+                k = self._best_match(tid, d, r_m, k)
             if d[k] <= r_m:
                 self.alias_[tid] = self.ended_.pop(k)[1]
                 self.events_.append({"frame": first.frame, "id": tid, "volume":
@@ -851,6 +956,121 @@ class VolumeTracks(TrackManager):
             if r.id in self.alias_:
                 r.id = self.alias_[r.id]
         return out
+
+    def _best_match(self, tid: int, d: np.ndarray, r_m: float, k: int) -> int:
+        """Of the ended ids within ``r_m`` (distances ``d`` to ``self.ended_``), the one whose
+        template matches track ``tid``'s histogram best (``k``, the nearest, without
+        templates)."""
+        h = self.hists_.get(tid)
+        if h is None:
+            return k
+        best, cost = k, np.inf
+        for i in np.flatnonzero(d <= r_m):
+            tpl = self.ended_templates_.get(self.ended_[i][1])
+            if tpl is None or tpl[1] < int(self.appearance_min_frames):
+                continue
+            c = float(bhattacharyya(h, tpl[0]))
+            if c < cost:
+                best, cost = int(i), c
+        lim = self.appearance_reid_max
+        if lim is not None and cost > float(lim):  # (no template: the nearest is kept)
+            d[:] = np.inf  # nothing like it ended nearby: a new id
+        return best
+
+    def _appearance(self, frame: Frame, out: list[TrackRecord]) -> None:
+        """Histograms of this frame's tracks; templates updated for tracks alone; pairs that
+        were together and have separated swap output ids when appearance says so."""
+        self.hists_ = {}
+        for r in out:
+            h = self._hist(frame, r)
+            if h is not None:
+                self.hists_[r.id] = h
+        xy = {r.id: r.world_m[:2] for r in out if r.world_m is not None}
+        ids = sorted(xy)
+        near = float(self.appearance_near_m)
+        if ids:
+            p = np.array([xy[i] for i in ids])
+            d = np.hypot(p[:, None, 0] - p[None, :, 0], p[:, None, 1] - p[None, :, 1])
+            np.fill_diagonal(d, np.inf)
+        else:
+            d = np.zeros((0, 0))
+        pos = {tid: i for i, tid in enumerate(ids)}
+        together = {(ids[i], ids[j]) for i, j in zip(*np.nonzero(d < near)) if i < j}
+        # pairs together before and now apart (both still live, beyond apart * near, image
+        # boxes disjoint): test a swap
+        apart = float(self.appearance_apart)
+        box = {r.id: r.box_xywh_px for r in out}
+        for a, b in sorted(self.together_ - together):
+            if a not in pos or b not in pos:
+                continue
+            ba, bb = box[a], box[b]
+            disjoint = bool(np.any(ba[:2] + ba[2:] <= bb[:2])
+                            or np.any(bb[:2] + bb[2:] <= ba[:2]))
+            if d[pos[a], pos[b]] < apart * near or not disjoint:
+                together.add((a, b))  # not apart yet: still together
+                continue
+            self._maybe_swap(frame, a, b)
+        self.together_ = together
+        alone = [tid for tid in ids if not np.any(d[pos[tid]] < 2.0 * near)]
+        rate = float(self.appearance_rate)
+        for tid in alone:
+            h = self.hists_.get(tid)
+            if h is None:
+                continue
+            tpl = self.templates_.get(tid)
+            self.templates_[tid] = (h.copy(), 1) if tpl is None else \
+                ((1.0 - rate) * tpl[0] + rate * h, tpl[1] + 1)
+
+    def _hist(self, frame: Frame, record: TrackRecord) -> np.ndarray | None:
+        """HSV histogram of a track's region: the image box of a typical intruder
+        (``object_size_m``) on its footprint, else its record's box."""
+        box = self.look_.get(record.id, record.box_xywh_px)
+        return hsv_histogram(frame.image, box, inner=float(self.appearance_inner))
+
+    def _mismatch(self, frame: Frame, older: TrackRecord, younger: TrackRecord) -> bool:
+        """Two tracks on one intruder merge: whether the older's template matches its region
+        worse (by ``appearance_margin``) than the younger's matches its own (the older ends
+        then, not the younger). False when either template is not ready."""
+        n = int(self.appearance_min_frames)
+        costs = []
+        for r in (older, younger):
+            tpl = self.templates_.get(r.id)
+            h = self._hist(frame, r)
+            if tpl is None or tpl[1] < n or h is None:
+                return False
+            costs.append(float(bhattacharyya(h, tpl[0])))
+        return costs[0] > costs[1] + float(self.appearance_margin)
+
+    def _maybe_swap(self, frame: Frame, a: int, b: int) -> None:
+        ta, tb = self.templates_.get(a), self.templates_.get(b)
+        ha, hb = self.hists_.get(a), self.hists_.get(b)
+        n = int(self.appearance_min_frames)
+        if ta is None or tb is None or ha is None or hb is None or min(ta[1], tb[1]) < n:
+            return
+        if a not in self.shown_ or b not in self.shown_:
+            return
+        kept = float(bhattacharyya(ha, ta[0]) + bhattacharyya(hb, tb[0]))
+        swapped = float(bhattacharyya(ha, tb[0]) + bhattacharyya(hb, ta[0]))
+        if swapped + float(self.appearance_margin) >= kept:
+            return
+        self._swap(frame, a, b)
+
+    def _swap(self, frame: Frame, a: int, b: int) -> None:
+        """Tracks ``a`` and ``b`` exchange their output ids and templates."""
+        oa, ob = self.alias_.get(a, a), self.alias_.get(b, b)
+        self.alias_[a], self.alias_[b] = ob, oa
+        ta, tb = self.templates_.pop(a, None), self.templates_.pop(b, None)
+        if tb is not None:
+            self.templates_[a] = tb
+        if ta is not None:
+            self.templates_[b] = ta
+        for e in reversed(self.estimates_):  # this frame's estimates under the new ids
+            if e["frame"] < frame.index:
+                break
+            if e["id"] in (oa, ob):
+                e["id"] = ob if e["id"] == oa else oa
+        self.events_.append({"frame": frame.index, "id": a, "volume": self.tracks_.get(a),
+                             "event": "swapped", "with": b})
 
     def _rename_estimates(self, tid: int, new_id: int, since: int) -> None:
         """The estimates of track ``tid`` from frame ``since`` on, under ``new_id`` (the

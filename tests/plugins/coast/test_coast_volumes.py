@@ -142,6 +142,20 @@ def test_volume_tracks_same_seed_same_tracks_other_seed_differs():
     assert a.shape != c.shape or not np.array_equal(a, c)
 
 
+def test_appearance_on_a_colourless_image_keeps_the_tracks_and_learns_templates():
+    """On a black image every histogram is the same: appearance can tell no one apart, so the
+    tracks are those of positions alone, while each track that was alone has a template."""
+    off = _run(seed=3, n_frames=40)
+    on = _run(seed=3, n_frames=40, appearance=True, appearance_min_frames=2)
+    assert np.array_equal(off[2], on[2]) and len(on[2]) > 20
+    assert not [e for e in on[1].events_ if e["event"] == "swapped"]
+    live = set(on[1].tracks_)
+    assert live and live <= set(on[1].templates_)
+    assert all(n >= 2 for _, n in on[1].templates_.values())
+    assert all(h.sum() == pytest.approx(1.0) and h[0] == pytest.approx(1.0)
+               for h, _ in on[1].templates_.values())  # black: hue, saturation, value bin 0
+
+
 def test_detection_group_stays_in_its_volume_and_off_tracked_people():
     engine, tracks, rows, gt, vol, truth = _run(n_frames=30)
     (gid,) = tracks.groups_

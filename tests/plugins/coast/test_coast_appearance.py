@@ -1,0 +1,115 @@
+"""Per-track appearance in the volume tracker (issue 13): HSV histograms, the swap of two tracks'
+output ids when they separate, and the re-identification by appearance."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from pftrack.components import Frame, RunContext, TrackRecord
+from pftrack.geometry.camera import Camera
+from pftrack_coast.volumes import VolumeTracks, bhattacharyya, hsv_histogram
+
+RED, BLUE = (0, 0, 200), (200, 0, 0)  # BGR
+BOX_A = np.array([100.0, 100.0, 40.0, 100.0])
+BOX_B = np.array([300.0, 100.0, 40.0, 100.0])
+
+
+def _image(colour_a=RED, colour_b=BLUE) -> np.ndarray:
+    img = np.full((480, 640, 3), 90, np.uint8)
+    for box, colour in ((BOX_A, colour_a), (BOX_B, colour_b)):
+        x, y, w, h = box.astype(int)
+        img[y:y + h, x:x + w] = colour
+    return img
+
+
+def _record(frame: int, tid: int, xy, box) -> TrackRecord:
+    return TrackRecord(frame=frame, id=tid, box_xywh_px=np.asarray(box, float),
+                       state=np.zeros(6), position=np.zeros(3), extent=np.zeros(3),
+                       confidence=1.0, world_m=np.array([xy[0], xy[1], 0.0]))
+
+
+def _manager(**kw) -> VolumeTracks:
+    cam = Camera.look_at((0.0, -40.0, 20.0), (0.0, 0.0, 0.0), (640, 480), fx=600.0)
+    m = VolumeTracks(volumes="near", appearance=True, appearance_min_frames=3, **kw)
+    m.setup(RunContext(camera=cam))
+    m.shown_ |= {1, 2}
+    return m
+
+
+def test_hsv_histogram_counts_the_colours_of_the_box_centre():
+    img = _image()
+    h = hsv_histogram(img, BOX_A)
+    assert h.shape == (8 * 4 * 4,) and h.sum() == pytest.approx(1.0)
+    # pure red: hue 0, saturation 255, value 200 -> bin (0, 3, 3)
+    assert h[(0 * 4 + 3) * 4 + 3] == pytest.approx(1.0)
+    blue_hue = int(cv2.cvtColor(np.uint8([[BLUE]]), cv2.COLOR_BGR2HSV)[0, 0, 0])  # 120
+    assert hsv_histogram(img, BOX_B)[((blue_hue * 8 // 180) * 4 + 3) * 4 + 3] == 1.0
+    # a box half on the grey background: only its central 40 % is counted (all red)
+    assert hsv_histogram(img, BOX_A + [-20, 0, 40, 0])[15] == pytest.approx(1.0)
+    # its central 60 %: 48 px wide of which 40 red, the rest grey (hue 0, saturation 0,
+    # value 90 -> bin 1)
+    h = hsv_histogram(img, BOX_A + [-20, 0, 40, 0], inner=0.6)
+    assert h[15] == pytest.approx(40 / 48) and h[1] == pytest.approx(8 / 48)
+    # off the image, too small, not finite: no histogram
+    assert hsv_histogram(img, np.array([700.0, 10, 40, 40])) is None
+    assert hsv_histogram(img, np.array([10.0, 10, 2, 2])) is None
+    assert hsv_histogram(img, np.array([np.nan, 10, 40, 40])) is None
+
+
+def test_bhattacharyya_distance_values():
+    p = np.array([0.5, 0.5, 0.0])
+    assert bhattacharyya(p, p) == pytest.approx(0.0, abs=1e-7)
+    assert bhattacharyya(p, np.array([0.0, 0.0, 1.0])) == pytest.approx(1.0)
+    q = np.array([1.0, 0.0, 0.0])
+    assert bhattacharyya(p, q) == pytest.approx(np.sqrt(1.0 - np.sqrt(0.5)))
+    assert bhattacharyya(np.stack([p, q]), q) == pytest.approx([np.sqrt(1 - np.sqrt(0.5)), 0])
+
+
+def _meet(m: VolumeTracks, exchanged: bool, img_after: np.ndarray) -> list[TrackRecord]:
+    """Tracks 1 (on the red person) and 2 (blue) apart for 5 frames, together at frame 6,
+    apart at frame 7 -- each on the other's person when ``exchanged``."""
+    img = _image()
+    for f in range(1, 6):
+        m._appearance(Frame(f, img), [_record(f, 1, (0, 0), BOX_A), _record(f, 2, (5, 0), BOX_B)])
+    m._appearance(Frame(6, img), [_record(6, 1, (0, 0), BOX_A), _record(6, 2, (0.5, 0), BOX_B)])
+    a, b = ((5, 0), BOX_B), ((0, 0), BOX_A)
+    out = [_record(7, 1, *(a if exchanged else b)), _record(7, 2, *(b if exchanged else a))]
+    m._appearance(Frame(7, img_after), out)
+    return m._reidentified(out)
+
+
+def test_two_tracks_that_exchanged_people_while_together_swap_their_ids():
+    m = _manager()
+    out = _meet(m, exchanged=True, img_after=_image())
+    # engine track 1 now sees blue: it is output as 2, and track 2 (on red) as 1
+    assert {r.id: tuple(r.world_m[:2]) for r in out} == {2: (5.0, 0.0), 1: (0.0, 0.0)}
+    assert m.alias_ == {1: 2, 2: 1}
+    assert [e["event"] for e in m.events_] == ["swapped"]
+    # the templates follow the people: track 1's template is now the blue one
+    assert bhattacharyya(m.templates_[1][0], hsv_histogram(_image(), BOX_B)) < 0.05
+
+
+def test_no_swap_when_the_tracks_kept_their_people_or_colours_do_not_tell():
+    m = _manager()
+    out = _meet(m, exchanged=False, img_after=_image())
+    assert sorted(r.id for r in out) == [1, 2] and m.alias_ == {} and m.events_ == []
+    # both people dressed alike: positions alone, no swap
+    m = _manager()
+    grey = _image(RED, RED)
+    for f in range(1, 6):
+        m._appearance(Frame(f, grey), [_record(f, 1, (0, 0), BOX_A),
+                                       _record(f, 2, (5, 0), BOX_B)])
+    m._appearance(Frame(6, grey), [_record(6, 1, (0, 0), BOX_A), _record(6, 2, (0.5, 0), BOX_B)])
+    m._appearance(Frame(7, grey), [_record(7, 1, (5, 0), BOX_B), _record(7, 2, (0, 0), BOX_A)])
+    assert m.alias_ == {} and m.events_ == []
+
+
+def test_appearance_is_off_by_default_and_bad_parameters_are_named():
+    assert VolumeTracks().appearance is False
+    cam = Camera.look_at((0.0, -40.0, 20.0), (0.0, 0.0, 0.0), (640, 480), fx=600.0)
+    ctx = RunContext(camera=cam)
+    with pytest.raises(ValueError, match="appearance_rate"):
+        VolumeTracks(volumes="near", appearance_rate=0.0).setup(ctx)
+    with pytest.raises(ValueError, match="appearance_near_m"):
+        VolumeTracks(volumes="near", appearance_near_m=-1.0).setup(ctx)
