@@ -272,7 +272,7 @@ def _next_in_camera(cameras: np.ndarray, t_start_s: np.ndarray, t_end_s: np.ndar
     return keep
 
 
-def ensemble_distance(labels: np.ndarray) -> np.ndarray:
+def ensemble_distance(labels: np.ndarray, normalise: bool = False) -> np.ndarray:
     """Eq. 4-5: the number of runs in which two tracklets got different labels, counting
     only runs where neither is NA.
 
@@ -280,6 +280,10 @@ def ensemble_distance(labels: np.ndarray) -> np.ndarray:
     ----------
     labels : ndarray (n, S) int
         ``labels[i, s]``: tracklet i's label in run s, ``NA`` (-1) when not tracked.
+    normalise : bool
+        False (eq. 4): the count. True: the count divided by the number of runs in which both
+        were tracked (the share of disagreeing runs, Fred and Jain's co-association distance);
+        1 for pairs never tracked together.
 
     Returns
     -------
@@ -293,6 +297,12 @@ def ensemble_distance(labels: np.ndarray) -> np.ndarray:
     for s in range(labels.shape[1]):  # S broadcasts of (n, n): bounded memory for large S
         col, k = labels[:, s], known[:, s]
         d += (col[:, None] != col[None, :]) & k[:, None] & k[None, :]
+    if not normalise:
+        return d
+    kf = known.astype(float)
+    both = kf @ kf.T
+    d = np.where(both > 0, d / np.maximum(both, 1.0), 1.0)
+    np.fill_diagonal(d, 0.0)
     return d
 
 
@@ -346,6 +356,17 @@ class TrajectoryEnsemble(TrackletLinker):
         7 / 9 / 11, "moments" 0.414 / 0.438 / 0.422 / 0.357.
     max_parallel : int or None
         Cap on the edges per camera pair in a sub-network (ditto).
+    join_min_appearance : float or None
+        None (the paper): a sub-network's tracker may link over any edge. A number: a change
+        of method, "appearance-gated joins": a link over an edge that dropout added (a joined
+        edge, :meth:`~pftrack_network.network.CameraNetwork.joined_edges`) is allowed only
+        where the two tracklets' appearance (eq. 7) is at least this; links over the
+        network's own edges are as before. :class:`GatedTrajectoryEnsemble` has the tuned
+        setting and its measurements.
+    distance : {"count", "share"}
+        ``"count"`` (eq. 4, the paper): the number of runs in which two tracklets disagree.
+        ``"share"``: that count over the runs in which both were tracked
+        (:func:`ensemble_distance` with ``normalise=True``), a change of method.
 
     Attributes
     ----------
@@ -359,26 +380,43 @@ class TrajectoryEnsemble(TrackletLinker):
 
     def __init__(self, n_dropped: int = 9, n_subnetworks: int = 100,
                  linker: TrackletLinker | None = None, linkage: str = "average",
-                 transit_sum: str = "moments", max_parallel: int | None = 4) -> None:
+                 transit_sum: str = "moments", max_parallel: int | None = 4,
+                 join_min_appearance: float | None = None, distance: str = "count") -> None:
         self.n_dropped = n_dropped
         self.n_subnetworks = n_subnetworks
         self.linker = linker
         self.linkage = linkage
         self.transit_sum = transit_sum
         self.max_parallel = max_parallel
+        self.join_min_appearance = join_min_appearance
+        self.distance = distance
+
+    def default_linker(self) -> TrackletLinker:
+        """The tracker of each sub-network when ``linker`` is None."""
+        return MinCostFlowLinker(ENSEMBLE_PATH_COST)
 
     def link(self, tracklets: Sequence[Tracklet], network: CameraNetwork, *,
              appearance: np.ndarray | None = None,
              rng: np.random.Generator | None = None) -> np.ndarray:
-        from pftrack_network.similarity import appearance_matrix, transit_matrix
+        from pftrack_network.similarity import (
+            appearance_matrix,
+            transit_matrices,
+            transit_matrix,
+        )
 
         if rng is None:
             raise ValueError("TrajectoryEnsemble.link needs rng (a numpy Generator): the "
                              "sub-networks are random")
         if int(self.n_subnetworks) < 1:
             raise ValueError(f"n_subnetworks must be >= 1, got {self.n_subnetworks}")
-        linker = (self.linker if self.linker is not None
-                  else MinCostFlowLinker(ENSEMBLE_PATH_COST))
+        if self.distance not in ("count", "share"):
+            raise ValueError(f"TrajectoryEnsemble: distance must be 'count' or 'share', got "
+                             f"{self.distance!r}")
+        gate = self.join_min_appearance
+        if gate is not None and not np.isfinite(gate):
+            raise ValueError(f"TrajectoryEnsemble: join_min_appearance must be a number or "
+                             f"None, got {gate!r}")
+        linker = self.linker if self.linker is not None else self.default_linker()
         if appearance is None:
             appearance = appearance_matrix(tracklets)
         start = np.array([t.t_start_s for t in tracklets], dtype=float)
@@ -393,7 +431,11 @@ class TrajectoryEnsemble(TrackletLinker):
                                           transit_sum=self.transit_sum,
                                           max_parallel=self.max_parallel)
             active = _active(tracklets, sub)
-            sim = appearance * transit_matrix(tracklets, sub)
+            if gate is None:
+                sim = appearance * transit_matrix(tracklets, sub)
+            else:
+                original, joined = transit_matrices(tracklets, sub)
+                sim = appearance * np.maximum(original, np.where(appearance >= gate, joined, 0.0))
             runs[:, s] = linker.link_matrix(sim, start, active)
             self.dropped_.append(dropped)
         self.run_labels_ = runs
@@ -411,7 +453,8 @@ class TrajectoryEnsemble(TrackletLinker):
         self.n_clusters_ = k
         if n == 1:
             return np.zeros(1, dtype=int)
-        z = linkage(squareform(ensemble_distance(runs), checks=False), method=self.linkage)
+        d = ensemble_distance(runs, normalise=self.distance == "share")
+        z = linkage(squareform(d, checks=False), method=self.linkage)
         return fcluster(z, t=k, criterion="maxclust").astype(int) - 1
 
     def link_matrix(self, similarity: np.ndarray, t_start_s: np.ndarray,
