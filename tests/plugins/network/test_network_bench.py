@@ -236,7 +236,7 @@ def test_gated_ensemble_beats_min_cost_flow_on_a_tuning_dataset():
                                                                   appearance=app))
     ari = {}
     for cls in (TrajectoryEnsemble, GatedTrajectoryEnsemble):
-        labels = cls(9, 50).link(ds.tracklets, ds.network, appearance=app,
-                                 rng=np.random.default_rng(np.random.SeedSequence([1002, 9, 50, 0])))
+        rng = np.random.default_rng(np.random.SeedSequence([1002, 9, 50, 0]))
+        labels = cls(9, 50).link(ds.tracklets, ds.network, appearance=app, rng=rng)
         ari[cls.__name__] = adjusted_rand_index(ds.truth, labels)
     assert ari["GatedTrajectoryEnsemble"] > mcf + 0.03 > ari["TrajectoryEnsemble"] + 0.03
