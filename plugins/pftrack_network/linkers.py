@@ -502,8 +502,8 @@ class GatedTrajectoryEnsemble(TrajectoryEnsemble):
     on virtual cameras that show the same real CAVIAR camera draw from the same 10 images,
     so 68-73 % of such same-person pairs share an identical image (appearance 1) and a gate
     near 1 would pass little else. The gate was therefore also checked with shared images
-    left out of eq. 7's maximum: 0.7 still beats min-cost flow there, 0.8 does not, so 0.7
-    was kept although 0.75-0.8 scored a little higher on the benchmark's own appearance.
+    left out of eq. 7's maximum: 0.7 still beats min-cost flow there, 0.75 and 0.8 do not, so
+    0.7 was kept although 0.75-0.8 scored a little higher on the benchmark's own appearance.
     """
 
     def __init__(self, n_dropped: int = 9, n_subnetworks: int = 100,
