@@ -497,7 +497,7 @@ class GatedTrajectoryEnsemble(TrajectoryEnsemble):
     trajectories, sub-networks only) is :class:`TrajectoryEnsemble`'s.
 
     How it was chosen: tuning seeds 1000-1002 of ``pftrack bench seed004`` (never the
-    benchmark's 0-4), S = 50, 2 runs each; the figures are in the README ("Seed 004: the
+    benchmark's 0-4), S = 50 and 100, 2 runs each; the figures are in the README ("Seed 004: the
     ensemble above min-cost flow"). A caveat of the virtual protocol: a person's tracklets
     on virtual cameras that show the same real CAVIAR camera draw from the same 10 images,
     so 68-73 % of such same-person pairs share an identical image (appearance 1) and a gate
