@@ -27,6 +27,9 @@ from typing import Any
 import numpy as np
 
 DROPPED = (5, 7, 9, 11, 13)
+#: C_d of Table 1's tuned row of the appearance-gated ensemble (``trajectory-ensemble-gated``),
+#: chosen on the tuning seeds 1000-1002 (README: "Seed 004: the ensemble above min-cost flow")
+GATED_DROPPED = 9
 SUBNETWORKS = (50, 100, 150)
 
 
@@ -53,6 +56,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--tuned-dropped", type=int, default=7,
                         help="C_d of Table 1's extra ensemble row, chosen on the tuning "
                              "seeds 1000-1002 (default 7); 0 skips the row")
+    parser.add_argument("--gated-dropped", type=int, default=None,
+                        help="C_d of Table 1's extra row of the appearance-gated ensemble "
+                             "(trajectory-ensemble-gated; default GATED_DROPPED, chosen on the "
+                             "tuning seeds); its row at --dropped is always printed; 0 skips "
+                             "the extra row")
+    parser.add_argument("--join-min-appearance", type=float, default=None,
+                        help="the gated ensemble's smallest appearance for a link over a "
+                             "joined edge (default JOIN_MIN_APPEARANCE)")
+    parser.add_argument("--gated-path-cost", type=float, default=None,
+                        help="the gated ensemble's sub-network break cost (default "
+                             "GATED_PATH_COST)")
+    parser.add_argument("--table3-method", choices=("trajectory-ensemble",
+                                                    "trajectory-ensemble-gated"),
+                        default="trajectory-ensemble",
+                        help="the ensemble of Table 3 (default the paper's)")
     parser.add_argument("--transit-sum", choices=("parameters", "moments"), default="moments",
                         help="how Camera Dropout joins two edges (default: moments, see "
                              "TrajectoryEnsemble; Table 1 also reports the other, the paper's "
@@ -89,9 +107,16 @@ def _ari(truth: np.ndarray, labels: np.ndarray) -> float:
 
 def ensemble_runs(dataset_seed: int, dropped: int, subnetworks: int, runs: int, *,
                   path_cost: float | None = None, transit_sum: str = "moments",
-                  data: str | None = None) -> dict[str, list[float]]:
+                  data: str | None = None, gated: bool = False,
+                  join_min_appearance: float | None = None) -> dict[str, list[float]]:
     """Trajectory Ensemble ``runs`` times on one dataset (``path_cost``: its sub-networks'
-    min-cost flow, default :data:`~pftrack_network.linkers.ENSEMBLE_PATH_COST`).
+    min-cost flow, default :data:`~pftrack_network.linkers.ENSEMBLE_PATH_COST`, or
+    :data:`~pftrack_network.linkers.GATED_PATH_COST` when ``gated``).
+
+    ``gated``: :class:`~pftrack_network.linkers.GatedTrajectoryEnsemble` (appearance-gated
+    joins with ``join_min_appearance``, default its tuned one, and the share distance)
+    instead of the paper's :class:`~pftrack_network.linkers.TrajectoryEnsemble`. Run r's
+    sub-networks are the same for both (the same seed).
 
     Returns
     -------
@@ -99,11 +124,26 @@ def ensemble_runs(dataset_seed: int, dropped: int, subnetworks: int, runs: int, 
         ``{"ari": [...], "seconds": [...]}`` per run (seconds: the ensemble alone, the
         dataset's appearance matrix excluded: it is computed once per dataset).
     """
-    from pftrack_network.linkers import ENSEMBLE_PATH_COST, MinCostFlowLinker, TrajectoryEnsemble
+    from pftrack_network.linkers import (
+        ENSEMBLE_PATH_COST,
+        GATED_PATH_COST,
+        JOIN_MIN_APPEARANCE,
+        GatedTrajectoryEnsemble,
+        MinCostFlowLinker,
+        TrajectoryEnsemble,
+    )
 
     ds, app = dataset(dataset_seed, data)
-    pc = ENSEMBLE_PATH_COST if path_cost is None else path_cost
-    te = TrajectoryEnsemble(dropped, subnetworks, MinCostFlowLinker(pc), transit_sum=transit_sum)
+    te: TrajectoryEnsemble
+    if gated:
+        pc = GATED_PATH_COST if path_cost is None else path_cost
+        gate = JOIN_MIN_APPEARANCE if join_min_appearance is None else join_min_appearance
+        te = GatedTrajectoryEnsemble(dropped, subnetworks, MinCostFlowLinker(pc),
+                                     transit_sum=transit_sum, join_min_appearance=gate)
+    else:
+        pc = ENSEMBLE_PATH_COST if path_cost is None else path_cost
+        te = TrajectoryEnsemble(dropped, subnetworks, MinCostFlowLinker(pc),
+                                transit_sum=transit_sum)
     aris, secs = [], []
     for r in range(runs):
         rng = np.random.default_rng(np.random.SeedSequence([dataset_seed, dropped, subnetworks,
@@ -117,15 +157,17 @@ def ensemble_runs(dataset_seed: int, dropped: int, subnetworks: int, runs: int, 
 
 def table3_cell(dropped: int, subnetworks: int, *, seed: int = 0, datasets: int = 5,
                 runs: int = 10, path_cost: float | None = None,
-                transit_sum: str = "moments", data: str | None = None) -> dict[str, Any]:
+                transit_sum: str = "moments", data: str | None = None, gated: bool = False,
+                join_min_appearance: float | None = None) -> dict[str, Any]:
     """One cell of Table 3: the ensemble with C_d = ``dropped`` and S = ``subnetworks`` over
     ``datasets`` datasets x ``runs`` runs (independent of every other cell: the unit a
-    scale-out engine maps)."""
+    scale-out engine maps); ``gated``: the appearance-gated ensemble (:func:`ensemble_runs`)."""
     t0 = time.perf_counter()
     aris = []
     for d in range(datasets):
         aris += ensemble_runs(seed + d, dropped, subnetworks, runs, path_cost=path_cost,
-                              transit_sum=transit_sum, data=data)["ari"]
+                              transit_sum=transit_sum, data=data, gated=gated,
+                              join_min_appearance=join_min_appearance)["ari"]
     return {"dropped": dropped, "subnetworks": subnetworks, "ari_mean": float(np.mean(aris)),
             "ari_var": float(np.var(aris)), "seconds": time.perf_counter() - t0}
 
@@ -144,8 +186,11 @@ def _table3(grid: list[tuple[int, int]], args: argparse.Namespace, epc: float,
             say: Any) -> list[dict[str, Any]]:
     """Table 3's cells in grid order: in this process, or mapped over Dask workers (the
     scale-out engine of ``pftrack batch``; each cell is seeded, so the figures are the same)."""
-    kw = {"seed": args.seed, "datasets": args.datasets, "runs": args.runs, "path_cost": epc,
-          "transit_sum": args.transit_sum, "data": args.data}
+    gated = getattr(args, "table3_method", "trajectory-ensemble") == "trajectory-ensemble-gated"
+    kw = {"seed": args.seed, "datasets": args.datasets, "runs": args.runs,
+          "path_cost": getattr(args, "gated_path_cost", None) if gated else epc,
+          "transit_sum": args.transit_sum, "data": args.data, "gated": gated,
+          "join_min_appearance": getattr(args, "join_min_appearance", None)}
     workers = int(getattr(args, "workers", 1) or 1)
     scheduler = getattr(args, "scheduler", None)
     if workers < 1:
@@ -179,7 +224,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     from pftrack_network.linkers import (
         DEFAULT_PATH_COST,
         ENSEMBLE_PATH_COST,
+        GATED_PATH_COST,
         GREEDY_PATH_COST,
+        JOIN_MIN_APPEARANCE,
         GreedyLinker,
         MinCostFlowLinker,
     )
@@ -202,7 +249,14 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     if args.tuned_dropped > 0:
         per[tuned] = []
         ensembles.append((tuned, args.transit_sum, args.tuned_dropped))
-    table2, te_secs = [], []
+    gdrop = GATED_DROPPED if getattr(args, "gated_dropped", None) is None else args.gated_dropped
+    gated_rows = [f"trajectory-ensemble-gated (C_d={args.dropped})"]
+    if gdrop > 0 and gdrop != args.dropped:
+        gated_rows.append(f"trajectory-ensemble-gated (C_d={gdrop}, tuned)")
+    for label, cd in zip(gated_rows, (args.dropped, gdrop)):
+        per[label] = []
+        ensembles.append((label, "gated", cd))
+    table2, te_secs, gated_secs = [], [], []
     t_all = time.perf_counter()
     t0 = time.perf_counter()
     for d in range(args.datasets):
@@ -216,14 +270,23 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                                                         appearance=app)))
         seconds[name] = time.perf_counter() - t0
         say(f"seed004: {name} {np.round(per[name], 3).tolist()}")
+    gated_pc = getattr(args, "gated_path_cost", None)
+    gmin = getattr(args, "join_min_appearance", None)
     for label, how, cd in ensembles:
         t0 = time.perf_counter()
         for d in range(args.datasets):
-            res = ensemble_runs(args.seed + d, cd, args.subnetworks, args.runs,
-                                path_cost=epc, transit_sum=how, data=args.data)
+            if how == "gated":
+                res = ensemble_runs(args.seed + d, cd, args.subnetworks, args.runs,
+                                    path_cost=gated_pc, transit_sum=args.transit_sum,
+                                    data=args.data, gated=True, join_min_appearance=gmin)
+            else:
+                res = ensemble_runs(args.seed + d, cd, args.subnetworks, args.runs,
+                                    path_cost=epc, transit_sum=how, data=args.data)
             per[label].append(float(np.mean(res["ari"])))
             if label == "trajectory-ensemble":
                 te_secs += res["seconds"]
+            if label == gated_rows[0]:
+                gated_secs += res["seconds"]
                 table2.append({"dataset": d, "ari_mean": float(np.mean(res["ari"])),
                                "ari_var": float(np.var(res["ari"]))})
         seconds[label] = time.perf_counter() - t0
@@ -235,6 +298,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     seconds["table3"] = time.perf_counter() - t0
     seconds["trajectory_ensemble_one_run_median"] = float(np.median(te_secs))
     seconds["trajectory_ensemble_one_run_max"] = float(np.max(te_secs))
+    seconds["trajectory_ensemble_gated_one_run_median"] = float(np.median(gated_secs))
+    seconds["trajectory_ensemble_gated_one_run_max"] = float(np.max(gated_secs))
     seconds["total"] = time.perf_counter() - t_all
     ds0 = dataset(args.seed, args.data)[0]
     return {
@@ -246,6 +311,10 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                   "ensemble_path_cost": epc,
                   "greedy_path_cost": gpc, "tuned_dropped": args.tuned_dropped,
                   "transit_sum": args.transit_sum, "cameras": len(ds0.network.cameras),
+                  "gated_dropped": gdrop,
+                  "gated_path_cost": GATED_PATH_COST if gated_pc is None else gated_pc,
+                  "join_min_appearance": JOIN_MIN_APPEARANCE if gmin is None else gmin,
+                  "table3_method": getattr(args, "table3_method", "trajectory-ensemble"),
                   "people": int(ds0.truth.max() + 1),
                   "tracklets_per_dataset": [len(dataset(args.seed + d, args.data)[0].tracklets)
                                             for d in range(args.datasets)],

@@ -147,6 +147,13 @@ class CameraNetwork:
         a = np.array(rows, dtype=float)
         return a[:, 0].astype(int), a[:, 1].astype(int), a[:, 2], a[:, 3]
 
+    def joined_edges(self) -> np.ndarray:
+        """(n_edges,) bool in :meth:`edge_arrays`' order: True for edges Camera Dropout added
+        (:func:`camera_dropout` marks them ``joined=True``; a network read from a file has
+        none)."""
+        return np.array([bool(d.get("joined", False)) for _, _, d in self.graph.edges(data=True)],
+                        dtype=bool)
+
     def number_of_edges(self) -> int:
         return self.graph.number_of_edges()
 
@@ -310,7 +317,9 @@ def camera_dropout(network: CameraNetwork, n_dropped: int, rng: np.random.Genera
     Repeated ``n_dropped`` times: pick a remaining camera c_j at random; for every pair of its
     neighbours (c_k, c_l), k != l, and every pair of edges (c_k, c_j), (c_j, c_l), add an edge
     (c_k, c_l) whose transit parameters combine theirs; existing edges between c_k and c_l
-    are kept, so a pair may carry several. Then remove c_j and its edges.
+    are kept, so a pair may carry several. Then remove c_j and its edges. Added edges carry the
+    attribute ``joined=True`` (:meth:`CameraNetwork.joined_edges`), so a sub-network's tracker
+    can tell them from the real routes.
 
     Parameters
     ----------
@@ -361,7 +370,7 @@ def camera_dropout(network: CameraNetwork, n_dropped: int, rng: np.random.Genera
                 have = {(d["k"], d["theta_s"]) for d in data.values()}
                 room = len(new) if max_parallel is None else max(int(max_parallel) - len(data), 0)
                 for k, theta in sorted(new - have, key=lambda kt: kt[0] * kt[1])[:room]:
-                    g.add_edge(ck, cl, k=k, theta_s=theta)
+                    g.add_edge(ck, cl, k=k, theta_s=theta, joined=True)
         g.remove_node(j)
         dropped.append(j)
     sub = CameraNetwork()

@@ -26,7 +26,7 @@ import numpy as np
 from pftrack_network.network import CameraNetwork, Tracklet
 
 __all__ = ["appearance_matrix", "hsv_histograms", "image_histogram", "similarity_matrix",
-           "transit_matrix"]
+           "transit_matrices", "transit_matrix"]
 
 #: histogram bins of hue (OpenCV's 0-180), saturation and value
 BINS = (8, 4, 4)
@@ -110,11 +110,20 @@ def appearance_matrix(tracklets: Sequence[Tracklet], bins: tuple[int, int, int] 
     return np.maximum.reduceat(per_row, offsets, axis=1).astype(float)
 
 
-def transit_matrix(tracklets: Sequence[Tracklet], network: CameraNetwork) -> np.ndarray:
+def transit_matrix(tracklets: Sequence[Tracklet], network: CameraNetwork,
+                   edges: str = "all") -> np.ndarray:
     """Eq. 8-9 for every ordered pair of tracklets.
 
     Tracklets on cameras that are not in ``network`` (dropped ones) get 0 in their rows and
     columns.
+
+    Parameters
+    ----------
+    tracklets : sequence of Tracklet
+    network : CameraNetwork
+    edges : {"all", "original", "joined"}
+        Which edges count: all (eq. 8-9), only those Camera Dropout did not add, or only those
+        it added (:meth:`~pftrack_network.network.CameraNetwork.joined_edges`).
 
     Returns
     -------
@@ -123,13 +132,38 @@ def transit_matrix(tracklets: Sequence[Tracklet], network: CameraNetwork) -> np.
         ``gamma.pdf(t_start(j) - t_end(i), k_e, scale=theta_e)``; 0 when no edge joins them or
         the time is not positive.
     """
+    if edges == "all":
+        return _transit(tracklets, network, split=False)[0]
+    if edges not in ("original", "joined"):
+        raise ValueError(f"transit_matrix: edges must be 'all', 'original' or 'joined', "
+                         f"got {edges!r}")
+    return _transit(tracklets, network, split=True)[int(edges == "joined")]
+
+
+def transit_matrices(tracklets: Sequence[Tracklet], network: CameraNetwork
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`transit_matrix` over the network's own edges and over the edges Camera Dropout
+    joined, from one pdf evaluation (the elementwise maximum of the two is
+    ``transit_matrix(tracklets, network)``).
+
+    Returns
+    -------
+    original, joined : ndarray (n, n) float, 1/s
+    """
+    original, joined = _transit(tracklets, network, split=True)
+    return original, joined
+
+
+def _transit(tracklets: Sequence[Tracklet], network: CameraNetwork, split: bool
+             ) -> list[np.ndarray]:
     from scipy.stats import gamma
 
     n = len(tracklets)
-    out = np.zeros((n, n))
+    outs = [np.zeros((n, n)) for _ in range(2 if split else 1)]
     u, v, k, theta = network.edge_arrays()
     if n == 0 or len(u) == 0:
-        return out
+        return outs
+    group = network.joined_edges().astype(int) if split else np.zeros(len(u), int)
     index = {c: i for i, c in enumerate(network.cameras)}
     cam = np.array([index.get(t.camera, -1) for t in tracklets])
     start = np.array([t.t_start_s for t in tracklets])
@@ -143,11 +177,12 @@ def transit_matrix(tracklets: Sequence[Tracklet], network: CameraNetwork) -> np.
     # both directions of every edge
     eu, ev = np.concatenate([u, v]), np.concatenate([v, u])
     ek, et = np.concatenate([k, k]), np.concatenate([theta, theta])
+    eg = np.concatenate([group, group])
     n_pairs = sizes[eu] * sizes[ev]
     keep = n_pairs > 0
-    eu, ev, ek, et, n_pairs = eu[keep], ev[keep], ek[keep], et[keep], n_pairs[keep]
+    eu, ev, ek, et, eg, n_pairs = eu[keep], ev[keep], ek[keep], et[keep], eg[keep], n_pairs[keep]
     if not len(eu):
-        return out
+        return outs
     total = int(n_pairs.sum())
     edge_of = np.repeat(np.arange(len(eu)), n_pairs)
     local = np.arange(total) - np.repeat(np.cumsum(n_pairs) - n_pairs, n_pairs)
@@ -156,13 +191,17 @@ def transit_matrix(tracklets: Sequence[Tracklet], network: CameraNetwork) -> np.
     j = order[bounds[ev][edge_of] + local % width]
     dt = start[j] - end[i]
     pdf = np.where(dt > 0, gamma.pdf(np.maximum(dt, 1e-12), ek[edge_of], scale=et[edge_of]), 0.0)
-    # the maximum over parallel edges: sorted by pair then pdf, the last of each pair wins
-    flat = i * n + j
+    # the maximum over parallel edges (of one group): sorted by group, pair, then pdf, the
+    # last of each (group, pair) wins
+    flat = eg[edge_of] * (n * n) + i * n + j
     order = np.lexsort((pdf, flat))
     flat, pdf = flat[order], pdf[order]
     last = np.append(flat[1:] != flat[:-1], True)
-    out.ravel()[flat[last]] = pdf[last]
-    return out
+    flat, pdf = flat[last], pdf[last]
+    for g, out in enumerate(outs):
+        sel = flat // (n * n) == g
+        out.ravel()[flat[sel] % (n * n)] = pdf[sel]
+    return outs
 
 
 def similarity_matrix(tracklets: Sequence[Tracklet], network: CameraNetwork,

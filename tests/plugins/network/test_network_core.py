@@ -333,3 +333,64 @@ def test_trajectory_ensemble_defaults_are_the_tuned_ones():
         9, 100, "moments", "average")
     # the sub-networks' break cost is below the full network's (links more sparingly)
     assert ENSEMBLE_PATH_COST < DEFAULT_PATH_COST
+
+
+# -- changes of method: joined edges marked, appearance-gated joins, the share distance -----
+
+
+def test_dropout_marks_the_edges_it_joins_and_transit_splits_by_them():
+    from pftrack_network.similarity import transit_matrices
+
+    net, tr = _one_person_over_b()
+    net.add_edge("a", "c", 30.0, 5.0)  # a real a-c route beside the one dropout will join
+    assert not net.joined_edges().any()
+    seed = next(s for s in range(100)
+                if camera_dropout(net, 1, np.random.default_rng(s))[1] == ["b"])
+    sub, _ = camera_dropout(net, 1, np.random.default_rng(seed), transit_sum="moments")
+    assert sub.joined_edges().tolist() == [False, True]  # a-c: the real one, then the joined
+    original, joined = transit_matrices(tr, sub)
+    from scipy.stats import gamma
+
+    assert original[0, 2] == pytest.approx(gamma.pdf(130, 30, scale=5))
+    assert joined[0, 2] == pytest.approx(gamma.pdf(130, 20, scale=6))
+    assert np.array_equal(np.maximum(original, joined), transit_matrix(tr, sub))
+    assert np.array_equal(transit_matrix(tr, sub, edges="joined"), joined)
+    assert np.array_equal(transit_matrix(tr, sub, edges="original"), original)
+    with pytest.raises(ValueError, match="edges must be"):
+        transit_matrix(tr, sub, edges="new")
+
+
+@pytest.mark.parametrize("gate, linked", [(None, True), (0.5, True), (0.7, False)])
+def test_gated_joins_link_over_a_dropped_camera_only_with_enough_appearance(gate, linked):
+    net, tr = _one_person_over_b()
+    seed = next(s for s in range(100)
+                if camera_dropout(net, 1, np.random.default_rng(s))[1] == ["b"])
+    app = np.full((3, 3), 0.6)  # a and c look 0.6 alike: links over the joined a-c edge
+    te = TrajectoryEnsemble(n_dropped=1, n_subnetworks=1, join_min_appearance=gate)
+    te.link(tr, net, appearance=app, rng=np.random.default_rng(seed))
+    runs = te.run_labels_[:, 0]
+    assert te.dropped_ == [["b"]] and runs[1] == NA
+    assert bool(runs[0] == runs[2]) == linked
+    # a real edge is never gated: with b kept, a -> b -> c links whatever the gate
+    keep_b = next(s for s in range(100)
+                  if camera_dropout(net, 1, np.random.default_rng(s))[1] == ["c"])
+    te.link(tr, net, appearance=app, rng=np.random.default_rng(keep_b))
+    assert te.run_labels_[0, 0] == te.run_labels_[1, 0] != NA
+    with pytest.raises(ValueError, match="join_min_appearance"):
+        TrajectoryEnsemble(join_min_appearance=float("nan")).link(
+            tr, net, appearance=app, rng=np.random.default_rng(0))
+
+
+def test_share_distance_divides_by_the_runs_both_were_tracked():
+    runs = np.array([[0, 0, NA, 1],
+                     [0, 1, 2, 1],
+                     [NA, 1, 2, NA],
+                     [NA, NA, NA, NA]])
+    d = ensemble_distance(runs, normalise=True)
+    # 0-1: both in runs 0, 1, 3, disagree in run 1; 1-2: both in runs 1, 2, agree; 0-2: run 1
+    assert d[0, 1] == pytest.approx(1 / 3) and d[1, 2] == 0 and d[0, 2] == 1
+    assert d[3, 0] == d[3, 1] == 1  # never tracked together: as far as can be
+    assert np.array_equal(d, d.T) and np.all(np.diag(d) == 0)
+    with pytest.raises(ValueError, match="distance"):
+        net, tr = _one_person_over_b()
+        TrajectoryEnsemble(distance="ratio").link(tr, net, rng=np.random.default_rng(0))
