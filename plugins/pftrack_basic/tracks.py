@@ -104,6 +104,13 @@ class ConfirmedTracks(TrackManager):
         ``velocity_dims`` (constant velocity or acceleration; the acceleration is not
         extrapolated); without, only the target's own box is tested. False: only the engine's
         ``max_misses`` and out-of-view tests end a target.
+    hidden_reid : bool
+        With ``appearance`` and ``hide_after_misses``: a hidden target (more than
+        ``hide_after_misses`` misses) may take a detection only if the detection looks more like
+        it than like any other target with a colour model (its appearance score is the
+        highest of the targets'), so a person returning is re-identified by colour, and someone
+        else walking where a hidden target waits starts a track of their own. No constant. The
+        barred pairs get ``appearance_scores`` NaN, which associators treat as "no match".
     appearance : dict, optional
         ``{bins, sigma, update_rate, region}``: keep a colour model per target (per-channel BGR
         histograms of its matched detections, ``bins`` per channel, running mean with
@@ -125,7 +132,7 @@ class ConfirmedTracks(TrackManager):
     def __init__(self, min_score: float = 0.2, max_iou: float = 0.3, confirm_hits: int = 3,
                  confirm_window: int = 5, merge_iou: float = 0.6,
                  merge_distance_m: float | None = None, hide_after_misses: int | None = None,
-                 end_at_border: bool = False,
+                 end_at_border: bool = False, hidden_reid: bool = False,
                  appearance: dict[str, Any] | None = None) -> None:
         self.min_score = min_score
         self.max_iou = max_iou
@@ -135,6 +142,7 @@ class ConfirmedTracks(TrackManager):
         self.merge_distance_m = merge_distance_m
         self.hide_after_misses = hide_after_misses
         self.end_at_border = end_at_border
+        self.hidden_reid = hidden_reid
         self.appearance = appearance
 
     def setup(self, context: Any) -> None:
@@ -150,6 +158,9 @@ class ConfirmedTracks(TrackManager):
         if self.merge_distance_m is not None and not float(self.merge_distance_m) > 0:
             raise ValueError(f"tracks.merge_distance_m must be > 0 metres or null, got "
                              f"{self.merge_distance_m!r}")
+        if self.hidden_reid and (self.appearance is None or self.hide_after_misses is None):
+            raise ValueError("tracks.hidden_reid needs tracks.appearance and "
+                             "tracks.hide_after_misses")
         if self.appearance is not None:
             bad = set(self.appearance) - APPEARANCE_KEYS
             if bad:
@@ -216,7 +227,23 @@ class ConfirmedTracks(TrackManager):
             d = np.abs(cdf - np.cumsum(model, axis=-1)[None]).sum(axis=-1).mean(axis=1)
             d /= bins - 1
             t.appearance_scores = np.exp(-0.5 * (d / sigma) ** 2)
+        if self.hidden_reid:
+            self._bar_hidden(engine.targets)
         self.hists_ = hists
+
+    def _bar_hidden(self, targets: list[Target]) -> None:
+        """``hidden_reid``: NaN in a hidden target's appearance scores where another target
+        looks more like the detection."""
+        scored = [t for t in targets if t.appearance_scores is not None]
+        hide = int(self.hide_after_misses)  # type: ignore[arg-type]
+        hidden = [k for k, t in enumerate(scored) if t.misses > hide]
+        if not hidden or len(scored) < 2:
+            return
+        A = np.array([t.appearance_scores for t in scored])  # (T, K)
+        best = A.max(axis=0)
+        for k in hidden:
+            t = scored[k]
+            t.appearance_scores = np.where(A[k] < best, np.nan, A[k])
 
     def _update_appearance(self, targets: list[Target]) -> None:
         hists = getattr(self, "hists_", None)
