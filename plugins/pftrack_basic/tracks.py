@@ -339,16 +339,18 @@ class ConfirmedTracks(TrackManager):
                 continue
             if t.detection is not None:
                 last[t.id] = np.array(t.state, dtype=np.float64)
-            else:
+            elif t.misses > 0:
                 cand.append(t)
         if not cand:
             return
+        # each candidate's own box, then the walking-on boxes (the same target may come twice)
         boxes = [np.asarray(t.box_xywh_px, dtype=np.float64) for t in cand]
         vel = getattr(engine.motion, "velocity_dims", None)
         if vel is not None:
             pos = list(engine.motion.position_dims)
             vel = list(vel)
-            for t in cand[:len(boxes)]:
+            own = list(cand)
+            for t in own:
                 s0 = last.get(t.id)
                 if s0 is None:
                     continue
