@@ -255,6 +255,11 @@ class _ConstantVelocityMotion(MotionModel):
     def position_dims(self) -> tuple[int, ...]:
         return tuple(range(self._ndim))
 
+    @property
+    def velocity_dims(self) -> tuple[int, ...]:
+        """The state entries of the velocity (position units per unit of ``dt``)."""
+        return tuple(range(self._ndim, 2 * self._ndim))
+
     def predict(self, states: np.ndarray, dt: float, rng: np.random.Generator,
                 target: Target | None = None) -> np.ndarray:
         s = _check_states(self, states)
@@ -341,6 +346,11 @@ class ConstantAccelerationMotion(MotionModel):
     @property
     def state_dim(self) -> int:
         return 6
+
+    @property
+    def velocity_dims(self) -> tuple[int, ...]:
+        """The state entries of the velocity ``(v_x, v_y)``."""
+        return (2, 3)
 
     def noise_std(self, dt: float = 1.0, target: Target | None = None) -> np.ndarray:
         """Noise standard deviations (6,) for one step of ``dt`` given ``target``."""

@@ -92,6 +92,25 @@ class ConfirmedTracks(TrackManager):
         A live target is not output in frames where it has gone more than this many frames
         without a matched detection (it keeps being tracked and reappears when matched again).
         Unit: frames.
+    end_at_border : bool
+        A confirmed target that has missed its detection ends at once when its box, or the box
+        it would have walking on at the velocity it had at its last matched detection (for the
+        frames it has missed, ``dt`` each), is not wholly inside the image: its object is
+        walking out of the picture. No constant: a detector's boxes lie inside the image, so a
+        box reaching past the border with no detection is an object partly gone, and an object
+        whose own motion carried it out is gone even when its target was held back inside (by
+        neighbours' detections or colour), where it would wait hidden and take over the next
+        object entering at that edge. The walking-on box needs a motion model with
+        ``velocity_dims`` (constant velocity or acceleration; the acceleration is not
+        extrapolated); without, only the target's own box is tested. False: only the engine's
+        ``max_misses`` and out-of-view tests end a target.
+    hidden_reid : bool
+        With ``appearance`` and ``hide_after_misses``: a hidden target (more than
+        ``hide_after_misses`` misses) may take a detection only if the detection looks more like
+        it than like any other target with a colour model (its appearance score is the
+        highest of the targets'), so a person returning is re-identified by colour, and someone
+        else walking where a hidden target waits starts a track of their own. No constant. The
+        barred pairs get ``appearance_scores`` NaN, which associators treat as "no match".
     appearance : dict, optional
         ``{bins, sigma, update_rate, region}``: keep a colour model per target (per-channel BGR
         histograms of its matched detections, ``bins`` per channel, running mean with
@@ -113,6 +132,7 @@ class ConfirmedTracks(TrackManager):
     def __init__(self, min_score: float = 0.2, max_iou: float = 0.3, confirm_hits: int = 3,
                  confirm_window: int = 5, merge_iou: float = 0.6,
                  merge_distance_m: float | None = None, hide_after_misses: int | None = None,
+                 end_at_border: bool = False, hidden_reid: bool = False,
                  appearance: dict[str, Any] | None = None) -> None:
         self.min_score = min_score
         self.max_iou = max_iou
@@ -121,6 +141,8 @@ class ConfirmedTracks(TrackManager):
         self.merge_iou = merge_iou
         self.merge_distance_m = merge_distance_m
         self.hide_after_misses = hide_after_misses
+        self.end_at_border = end_at_border
+        self.hidden_reid = hidden_reid
         self.appearance = appearance
 
     def setup(self, context: Any) -> None:
@@ -136,6 +158,9 @@ class ConfirmedTracks(TrackManager):
         if self.merge_distance_m is not None and not float(self.merge_distance_m) > 0:
             raise ValueError(f"tracks.merge_distance_m must be > 0 metres or null, got "
                              f"{self.merge_distance_m!r}")
+        if self.hidden_reid and (self.appearance is None or self.hide_after_misses is None):
+            raise ValueError("tracks.hidden_reid needs tracks.appearance and "
+                             "tracks.hide_after_misses")
         if self.appearance is not None:
             bad = set(self.appearance) - APPEARANCE_KEYS
             if bad:
@@ -153,8 +178,14 @@ class ConfirmedTracks(TrackManager):
     def appearance_models_(self) -> dict[int, np.ndarray]:
         return self.__dict__.setdefault("_appearance_models", {})
 
+    @property
+    def last_matched_(self) -> dict[int, np.ndarray]:
+        """Each confirmed target's state at its last matched detection (``end_at_border``)."""
+        return self.__dict__.setdefault("_last_matched", {})
+
     def end_target(self, target: Target) -> None:
         self.tentative_.pop(target.id, None)
+        self.last_matched_.pop(target.id, None)
         self.appearance_models_.pop(target.id, None)
 
     # -- appearance ---------------------------------------------------------------------------
@@ -196,7 +227,23 @@ class ConfirmedTracks(TrackManager):
             d = np.abs(cdf - np.cumsum(model, axis=-1)[None]).sum(axis=-1).mean(axis=1)
             d /= bins - 1
             t.appearance_scores = np.exp(-0.5 * (d / sigma) ** 2)
+        if self.hidden_reid:
+            self._bar_hidden(engine.targets)
         self.hists_ = hists
+
+    def _bar_hidden(self, targets: list[Target]) -> None:
+        """``hidden_reid``: NaN in a hidden target's appearance scores where another target
+        looks more like the detection."""
+        scored = [t for t in targets if t.appearance_scores is not None]
+        hide = int(self.hide_after_misses)  # type: ignore[arg-type]
+        hidden = [k for k, t in enumerate(scored) if t.misses > hide]
+        if not hidden or len(scored) < 2:
+            return
+        A = np.array([t.appearance_scores for t in scored])  # (T, K)
+        best = A.max(axis=0)
+        for k in hidden:
+            t = scored[k]
+            t.appearance_scores = np.where(A[k] < best, np.nan, A[k])
 
     def _update_appearance(self, targets: list[Target]) -> None:
         hists = getattr(self, "hists_", None)
@@ -255,6 +302,8 @@ class ConfirmedTracks(TrackManager):
             elif tent.age >= self.confirm_window:
                 engine.remove_target(tid)
                 live.pop(tid, None)
+        if self.end_at_border:
+            self._end_at_border(engine, frame, live, tentative)
         hide = self.hide_after_misses
         for r in records:
             if (r.id in live and r.id not in tentative and r not in out
@@ -277,6 +326,47 @@ class ConfirmedTracks(TrackManager):
         if detections is not None and len(detections):
             self._births(engine, frame, detections, matched, live, out)
         return out
+
+    def _end_at_border(self, engine: Any, frame: Frame, live: dict[int, Target],
+                       tentative: dict[int, _Tentative]) -> None:
+        """End the confirmed targets that missed their detection and whose box, or whose box
+        walked on from their last matched state, is not wholly inside the image
+        (``end_at_border``); remember the matched ones' states."""
+        last = self.last_matched_
+        cand = []
+        for t in live.values():
+            if t.id in tentative:
+                continue
+            if t.detection is not None:
+                last[t.id] = np.array(t.state, dtype=np.float64)
+            elif t.misses > 0:
+                cand.append(t)
+        if not cand:
+            return
+        # each candidate's own box, then the walking-on boxes (the same target may come twice)
+        boxes = [np.asarray(t.box_xywh_px, dtype=np.float64) for t in cand]
+        vel = getattr(engine.motion, "velocity_dims", None)
+        if vel is not None:
+            pos = list(engine.motion.position_dims)
+            vel = list(vel)
+            own = list(cand)
+            for t in own:
+                s0 = last.get(t.id)
+                if s0 is None:
+                    continue
+                s = s0.copy()
+                s[pos] = s0[pos] + s0[vel] * (float(engine.dt) * int(t.misses))
+                boxes.append(np.asarray(engine.observation.to_boxes(s[None], t)[0],
+                                        dtype=np.float64))
+                cand.append(t)
+        img_w, img_h = frame.size_wh
+        b = np.array(boxes).reshape(-1, 4)
+        with np.errstate(invalid="ignore"):
+            out = ((b[:, 0] < 0) | (b[:, 1] < 0) | (b[:, 0] + b[:, 2] > img_w)
+                   | (b[:, 1] + b[:, 3] > img_h))
+        for t in {t.id: t for t, o in zip(cand, out, strict=True) if o}.values():
+            engine.remove_target(t.id)
+            live.pop(t.id, None)
 
     def _births(self, engine: Any, frame: Frame, detections: Detections, matched: set[int],
                 live: dict[int, Target], out: list[TrackRecord]) -> None:

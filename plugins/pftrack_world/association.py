@@ -26,7 +26,9 @@ With ``appearance_weight = gamma`` the score becomes ``g * (c(det) + gamma * a(t
 * mean p_N)``, where ``a(tr, det)`` in [0, 1] is an appearance similarity the caller puts in
 ``target.appearance_scores`` (one value per detection; the pipeline's session uses
 ``exp(-d^2 / (2 sigma^2))`` of the per-channel colour EMD between the track's and the
-detection's histograms). Targets without it get ``a = 0``.
+detection's histograms). Targets without it get ``a = 0``. A NaN in ``appearance_scores`` bars
+that pair (score 0, never matched), whatever ``appearance_weight``: the track management's
+re-identification of hidden targets (``tracks.hidden_reid``).
 """
 
 from __future__ import annotations
@@ -80,12 +82,17 @@ def score_matrix(targets: Sequence[Target], detections: Detections, *, alpha: fl
         d = np.linalg.norm(dfoot[:, None, :] - pf[None, :, :], axis=2) / size_tr  # (K, N)
         prox = np.exp(-0.5 * (d / sigma_det) ** 2).mean(axis=1)
         g = np.exp(-0.5 * (((size_tr - db[:, 3]) / size_tr) / sigma_size) ** 2)
-        app = 0.0
-        if appearance_weight > 0:
-            a = t.appearance_scores
-            if a is not None and len(a) == K:
-                app = appearance_weight * np.asarray(a, dtype=np.float64)
+        app: float | np.ndarray = 0.0
+        a = t.appearance_scores
+        barred = None
+        if a is not None and len(a) == K:
+            a = np.asarray(a, dtype=np.float64)
+            barred = np.isnan(a)  # the track management bars these pairs
+            if appearance_weight > 0:
+                app = appearance_weight * np.where(barred, 0.0, a)
         s = g * (c + app + alpha * prox)
+        if barred is not None and barred.any():
+            s = np.where(barred, 0.0, s)
         if max_distance is not None:
             tfoot = foot_points(np.asarray(t.box_xywh_px, float))
             dc = np.linalg.norm(dfoot - tfoot, axis=1) / size_tr

@@ -172,7 +172,8 @@ class Target:
     appearance_scores : ndarray, shape (K,), or None
         Appearance similarity in [0, 1] of this frame's K detections to the target's
         appearance model (set before association by the track management that keeps such a
-        model; associators with an appearance term read it).
+        model; associators with an appearance term read it). NaN: the track management bars
+        that pair (the associator must not match them).
     observation_px : ndarray, shape (2,), or None
         A point measurement of the target in pixels that the caller supplies (synthetic data,
         tests); likelihoods that use points prefer it to the matched detection.
