@@ -20,7 +20,7 @@ def test_fresh_video_bench_on_a_slice(capsys):
     bench = get_host().get("benchmark", "fresh-video")
     parser = argparse.ArgumentParser()
     bench.add_arguments(parser)
-    args = parser.parse_args(["--frames", "201:280", "--quiet"])
+    args = parser.parse_args(["--frames", "201:280", "--seeds", "2", "--quiet"])
     r = bench.run(args)
     json.dumps(r)  # JSON-ready
     for k in ("MOTA", "IDF1", "HOTA", "detector_recall", "detector_precision",
@@ -38,5 +38,11 @@ def test_fresh_video_bench_on_a_slice(capsys):
     peer = r["peer"]
     assert peer["name"] == "norfair" and -1.0 < peer["MOTA"] <= 1.0 and 0 < peer["IDF1"] <= 1
     assert set(r["goals"]) >= {"MOTA", "IDF1", "camera_median_error_m", "better_than_peer"}
+    sd = r["seeds"]
+    assert sd["n"] == 2 and [x["seed"] for x in sd["per_seed"]] == [0, 1]
+    assert sd["per_seed"][0]["IDF1"] == r["IDF1"]  # seed 0 is the headline run
+    assert sd["IDF1_mean"] == pytest.approx((r["IDF1"] + sd["per_seed"][1]["IDF1"]) / 2)
+    assert "better_than_peer_mean" in r["goals"]
     table = bench.format_table(r)
+    assert "mean of 2 seeds" in table
     assert "peer norfair: MOTA" in table and "better_than_peer" in table
