@@ -190,9 +190,11 @@ class ColourLikelihood(Likelihood):
                              f"{frame.size_wh[0]}x{frame.size_wh[1]} image")
         self.templates_[target.id] = normalise_histogram(counts, self.eps)
         self.values_.pop(target.id, None)
+        self._value_rows = None
 
     def end_target(self, target: Target) -> None:
         self.__dict__.get("_log_templates", {}).pop(target.id, None)
+        self._value_rows = None
         if hasattr(self, "templates_"):
             self.templates_.pop(target.id, None)
             self.target_rects_.pop(target.id, None)
@@ -213,21 +215,67 @@ class ColourLikelihood(Likelihood):
                     self.templates_[t.id] = ((1 - a) * self.templates_[t.id]
                                              + a * normalise_histogram(counts, self.eps))
         self.image_ = frame.image
-        if self.region is None:  # a handful of boxes: rounded one by one (same numbers)
-            self.target_rects_ = {t.id: _integer_rect(t.box_xywh_px) for t in live}
-        elif live:
-            boxes = self._colour_boxes(np.array([t.box_xywh_px for t in live], dtype=float))
-            self.target_rects_ = dict(zip((t.id for t in live), integer_boxes(boxes)))
-        else:
-            self.target_rects_ = {}
-        if self.uses_background:
-            self._background(frame.image)
-        self.values_ = {t.id: self._value_table(t.id) for t in live}
+        if not self._compiled_frame(frame.image, live):
+            if self.region is None:  # a handful of boxes: rounded one by one (same numbers)
+                self.target_rects_ = {t.id: _integer_rect(t.box_xywh_px) for t in live}
+            elif live:
+                boxes = self._colour_boxes(np.array([t.box_xywh_px for t in live], dtype=float))
+                self.target_rects_ = dict(zip((t.id for t in live), integer_boxes(boxes)))
+            else:
+                self.target_rects_ = {}
+            if self.uses_background:
+                self._background(frame.image)
+        ids = [t.id for t in live]
+        rows = self._value_tables(ids) if ids else None
+        if rows is None:
+            self.values_ = {i: self._value_table(i) for i in ids}
+            self._value_rows = None
+        else:  # one (T, parts, m) stack; each target's table is its row
+            self.values_ = dict(zip(ids, rows))
+            self._value_rows = (ids, rows)
         self.prev_image_ = frame.image if self.update_rate > 0 else None
+
+    def _compiled_frame(self, image: np.ndarray, live: list[Target]) -> bool:
+        """The targets' colour boxes (``target_rects_``) and, for the background likelihoods,
+        the background histogram in one compiled call
+        (:func:`pftrack_colour._jit.frame_background`: the numbers of the general path); False
+        (nothing done) where it does not apply."""
+        binner = self.binner_
+        if (not live or not _jit.ENABLED or self.region is not None or self.needs_own_counts
+                or binner.conversion is not None or image.ndim != 3
+                or not image.flags.c_contiguous):
+            return False
+        boxes = np.array([t.box_xywh_px for t in live], dtype=np.float64)
+        if boxes.shape != (len(live), 4):
+            return False
+        rects = np.empty((len(live), 4), dtype=np.int64)
+        s = int(self.background_stride) if self.uses_background else 1
+        ok, counts = _jit.frame_background(image, s, *binner.channel_luts, boxes,
+                                           binner.n_bins, rects, self.uses_background)
+        if not ok:
+            return False
+        self.target_rects_ = dict(zip([t.id for t in live], rects))
+        if self.uses_background:
+            self._set_background(counts, s)
+        return True
 
     def _value_table(self, target_id: int) -> np.ndarray | None:
         """Per-frame, per-target table (parts, m); default none."""
         return None
+
+    def _value_tables(self, ids: list[int]) -> np.ndarray | None:
+        """Per-frame tables of several targets at once, (T, parts, m), row ``i`` equal to
+        ``_value_table(ids[i])``; None: made one by one."""
+        return None
+
+    def _log_template_rows(self, ids: list[int]) -> np.ndarray:
+        """``np.log`` of the targets' templates stacked, (T, parts, m), kept while the
+        templates are unchanged."""
+        qs = [self.template(i) for i in ids]
+        hit = self.__dict__.get("_log_rows")
+        if hit is None or len(hit[0]) != len(qs) or not all(a is b for a, b in zip(hit[0], qs)):
+            hit = self._log_rows = (qs, np.log(np.array(qs)))
+        return hit[1]
 
     def _log_template(self, target_id: int) -> np.ndarray:
         """``np.log`` of a target's templates (parts, m), kept while the template is unchanged
@@ -500,6 +548,9 @@ class CrossEntropyLikelihood(ColourLikelihood):
         per stripe, float32."""
         return self._log_template(target_id).astype(np.float32)
 
+    def _value_tables(self, ids: list[int]) -> np.ndarray:
+        return self._log_template_rows(ids).astype(np.float32)
+
     def _log_likelihood(self, region, q, target_id):
         binner = self.binner_
         table = self._table(target_id)
@@ -554,6 +605,64 @@ class CrossEntropyLikelihood(ColourLikelihood):
         if self.lam is None:  # λ = n: the sum itself (eq. 18, 21)
             return sums
         return float(self.lam) * sums / float(max(bw * bh, 1))  # n = bw bh for every box
+
+    def log_likelihood_rows(self, boxes_xywh_px: np.ndarray,
+                            targets: Sequence[Target]) -> np.ndarray:
+        """Every target's log-likelihoods in one call, (T, N, 4) boxes -> (T, N): one compiled
+        pass (:func:`pftrack_colour._jit.value_box_sums_rows`) lays out each target's boxes,
+        finds the other targets' stripes over them and sums the per-pixel values through an
+        integral image, target after target. Row ``i`` equals ``log_likelihood(
+        boxes_xywh_px[i], targets[i])`` bit for bit; a target the kernel does not cover (boxes
+        leaving the image or of different sizes, pixels under two other targets, a colour
+        conversion, the ``histogram`` method) takes :meth:`log_likelihood`."""
+        boxes = np.asarray(boxes_xywh_px, dtype=np.float64)
+        n_t = len(targets)
+        if boxes.ndim != 3 or boxes.shape[0] != n_t or boxes.shape[2] != 4:
+            raise ValueError(f"{type(self).__name__}.log_likelihood_rows: boxes must have shape "
+                             f"(T, N, 4) with T = {n_t} targets, got {boxes.shape}")
+        image = getattr(self, "image_", None)
+        if image is None:
+            raise RuntimeError(f"{type(self).__name__}: begin_frame was not called before "
+                               "log_likelihood_rows")
+        binner = self._setup()
+        if (not n_t or self.method != "integral" or not _jit.ENABLED
+                or binner.conversion is not None or not image.flags.c_contiguous):
+            return super().log_likelihood_rows(boxes, targets)
+        ids = [t.id for t in targets]
+        tables = self._table_rows(ids)
+        cboxes = boxes if self.region is None else \
+            self._colour_boxes(boxes.reshape(-1, 4)).reshape(boxes.shape)
+        if not cboxes.flags.c_contiguous:
+            cboxes = np.ascontiguousarray(cboxes)
+        rects, rect_ids, pairs = self._pair_rows(ids)
+        out = np.empty(boxes.shape[:2])
+        done = np.empty(n_t, dtype=np.bool_)
+        l0, l1, l2 = binner.channel_luts
+        lam = 0.0 if self.lam is None else float(self.lam)
+        _jit.value_box_sums_rows(image, l0, l1, l2, tables, cboxes,
+                                 np.array(ids, dtype=np.int64), rects, rect_ids, pairs,
+                                 pairs.shape[2] > 0, lam, out, done)
+        if not done.all():
+            for i in np.flatnonzero(~done).tolist():
+                out[i] = self.log_likelihood(boxes[i], targets[i])
+        return out
+
+    def _table_rows(self, ids: list[int]) -> np.ndarray:
+        """This frame's value tables of the targets ``ids``, (T, parts, m) float32,
+        C-contiguous (begin_frame's stack when it made them for these targets)."""
+        rows = self.__dict__.get("_value_rows")
+        if rows is not None and rows[0] == ids:
+            return rows[1]
+        return np.array([self._table(i) for i in ids], dtype=np.float32)
+
+    def _pair_rows(self, ids: list[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Other targets' colour boxes for the compiled batch: their rectangles (K, 4) int64,
+        their ids (K,) and the per-pair tables (T, parts, K, parts, m) float32 (K = 0: no
+        pixel takes another table)."""
+        m = self.binner_.n_bins
+        p = len(self._parts)
+        return (np.zeros((0, 4), dtype=np.int64), np.zeros(0, dtype=np.int64),
+                np.zeros((len(ids), p, 0, p, m), dtype=np.float32))
 
     def _table(self, target_id: int) -> np.ndarray:
         """This frame's value table (parts, m) of a target (made now for one born after
@@ -622,6 +731,9 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
     def _value_table(self, target_id: int) -> np.ndarray:
         return (self._log_template(target_id) - self.log_background_).astype(np.float32)
 
+    def _value_tables(self, ids: list[int]) -> np.ndarray:
+        return (self._log_template_rows(ids) - self.log_background_).astype(np.float32)
+
     def _log_likelihood(self, region, q, target_id):
         self._cover_cache = None  # per call: the other targets' coverage of this region
         return super()._log_likelihood(region, q, target_id)
@@ -664,6 +776,31 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
         else:  # mixture
             values[covered] = np.log((qv + s_cov) / (k_cov + 1.0)) - np.log(s_cov / k_cov)
         return values
+
+    def _pair_rows(self, ids: list[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if self.overlap == "independent" or not self.target_rects_:
+            return super()._pair_rows(ids)
+        rect_ids = list(self.target_rects_)
+        own = [self.template(i) for i in ids]
+        others = [self.template(i) for i in rect_ids]
+        hit = self.__dict__.get("_pair_stack")
+        if (hit is not None and hit[0] == ids and hit[1] == rect_ids
+                and all(a is b for a, b in zip(hit[2], own))
+                and all(a is b for a, b in zip(hit[3], others))):
+            pairs = hit[4]
+        else:
+            p = len(self._parts)
+            pairs = np.zeros((len(ids), p, len(rect_ids), p, self.binner_.n_bins),
+                             dtype=np.float32)
+            for i, tid in enumerate(ids):
+                for r, oid in enumerate(rect_ids):
+                    if oid != tid:
+                        for k in range(p):
+                            for kk in range(p):
+                                pairs[i, k, r, kk] = self._pair_table(tid, k, oid, kk)
+            self._pair_stack = (ids, rect_ids, own, others, pairs)
+        rects = np.array(list(self.target_rects_.values()), dtype=np.int64).reshape(-1, 4)
+        return rects, np.array(rect_ids, dtype=np.int64), pairs
 
     def _pair_table(self, target_id: int, part: int, other_id: int, other_part: int,
                     ) -> np.ndarray:

@@ -440,7 +440,25 @@ class MultiTargetTracker:
         # it (rows a valid region masks are checked before the mask, one by one)
         rows = bool(self._vectorise and filters and all(len(f.particles) == n for f in filters))
         check_stacked = rows and self.valid_region is None
-        for f in filters:
+        lw_rows = None  # (T, N): a likelihood that scores every target in one call
+        if rows and self.likelihood.offers_rows():
+            lw_rows = self._log_likelihood_rows(frame, filters, boxes)
+            for f, logl in zip(filters, lw_rows):
+                t = f.target
+                if t.valid_region is not None or self.valid_region is not None:
+                    self._check_finite(logl, frame, t)
+                    if self.valid_region is not None:
+                        logl = np.where(self.valid_region(f.particles[:, pos_dims]), logl,
+                                        -np.inf)
+                    if t.valid_region is not None:
+                        logl = np.where(t.valid_region(f.particles[:, pos_dims]), logl, -np.inf)
+                    lw_rows = None  # rows changed: stacked again below
+                t.log_likelihoods = logl
+                logls.append(logl)
+            filters_left: list[_Filter] = []
+        else:
+            filters_left = filters
+        for f in filters_left:
             t = f.target
             try:
                 logl = self.likelihood.log_likelihood(t.particle_boxes_xywh_px, t)  # type: ignore[arg-type]
@@ -472,7 +490,10 @@ class MultiTargetTracker:
         ess_min = self.ess_threshold * n + 1e-9
         weights = ok_rows = best_rows = states = extents = resampled = resample_rows = None
         if rows:
-            lw = np.array(logls)  # (T, N); np.array is cheaper than np.stack for a few rows
+            if lw_rows is not None:
+                lw = lw_rows.copy()  # (T, N); the rows stay the targets' log_likelihoods
+            else:
+                lw = np.array(logls)  # (T, N); np.array is cheaper than np.stack for a few rows
             if check_stacked and not (lw < np.inf).all():
                 i = int(np.flatnonzero(~(lw < np.inf).all(axis=1))[0])
                 self._check_finite(logls[i], frame, filters[i].target)
@@ -577,6 +598,31 @@ class MultiTargetTracker:
                     observation.update_target(f.target, f.target.detection.box_xywh_px)
         # 7. track management: births, confirmation, merging, ends, output
         return self.tracks.after_frame(self, frame, detections, records, unmatched_dets)
+
+    def _log_likelihood_rows(self, frame: Frame, filters: list[_Filter],
+                             boxes: np.ndarray | list[np.ndarray]) -> np.ndarray:
+        """Every target's log-likelihoods from one :meth:`Likelihood.log_likelihood_rows` call,
+        (T, N) float64, checked for shape and dtype (NaN / +inf are checked by the caller)."""
+        targets = [f.target for f in filters]
+        if not isinstance(boxes, np.ndarray):
+            boxes = np.array(boxes)  # (T, N, 4)
+        try:
+            lw = self.likelihood.log_likelihood_rows(boxes, targets)
+        except (ValueError, OSError) as exc:  # bad input met at run time: still exit 2
+            raise ValueError(f"{self._who(self.likelihood)}: {exc}") from exc
+        except Exception as exc:
+            raise ComponentOutputError(
+                f"{self._who(self.likelihood)} raised {type(exc).__name__}: {exc} (frame "
+                f"{frame.index}, targets {[t.id for t in targets]}, log_likelihood_rows)"
+            ) from exc
+        if type(lw) is not np.ndarray or lw.dtype != np.float64:
+            lw = self._checked_dtype(lw)
+        if lw.shape != boxes.shape[:2]:
+            raise ComponentOutputError(
+                f"{self._who(self.likelihood)} returned log-likelihoods of shape {lw.shape} from "
+                f"log_likelihood_rows, expected {boxes.shape[:2]} (one row per target, one "
+                "value per particle)")
+        return lw
 
     def record(self, frame: Frame, target: Target, best_logl: float = 0.0) -> TrackRecord:
         """``target``'s current estimate as a :class:`TrackRecord` of ``frame`` (confidence
