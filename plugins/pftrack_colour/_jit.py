@@ -324,11 +324,7 @@ def _value_box_sums_rows(image_bgr, lut0, lut1, lut2, tables, boxes, own_ids, re
         n = xs.shape[0]
         sums = np.zeros(n, np.float64)
         ii = np.empty((rows + 1, cols + 1), np.float64)
-        bins = np.empty((rows, cols), np.int64)
-        for y in range(rows):
-            for x in range(cols):
-                bins[y, x] = (np.int64(lut0[region[y, x, 0]]) + np.int64(lut1[region[y, x, 1]])
-                              + np.int64(lut2[region[y, x, 2]]))
+        bins = np.empty(cols, np.int64)
         vals = np.empty(cols, np.float32)
         for k in range(n_parts):
             oy = (k * bh) // n_parts
@@ -336,22 +332,27 @@ def _value_box_sums_rows(image_bgr, lut0, lut1, lut2, tables, boxes, own_ids, re
             if sh <= 0:
                 continue  # zeros: sums + 0.0 leaves them as they are
             table = tables[i, k]
-            for x in range(cols + 1):
-                ii[0, x] = 0.0
+            ii[0, :] = 0.0
             for y in range(rows):
+                pix = region[y]
                 for x in range(cols):
-                    vals[x] = table[bins[y, x]]
+                    b = (np.int64(lut0[pix[x, 0]]) + np.int64(lut1[pix[x, 1]])
+                         + np.int64(lut2[pix[x, 2]]))
+                    bins[x] = b
+                    vals[x] = table[b]
                 for o in range(n_ov):
                     if ov[o, 1] <= y < ov[o, 3]:
                         pt = pair_tables[i, k, ov_src[o, 0], ov_src[o, 1]]
                         for x in range(ov[o, 0], ov[o, 2]):
-                            vals[x] = pt[bins[y, x]]
+                            vals[x] = pt[bins[x]]
                 # cv2.integral's order: a running row sum added to the row above
-                s = 0.0
-                ii[y + 1, 0] = 0.0
+                above = ii[y]
+                here = ii[y + 1]
+                here[0] = 0.0
+                acc = 0.0
                 for x in range(cols):
-                    s += np.float64(vals[x])
-                    ii[y + 1, x + 1] = ii[y, x + 1] + s
+                    acc += np.float64(vals[x])
+                    here[x + 1] = above[x + 1] + acc
             for j in range(n):
                 bx = xs[j]
                 by = ys[j] + oy

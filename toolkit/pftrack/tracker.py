@@ -61,6 +61,8 @@ from pftrack.filter import (
     weighted_mean,
 )
 
+from pftrack.filter.core import _EXP_ZERO_BELOW
+
 log = logging.getLogger(__name__)
 
 __all__ = [
@@ -276,6 +278,7 @@ class MultiTargetTracker:
         self._uniform_log = np.log(self._uniform)
         self._uniform.flags.writeable = False
         self._uniform_log.flags.writeable = False
+        self._uniform_log_row = self._uniform_log[None].copy()  # (1, N), for the kernels
         self._vectorise = True  # False: one target at a time (same numbers; for tests)
         # predict and box all targets in one call only where the models do it vectorised: the
         # default row loops would only add the stacking
@@ -489,7 +492,18 @@ class MultiTargetTracker:
         always_resample = self.ess_threshold >= 1.0  # ESS <= N: no need to compute it
         ess_min = self.ess_threshold * n + 1e-9
         weights = ok_rows = best_rows = states = extents = resampled = resample_rows = None
-        if rows:
+        fused = None
+        if (rows and check_stacked and always_resample and self.resampling == "systematic"
+                and isinstance(predicted, np.ndarray) and predicted.shape[2] >= 2
+                and predicted.flags.c_contiguous and _jit.small_ready()
+                and all(f.particles.base is predicted for f in filters)):
+            # the whole of step 4 in two compiled passes around numpy's exp (same numbers)
+            fused = self._fused_rows(np.array(logls) if lw_rows is None else lw_rows, filters,
+                                     predicted, frame)
+        if fused is not None:
+            weights, best_rows, states, extents, resample_rows, resampled = fused
+            ok_rows = np.ones(len(filters), dtype=bool)
+        elif rows:
             if lw_rows is not None:
                 lw = lw_rows.copy()  # (T, N); the rows stay the targets' log_likelihoods
             else:
@@ -598,6 +612,32 @@ class MultiTargetTracker:
                     observation.update_target(f.target, f.target.detection.box_xywh_px)
         # 7. track management: births, confirmation, merging, ends, output
         return self.tracks.after_frame(self, frame, detections, records, unmatched_dets)
+
+    def _fused_rows(self, lw: np.ndarray, filters: list[_Filter], p: np.ndarray, frame: Frame,
+                    ) -> tuple[Any, ...] | None:
+        """Step 4 for every target at once when all resample systematically every frame:
+        log-weights, numpy's exp, then normalised weights, estimates, extents, resampling
+        indices and resampled particles in one compiled pass
+        (:func:`pftrack.filter._jit.estimate_resample_rows`), the numbers of the general path
+        bit for bit. Returns ``(weights, best, states, extents, indices, resampled)``, or None
+        (nothing drawn) when some target has no finite weight (the general path re-spreads
+        it); raises, naming the target, on NaN or +inf."""
+        if all(f.log_weights is self._uniform_log for f in filters):
+            logw = self._uniform_log_row
+        else:
+            logw = np.array([f.log_weights for f in filters])
+        if lw.dtype != np.float64 or not lw.flags.c_contiguous:
+            lw = np.ascontiguousarray(lw, dtype=np.float64)
+        status, w, mask, best = _jit.shift_rows_for_exp(lw, logw, _EXP_ZERO_BELOW)
+        if status == 1:
+            i = int(np.flatnonzero(~(lw < np.inf).all(axis=1))[0])
+            self._check_finite(lw[i], frame, filters[i].target)
+        if status != 0:
+            return None
+        np.exp(w, out=w, where=mask)
+        u = self.rng.random(len(filters))  # what the systematic resampling of the rows draws
+        states, extents, idx, resampled = _jit.estimate_resample_rows(w, p, u)
+        return w, best.tolist(), states, extents, idx, resampled
 
     def _log_likelihood_rows(self, frame: Frame, filters: list[_Filter],
                              boxes: np.ndarray | list[np.ndarray]) -> np.ndarray:

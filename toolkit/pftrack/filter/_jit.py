@@ -43,6 +43,8 @@ import numpy as np
 
 __all__ = [
     "ENABLED",
+    "estimate_resample_rows",
+    "shift_rows_for_exp",
     "MIN_PARTICLES",
     "centre_boxes",
     "constant_acceleration_predict",
@@ -98,6 +100,12 @@ def warm_up_small() -> bool:
     totals = np.empty(1)
     k.weight_totals_rows(w, totals)
     k.systematic_indices_rows(w, 1.0 / totals, np.zeros(1), np.empty((1, 3), dtype=np.intp))
+    lw = np.zeros((1, 2))
+    k.shift_rows_for_exp(lw, np.zeros((1, 2)), -746.0, np.empty((1, 2)),
+                         np.empty((1, 2), dtype=np.bool_), np.empty(1))
+    p = np.zeros((1, 2, 2))
+    k.estimate_resample_rows(np.full((1, 2), 0.5), p, np.zeros(1), np.empty((1, 2)),
+                             np.empty((1, 2)), np.empty((1, 3), dtype=np.intp), np.empty_like(p))
     _small_warm = True
     return True
 
@@ -218,3 +226,31 @@ def weighted_sum(w: np.ndarray, s: np.ndarray) -> np.ndarray:
     out = np.empty(s.shape[1])
     _k().weighted_sum(np.ascontiguousarray(w), s, out)
     return out
+
+
+def shift_rows_for_exp(lw: np.ndarray, logw: np.ndarray, zero_below: float,
+                       ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+    """The engine's log-weights of every target up to the exponential (see the kernel
+    :func:`pftrack.filter._kernels.shift_rows_for_exp`): ``(status, shifted (T, N), mask (T, N),
+    best (T,))``; ``status`` 0: done, 1: ``lw`` holds NaN or +inf, 2: a row has no finite
+    maximum. ``lw`` (T, N) and ``logw`` (R, N), R = 1 or T, C-contiguous float64."""
+    out = np.empty(lw.shape)
+    mask = np.empty(lw.shape, dtype=np.bool_)
+    best = np.empty(lw.shape[0])
+    status = _k().shift_rows_for_exp(lw, logw, float(zero_below), out, mask, best)
+    return int(status), out, mask, best
+
+
+def estimate_resample_rows(w: np.ndarray, p: np.ndarray, u: np.ndarray,
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Normalise the exponentials ``w`` (T, N) in place, then every target's estimate, extent,
+    systematic resampling indices (offsets ``u`` (T,)) and resampled particles from ``p``
+    (T, N, D), D >= 2 (see the kernel :func:`pftrack.filter._kernels.estimate_resample_rows`):
+    ``(states (T, D), extents (T, D), indices (T, N), resampled (T, N, D))``."""
+    t, n, d = p.shape
+    states = np.empty((t, d))
+    extents = np.empty((t, d))
+    idx = np.empty((t, n + 1), dtype=np.intp)
+    resampled = np.empty(p.shape)
+    _k().estimate_resample_rows(w, p, u, states, extents, idx, resampled)
+    return states, extents, idx[:, :n].copy(), resampled
