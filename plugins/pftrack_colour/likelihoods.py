@@ -215,6 +215,7 @@ class ColourLikelihood(Likelihood):
                     self.templates_[t.id] = ((1 - a) * self.templates_[t.id]
                                              + a * normalise_histogram(counts, self.eps))
         self.image_ = frame.image
+        self._rect_rows = None
         if not self._compiled_frame(frame.image, live):
             if self.region is None:  # a handful of boxes: rounded one by one (same numbers)
                 self.target_rects_ = {t.id: _integer_rect(t.box_xywh_px) for t in live}
@@ -254,7 +255,9 @@ class ColourLikelihood(Likelihood):
                                            binner.n_bins, rects, self.uses_background)
         if not ok:
             return False
-        self.target_rects_ = dict(zip([t.id for t in live], rects))
+        ids = [t.id for t in live]
+        self.target_rects_ = dict(zip(ids, rects))
+        self._rect_rows = (ids, rects, np.array(ids, dtype=np.int64))
         if self.uses_background:
             self._set_background(counts, s)
         return True
@@ -624,11 +627,14 @@ class CrossEntropyLikelihood(ColourLikelihood):
         if image is None:
             raise RuntimeError(f"{type(self).__name__}: begin_frame was not called before "
                                "log_likelihood_rows")
-        binner = self._setup()
+        binner = self.binner_
         if (not n_t or self.method != "integral" or not _jit.ENABLED
                 or binner.conversion is not None or not image.flags.c_contiguous):
             return super().log_likelihood_rows(boxes, targets)
         ids = [t.id for t in targets]
+        frame_rows = self.__dict__.get("_rect_rows")
+        ids_arr = frame_rows[2] if frame_rows is not None and frame_rows[0] == ids else \
+            np.array(ids, dtype=np.int64)
         tables = self._table_rows(ids)
         cboxes = boxes if self.region is None else \
             self._colour_boxes(boxes.reshape(-1, 4)).reshape(boxes.shape)
@@ -639,9 +645,8 @@ class CrossEntropyLikelihood(ColourLikelihood):
         done = np.empty(n_t, dtype=np.bool_)
         l0, l1, l2 = binner.channel_luts
         lam = 0.0 if self.lam is None else float(self.lam)
-        _jit.value_box_sums_rows(image, l0, l1, l2, tables, cboxes,
-                                 np.array(ids, dtype=np.int64), rects, rect_ids, pairs,
-                                 pairs.shape[2] > 0, lam, out, done)
+        _jit.value_box_sums_rows(image, l0, l1, l2, tables, cboxes, ids_arr, rects, rect_ids,
+                                 pairs, pairs.shape[2] > 0, lam, out, done)
         if not done.all():
             for i in np.flatnonzero(~done).tolist():
                 out[i] = self.log_likelihood(boxes[i], targets[i])
@@ -781,8 +786,13 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
         if self.overlap == "independent" or not self.target_rects_:
             return super()._pair_rows(ids)
         rect_ids = list(self.target_rects_)
-        own = [self.template(i) for i in ids]
-        others = [self.template(i) for i in rect_ids]
+        tp = self.templates_
+        try:
+            own = [tp[i] for i in ids]
+            others = [tp[i] for i in rect_ids]
+        except KeyError:
+            own = [self.template(i) for i in ids]  # raises, naming the target
+            others = [self.template(i) for i in rect_ids]
         hit = self.__dict__.get("_pair_stack")
         if (hit is not None and hit[0] == ids and hit[1] == rect_ids
                 and all(a is b for a, b in zip(hit[2], own))
@@ -799,6 +809,9 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
                             for kk in range(p):
                                 pairs[i, k, r, kk] = self._pair_table(tid, k, oid, kk)
             self._pair_stack = (ids, rect_ids, own, others, pairs)
+        frame_rows = self.__dict__.get("_rect_rows")
+        if frame_rows is not None and frame_rows[0] == rect_ids:  # begin_frame's arrays
+            return frame_rows[1], frame_rows[2], pairs
         rects = np.array(list(self.target_rects_.values()), dtype=np.int64).reshape(-1, 4)
         return rects, np.array(rect_ids, dtype=np.int64), pairs
 

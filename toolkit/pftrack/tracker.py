@@ -132,10 +132,14 @@ class ImageBoxObservation(ObservationModel):
         """(T, N, D) -> (T, N, 4) in one pass, each row's size its target's."""
         s = np.asarray(states, dtype=np.float64)
         size = (float(self.width_px), float(self.height_px))
-        wh = np.array([size if t.box_wh_px is None else t.box_wh_px for t in targets])
+        wh = np.array([size if t.box_wh_px is None else t.box_wh_px for t in targets],
+                      dtype=np.float64)
+        half = 0.5 * wh
+        if (_jit.small_ready() and s.ndim == 3 and s.shape[2] >= 2 and s.flags.c_contiguous
+                and wh.shape == (len(s), 2)):
+            return _jit.centre_boxes_rows(s, half, wh)  # one compiled pass, same numbers
         out = np.empty(s.shape[:2] + (4,))
         # column by column: inner loops run over the N particles, not over the 2 axes
-        half = 0.5 * wh
         for k in range(2):
             np.subtract(s[:, :, k], half[:, k:k + 1], out=out[:, :, k])
             out[:, :, 2 + k] = wh[:, k:k + 1]
@@ -537,6 +541,13 @@ class MultiTargetTracker:
         records = []
         dead = []
         recovered = False
+        est_boxes = anchors = confidences = None
+        if fused is not None:  # every row ok: the estimates' boxes, anchors, confidences at once
+            if type(observation).to_boxes_rows is not ObservationModel.to_boxes_rows:
+                est_boxes = observation.to_boxes_rows(states[:, None, :],  # type: ignore[index]
+                                                      [f.target for f in filters])[:, 0]
+            anchors = states[:, pos_dims]  # type: ignore[index]  # fancy indexing: a copy
+            confidences = expit(np.array(best_rows)).tolist()
         for i, f in enumerate(filters):
             t = f.target
             if weights is not None:
@@ -559,7 +570,8 @@ class MultiTargetTracker:
                 state = weighted_mean(f.particles, w)
                 t.extent = weighted_extent(f.particles, w, state)
             t.state = state
-            box = observation.to_boxes(state[None], t)[0]
+            box = est_boxes[i] if est_boxes is not None else \
+                observation.to_boxes(state[None], t)[0]
             t.box_xywh_px = box
             supported = ok and (
                 t.detection is not None
@@ -567,7 +579,7 @@ class MultiTargetTracker:
                 or (detections is None and self.min_log_likelihood is None))
             t.frames_tracked = t.frames_tracked + 1 if supported else 0
             t.misses = 0 if supported else t.misses + 1
-            f.anchor = state[pos_dims]  # fancy indexing: a copy
+            f.anchor = anchors[i] if anchors is not None else state[pos_dims]  # a copy
             # resample (``t.resample_index``: which weighted particle each new one copies)
             if resampled is not None:
                 f.particles = resampled[i]
@@ -598,7 +610,8 @@ class MultiTargetTracker:
             if gone:
                 dead.append(t.id)
                 continue
-            records.append(self._record(frame, t, best, pos_dims))
+            records.append(self._record(frame, t, best, pos_dims,
+                                        None if confidences is None else confidences[i]))
         if recovered:
             self.recoveries += 1
             log.info("frame %d: every particle weight of a target vanished; re-spread around "
@@ -670,15 +683,21 @@ class MultiTargetTracker:
         return self._record(frame, target, best_logl)
 
     def _record(self, frame: Frame, t: Target, best_logl: float,
-                pos_dims: list[int] | None = None) -> TrackRecord:
+                pos_dims: list[int] | None = None,
+                confidence: float | None = None) -> TrackRecord:
+        """``confidence``: ``expit(best_logl)`` when already computed (with the others')."""
         world = self.observation.world_position(t.state)
         if pos_dims is None:
             pos_dims = list(self.motion.position_dims)
+        if not math.isfinite(best_logl):
+            confidence = 0.0
+        elif confidence is None:
+            confidence = float(expit(best_logl))
         return TrackRecord(
             frame=frame.index, id=t.id, box_xywh_px=t.box_xywh_px.copy(), state=t.state.copy(),
             position=t.state[pos_dims],  # fancy indexing: already a copy
             extent=t.extent.copy(),  # type: ignore[union-attr]
-            confidence=float(expit(best_logl)) if math.isfinite(best_logl) else 0.0,
+            confidence=confidence,
             world_m=None if world is None else np.asarray(world, dtype=np.float64),
         )
 

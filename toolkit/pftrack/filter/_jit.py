@@ -47,6 +47,7 @@ __all__ = [
     "shift_rows_for_exp",
     "MIN_PARTICLES",
     "centre_boxes",
+    "centre_boxes_rows",
     "constant_acceleration_predict",
     "gaussian_centre_log_likelihood",
     "pcg64_standard_normal",
@@ -104,6 +105,7 @@ def warm_up_small() -> bool:
     k.shift_rows_for_exp(lw, np.zeros((1, 2)), -746.0, np.empty((1, 2)),
                          np.empty((1, 2), dtype=np.bool_), np.empty(1))
     p = np.zeros((1, 2, 2))
+    k.centre_boxes_rows(p, np.ones((1, 2)), np.ones((1, 2)), np.empty((1, 2, 4)))
     k.estimate_resample_rows(np.full((1, 2), 0.5), p, np.zeros(1), np.empty((1, 2)),
                              np.empty((1, 2)), np.empty((1, 3), dtype=np.intp), np.empty_like(p))
     _small_warm = True
@@ -254,3 +256,12 @@ def estimate_resample_rows(w: np.ndarray, p: np.ndarray, u: np.ndarray,
     resampled = np.empty(p.shape)
     _k().estimate_resample_rows(w, p, u, states, extents, idx, resampled)
     return states, extents, idx[:, :n].copy(), resampled
+
+
+def centre_boxes_rows(states: np.ndarray, half: np.ndarray, wh: np.ndarray) -> np.ndarray:
+    """(T, N, 4) boxes ``(x - half_w, y - half_h, w, h)`` of C-contiguous float64 ``states``
+    (T, N, D), row ``t`` with ``half[t]`` and ``wh[t]`` ((T, 2) float64): the numbers of
+    :meth:`pftrack.tracker.ImageBoxObservation.to_boxes_rows`'s numpy path in one pass."""
+    out = np.empty(states.shape[:2] + (4,))
+    _k().centre_boxes_rows(states, half, wh, out)
+    return out

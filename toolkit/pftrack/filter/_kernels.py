@@ -175,6 +175,22 @@ def centre_boxes(states, hw, hh, w, h, out):  # pragma: no cover - compiled
 
 
 @njit(**_JIT)  # type: ignore[call-overload]
+def centre_boxes_rows(states, half, wh, out):  # pragma: no cover - compiled
+    """:func:`centre_boxes` of every target (row) of ``states`` (T, N, D), each with its own
+    half size ``half`` (T, 2) and size ``wh`` (T, 2); ``out`` (T, N, 4)."""
+    for t in range(states.shape[0]):
+        hw = half[t, 0]
+        hh = half[t, 1]
+        w = wh[t, 0]
+        h = wh[t, 1]
+        for i in range(states.shape[1]):
+            out[t, i, 0] = states[t, i, 0] - hw
+            out[t, i, 1] = states[t, i, 1] - hh
+            out[t, i, 2] = w
+            out[t, i, 3] = h
+
+
+@njit(**_JIT)  # type: ignore[call-overload]
 def weight_total(w):  # pragma: no cover - compiled
     """The last running sum of ``w`` (``np.add.accumulate(w)[-1]``: summed in order, the same
     number) and whether every weight is >= 0 (False for NaN too)."""
@@ -409,16 +425,53 @@ def estimate_resample_rows(w, p, u, states, extents, idx, resampled):  # pragma:
         for k in range(d):
             states[r, k] = 0.0
             extents[r, k] = 0.0
+        # a zero weight adds +-0.0 to a running sum that is never -0.0: nothing, unless the
+        # particle is not finite (0 * inf is NaN); sharply peaked weights are mostly zeros
+        finite = True
         for i in range(n):
-            wi = row[i]
             for k in range(d):
-                states[r, k] += wi * p[r, i, k]
-        for i in range(n):
-            wi = row[i]
-            for k in range(d):
-                dv = p[r, i, k] - states[r, k]
+                if not abs(p[r, i, k]) < np.inf:
+                    finite = False
+        if d == 2:  # the image plane: the two running sums in registers
+            s0 = 0.0
+            s1 = 0.0
+            for i in range(n):
+                wi = row[i]
+                if wi == 0.0 and finite:
+                    continue
+                s0 += wi * p[r, i, 0]
+                s1 += wi * p[r, i, 1]
+            v0 = 0.0
+            v1 = 0.0
+            for i in range(n):
+                wi = row[i]
+                if wi == 0.0 and finite:
+                    continue
+                dv = p[r, i, 0] - s0
                 dv = dv * dv
-                extents[r, k] += wi * dv
+                v0 += wi * dv
+                dv = p[r, i, 1] - s1
+                dv = dv * dv
+                v1 += wi * dv
+            states[r, 0] = s0
+            states[r, 1] = s1
+            extents[r, 0] = v0
+            extents[r, 1] = v1
+        else:
+            for i in range(n):
+                wi = row[i]
+                if wi == 0.0 and finite:
+                    continue
+                for k in range(d):
+                    states[r, k] += wi * p[r, i, k]
+            for i in range(n):
+                wi = row[i]
+                if wi == 0.0 and finite:
+                    continue
+                for k in range(d):
+                    dv = p[r, i, k] - states[r, k]
+                    dv = dv * dv
+                    extents[r, k] += wi * dv
         for k in range(d):
             e = np.sqrt(extents[r, k])
             extents[r, k] = e * 2.0
