@@ -243,7 +243,8 @@ def _frame_background(image_bgr, stride, lut0, lut1, lut2, boxes, n_bins, rects,
 
 
 def _value_box_sums_rows(image_bgr, lut0, lut1, lut2, tables, boxes, own_ids, rects, rect_ids,
-                         pair_tables, overlays, lam, out, done):  # pragma: no cover - compiled
+                         pair_tables, combo_masks, combo_tables, overlays, lam, out, done
+                         ):  # pragma: no cover - compiled
     """Every target's log-likelihoods in one call: for target ``i``, what
     :func:`_fixed_layout`, the other targets' stripes over its region and :func:`_value_box_sums`
     (once per stripe, the stripes' sums added in stripe order) give, then ``lam``; the same
@@ -266,6 +267,10 @@ def _value_box_sums_rows(image_bgr, lut0, lut1, lut2, tables, boxes, own_ids, re
         exclusive; ``rect_ids`` (K,) their ids (a target's own box is skipped).
     pair_tables : (T, P, K, P, m) float32
         Value of a pixel of target ``i``'s stripe ``k`` under stripe ``kk`` of box ``r``.
+    combo_masks : (C,) int64
+        Sets of two or more stripes (bit ``r * P + kk`` for stripe ``kk`` of box ``r``) that
+        cover common pixels; ``combo_tables`` (T, P, C, m) float32 the value of a pixel of
+        target ``i``'s stripe ``k`` under exactly that set.
     overlays : bool
         Whether other targets' boxes change the values (False: ``rects`` are not read).
     lam : float
@@ -274,7 +279,8 @@ def _value_box_sums_rows(image_bgr, lut0, lut1, lut2, tables, boxes, own_ids, re
         Written for the targets done.
     done : (T,) bool
         False for a target the kernel does not cover (boxes of different sizes or leaving the
-        image, pixels under two other targets' stripes): the caller takes the general path.
+        image, pixels under a set of stripes with no combo table): the caller takes the
+        general path.
     """
     n_t = boxes.shape[0]
     n_parts = tables.shape[1]
@@ -316,8 +322,8 @@ def _value_box_sums_rows(image_bgr, lut0, lut1, lut2, tables, boxes, own_ids, re
                 if (ov[a, 1] < ov[b, 3] and ov[b, 1] < ov[a, 3]
                         and ov[a, 0] < ov[b, 2] and ov[b, 0] < ov[a, 2]):
                     disjoint = False
-        if not disjoint:
-            continue
+        if not disjoint and n_rects * n_parts > 62:
+            continue  # the sets of stripes do not fit a bit mask
         rows = y1 - y0
         cols = x1 - x0
         region = image_bgr[y0:y1, x0:x1]
@@ -326,6 +332,10 @@ def _value_box_sums_rows(image_bgr, lut0, lut1, lut2, tables, boxes, own_ids, re
         ii = np.empty((rows + 1, cols + 1), np.float64)
         bins = np.empty(cols, np.int64)
         vals = np.empty(cols, np.float32)
+        cover = np.zeros(cols if not disjoint else 0, np.int64)  # stripes over each pixel
+        count = np.zeros(cols if not disjoint else 0, np.int64)
+        last = np.zeros(cols if not disjoint else 0, np.int64)
+        missing = False
         for k in range(n_parts):
             oy = (k * bh) // n_parts
             sh = ((k + 1) * bh) // n_parts - oy
@@ -340,11 +350,46 @@ def _value_box_sums_rows(image_bgr, lut0, lut1, lut2, tables, boxes, own_ids, re
                          + np.int64(lut2[pix[x, 2]]))
                     bins[x] = b
                     vals[x] = table[b]
-                for o in range(n_ov):
-                    if ov[o, 1] <= y < ov[o, 3]:
-                        pt = pair_tables[i, k, ov_src[o, 0], ov_src[o, 1]]
-                        for x in range(ov[o, 0], ov[o, 2]):
-                            vals[x] = pt[bins[x]]
+                if disjoint:
+                    for o in range(n_ov):
+                        if ov[o, 1] <= y < ov[o, 3]:
+                            pt = pair_tables[i, k, ov_src[o, 0], ov_src[o, 1]]
+                            for x in range(ov[o, 0], ov[o, 2]):
+                                vals[x] = pt[bins[x]]
+                else:
+                    # each pixel's set of stripes: one stripe reads its pair table, several
+                    # the table of that set
+                    crossed = False
+                    for o in range(n_ov):
+                        if ov[o, 1] <= y < ov[o, 3]:
+                            if not crossed:
+                                cover[:] = 0
+                                count[:] = 0
+                                crossed = True
+                            bit = np.int64(1) << (ov_src[o, 0] * n_parts + ov_src[o, 1])
+                            for x in range(ov[o, 0], ov[o, 2]):
+                                cover[x] |= bit
+                                count[x] += 1
+                                last[x] = o
+                    if crossed:
+                        for x in range(cols):
+                            c = count[x]
+                            if c == 1:
+                                o = last[x]
+                                vals[x] = pair_tables[i, k, ov_src[o, 0], ov_src[o, 1],
+                                                      bins[x]]
+                            elif c > 1:
+                                found = -1
+                                for q in range(combo_masks.shape[0]):
+                                    if combo_masks[q] == cover[x]:
+                                        found = q
+                                        break
+                                if found < 0:
+                                    missing = True
+                                    break
+                                vals[x] = combo_tables[i, k, found, bins[x]]
+                    if missing:
+                        break
                 # cv2.integral's order: a running row sum added to the row above
                 above = ii[y]
                 here = ii[y + 1]
@@ -353,6 +398,8 @@ def _value_box_sums_rows(image_bgr, lut0, lut1, lut2, tables, boxes, own_ids, re
                 for x in range(cols):
                     acc += np.float64(vals[x])
                     here[x + 1] = above[x + 1] + acc
+            if missing:
+                break
             for j in range(n):
                 bx = xs[j]
                 by = ys[j] + oy
@@ -361,6 +408,8 @@ def _value_box_sums_rows(image_bgr, lut0, lut1, lut2, tables, boxes, own_ids, re
                     sums[j] = box
                 else:
                     sums[j] = sums[j] + box
+        if missing:
+            continue  # a set of stripes without its table: the general path
         if lam > 0:
             area = np.float64(max(bw * bh, 1))
             for j in range(n):
@@ -435,7 +484,8 @@ def warm_up() -> None:
     boxes[..., 2:] = 1.0
     value_box_sums_rows(frame, lut, lut, lut, np.zeros((1, 1, 8), np.float32), boxes,
                         np.ones(1, np.int64), rects, np.zeros(0, np.int64),
-                        np.zeros((1, 1, 0, 1, 8), np.float32), True, 0.0, np.empty((1, 1)),
+                        np.zeros((1, 1, 0, 1, 8), np.float32), np.zeros(0, np.int64),
+                        np.zeros((1, 1, 0, 8), np.float32), True, 0.0, np.empty((1, 1)),
                         np.empty(1, np.bool_))
     _warm = True
 

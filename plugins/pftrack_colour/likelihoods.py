@@ -645,11 +645,25 @@ class CrossEntropyLikelihood(ColourLikelihood):
         done = np.empty(n_t, dtype=np.bool_)
         l0, l1, l2 = binner.channel_luts
         lam = 0.0 if self.lam is None else float(self.lam)
+        overlays = pairs.shape[2] > 0
+        no_masks = np.zeros(0, dtype=np.int64)
         _jit.value_box_sums_rows(image, l0, l1, l2, tables, cboxes, ids_arr, rects, rect_ids,
-                                 pairs, pairs.shape[2] > 0, lam, out, done)
-        if not done.all():
-            for i in np.flatnonzero(~done).tolist():
-                out[i] = self.log_likelihood(boxes[i], targets[i])
+                                 pairs, no_masks, pairs[:, :, :0, 0], overlays, lam, out, done)
+        if done.all():
+            return out
+        left = np.flatnonzero(~done)
+        if overlays:  # pixels under several stripes: again with the tables of those sets
+            masks, combos = self._combo_rows(ids, rects, rect_ids)
+            if len(masks):
+                sub = np.empty((len(left), out.shape[1]))
+                sub_done = np.empty(len(left), dtype=np.bool_)
+                _jit.value_box_sums_rows(image, l0, l1, l2, tables[left], cboxes[left],
+                                         ids_arr[left], rects, rect_ids, pairs[left], masks,
+                                         combos[left], True, lam, sub, sub_done)
+                out[left[sub_done]] = sub[sub_done]
+                left = left[~sub_done]
+        for i in left.tolist():
+            out[i] = self.log_likelihood(boxes[i], targets[i])
         return out
 
     def _table_rows(self, ids: list[int]) -> np.ndarray:
@@ -668,6 +682,16 @@ class CrossEntropyLikelihood(ColourLikelihood):
         p = len(self._parts)
         return (np.zeros((0, 4), dtype=np.int64), np.zeros(0, dtype=np.int64),
                 np.zeros((len(ids), p, 0, p, m), dtype=np.float32))
+
+    def _combo_rows(self, ids: list[int], rects: np.ndarray, rect_ids: np.ndarray,
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """Sets of two or more other targets' stripes that cover common pixels, as bit masks
+        (C,) int64 (bit ``r * parts + kk``: stripe ``kk`` of box ``r``), and the value tables
+        (T, parts, C, m) float32 of a pixel under exactly such a set; none by default (no
+        pixel takes another table)."""
+        p = len(self._parts)
+        return (np.zeros(0, dtype=np.int64),
+                np.zeros((len(ids), p, 0, self.binner_.n_bins), dtype=np.float32))
 
     def _table(self, target_id: int) -> np.ndarray:
         """This frame's value table (parts, m) of a target (made now for one born after
@@ -815,6 +839,67 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
         rects = np.array(list(self.target_rects_.values()), dtype=np.int64).reshape(-1, 4)
         return rects, np.array(rect_ids, dtype=np.int64), pairs
 
+    def _combo_rows(self, ids: list[int], rects: np.ndarray, rect_ids: np.ndarray,
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        p = len(self._parts)
+        k_rects = len(rects)
+        if self.overlap == "independent" or k_rects < 2 or k_rects * p > 62:
+            return super()._combo_rows(ids, rects, rect_ids)
+        # every stripe's rectangle, in the order of _coverage (box, then stripe)
+        stripes = []
+        for r0, r1, r2, r3 in rects.tolist():
+            h = r3 - r1
+            for kk in range(p):
+                stripes.append((r0, r1 + (kk * h) // p, r2, r1 + ((kk + 1) * h) // p))
+        n = len(stripes)
+        meets = [[a != b and stripes[a][0] < stripes[b][2] and stripes[b][0] < stripes[a][2]
+                  and stripes[a][1] < stripes[b][3] and stripes[b][1] < stripes[a][3]
+                  for b in range(n)] for a in range(n)]
+        # sets of rectangles that meet pairwise share pixels (boxes: Helly in each axis)
+        sets: list[tuple[int, ...]] = []
+        frontier = [(a, b) for a in range(n) for b in range(a + 1, n) if meets[a][b]]
+        while frontier and len(sets) < 256:
+            sets.extend(frontier)
+            frontier = [c + (d,) for c in frontier for d in range(c[-1] + 1, n)
+                        if all(meets[e][d] for e in c)]
+        if not sets or len(sets) >= 256:
+            return super()._combo_rows(ids, rects, rect_ids)
+        rid = rect_ids.tolist()
+        masks = np.array([sum(1 << g for g in c) for c in sets], dtype=np.int64)
+        tables = np.zeros((len(ids), p, len(sets), self.binner_.n_bins), dtype=np.float32)
+        for i, tid in enumerate(ids):
+            for c, members in enumerate(sets):
+                cover = [(rid[g // p], g % p) for g in members]
+                if any(oid == tid for oid, _ in cover):
+                    continue  # a target's own stripes never cover its samples' pixels
+                for k in range(p):
+                    tables[i, k, c] = self._combo_table(tid, k, cover)
+        return masks, tables
+
+    def _combo_table(self, target_id: int, part: int, cover: list[tuple[int, int]],
+                     ) -> np.ndarray:
+        """Value (m,) float32 of a pixel of stripe ``part`` of ``target_id``'s sample under the
+        stripes ``cover`` ((id, stripe), in the order of _coverage): what the general path
+        (:meth:`_cover_sums`, :meth:`_value_image`) computes, S summed in that order, K their
+        number. Kept while the templates are unchanged."""
+        cache = self.__dict__.setdefault("_combo_tables", {})
+        key = (target_id, part, tuple(cover))
+        qs = (self.template(target_id),) + tuple(self.template(o) for o, _ in cover)
+        hit = cache.get(key)
+        if hit is not None and all(a is b for a, b in zip(hit[0], qs)):
+            return hit[1]
+        qk = qs[0][part].astype(np.float32)
+        if self.overlap == "product":
+            table = np.log(qk)
+        else:  # mixture
+            s_cov = np.zeros(len(qk), dtype=np.float32)
+            for (oid, kk), q in zip(cover, qs[1:]):
+                s_cov += q[kk].astype(np.float32)
+            k_cov = np.full(len(qk), len(cover), dtype=np.float32)
+            table = np.log((qk + s_cov) / (k_cov + 1.0)) - np.log(s_cov / k_cov)
+        cache[key] = (qs, table)
+        return table
+
     def _pair_table(self, target_id: int, part: int, other_id: int, other_part: int,
                     ) -> np.ndarray:
         """Value (m,) float32 of a pixel of stripe ``part`` of ``target_id``'s sample that lies
@@ -842,6 +927,11 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
         if cache:
             for key in [k for k in cache if target.id in (k[0], k[2])]:
                 del cache[key]
+        combos = getattr(self, "_combo_tables", None)
+        if combos:
+            for key in [k for k in combos
+                        if k[0] == target.id or any(o == target.id for o, _ in k[2])]:
+                del combos[key]
 
     def _cover_sums(self, region, bins, target_id, cover=None):
         """Pixels of the region inside other targets' boxes, with S (sum of their histograms at
