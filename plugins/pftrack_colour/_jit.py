@@ -189,14 +189,18 @@ def _grid_histogram(image_bgr, stride, lut0, lut1, lut2, grid_rects, n_bins
     return counts.astype(np.float64)
 
 
-def _frame_background(image_bgr, stride, lut0, lut1, lut2, boxes, n_bins, rects, with_counts
-                      ):  # pragma: no cover - compiled
+def _frame_background(image_bgr, stride, lut0, lut1, lut2, boxes, n_bins, rects, with_counts,
+                      eps, hist, scaled):  # pragma: no cover - compiled
     """Per frame: each target's integer colour box and the background histogram outside them.
 
     ``rects`` (T, 4) int64 receives ``(x0, y0, x1, y1)`` of each box of ``boxes`` (T, 4) xywh
     px, rounded as :func:`pftrack_colour.likelihoods._integer_rect` rounds (``floor(v + 0.5)``,
     width and height at least 1). With ``with_counts``, the counts of :func:`_grid_histogram`
     over the grid cells outside those boxes (every cell when that leaves none).
+
+    With the counts, also ``hist`` (m,) = :func:`pftrack_colour.histograms.normalise_histogram`
+    of them with floor ``eps`` (their total is an exact integer: any order of summation gives
+    it) and ``scaled`` (m,) = the counts times ``stride ** 2``, the same numbers.
 
     Returns ``(ok, counts)``: ``ok`` False (nothing else meaningful) when a box coordinate
     plus 0.5 is not within 1e9 (far away, NaN or infinite: the caller's general path).
@@ -239,6 +243,16 @@ def _frame_background(image_bgr, stride, lut0, lut1, lut2, boxes, n_bins, rects,
                 break
         if empty:  # targets cover the whole image
             counts = _grid_histogram_nb(image_bgr, stride, lut0, lut1, lut2, grid[:0], n_bins)
+    total = 0.0
+    for b in range(n_bins):
+        total += counts[b]
+    area = np.float64(stride * stride)
+    div = 1.0 + n_bins * eps
+    for b in range(n_bins):
+        scaled[b] = counts[b] * area
+        p = counts[b] / total if total > 0 else 1.0 / n_bins
+        p = p + eps
+        hist[b] = p / div
     return True, counts
 
 
@@ -479,7 +493,7 @@ def warm_up() -> None:
     grid_histogram(frame, 2, lut, lut, lut, rects, 8)
     fixed_layout(np.zeros((1, 4)), 6, 4)
     frame_background(frame, 2, lut, lut, lut, np.ones((1, 4)), 8, np.empty((1, 4), np.int64),
-                     True)
+                     True, 1e-4, np.empty(8), np.empty(8))
     boxes = np.zeros((1, 1, 4))
     boxes[..., 2:] = 1.0
     value_box_sums_rows(frame, lut, lut, lut, np.zeros((1, 1, 8), np.float32), boxes,

@@ -251,15 +251,20 @@ class ColourLikelihood(Likelihood):
             return False
         rects = np.empty((len(live), 4), dtype=np.int64)
         s = int(self.background_stride) if self.uses_background else 1
-        ok, counts = _jit.frame_background(image, s, *binner.channel_luts, boxes,
-                                           binner.n_bins, rects, self.uses_background)
+        m = binner.n_bins
+        hist, scaled = np.empty(m), np.empty(m)
+        ok, counts = _jit.frame_background(image, s, *binner.channel_luts, boxes, m, rects,
+                                           self.uses_background, float(self.eps), hist, scaled)
         if not ok:
             return False
         ids = [t.id for t in live]
         self.target_rects_ = dict(zip(ids, rects))
         self._rect_rows = (ids, rects, np.array(ids, dtype=np.int64))
-        if self.uses_background:
-            self._set_background(counts, s)
+        if self.uses_background:  # _set_background's numbers, the normalisation compiled
+            self.background_counts_ = scaled
+            self.background_ = hist
+            self.log_background_ = np.log(hist)
+            self.own_counts_ = {}
         return True
 
     def _value_table(self, target_id: int) -> np.ndarray | None:

@@ -51,6 +51,7 @@ __all__ = [
     "constant_acceleration_predict",
     "gaussian_centre_log_likelihood",
     "pcg64_standard_normal",
+    "random_walk_predict",
     "shifted_exp",
     "small_ready",
     "systematic_indices",
@@ -105,6 +106,7 @@ def warm_up_small() -> bool:
     k.shift_rows_for_exp(lw, np.zeros((1, 2)), -746.0, np.empty((1, 2)),
                          np.empty((1, 2), dtype=np.bool_), np.empty(1))
     p = np.zeros((1, 2, 2))
+    k.random_walk_predict(p.reshape(-1), np.ones(2), np.empty(4), np.zeros(4, dtype=np.uint64))
     k.centre_boxes_rows(p, np.ones((1, 2)), np.ones((1, 2)), np.empty((1, 2, 4)))
     k.estimate_resample_rows(np.full((1, 2), 0.5), p, np.zeros(1), np.empty((1, 2)),
                              np.empty((1, 2)), np.empty((1, 3), dtype=np.intp), np.empty_like(p))
@@ -152,6 +154,19 @@ def constant_acceleration_predict(states: np.ndarray, std: np.ndarray, dt: float
     dt = float(dt)
     out = np.empty(s.shape)
     if _with_pcg64(rng, _k().constant_acceleration_predict, s, sd, dt, 0.5 * dt * dt, out):
+        return out
+    return None
+
+
+def random_walk_predict(states: np.ndarray, std: np.ndarray,
+                        rng: np.random.Generator) -> np.ndarray | None:
+    """``states + std * rng.standard_normal(states.shape)`` (``std`` per last axis) in one
+    pass, the numbers and the Generator state of the numpy path; None (nothing drawn) when
+    ``rng`` is not PCG64-based."""
+    s = np.ascontiguousarray(states, dtype=np.float64)
+    sd = np.array(std, dtype=np.float64)  # a writable copy: one compiled signature
+    out = np.empty(s.shape)
+    if _with_pcg64(rng, _k().random_walk_predict, s.reshape(-1), sd, out.reshape(-1)):
         return out
     return None
 

@@ -116,6 +116,22 @@ def pcg64_standard_normal(out, state):  # pragma: no cover - compiled
     state[1] = lo
 
 
+@njit(**_JIT)  # type: ignore[call-overload]
+def random_walk_predict(states, std, out, state):  # pragma: no cover - compiled
+    """``out = states + std * standard_normal`` over flat contiguous ``states`` and ``out``
+    whose last axis has ``len(std)`` values: the normals of :func:`pcg64_standard_normal` in
+    order, each times its axis's deviation, then plus the state (the products and sums of
+    ``out *= std; out += states``)."""
+    hi, lo, inc_hi, inc_lo = state[0], state[1], state[2], state[3]
+    d = std.shape[0]
+    for i in range(out.shape[0]):
+        x, hi, lo = _normal(hi, lo, inc_hi, inc_lo)
+        x = x * std[i % d]
+        out[i] = x + states[i]
+    state[0] = hi
+    state[1] = lo
+
+
 _BLOCK = 2048  # rows per block of constant_acceleration_predict: 96 kB, in cache
 
 
