@@ -641,15 +641,15 @@ class MultiTargetTracker:
             logw = np.array([f.log_weights for f in filters])
         if lw.dtype != np.float64 or not lw.flags.c_contiguous:
             lw = np.ascontiguousarray(lw, dtype=np.float64)
-        status, w, mask, best = _jit.shift_rows_for_exp(lw, logw, _EXP_ZERO_BELOW)
+        status, vals, pos, best = _jit.shift_rows_for_exp(lw, logw, _EXP_ZERO_BELOW)
         if status == 1:
             i = int(np.flatnonzero(~(lw < np.inf).all(axis=1))[0])
             self._check_finite(lw[i], frame, filters[i].target)
         if status != 0:
             return None
-        np.exp(w, out=w, where=mask)
+        np.exp(vals, out=vals)  # numpy's exp, on the weights that are not exactly 0
         u = self.rng.random(len(filters))  # what the systematic resampling of the rows draws
-        states, extents, idx, resampled = _jit.estimate_resample_rows(w, p, u)
+        w, states, extents, idx, resampled = _jit.estimate_resample_rows(vals, pos, p, u)
         return w, best.tolist(), states, extents, idx, resampled
 
     def _log_likelihood_rows(self, frame: Frame, filters: list[_Filter],

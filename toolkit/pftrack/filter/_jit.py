@@ -103,13 +103,14 @@ def warm_up_small() -> bool:
     k.weight_totals_rows(w, totals)
     k.systematic_indices_rows(w, 1.0 / totals, np.zeros(1), np.empty((1, 3), dtype=np.intp))
     lw = np.zeros((1, 2))
-    k.shift_rows_for_exp(lw, np.zeros((1, 2)), -746.0, np.empty((1, 2)),
-                         np.empty((1, 2), dtype=np.bool_), np.empty(1))
+    pos = np.zeros(2, dtype=np.intp)
+    k.shift_rows_for_exp(lw, np.zeros((1, 2)), -746.0, np.empty(2), pos, np.empty(1))
     p = np.zeros((1, 2, 2))
     k.random_walk_predict(p.reshape(-1), np.ones(2), np.empty(4), np.zeros(4, dtype=np.uint64))
     k.centre_boxes_rows(p, np.ones((1, 2)), np.ones((1, 2)), np.empty((1, 2, 4)))
-    k.estimate_resample_rows(np.full((1, 2), 0.5), p, np.zeros(1), np.empty((1, 2)),
-                             np.empty((1, 2)), np.empty((1, 3), dtype=np.intp), np.empty_like(p))
+    k.estimate_resample_rows(np.ones(2)[:1], pos[:1], np.empty((1, 2)), p, np.zeros(1),
+                             np.empty((1, 2)), np.empty((1, 2)), np.empty((1, 3), dtype=np.intp),
+                             np.empty_like(p))
     _small_warm = True
     return True
 
@@ -248,29 +249,33 @@ def weighted_sum(w: np.ndarray, s: np.ndarray) -> np.ndarray:
 def shift_rows_for_exp(lw: np.ndarray, logw: np.ndarray, zero_below: float,
                        ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
     """The engine's log-weights of every target up to the exponential (see the kernel
-    :func:`pftrack.filter._kernels.shift_rows_for_exp`): ``(status, shifted (T, N), mask (T, N),
-    best (T,))``; ``status`` 0: done, 1: ``lw`` holds NaN or +inf, 2: a row has no finite
-    maximum. ``lw`` (T, N) and ``logw`` (R, N), R = 1 or T, C-contiguous float64."""
-    out = np.empty(lw.shape)
-    mask = np.empty(lw.shape, dtype=np.bool_)
+    :func:`pftrack.filter._kernels.shift_rows_for_exp`): ``(status, shifted, positions,
+    best (T,))`` with ``shifted`` (K,) the shifted log-weights whose exponential is not 0 and
+    ``positions`` (K,) their flat indices; ``status`` 0: done, 1: ``lw`` holds NaN or +inf,
+    2: a row has no finite maximum. ``lw`` (T, N) and ``logw`` (R, N), R = 1 or T,
+    C-contiguous float64."""
+    vals = np.empty(lw.size)
+    pos = np.empty(lw.size, dtype=np.intp)
     best = np.empty(lw.shape[0])
-    status = _k().shift_rows_for_exp(lw, logw, float(zero_below), out, mask, best)
-    return int(status), out, mask, best
+    status, count = _k().shift_rows_for_exp(lw, logw, float(zero_below), vals, pos, best)
+    return int(status), vals[:count], pos[:count], best
 
 
-def estimate_resample_rows(w: np.ndarray, p: np.ndarray, u: np.ndarray,
-                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Normalise the exponentials ``w`` (T, N) in place, then every target's estimate, extent,
-    systematic resampling indices (offsets ``u`` (T,)) and resampled particles from ``p``
-    (T, N, D), D >= 2 (see the kernel :func:`pftrack.filter._kernels.estimate_resample_rows`):
-    ``(states (T, D), extents (T, D), indices (T, N), resampled (T, N, D))``."""
+def estimate_resample_rows(vals: np.ndarray, pos: np.ndarray, p: np.ndarray, u: np.ndarray,
+                           ) -> tuple[np.ndarray, ...]:
+    """From the exponentials ``vals`` at flat positions ``pos`` (zeros elsewhere): every
+    target's normalised weights (T, N), estimate, extent, systematic resampling indices
+    (offsets ``u`` (T,)) and resampled particles from ``p`` (T, N, D), D >= 2 (see the kernel
+    :func:`pftrack.filter._kernels.estimate_resample_rows`): ``(weights, states (T, D),
+    extents (T, D), indices (T, N), resampled (T, N, D))``."""
     t, n, d = p.shape
+    w = np.empty((t, n))
     states = np.empty((t, d))
     extents = np.empty((t, d))
     idx = np.empty((t, n + 1), dtype=np.intp)
     resampled = np.empty(p.shape)
-    _k().estimate_resample_rows(w, p, u, states, extents, idx, resampled)
-    return states, extents, idx[:, :n].copy(), resampled
+    _k().estimate_resample_rows(vals, pos, w, p, u, states, extents, idx, resampled)
+    return w, states, extents, idx[:, :n].copy(), resampled
 
 
 def centre_boxes_rows(states: np.ndarray, half: np.ndarray, wh: np.ndarray) -> np.ndarray:

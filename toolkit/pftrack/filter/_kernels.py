@@ -295,18 +295,20 @@ def weighted_sum(w, s, out):  # pragma: no cover - compiled
 
 
 @njit(**_JIT)  # type: ignore[call-overload]
-def shift_rows_for_exp(lw, logw, zero_below, out, mask, best):  # pragma: no cover - compiled
+def shift_rows_for_exp(lw, logw, zero_below, vals, pos, best):  # pragma: no cover - compiled
     """The engine's step 4 up to the exponential, every target (row) at once.
 
     ``lw`` (T, N) are the likelihood's log-likelihoods, ``logw`` (R, N) the log-weights
     (R = 1: one row for every target). ``best[r]`` = ``lw[r].max()``; ``x = lw + logw``;
-    ``d = x - x.max()`` per row; where ``d > zero_below``: ``out = d``, ``mask = True``,
-    elsewhere ``out = 0.0``, ``mask = False`` (:func:`shift_for_exp` per row), so that
-    ``np.exp(out, out=out, where=mask)`` gives :func:`pftrack.filter.core._exp_normalised`'s
-    unnormalised weights.
+    ``d = x - x.max()`` per row; the ``d > zero_below`` (those whose exponential is not
+    exactly 0) go to ``vals`` in row-major order with their flat index in ``pos``, so that
+    ``np.exp`` of them, scattered into zeros, gives
+    :func:`pftrack.filter.core._exp_normalised`'s unnormalised weights (the same numbers as
+    its masked ``np.exp``, which costs more: one inner loop per run of kept values).
 
-    Returns 0 when done; 1 (nothing else meaningful) when ``lw`` holds NaN or +inf; 2 when a
-    row of ``x`` has no finite maximum (the caller's general path re-spreads that target).
+    Returns ``(status, count)``: status 0 when done (``count`` values kept); 1 (nothing else
+    meaningful) when ``lw`` holds NaN or +inf; 2 when a row of ``x`` has no finite maximum
+    (the caller's general path re-spreads that target).
     """
     t, n = lw.shape
     last = logw.shape[0] - 1
@@ -315,26 +317,29 @@ def shift_rows_for_exp(lw, logw, zero_below, out, mask, best):  # pragma: no cov
         for i in range(n):
             v = lw[r, i]
             if not v < np.inf:
-                return 1
+                return 1, 0
             if v > b:
                 b = v
         best[r] = b
+    count = 0
+    x = np.empty(n)
     for r in range(t):
         lr = logw[min(r, last)]
         m = -np.inf
         for i in range(n):
-            x = lw[r, i] + lr[i]
-            out[r, i] = x
-            if x > m:
-                m = x
+            xi = lw[r, i] + lr[i]
+            x[i] = xi
+            if xi > m:
+                m = xi
         if not (-np.inf < m < np.inf):  # NaN can only come from logw: the general path
-            return 2
+            return 2, 0
         for i in range(n):
-            d = out[r, i] - m
-            keep = d > zero_below
-            mask[r, i] = keep
-            out[r, i] = d if keep else 0.0
-    return 0
+            d = x[i] - m
+            if d > zero_below:
+                vals[count] = d
+                pos[count] = r * n + i
+                count += 1
+    return 0, count
 
 
 @njit(**_JIT)  # type: ignore[call-overload]
@@ -418,12 +423,14 @@ def pairwise_sum(a, lo, n):  # pragma: no cover - compiled
 
 
 @njit(**_JIT)  # type: ignore[call-overload]
-def estimate_resample_rows(w, p, u, states, extents, idx, resampled):  # pragma: no cover
+def estimate_resample_rows(vals, pos, w, p, u, states, extents, idx, resampled
+                           ):  # pragma: no cover - compiled
     """The engine's step 4 after the exponential, every target (row) at once, with the numbers
     of the numpy path:
 
-    * ``w`` (T, N), the exponentials, normalised in place by their sum in numpy's pairwise
-      order (``w /= w.sum(axis=-1, keepdims=True)``);
+    * ``w`` (T, N): the exponentials ``vals`` at the flat indices ``pos`` (what
+      :func:`shift_rows_for_exp` kept), zeros elsewhere, normalised in place by their sum in
+      numpy's pairwise order (``w /= w.sum(axis=-1, keepdims=True)``);
     * ``states`` (T, D): ``np.einsum("tn,tnd->td", w, p)``, each sum running over the
       particles in order from 0.0 (einsum's order for D >= 2; the caller checks D);
     * ``extents`` (T, D): :func:`pftrack.filter.core.weighted_extent`, ``2 sqrt(sum w (p -
@@ -433,6 +440,11 @@ def estimate_resample_rows(w, p, u, states, extents, idx, resampled):  # pragma:
     * ``resampled`` (T, N, D): ``p[r, idx[r, j]]``.
     """
     t, n, d = p.shape
+    flat = w.reshape(t * n)
+    for j in range(flat.shape[0]):
+        flat[j] = 0.0
+    for j in range(pos.shape[0]):
+        flat[pos[j]] = vals[j]
     for r in range(t):
         row = w[r]
         s = pairwise_sum(row, 0, n)
