@@ -22,8 +22,8 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "fixed_layout", "frame_background", "grid_histogram", "value_box_sums", "value_box_sums_rows",
-           "warm_up"]
+__all__ = ["ENABLED", "fixed_layout", "frame_background", "grid_histogram", "value_box_sums",
+           "value_box_sums_rows", "warm_up"]
 
 #: False when ``PFTRACK_NO_JIT`` is set: every likelihood then takes its numpy path.
 ENABLED = os.environ.get("PFTRACK_NO_JIT", "").strip().lower() not in ("1", "true", "yes")
@@ -432,6 +432,11 @@ def _value_box_sums_rows(image_bgr, lut0, lut1, lut2, tables, boxes, own_ids, re
             for j in range(n):
                 out[i, j] = sums[j]
         done[i] = True
+
+
+# compiled kernels that other kernels call, bound by _compiled before those are compiled
+_fixed_layout_nb = None
+_grid_histogram_nb = None
 
 
 def _compiled(name: str):

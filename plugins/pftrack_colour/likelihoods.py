@@ -898,7 +898,7 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
             table = np.log(qk)
         else:  # mixture
             s_cov = np.zeros(len(qk), dtype=np.float32)
-            for (oid, kk), q in zip(cover, qs[1:]):
+            for (_, kk), q in zip(cover, qs[1:]):
                 s_cov += q[kk].astype(np.float32)
             k_cov = np.full(len(qk), len(cover), dtype=np.float32)
             table = np.log((qk + s_cov) / (k_cov + 1.0)) - np.log(s_cov / k_cov)

@@ -60,7 +60,6 @@ from pftrack.filter import (
     weighted_extent,
     weighted_mean,
 )
-
 from pftrack.filter.core import _EXP_ZERO_BELOW
 
 log = logging.getLogger(__name__)
