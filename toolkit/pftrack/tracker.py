@@ -10,9 +10,12 @@ Data flow per frame (top to bottom)::
           -> motion.predict (per target)            particles (N, D) in the motion model's space
           -> observation.to_boxes                   particle boxes (N, 4) xywh px
           -> [associator] detections <-> targets    ``target.detection``
-          -> likelihood.begin_frame(all targets) -> likelihood.log_likelihood (per target)
+          -> likelihood.begin_frame(all targets) -> likelihood.log_likelihood (per target),
+             or likelihood.log_likelihood_rows (all targets in one call) when it offers it
           -> normalise, estimate (weighted mean), extent, resample on ESS: vectorised over
-             the targets (one row per filter, each row the single-filter numbers bit for bit)
+             the targets (one row per filter, each row the single-filter numbers bit for bit;
+             systematic resampling every frame with the compiled kernels loaded: two compiled
+             passes around numpy's exp, :meth:`MultiTargetTracker._fused_rows`)
           -> the filter's deaths (misses, leaving the image or the valid region)
           -> observation.update_target (matched targets)
           -> tracks.after_frame: births, confirmation, merging, ends, the records to output
