@@ -203,6 +203,10 @@ class RandomWalkMotion(MotionModel):
             raise ValueError(f"RandomWalkMotion.predict_rows: states must have shape (T, N, 2), "
                              f"got {s.shape}")
         std = self._std(dt)
+        if (_jit.small_ready() or _jit.use(s.size)) and std.shape == (s.shape[2],):
+            out = _jit.random_walk_predict(s, std, rng)  # one pass: the same numbers
+            if out is not None:
+                return out
         out = _standard_normal(rng, s.shape)
         _scale_axes(out, std)
         out += s

@@ -103,6 +103,13 @@ class _TimedLikelihood(Likelihood):
     def log_likelihood(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
         return self._timed(self.inner.log_likelihood, boxes_xywh_px, target)
 
+    def log_likelihood_rows(self, boxes_xywh_px: np.ndarray,
+                            targets: Sequence[Target]) -> np.ndarray:
+        return self._timed(self.inner.log_likelihood_rows, boxes_xywh_px, targets)
+
+    def offers_rows(self) -> bool:
+        return self.inner.offers_rows()
+
 
 @dataclass
 class TrackingRun:

@@ -190,9 +190,11 @@ class ColourLikelihood(Likelihood):
                              f"{frame.size_wh[0]}x{frame.size_wh[1]} image")
         self.templates_[target.id] = normalise_histogram(counts, self.eps)
         self.values_.pop(target.id, None)
+        self._value_rows = None
 
     def end_target(self, target: Target) -> None:
         self.__dict__.get("_log_templates", {}).pop(target.id, None)
+        self._value_rows = None
         if hasattr(self, "templates_"):
             self.templates_.pop(target.id, None)
             self.target_rects_.pop(target.id, None)
@@ -213,21 +215,75 @@ class ColourLikelihood(Likelihood):
                     self.templates_[t.id] = ((1 - a) * self.templates_[t.id]
                                              + a * normalise_histogram(counts, self.eps))
         self.image_ = frame.image
-        if self.region is None:  # a handful of boxes: rounded one by one (same numbers)
-            self.target_rects_ = {t.id: _integer_rect(t.box_xywh_px) for t in live}
-        elif live:
-            boxes = self._colour_boxes(np.array([t.box_xywh_px for t in live], dtype=float))
-            self.target_rects_ = dict(zip((t.id for t in live), integer_boxes(boxes)))
-        else:
-            self.target_rects_ = {}
-        if self.uses_background:
-            self._background(frame.image)
-        self.values_ = {t.id: self._value_table(t.id) for t in live}
+        self._rect_rows = None
+        if not self._compiled_frame(frame.image, live):
+            if self.region is None:  # a handful of boxes: rounded one by one (same numbers)
+                self.target_rects_ = {t.id: _integer_rect(t.box_xywh_px) for t in live}
+            elif live:
+                boxes = self._colour_boxes(np.array([t.box_xywh_px for t in live], dtype=float))
+                self.target_rects_ = dict(zip((t.id for t in live), integer_boxes(boxes)))
+            else:
+                self.target_rects_ = {}
+            if self.uses_background:
+                self._background(frame.image)
+        ids = [t.id for t in live]
+        rows = self._value_tables(ids) if ids else None
+        if rows is None:
+            self.values_ = {i: self._value_table(i) for i in ids}
+            self._value_rows = None
+        else:  # one (T, parts, m) stack; each target's table is its row
+            self.values_ = dict(zip(ids, rows))
+            self._value_rows = (ids, rows)
         self.prev_image_ = frame.image if self.update_rate > 0 else None
+
+    def _compiled_frame(self, image: np.ndarray, live: list[Target]) -> bool:
+        """The targets' colour boxes (``target_rects_``) and, for the background likelihoods,
+        the background histogram in one compiled call
+        (:func:`pftrack_colour._jit.frame_background`: the numbers of the general path); False
+        (nothing done) where it does not apply."""
+        binner = self.binner_
+        if (not live or not _jit.ENABLED or self.region is not None or self.needs_own_counts
+                or binner.conversion is not None or image.ndim != 3
+                or not image.flags.c_contiguous):
+            return False
+        boxes = np.array([t.box_xywh_px for t in live], dtype=np.float64)
+        if boxes.shape != (len(live), 4):
+            return False
+        rects = np.empty((len(live), 4), dtype=np.int64)
+        s = int(self.background_stride) if self.uses_background else 1
+        m = binner.n_bins
+        hist, scaled = np.empty(m), np.empty(m)
+        ok, counts = _jit.frame_background(image, s, *binner.channel_luts, boxes, m, rects,
+                                           self.uses_background, float(self.eps), hist, scaled)
+        if not ok:
+            return False
+        ids = [t.id for t in live]
+        self.target_rects_ = dict(zip(ids, rects))
+        self._rect_rows = (ids, rects, np.array(ids, dtype=np.int64))
+        if self.uses_background:  # _set_background's numbers, the normalisation compiled
+            self.background_counts_ = scaled
+            self.background_ = hist
+            self.log_background_ = np.log(hist)
+            self.own_counts_ = {}
+        return True
 
     def _value_table(self, target_id: int) -> np.ndarray | None:
         """Per-frame, per-target table (parts, m); default none."""
         return None
+
+    def _value_tables(self, ids: list[int]) -> np.ndarray | None:
+        """Per-frame tables of several targets at once, (T, parts, m), row ``i`` equal to
+        ``_value_table(ids[i])``; None: made one by one."""
+        return None
+
+    def _log_template_rows(self, ids: list[int]) -> np.ndarray:
+        """``np.log`` of the targets' templates stacked, (T, parts, m), kept while the
+        templates are unchanged."""
+        qs = [self.template(i) for i in ids]
+        hit = self.__dict__.get("_log_rows")
+        if hit is None or len(hit[0]) != len(qs) or not all(a is b for a, b in zip(hit[0], qs)):
+            hit = self._log_rows = (qs, np.log(np.array(qs)))
+        return hit[1]
 
     def _log_template(self, target_id: int) -> np.ndarray:
         """``np.log`` of a target's templates (parts, m), kept while the template is unchanged
@@ -500,6 +556,9 @@ class CrossEntropyLikelihood(ColourLikelihood):
         per stripe, float32."""
         return self._log_template(target_id).astype(np.float32)
 
+    def _value_tables(self, ids: list[int]) -> np.ndarray:
+        return self._log_template_rows(ids).astype(np.float32)
+
     def _log_likelihood(self, region, q, target_id):
         binner = self.binner_
         table = self._table(target_id)
@@ -554,6 +613,90 @@ class CrossEntropyLikelihood(ColourLikelihood):
         if self.lam is None:  # λ = n: the sum itself (eq. 18, 21)
             return sums
         return float(self.lam) * sums / float(max(bw * bh, 1))  # n = bw bh for every box
+
+    def log_likelihood_rows(self, boxes_xywh_px: np.ndarray,
+                            targets: Sequence[Target]) -> np.ndarray:
+        """Every target's log-likelihoods in one call, (T, N, 4) boxes -> (T, N): one compiled
+        pass (:func:`pftrack_colour._jit.value_box_sums_rows`) lays out each target's boxes,
+        finds the other targets' stripes over them and sums the per-pixel values through an
+        integral image, target after target. Row ``i`` equals ``log_likelihood(
+        boxes_xywh_px[i], targets[i])`` bit for bit; a target the kernel does not cover (boxes
+        leaving the image or of different sizes, pixels under two other targets, a colour
+        conversion, the ``histogram`` method) takes :meth:`log_likelihood`."""
+        boxes = np.asarray(boxes_xywh_px, dtype=np.float64)
+        n_t = len(targets)
+        if boxes.ndim != 3 or boxes.shape[0] != n_t or boxes.shape[2] != 4:
+            raise ValueError(f"{type(self).__name__}.log_likelihood_rows: boxes must have shape "
+                             f"(T, N, 4) with T = {n_t} targets, got {boxes.shape}")
+        image = getattr(self, "image_", None)
+        if image is None:
+            raise RuntimeError(f"{type(self).__name__}: begin_frame was not called before "
+                               "log_likelihood_rows")
+        binner = self.binner_
+        if (not n_t or self.method != "integral" or not _jit.ENABLED
+                or binner.conversion is not None or not image.flags.c_contiguous):
+            return super().log_likelihood_rows(boxes, targets)
+        ids = [t.id for t in targets]
+        frame_rows = self.__dict__.get("_rect_rows")
+        ids_arr = frame_rows[2] if frame_rows is not None and frame_rows[0] == ids else \
+            np.array(ids, dtype=np.int64)
+        tables = self._table_rows(ids)
+        cboxes = boxes if self.region is None else \
+            self._colour_boxes(boxes.reshape(-1, 4)).reshape(boxes.shape)
+        if not cboxes.flags.c_contiguous:
+            cboxes = np.ascontiguousarray(cboxes)
+        rects, rect_ids, pairs = self._pair_rows(ids)
+        out = np.empty(boxes.shape[:2])
+        done = np.empty(n_t, dtype=np.bool_)
+        l0, l1, l2 = binner.channel_luts
+        lam = 0.0 if self.lam is None else float(self.lam)
+        overlays = pairs.shape[2] > 0
+        no_masks = np.zeros(0, dtype=np.int64)
+        _jit.value_box_sums_rows(image, l0, l1, l2, tables, cboxes, ids_arr, rects, rect_ids,
+                                 pairs, no_masks, pairs[:, :, :0, 0], overlays, lam, out, done)
+        if done.all():
+            return out
+        left = np.flatnonzero(~done)
+        if overlays:  # pixels under several stripes: again with the tables of those sets
+            masks, combos = self._combo_rows(ids, rects, rect_ids)
+            if len(masks):
+                sub = np.empty((len(left), out.shape[1]))
+                sub_done = np.empty(len(left), dtype=np.bool_)
+                _jit.value_box_sums_rows(image, l0, l1, l2, tables[left], cboxes[left],
+                                         ids_arr[left], rects, rect_ids, pairs[left], masks,
+                                         combos[left], True, lam, sub, sub_done)
+                out[left[sub_done]] = sub[sub_done]
+                left = left[~sub_done]
+        for i in left.tolist():
+            out[i] = self.log_likelihood(boxes[i], targets[i])
+        return out
+
+    def _table_rows(self, ids: list[int]) -> np.ndarray:
+        """This frame's value tables of the targets ``ids``, (T, parts, m) float32,
+        C-contiguous (begin_frame's stack when it made them for these targets)."""
+        rows = self.__dict__.get("_value_rows")
+        if rows is not None and rows[0] == ids:
+            return rows[1]
+        return np.array([self._table(i) for i in ids], dtype=np.float32)
+
+    def _pair_rows(self, ids: list[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Other targets' colour boxes for the compiled batch: their rectangles (K, 4) int64,
+        their ids (K,) and the per-pair tables (T, parts, K, parts, m) float32 (K = 0: no
+        pixel takes another table)."""
+        m = self.binner_.n_bins
+        p = len(self._parts)
+        return (np.zeros((0, 4), dtype=np.int64), np.zeros(0, dtype=np.int64),
+                np.zeros((len(ids), p, 0, p, m), dtype=np.float32))
+
+    def _combo_rows(self, ids: list[int], rects: np.ndarray, rect_ids: np.ndarray,
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """Sets of two or more other targets' stripes that cover common pixels, as bit masks
+        (C,) int64 (bit ``r * parts + kk``: stripe ``kk`` of box ``r``), and the value tables
+        (T, parts, C, m) float32 of a pixel under exactly such a set; none by default (no
+        pixel takes another table)."""
+        p = len(self._parts)
+        return (np.zeros(0, dtype=np.int64),
+                np.zeros((len(ids), p, 0, self.binner_.n_bins), dtype=np.float32))
 
     def _table(self, target_id: int) -> np.ndarray:
         """This frame's value table (parts, m) of a target (made now for one born after
@@ -622,6 +765,9 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
     def _value_table(self, target_id: int) -> np.ndarray:
         return (self._log_template(target_id) - self.log_background_).astype(np.float32)
 
+    def _value_tables(self, ids: list[int]) -> np.ndarray:
+        return (self._log_template_rows(ids) - self.log_background_).astype(np.float32)
+
     def _log_likelihood(self, region, q, target_id):
         self._cover_cache = None  # per call: the other targets' coverage of this region
         return super()._log_likelihood(region, q, target_id)
@@ -665,6 +811,100 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
             values[covered] = np.log((qv + s_cov) / (k_cov + 1.0)) - np.log(s_cov / k_cov)
         return values
 
+    def _pair_rows(self, ids: list[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if self.overlap == "independent" or not self.target_rects_:
+            return super()._pair_rows(ids)
+        rect_ids = list(self.target_rects_)
+        tp = self.templates_
+        try:
+            own = [tp[i] for i in ids]
+            others = [tp[i] for i in rect_ids]
+        except KeyError:
+            own = [self.template(i) for i in ids]  # raises, naming the target
+            others = [self.template(i) for i in rect_ids]
+        hit = self.__dict__.get("_pair_stack")
+        if (hit is not None and hit[0] == ids and hit[1] == rect_ids
+                and all(a is b for a, b in zip(hit[2], own))
+                and all(a is b for a, b in zip(hit[3], others))):
+            pairs = hit[4]
+        else:
+            p = len(self._parts)
+            pairs = np.zeros((len(ids), p, len(rect_ids), p, self.binner_.n_bins),
+                             dtype=np.float32)
+            for i, tid in enumerate(ids):
+                for r, oid in enumerate(rect_ids):
+                    if oid != tid:
+                        for k in range(p):
+                            for kk in range(p):
+                                pairs[i, k, r, kk] = self._pair_table(tid, k, oid, kk)
+            self._pair_stack = (ids, rect_ids, own, others, pairs)
+        frame_rows = self.__dict__.get("_rect_rows")
+        if frame_rows is not None and frame_rows[0] == rect_ids:  # begin_frame's arrays
+            return frame_rows[1], frame_rows[2], pairs
+        rects = np.array(list(self.target_rects_.values()), dtype=np.int64).reshape(-1, 4)
+        return rects, np.array(rect_ids, dtype=np.int64), pairs
+
+    def _combo_rows(self, ids: list[int], rects: np.ndarray, rect_ids: np.ndarray,
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        p = len(self._parts)
+        k_rects = len(rects)
+        if self.overlap == "independent" or k_rects < 2 or k_rects * p > 62:
+            return super()._combo_rows(ids, rects, rect_ids)
+        # every stripe's rectangle, in the order of _coverage (box, then stripe)
+        stripes = []
+        for r0, r1, r2, r3 in rects.tolist():
+            h = r3 - r1
+            for kk in range(p):
+                stripes.append((r0, r1 + (kk * h) // p, r2, r1 + ((kk + 1) * h) // p))
+        n = len(stripes)
+        meets = [[a != b and stripes[a][0] < stripes[b][2] and stripes[b][0] < stripes[a][2]
+                  and stripes[a][1] < stripes[b][3] and stripes[b][1] < stripes[a][3]
+                  for b in range(n)] for a in range(n)]
+        # sets of rectangles that meet pairwise share pixels (boxes: Helly in each axis)
+        sets: list[tuple[int, ...]] = []
+        frontier = [(a, b) for a in range(n) for b in range(a + 1, n) if meets[a][b]]
+        while frontier and len(sets) < 256:
+            sets.extend(frontier)
+            frontier = [c + (d,) for c in frontier for d in range(c[-1] + 1, n)
+                        if all(meets[e][d] for e in c)]
+        if not sets or len(sets) >= 256:
+            return super()._combo_rows(ids, rects, rect_ids)
+        rid = rect_ids.tolist()
+        masks = np.array([sum(1 << g for g in c) for c in sets], dtype=np.int64)
+        tables = np.zeros((len(ids), p, len(sets), self.binner_.n_bins), dtype=np.float32)
+        for i, tid in enumerate(ids):
+            for c, members in enumerate(sets):
+                cover = [(rid[g // p], g % p) for g in members]
+                if any(oid == tid for oid, _ in cover):
+                    continue  # a target's own stripes never cover its samples' pixels
+                for k in range(p):
+                    tables[i, k, c] = self._combo_table(tid, k, cover)
+        return masks, tables
+
+    def _combo_table(self, target_id: int, part: int, cover: list[tuple[int, int]],
+                     ) -> np.ndarray:
+        """Value (m,) float32 of a pixel of stripe ``part`` of ``target_id``'s sample under the
+        stripes ``cover`` ((id, stripe), in the order of _coverage): what the general path
+        (:meth:`_cover_sums`, :meth:`_value_image`) computes, S summed in that order, K their
+        number. Kept while the templates are unchanged."""
+        cache = self.__dict__.setdefault("_combo_tables", {})
+        key = (target_id, part, tuple(cover))
+        qs = (self.template(target_id),) + tuple(self.template(o) for o, _ in cover)
+        hit = cache.get(key)
+        if hit is not None and all(a is b for a, b in zip(hit[0], qs)):
+            return hit[1]
+        qk = qs[0][part].astype(np.float32)
+        if self.overlap == "product":
+            table = np.log(qk)
+        else:  # mixture
+            s_cov = np.zeros(len(qk), dtype=np.float32)
+            for (_, kk), q in zip(cover, qs[1:]):
+                s_cov += q[kk].astype(np.float32)
+            k_cov = np.full(len(qk), len(cover), dtype=np.float32)
+            table = np.log((qk + s_cov) / (k_cov + 1.0)) - np.log(s_cov / k_cov)
+        cache[key] = (qs, table)
+        return table
+
     def _pair_table(self, target_id: int, part: int, other_id: int, other_part: int,
                     ) -> np.ndarray:
         """Value (m,) float32 of a pixel of stripe ``part`` of ``target_id``'s sample that lies
@@ -692,6 +932,11 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
         if cache:
             for key in [k for k in cache if target.id in (k[0], k[2])]:
                 del cache[key]
+        combos = getattr(self, "_combo_tables", None)
+        if combos:
+            for key in [k for k in combos
+                        if k[0] == target.id or any(o == target.id for o, _ in k[2])]:
+                del combos[key]
 
     def _cover_sums(self, region, bins, target_id, cover=None):
         """Pixels of the region inside other targets' boxes, with S (sum of their histograms at

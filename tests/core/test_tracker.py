@@ -354,3 +354,92 @@ def test_a_nan_from_one_of_several_targets_stops_the_run_naming_that_target(vect
                        match=r"_NaNForOne.*returned 1 NaN or \+inf log-likelihood\(s\) of 50 "
                              r"at frame 4 \(target 2\)"):
         tr.step(frames[3])
+
+
+class _RowsTruth(_TruthLikelihood):
+    """``_TruthLikelihood`` that also scores every target in one call (counting both)."""
+
+    def log_likelihood(self, boxes, target):
+        self.per_target_calls_ = getattr(self, "per_target_calls_", 0) + 1
+        return super().log_likelihood(boxes, target)
+
+    def log_likelihood_rows(self, boxes, targets):
+        self.rows_calls_ = getattr(self, "rows_calls_", 0) + 1
+        assert boxes.shape == (len(targets), boxes.shape[1], 4)
+        return np.array([_TruthLikelihood.log_likelihood(self, b, t)
+                         for b, t in zip(boxes, targets)])
+
+
+def _three_targets(lik, vectorise=True, seed=5, n_frames=40):
+    truth = {1: lambda k: np.array([20.0 + 2 * k, 50.0]),
+             2: lambda k: None if 20 <= k < 23 else np.array([150.0 - k, 40.0]),  # recoveries
+             3: lambda k: np.array([100.0, 20.0 + 0.5 * k])}
+    lik.truth_ = truth
+    tr = MultiTargetTracker(RandomWalkMotion(sigma_px=1.0), lik, ImageBoxObservation(10, 10),
+                            n_particles=200, rng=np.random.default_rng(seed),
+                            kill_out_of_view=False)
+    tr._vectorise = vectorise
+    frames = list(_frames(n_frames))
+    for tid, path in truth.items():
+        tr.add_target(frames[0], path(0), target_id=tid)
+    recs = [r for f in frames[1:] for r in tr.step(f)]
+    return tr, records_to_mot(recs)
+
+
+def test_the_engine_scores_all_targets_in_one_call_when_the_likelihood_offers_it():
+    """A likelihood overriding log_likelihood_rows gets one call per frame with every
+    target's (T, N, 4) boxes and no per-target call; the tracks are those of the per-target
+    calls bit for bit (rows kept in ``target.log_likelihoods``)."""
+    assert not _TruthLikelihood().offers_rows() and _RowsTruth().offers_rows()
+    rows_lik = _RowsTruth()
+    tr, a = _three_targets(rows_lik)
+    assert rows_lik.rows_calls_ == 39
+    assert getattr(rows_lik, "per_target_calls_", 0) == 0
+    assert tr.targets[0].log_likelihoods.shape == (200,)
+    plain = _TruthLikelihood()
+    _, b = _three_targets(plain)
+    assert len(a) == 3 * 39 and tr.recoveries == 3
+    assert a.tobytes() == b.tobytes()
+    # one target at a time (filters of different sizes): the per-target method
+    one = _RowsTruth()
+    _, c = _three_targets(one, vectorise=False)
+    assert getattr(one, "rows_calls_", 0) == 0 and one.per_target_calls_ == 3 * 39
+    assert c.tobytes() == a.tobytes()
+
+
+def test_the_default_rows_method_stacks_the_per_target_calls():
+    lik = _TruthLikelihood()
+    lik.truth_ = {1: lambda k: np.array([5.0, 5.0]), 2: lambda k: None}
+    lik.frame_ = 1
+    ts = [Target(id=i, state=np.zeros(2), box_xywh_px=np.zeros(4)) for i in (1, 2)]
+    boxes = np.random.default_rng(0).uniform(0, 10, (2, 7, 4))
+    got = Likelihood.log_likelihood_rows(lik, boxes, ts)
+    assert got.shape == (2, 7)
+    assert np.array_equal(got[0], lik.log_likelihood(boxes[0], ts[0]))
+    assert np.all(got[1] == -np.inf)
+
+
+class _RowsNaN(_RowsTruth):
+    def log_likelihood_rows(self, boxes, targets):
+        out = super().log_likelihood_rows(boxes, targets)
+        if self.frame_ == 4:
+            out[1, 3] = np.nan
+        return out
+
+
+class _RowsWrongShape(_RowsTruth):
+    def log_likelihood_rows(self, boxes, targets):
+        return super().log_likelihood_rows(boxes, targets)[:, :-1]
+
+
+def test_errors_from_the_rows_method_name_the_likelihood_and_the_target():
+    from pftrack.tracker import ComponentOutputError
+
+    with pytest.raises(ComponentOutputError,
+                       match=r"_RowsNaN.*returned 1 NaN or \+inf log-likelihood\(s\) of 200 "
+                             r"at frame 4 \(target 2\)"):
+        _three_targets(_RowsNaN())
+    with pytest.raises(ComponentOutputError,
+                       match=r"_RowsWrongShape.*shape \(3, 199\) from log_likelihood_rows, "
+                             r"expected \(3, 200\)"):
+        _three_targets(_RowsWrongShape())

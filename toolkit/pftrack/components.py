@@ -532,7 +532,10 @@ class Likelihood(Component):
     1. :meth:`init_target` once when a target is born (build its template, seed 000 eq. 5);
     2. :meth:`begin_frame` once per frame with every live target (per-frame, per-target passes:
        background histogram, integral images, detections);
-    3. :meth:`log_likelihood` once per target per frame, vectorised over that target's particles.
+    3. :meth:`log_likelihood` once per target per frame, vectorised over that target's particles;
+       or, for a likelihood that overrides :meth:`log_likelihood_rows`, that method once per
+       frame with every target's particles (the engine uses it when all targets have as many
+       particles).
 
     Log-weights may be ``-inf`` (impossible) but never NaN.
     """
@@ -570,6 +573,38 @@ class Likelihood(Component):
         ndarray, shape (N,), float64
             Log-likelihoods (up to an additive constant per target and frame).
         """
+
+    def log_likelihood_rows(self, boxes_xywh_px: np.ndarray,
+                            targets: Sequence[Target]) -> np.ndarray:
+        """Log-likelihoods of every target's particles in one call (optional, for speed).
+
+        A likelihood MAY override this to score all targets at once (one compiled pass instead
+        of one call per target); row ``i`` must equal ``log_likelihood(boxes_xywh_px[i],
+        targets[i])``. The engine calls it, instead of :meth:`log_likelihood` per target, only
+        when :meth:`offers_rows` says so. Default: the per-target
+        calls, stacked.
+
+        Parameters
+        ----------
+        boxes_xywh_px : ndarray, shape (T, N, 4), float64
+            Each target's particles as image boxes (left, top, width, height), pixels.
+        targets : sequence of Target
+            The T targets, in the rows' order.
+
+        Returns
+        -------
+        ndarray, shape (T, N), float64
+        """
+        if len(targets) == 0:
+            return np.zeros((0, np.shape(boxes_xywh_px)[1] if np.ndim(boxes_xywh_px) > 1 else 0))
+        return np.array([self.log_likelihood(b, t) for b, t in zip(boxes_xywh_px, targets)],
+                        dtype=np.float64)
+
+    def offers_rows(self) -> bool:
+        """Whether this likelihood scores all targets in one call: by default, whether its
+        class overrides :meth:`log_likelihood_rows` (a wrapper forwards its inner
+        likelihood's answer). The engine asks once per frame."""
+        return type(self).log_likelihood_rows is not Likelihood.log_likelihood_rows
 
 
 class Detector(Component):

@@ -10,9 +10,12 @@ Data flow per frame (top to bottom)::
           -> motion.predict (per target)            particles (N, D) in the motion model's space
           -> observation.to_boxes                   particle boxes (N, 4) xywh px
           -> [associator] detections <-> targets    ``target.detection``
-          -> likelihood.begin_frame(all targets) -> likelihood.log_likelihood (per target)
+          -> likelihood.begin_frame(all targets) -> likelihood.log_likelihood (per target),
+             or likelihood.log_likelihood_rows (all targets in one call) when it offers it
           -> normalise, estimate (weighted mean), extent, resample on ESS: vectorised over
-             the targets (one row per filter, each row the single-filter numbers bit for bit)
+             the targets (one row per filter, each row the single-filter numbers bit for bit;
+             systematic resampling every frame with the compiled kernels loaded: two compiled
+             passes around numpy's exp, :meth:`MultiTargetTracker._fused_rows`)
           -> the filter's deaths (misses, leaving the image or the valid region)
           -> observation.update_target (matched targets)
           -> tracks.after_frame: births, confirmation, merging, ends, the records to output
@@ -60,6 +63,7 @@ from pftrack.filter import (
     weighted_extent,
     weighted_mean,
 )
+from pftrack.filter.core import _EXP_ZERO_BELOW
 
 log = logging.getLogger(__name__)
 
@@ -130,10 +134,14 @@ class ImageBoxObservation(ObservationModel):
         """(T, N, D) -> (T, N, 4) in one pass, each row's size its target's."""
         s = np.asarray(states, dtype=np.float64)
         size = (float(self.width_px), float(self.height_px))
-        wh = np.array([size if t.box_wh_px is None else t.box_wh_px for t in targets])
+        wh = np.array([size if t.box_wh_px is None else t.box_wh_px for t in targets],
+                      dtype=np.float64)
+        half = 0.5 * wh
+        if (_jit.small_ready() and s.ndim == 3 and s.shape[2] >= 2 and s.flags.c_contiguous
+                and wh.shape == (len(s), 2)):
+            return _jit.centre_boxes_rows(s, half, wh)  # one compiled pass, same numbers
         out = np.empty(s.shape[:2] + (4,))
         # column by column: inner loops run over the N particles, not over the 2 axes
-        half = 0.5 * wh
         for k in range(2):
             np.subtract(s[:, :, k], half[:, k:k + 1], out=out[:, :, k])
             out[:, :, 2 + k] = wh[:, k:k + 1]
@@ -276,6 +284,7 @@ class MultiTargetTracker:
         self._uniform_log = np.log(self._uniform)
         self._uniform.flags.writeable = False
         self._uniform_log.flags.writeable = False
+        self._uniform_log_row = self._uniform_log[None].copy()  # (1, N), for the kernels
         self._vectorise = True  # False: one target at a time (same numbers; for tests)
         # predict and box all targets in one call only where the models do it vectorised: the
         # default row loops would only add the stacking
@@ -440,7 +449,25 @@ class MultiTargetTracker:
         # it (rows a valid region masks are checked before the mask, one by one)
         rows = bool(self._vectorise and filters and all(len(f.particles) == n for f in filters))
         check_stacked = rows and self.valid_region is None
-        for f in filters:
+        lw_rows = None  # (T, N): a likelihood that scores every target in one call
+        if rows and self.likelihood.offers_rows():
+            lw_rows = self._log_likelihood_rows(frame, filters, boxes)
+            for f, logl in zip(filters, lw_rows):
+                t = f.target
+                if t.valid_region is not None or self.valid_region is not None:
+                    self._check_finite(logl, frame, t)
+                    if self.valid_region is not None:
+                        logl = np.where(self.valid_region(f.particles[:, pos_dims]), logl,
+                                        -np.inf)
+                    if t.valid_region is not None:
+                        logl = np.where(t.valid_region(f.particles[:, pos_dims]), logl, -np.inf)
+                    lw_rows = None  # rows changed: stacked again below
+                t.log_likelihoods = logl
+                logls.append(logl)
+            filters_left: list[_Filter] = []
+        else:
+            filters_left = filters
+        for f in filters_left:
             t = f.target
             try:
                 logl = self.likelihood.log_likelihood(t.particle_boxes_xywh_px, t)  # type: ignore[arg-type]
@@ -471,8 +498,22 @@ class MultiTargetTracker:
         always_resample = self.ess_threshold >= 1.0  # ESS <= N: no need to compute it
         ess_min = self.ess_threshold * n + 1e-9
         weights = ok_rows = best_rows = states = extents = resampled = resample_rows = None
-        if rows:
-            lw = np.array(logls)  # (T, N); np.array is cheaper than np.stack for a few rows
+        fused = None
+        if (rows and check_stacked and always_resample and self.resampling == "systematic"
+                and isinstance(predicted, np.ndarray) and predicted.shape[2] >= 2
+                and predicted.flags.c_contiguous and _jit.small_ready()
+                and all(f.particles.base is predicted for f in filters)):
+            # the whole of step 4 in two compiled passes around numpy's exp (same numbers)
+            fused = self._fused_rows(np.array(logls) if lw_rows is None else lw_rows, filters,
+                                     predicted, frame)
+        if fused is not None:
+            weights, best_rows, states, extents, resample_rows, resampled = fused
+            ok_rows = np.ones(len(filters), dtype=bool)
+        elif rows:
+            if lw_rows is not None:
+                lw = lw_rows.copy()  # (T, N); the rows stay the targets' log_likelihoods
+            else:
+                lw = np.array(logls)  # (T, N); np.array is cheaper than np.stack for a few rows
             if check_stacked and not (lw < np.inf).all():
                 i = int(np.flatnonzero(~(lw < np.inf).all(axis=1))[0])
                 self._check_finite(logls[i], frame, filters[i].target)
@@ -502,6 +543,13 @@ class MultiTargetTracker:
         records = []
         dead = []
         recovered = False
+        est_boxes = anchors = confidences = None
+        if fused is not None:  # every row ok: the estimates' boxes, anchors, confidences at once
+            if type(observation).to_boxes_rows is not ObservationModel.to_boxes_rows:
+                est_boxes = observation.to_boxes_rows(states[:, None, :],  # type: ignore[index]
+                                                      [f.target for f in filters])[:, 0]
+            anchors = states[:, pos_dims]  # type: ignore[index]  # fancy indexing: a copy
+            confidences = expit(np.array(best_rows)).tolist()
         for i, f in enumerate(filters):
             t = f.target
             if weights is not None:
@@ -524,7 +572,8 @@ class MultiTargetTracker:
                 state = weighted_mean(f.particles, w)
                 t.extent = weighted_extent(f.particles, w, state)
             t.state = state
-            box = observation.to_boxes(state[None], t)[0]
+            box = est_boxes[i] if est_boxes is not None else \
+                observation.to_boxes(state[None], t)[0]
             t.box_xywh_px = box
             supported = ok and (
                 t.detection is not None
@@ -532,7 +581,7 @@ class MultiTargetTracker:
                 or (detections is None and self.min_log_likelihood is None))
             t.frames_tracked = t.frames_tracked + 1 if supported else 0
             t.misses = 0 if supported else t.misses + 1
-            f.anchor = state[pos_dims]  # fancy indexing: a copy
+            f.anchor = anchors[i] if anchors is not None else state[pos_dims]  # a copy
             # resample (``t.resample_index``: which weighted particle each new one copies)
             if resampled is not None:
                 f.particles = resampled[i]
@@ -563,7 +612,8 @@ class MultiTargetTracker:
             if gone:
                 dead.append(t.id)
                 continue
-            records.append(self._record(frame, t, best, pos_dims))
+            records.append(self._record(frame, t, best, pos_dims,
+                                        None if confidences is None else confidences[i]))
         if recovered:
             self.recoveries += 1
             log.info("frame %d: every particle weight of a target vanished; re-spread around "
@@ -578,21 +628,78 @@ class MultiTargetTracker:
         # 7. track management: births, confirmation, merging, ends, output
         return self.tracks.after_frame(self, frame, detections, records, unmatched_dets)
 
+    def _fused_rows(self, lw: np.ndarray, filters: list[_Filter], p: np.ndarray, frame: Frame,
+                    ) -> tuple[Any, ...] | None:
+        """Step 4 for every target at once when all resample systematically every frame:
+        log-weights, numpy's exp, then normalised weights, estimates, extents, resampling
+        indices and resampled particles in one compiled pass
+        (:func:`pftrack.filter._jit.estimate_resample_rows`), the numbers of the general path
+        bit for bit. Returns ``(weights, best, states, extents, indices, resampled)``, or None
+        (nothing drawn) when some target has no finite weight (the general path re-spreads
+        it); raises, naming the target, on NaN or +inf."""
+        if all(f.log_weights is self._uniform_log for f in filters):
+            logw = self._uniform_log_row
+        else:
+            logw = np.array([f.log_weights for f in filters])
+        if lw.dtype != np.float64 or not lw.flags.c_contiguous:
+            lw = np.ascontiguousarray(lw, dtype=np.float64)
+        status, vals, pos, best = _jit.shift_rows_for_exp(lw, logw, _EXP_ZERO_BELOW)
+        if status == 1:
+            i = int(np.flatnonzero(~(lw < np.inf).all(axis=1))[0])
+            self._check_finite(lw[i], frame, filters[i].target)
+        if status != 0:
+            return None
+        np.exp(vals, out=vals)  # numpy's exp, on the weights that are not exactly 0
+        u = self.rng.random(len(filters))  # what the systematic resampling of the rows draws
+        w, states, extents, idx, resampled = _jit.estimate_resample_rows(vals, pos, p, u)
+        return w, best.tolist(), states, extents, idx, resampled
+
+    def _log_likelihood_rows(self, frame: Frame, filters: list[_Filter],
+                             boxes: np.ndarray | list[np.ndarray]) -> np.ndarray:
+        """Every target's log-likelihoods from one :meth:`Likelihood.log_likelihood_rows` call,
+        (T, N) float64, checked for shape and dtype (NaN / +inf are checked by the caller)."""
+        targets = [f.target for f in filters]
+        if not isinstance(boxes, np.ndarray):
+            boxes = np.array(boxes)  # (T, N, 4)
+        try:
+            lw = self.likelihood.log_likelihood_rows(boxes, targets)
+        except (ValueError, OSError) as exc:  # bad input met at run time: still exit 2
+            raise ValueError(f"{self._who(self.likelihood)}: {exc}") from exc
+        except Exception as exc:
+            raise ComponentOutputError(
+                f"{self._who(self.likelihood)} raised {type(exc).__name__}: {exc} (frame "
+                f"{frame.index}, targets {[t.id for t in targets]}, log_likelihood_rows)"
+            ) from exc
+        if type(lw) is not np.ndarray or lw.dtype != np.float64:
+            lw = self._checked_dtype(lw)
+        if lw.shape != boxes.shape[:2]:
+            raise ComponentOutputError(
+                f"{self._who(self.likelihood)} returned log-likelihoods of shape {lw.shape} from "
+                f"log_likelihood_rows, expected {boxes.shape[:2]} (one row per target, one "
+                "value per particle)")
+        return lw
+
     def record(self, frame: Frame, target: Target, best_logl: float = 0.0) -> TrackRecord:
         """``target``'s current estimate as a :class:`TrackRecord` of ``frame`` (confidence
         ``expit(best_logl)``: 0.5 by default, as for a target born this frame)."""
         return self._record(frame, target, best_logl)
 
     def _record(self, frame: Frame, t: Target, best_logl: float,
-                pos_dims: list[int] | None = None) -> TrackRecord:
+                pos_dims: list[int] | None = None,
+                confidence: float | None = None) -> TrackRecord:
+        """``confidence``: ``expit(best_logl)`` when already computed (with the others')."""
         world = self.observation.world_position(t.state)
         if pos_dims is None:
             pos_dims = list(self.motion.position_dims)
+        if not math.isfinite(best_logl):
+            confidence = 0.0
+        elif confidence is None:
+            confidence = float(expit(best_logl))
         return TrackRecord(
             frame=frame.index, id=t.id, box_xywh_px=t.box_xywh_px.copy(), state=t.state.copy(),
             position=t.state[pos_dims],  # fancy indexing: already a copy
             extent=t.extent.copy(),  # type: ignore[union-attr]
-            confidence=float(expit(best_logl)) if math.isfinite(best_logl) else 0.0,
+            confidence=confidence,
             world_m=None if world is None else np.asarray(world, dtype=np.float64),
         )
 

@@ -289,3 +289,94 @@ def test_no_jit_environment_variable_selects_the_numpy_path():
                          check=True).stdout.split()
     assert out == ["False", "False"]
     assert _jit.use(_jit.MIN_PARTICLES) and not _jit.use(_jit.MIN_PARTICLES - 1)
+
+
+@pytest.mark.parametrize("n", [1, 7, 8, 9, 127, 128, 129, 300, 1000, 4099])
+def test_pairwise_sum_is_numpys(n):
+    """The engine's kernels normalise weights with numpy's pairwise summation order."""
+    k = _jit._k()
+    rng = np.random.default_rng(n)
+    for _ in range(20):
+        a = rng.random(n) ** rng.integers(1, 60)
+        a[rng.random(n) < 0.4] = 0.0
+        assert k.pairwise_sum(a, 0, n) == a.sum()
+        assert k.pairwise_sum(np.r_[1e300, a], 1, n) == a.sum()  # from an offset
+
+
+def _step4_numpy(lw_raw, logw, p, rng):
+    """The engine's step 4 through the numpy functions (the general path)."""
+    from pftrack.filter import normalize_log_weight_rows, systematic_resample_rows
+
+    best = lw_raw.max(axis=1)
+    w, ok = normalize_log_weight_rows(lw_raw + logw)
+    states = weighted_mean(p, w)
+    extents = weighted_extent(p, w, states)
+    idx = systematic_resample_rows(w, rng)
+    resampled = np.array([p[r].take(idx[r], axis=0) for r in range(len(p))])
+    return ok, best, w, states, extents, idx, resampled
+
+
+@pytest.mark.parametrize("t, n, d", [(1, 1, 2), (3, 500, 2), (2, 9, 3), (4, 129, 6),
+                                     (3, 4099, 2)])
+@pytest.mark.parametrize("uniform", [True, False])
+def test_the_fused_step_equals_the_numpy_functions(numpy_path, t, n, d, uniform):
+    """shift_rows_for_exp, numpy's exp and estimate_resample_rows give the weights,
+    estimates, extents, resampling indices, resampled particles and the Generator state of
+    normalize_log_weight_rows, weighted_mean, weighted_extent and systematic_resample_rows,
+    bit for bit: sharply peaked log-likelihoods (most weights exactly zero, some subnormal),
+    -inf particles, a zero-weight particle that is not finite."""
+    rng = np.random.default_rng(t * n * d)
+    for trial in range(8):
+        lw = -np.abs(rng.normal(0.0, 10.0 ** rng.uniform(0, 3.5), (t, n)))
+        lw[rng.random((t, n)) < 0.1] = -np.inf
+        lw[:, 0] = rng.normal(0, 5, t)  # every row has a finite maximum
+        logw = (np.full((1, n), np.log(1.0 / n)) if uniform
+                else np.log(rng.dirichlet(np.ones(n), size=t)))
+        p = rng.normal(0.0, 50.0, (t, n, d))
+        if trial == 1 and n > 3:
+            lw[0, 2] = -np.inf  # weight exactly 0 ...
+            p[0, 2, 0] = np.inf  # ... times inf: NaN in the numpy path too
+        seed = int(rng.integers(1 << 30))
+        want = numpy_path(_step4_numpy, lw, logw, p, np.random.default_rng(seed))
+        assert want[0].all()
+        status, vals, pos, best = _jit.shift_rows_for_exp(lw, logw, -746.0)
+        assert status == 0
+        np.exp(vals, out=vals)
+        g = np.random.default_rng(seed)
+        u = g.random(t)
+        w, states, extents, idx, resampled = _jit.estimate_resample_rows(vals, pos, p, u)
+        assert best.tobytes() == want[1].tobytes()
+        for got, ref in zip((w, states, extents, idx, resampled), want[2:]):
+            assert got.shape == ref.shape and got.dtype == ref.dtype
+            assert got.tobytes() == ref.tobytes()
+        if trial == 1 and n > 3:
+            assert np.isnan(states[0, 0])
+        ref_rng = np.random.default_rng(seed)
+        numpy_path(_step4_numpy, lw, logw, p, ref_rng)
+        assert g.random() == ref_rng.random()  # the same draws
+
+
+def test_the_fused_step_reports_nan_and_rows_without_a_finite_weight():
+    lw = np.zeros((2, 5))
+    logw = np.zeros((1, 5))
+    lw[1, 2] = np.nan
+    assert _jit.shift_rows_for_exp(lw, logw, -746.0)[0] == 1
+    lw[1, 2] = np.inf
+    assert _jit.shift_rows_for_exp(lw, logw, -746.0)[0] == 1
+    lw[1] = -np.inf
+    assert _jit.shift_rows_for_exp(lw, logw, -746.0)[0] == 2
+
+
+@pytest.mark.parametrize("n", [1, 300])
+def test_image_boxes_of_rows_equal_the_numpy_path(numpy_path, monkeypatch, n):
+    from pftrack.tracker import ImageBoxObservation
+
+    monkeypatch.setattr(_jit, "_small_warm", True)  # as once a likelihood imported numba
+    obs = ImageBoxObservation(12.0, 20.0)
+    targets = [Target(id=i, state=np.zeros(2), box_xywh_px=np.zeros(4)) for i in range(3)]
+    targets[1].box_wh_px = (7.25, 31.5)
+    s = np.random.default_rng(n).normal(100.0, 30.0, (3, n, 4))
+    got = obs.to_boxes_rows(s, targets)
+    want = numpy_path(obs.to_boxes_rows, s, targets)
+    assert got.tobytes() == want.tobytes()
+    assert got[1, 0].tolist() == [s[1, 0, 0] - 3.625, s[1, 0, 1] - 15.75, 7.25, 31.5]

@@ -193,3 +193,139 @@ def test_fixed_layout_is_the_particle_regions():
             assert np.array_equal(xs, rects[:, 0] - region.x0)
             assert np.array_equal(ys, rects[:, 1] - region.y0)
     assert not _jit.fixed_layout(np.zeros((0, 4)), 120, 90)[0]
+
+
+def _rows_scene(seed: int):
+    """Three targets, the third's box over the second's (pixels under two stripes for the
+    first target's samples), and every target's samples: (frame, targets, (3, N, 4) boxes)."""
+    frame, targets = _scene(seed, third=True)
+    rng = np.random.default_rng(seed + 10)
+    boxes = np.stack([_inside_boxes(rng, 300, (75.0, 55.0), spread=8.0),  # over 2 and 3
+                      _inside_boxes(rng, 300, (70.0, 50.0), spread=5.0),
+                      _inside_boxes(rng, 300, (30.0, 30.0), spread=10.0)])
+    return frame, targets, boxes
+
+
+ROW_CASES = [
+    *CASES,
+    (CrossEntropyBackgroundLikelihood, {"overlap": "mixture", "parts": 2}),
+    (CrossEntropyBackgroundLikelihood, {"overlap": "product", "lam": 40.0}),
+]
+
+
+@pytest.mark.parametrize("cls, kw", ROW_CASES)
+def test_rows_equal_the_per_target_log_likelihoods_bit_for_bit(monkeypatch, cls, kw):
+    """log_likelihood_rows scores every target in one compiled call; each row is the
+    per-target method's array bit for bit, with the kernels on (compiled rows against the
+    compiled per-target path) and against the numpy path."""
+    frame, targets, boxes = _rows_scene(1)
+    got = {}
+    for enabled in (True, False):
+        monkeypatch.setattr(_jit, "ENABLED", enabled)
+        lik = cls(**kw)
+        for t in targets:
+            lik.init_target(frame, t)
+        lik.begin_frame(frame, targets)
+        rows = lik.log_likelihood_rows(boxes, targets)
+        per = np.array([lik.log_likelihood(b, t) for b, t in zip(boxes, targets)])
+        assert rows.shape == (3, 300) and rows.dtype == np.float64
+        assert rows.tobytes() == per.tobytes()
+        got[enabled] = rows
+    assert got[True].tobytes() == got[False].tobytes()
+    assert np.isfinite(got[True]).all()
+
+
+def test_rows_cover_pixels_under_several_stripes_without_the_general_path(monkeypatch):
+    """Samples of target 1 reach pixels under both other targets' boxes (which overlap): the
+    compiled rows read the tables of that set of stripes instead of falling back to the numpy
+    path per target, and still equal it."""
+    frame, targets, boxes = _rows_scene(2)
+    lik = CrossEntropyBackgroundLikelihood(overlap="mixture")
+    for t in targets:
+        lik.init_target(frame, t)
+    lik.begin_frame(frame, targets)
+    region = ParticleRegion(frame.image, boxes[0])
+    cover = lik._coverage(region, 1)
+    from pftrack_colour.likelihoods import _disjoint
+
+    assert len(cover) == 2 and not _disjoint(cover)  # the case the per-pair tables miss
+    per_target = []
+    real = CrossEntropyBackgroundLikelihood.log_likelihood
+
+    def counting(self, b, t):
+        per_target.append(t.id)
+        return real(self, b, t)
+
+    monkeypatch.setattr(CrossEntropyBackgroundLikelihood, "log_likelihood", counting)
+    rows = lik.log_likelihood_rows(boxes, targets)
+    assert per_target == []  # no target took the general path
+    monkeypatch.setattr(_jit, "ENABLED", False)
+    assert rows.tobytes() == np.array([real(lik, b, t) for b, t in zip(boxes, targets)]).tobytes()
+
+
+def test_rows_fall_back_per_target_where_the_kernel_does_not_apply(monkeypatch):
+    """A target whose samples leave the image (or differ in size) takes log_likelihood; the
+    others stay in the compiled call."""
+    frame, targets, boxes = _rows_scene(3)
+    boxes[2, 0, :2] = (-6.0, 2.0)  # leaves the image
+    boxes[1, 3, 2:] = (18.0, 22.0)  # another size
+    lik = CrossEntropyBackgroundLikelihood()
+    for t in targets:
+        lik.init_target(frame, t)
+    lik.begin_frame(frame, targets)
+    per_target = []
+    real = CrossEntropyBackgroundLikelihood.log_likelihood
+
+    def counting(self, b, t):
+        per_target.append(t.id)
+        return real(self, b, t)
+
+    monkeypatch.setattr(CrossEntropyBackgroundLikelihood, "log_likelihood", counting)
+    rows = lik.log_likelihood_rows(boxes, targets)
+    assert sorted(per_target) == [2, 3]
+    want = np.array([real(lik, b, t) for b, t in zip(boxes, targets)])
+    assert rows.tobytes() == want.tobytes()
+    assert np.isfinite(rows).all()  # the box leaving the image is clipped
+
+
+def test_rows_reject_boxes_of_the_wrong_shape():
+    frame, targets, boxes = _rows_scene(4)
+    lik = CrossEntropyLikelihood()
+    for t in targets:
+        lik.init_target(frame, t)
+    lik.begin_frame(frame, targets)
+    with pytest.raises(ValueError, match=r"CrossEntropyLikelihood.log_likelihood_rows: boxes "
+                                         r"must have shape \(T, N, 4\) with T = 2"):
+        lik.log_likelihood_rows(boxes, targets[:2])
+
+
+def test_the_frames_boxes_and_background_from_one_kernel_equal_the_general_path(monkeypatch):
+    """begin_frame's compiled pass (integer colour boxes, the background grid histogram)
+    gives the rectangles and the background of the Python path, also when the targets cover
+    the whole image and when a box reaches outside it."""
+    frame, targets = _scene(7, third=True)
+    wide = Target(id=9, state=np.array([60.0, 45.0]), box_xywh_px=np.array([-10.0, -10, 140, 110]))
+    edge = Target(id=8, state=np.array([5.0, 85.0]), box_xywh_px=np.array([-4.5, 79.5, 12, 12]))
+    calls = []
+    real = _jit.frame_background
+    monkeypatch.setattr(_jit, "frame_background", lambda *a: calls.append(1) or real(*a))
+    for ts in (targets, [*targets, edge], [*targets, wide]):
+        for cls in (CrossEntropyBackgroundLikelihood, CrossEntropyLikelihood):
+            got = {}
+            for enabled in (True, False):
+                monkeypatch.setattr(_jit, "ENABLED", enabled)
+                lik = cls()
+                for t in ts:
+                    lik.init_target(frame, t)
+                lik.begin_frame(frame, ts)
+                got[enabled] = lik
+            a, b = got[True], got[False]
+            assert list(a.target_rects_) == list(b.target_rects_)
+            for tid in a.target_rects_:
+                assert a.target_rects_[tid].tolist() == b.target_rects_[tid].tolist()
+            if cls is CrossEntropyBackgroundLikelihood:
+                assert a.background_counts_.tobytes() == b.background_counts_.tobytes()
+                assert a.log_background_.tobytes() == b.log_background_.tobytes()
+            for tid in a.values_:
+                assert a.values_[tid].tobytes() == b.values_[tid].tobytes()
+    assert len(calls) == 6  # the compiled pass ran for every frame with the kernels on

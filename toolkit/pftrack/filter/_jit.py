@@ -43,11 +43,15 @@ import numpy as np
 
 __all__ = [
     "ENABLED",
+    "estimate_resample_rows",
+    "shift_rows_for_exp",
     "MIN_PARTICLES",
     "centre_boxes",
+    "centre_boxes_rows",
     "constant_acceleration_predict",
     "gaussian_centre_log_likelihood",
     "pcg64_standard_normal",
+    "random_walk_predict",
     "shifted_exp",
     "small_ready",
     "systematic_indices",
@@ -98,6 +102,15 @@ def warm_up_small() -> bool:
     totals = np.empty(1)
     k.weight_totals_rows(w, totals)
     k.systematic_indices_rows(w, 1.0 / totals, np.zeros(1), np.empty((1, 3), dtype=np.intp))
+    lw = np.zeros((1, 2))
+    pos = np.zeros(2, dtype=np.intp)
+    k.shift_rows_for_exp(lw, np.zeros((1, 2)), -746.0, np.empty(2), pos, np.empty(1))
+    p = np.zeros((1, 2, 2))
+    k.random_walk_predict(p.reshape(-1), np.ones(2), np.empty(4), np.zeros(4, dtype=np.uint64))
+    k.centre_boxes_rows(p, np.ones((1, 2)), np.ones((1, 2)), np.empty((1, 2, 4)))
+    k.estimate_resample_rows(np.ones(2)[:1], pos[:1], np.empty((1, 2)), p, np.zeros(1),
+                             np.empty((1, 2)), np.empty((1, 2)), np.empty((1, 3), dtype=np.intp),
+                             np.empty_like(p))
     _small_warm = True
     return True
 
@@ -142,6 +155,19 @@ def constant_acceleration_predict(states: np.ndarray, std: np.ndarray, dt: float
     dt = float(dt)
     out = np.empty(s.shape)
     if _with_pcg64(rng, _k().constant_acceleration_predict, s, sd, dt, 0.5 * dt * dt, out):
+        return out
+    return None
+
+
+def random_walk_predict(states: np.ndarray, std: np.ndarray,
+                        rng: np.random.Generator) -> np.ndarray | None:
+    """``states + std * rng.standard_normal(states.shape)`` (``std`` per last axis) in one
+    pass, the numbers and the Generator state of the numpy path; None (nothing drawn) when
+    ``rng`` is not PCG64-based."""
+    s = np.ascontiguousarray(states, dtype=np.float64)
+    sd = np.array(std, dtype=np.float64)  # a writable copy: one compiled signature
+    out = np.empty(s.shape)
+    if _with_pcg64(rng, _k().random_walk_predict, s.reshape(-1), sd, out.reshape(-1)):
         return out
     return None
 
@@ -217,4 +243,45 @@ def weighted_sum(w: np.ndarray, s: np.ndarray) -> np.ndarray:
     (N, D)."""
     out = np.empty(s.shape[1])
     _k().weighted_sum(np.ascontiguousarray(w), s, out)
+    return out
+
+
+def shift_rows_for_exp(lw: np.ndarray, logw: np.ndarray, zero_below: float,
+                       ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+    """The engine's log-weights of every target up to the exponential (see the kernel
+    :func:`pftrack.filter._kernels.shift_rows_for_exp`): ``(status, shifted, positions,
+    best (T,))`` with ``shifted`` (K,) the shifted log-weights whose exponential is not 0 and
+    ``positions`` (K,) their flat indices; ``status`` 0: done, 1: ``lw`` holds NaN or +inf,
+    2: a row has no finite maximum. ``lw`` (T, N) and ``logw`` (R, N), R = 1 or T,
+    C-contiguous float64."""
+    vals = np.empty(lw.size)
+    pos = np.empty(lw.size, dtype=np.intp)
+    best = np.empty(lw.shape[0])
+    status, count = _k().shift_rows_for_exp(lw, logw, float(zero_below), vals, pos, best)
+    return int(status), vals[:count], pos[:count], best
+
+
+def estimate_resample_rows(vals: np.ndarray, pos: np.ndarray, p: np.ndarray, u: np.ndarray,
+                           ) -> tuple[np.ndarray, ...]:
+    """From the exponentials ``vals`` at flat positions ``pos`` (zeros elsewhere): every
+    target's normalised weights (T, N), estimate, extent, systematic resampling indices
+    (offsets ``u`` (T,)) and resampled particles from ``p`` (T, N, D), D >= 2 (see the kernel
+    :func:`pftrack.filter._kernels.estimate_resample_rows`): ``(weights, states (T, D),
+    extents (T, D), indices (T, N), resampled (T, N, D))``."""
+    t, n, d = p.shape
+    w = np.empty((t, n))
+    states = np.empty((t, d))
+    extents = np.empty((t, d))
+    idx = np.empty((t, n + 1), dtype=np.intp)
+    resampled = np.empty(p.shape)
+    _k().estimate_resample_rows(vals, pos, w, p, u, states, extents, idx, resampled)
+    return w, states, extents, idx[:, :n].copy(), resampled
+
+
+def centre_boxes_rows(states: np.ndarray, half: np.ndarray, wh: np.ndarray) -> np.ndarray:
+    """(T, N, 4) boxes ``(x - half_w, y - half_h, w, h)`` of C-contiguous float64 ``states``
+    (T, N, D), row ``t`` with ``half[t]`` and ``wh[t]`` ((T, 2) float64): the numbers of
+    :meth:`pftrack.tracker.ImageBoxObservation.to_boxes_rows`'s numpy path in one pass."""
+    out = np.empty(states.shape[:2] + (4,))
+    _k().centre_boxes_rows(states, half, wh, out)
     return out

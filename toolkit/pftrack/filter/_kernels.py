@@ -116,6 +116,22 @@ def pcg64_standard_normal(out, state):  # pragma: no cover - compiled
     state[1] = lo
 
 
+@njit(**_JIT)  # type: ignore[call-overload]
+def random_walk_predict(states, std, out, state):  # pragma: no cover - compiled
+    """``out = states + std * standard_normal`` over flat contiguous ``states`` and ``out``
+    whose last axis has ``len(std)`` values: the normals of :func:`pcg64_standard_normal` in
+    order, each times its axis's deviation, then plus the state (the products and sums of
+    ``out *= std; out += states``)."""
+    hi, lo, inc_hi, inc_lo = state[0], state[1], state[2], state[3]
+    d = std.shape[0]
+    for i in range(out.shape[0]):
+        x, hi, lo = _normal(hi, lo, inc_hi, inc_lo)
+        x = x * std[i % d]
+        out[i] = x + states[i]
+    state[0] = hi
+    state[1] = lo
+
+
 _BLOCK = 2048  # rows per block of constant_acceleration_predict: 96 kB, in cache
 
 
@@ -172,6 +188,22 @@ def centre_boxes(states, hw, hh, w, h, out):  # pragma: no cover - compiled
         out[i, 1] = states[i, 1] - hh
         out[i, 2] = w
         out[i, 3] = h
+
+
+@njit(**_JIT)  # type: ignore[call-overload]
+def centre_boxes_rows(states, half, wh, out):  # pragma: no cover - compiled
+    """:func:`centre_boxes` of every target (row) of ``states`` (T, N, D), each with its own
+    half size ``half`` (T, 2) and size ``wh`` (T, 2); ``out`` (T, N, 4)."""
+    for t in range(states.shape[0]):
+        hw = half[t, 0]
+        hh = half[t, 1]
+        w = wh[t, 0]
+        h = wh[t, 1]
+        for i in range(states.shape[1]):
+            out[t, i, 0] = states[t, i, 0] - hw
+            out[t, i, 1] = states[t, i, 1] - hh
+            out[t, i, 2] = w
+            out[t, i, 3] = h
 
 
 @njit(**_JIT)  # type: ignore[call-overload]
@@ -260,3 +292,220 @@ def weighted_sum(w, s, out):  # pragma: no cover - compiled
         wi = w[i]
         for k in range(d):
             out[k] += wi * s[i, k]
+
+
+@njit(**_JIT)  # type: ignore[call-overload]
+def shift_rows_for_exp(lw, logw, zero_below, vals, pos, best):  # pragma: no cover - compiled
+    """The engine's step 4 up to the exponential, every target (row) at once.
+
+    ``lw`` (T, N) are the likelihood's log-likelihoods, ``logw`` (R, N) the log-weights
+    (R = 1: one row for every target). ``best[r]`` = ``lw[r].max()``; ``x = lw + logw``;
+    ``d = x - x.max()`` per row; the ``d > zero_below`` (those whose exponential is not
+    exactly 0) go to ``vals`` in row-major order with their flat index in ``pos``, so that
+    ``np.exp`` of them, scattered into zeros, gives
+    :func:`pftrack.filter.core._exp_normalised`'s unnormalised weights (the same numbers as
+    its masked ``np.exp``, which costs more: one inner loop per run of kept values).
+
+    Returns ``(status, count)``: status 0 when done (``count`` values kept); 1 (nothing else
+    meaningful) when ``lw`` holds NaN or +inf; 2 when a row of ``x`` has no finite maximum
+    (the caller's general path re-spreads that target).
+    """
+    t, n = lw.shape
+    last = logw.shape[0] - 1
+    for r in range(t):
+        b = -np.inf
+        for i in range(n):
+            v = lw[r, i]
+            if not v < np.inf:
+                return 1, 0
+            if v > b:
+                b = v
+        best[r] = b
+    count = 0
+    x = np.empty(n)
+    for r in range(t):
+        lr = logw[min(r, last)]
+        m = -np.inf
+        for i in range(n):
+            xi = lw[r, i] + lr[i]
+            x[i] = xi
+            if xi > m:
+                m = xi
+        if not (-np.inf < m < np.inf):  # NaN can only come from logw: the general path
+            return 2, 0
+        for i in range(n):
+            d = x[i] - m
+            if d > zero_below:
+                vals[count] = d
+                pos[count] = r * n + i
+                count += 1
+    return 0, count
+
+
+@njit(**_JIT)  # type: ignore[call-overload]
+def _pairwise_block(a, lo, n):  # pragma: no cover - compiled
+    """numpy's pairwise sum of ``a[lo:lo + n]`` for ``n <= 128``: in order below 8, else eight
+    running sums combined as ``((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))``, then the
+    remainder in order."""
+    if n < 8:
+        res = 0.0
+        for i in range(n):
+            res += a[lo + i]
+        return res
+    r0 = a[lo]
+    r1 = a[lo + 1]
+    r2 = a[lo + 2]
+    r3 = a[lo + 3]
+    r4 = a[lo + 4]
+    r5 = a[lo + 5]
+    r6 = a[lo + 6]
+    r7 = a[lo + 7]
+    i = 8
+    top = n - n % 8
+    while i < top:
+        r0 += a[lo + i]
+        r1 += a[lo + i + 1]
+        r2 += a[lo + i + 2]
+        r3 += a[lo + i + 3]
+        r4 += a[lo + i + 4]
+        r5 += a[lo + i + 5]
+        r6 += a[lo + i + 6]
+        r7 += a[lo + i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[lo + i]
+        i += 1
+    return res
+
+
+@njit(**_JIT)  # type: ignore[call-overload]
+def pairwise_sum(a, lo, n):  # pragma: no cover - compiled
+    """``a[lo:lo + n].sum()`` in numpy's pairwise order (``pairwise_sum`` of
+    numpy/_core/src/umath/loops_utils.h.src: above 128 numbers, the halves split at a multiple
+    of 8 and summed left + right; :func:`_pairwise_block` below). The recursion is unrolled on
+    an explicit stack: numba's disk cache does not load recursive functions safely."""
+    if n <= 128:
+        return _pairwise_block(a, lo, n)
+    los = np.empty(64, np.int64)
+    ns = np.empty(64, np.int64)
+    stage = np.zeros(64, np.int64)
+    left = np.empty(64, np.float64)
+    sp = 0
+    los[0] = lo
+    ns[0] = n
+    while True:
+        m = ns[sp]
+        if m > 128:  # descend into the left half
+            n2 = m // 2
+            n2 -= n2 % 8
+            sp += 1
+            los[sp] = los[sp - 1]
+            ns[sp] = n2
+            stage[sp] = 0
+            continue
+        ret = _pairwise_block(a, los[sp], m)
+        while True:  # hand the sum up until a parent still needs its right half
+            if sp == 0:
+                return ret
+            sp -= 1
+            if stage[sp] == 0:
+                left[sp] = ret
+                stage[sp] = 1
+                n2 = ns[sp] // 2
+                n2 -= n2 % 8
+                sp += 1
+                los[sp] = los[sp - 1] + n2
+                ns[sp] = ns[sp - 1] - n2
+                stage[sp] = 0
+                break
+            ret = left[sp] + ret
+
+
+@njit(**_JIT)  # type: ignore[call-overload]
+def estimate_resample_rows(vals, pos, w, p, u, states, extents, idx, resampled
+                           ):  # pragma: no cover - compiled
+    """The engine's step 4 after the exponential, every target (row) at once, with the numbers
+    of the numpy path:
+
+    * ``w`` (T, N): the exponentials ``vals`` at the flat indices ``pos`` (what
+      :func:`shift_rows_for_exp` kept), zeros elsewhere, normalised in place by their sum in
+      numpy's pairwise order (``w /= w.sum(axis=-1, keepdims=True)``);
+    * ``states`` (T, D): ``np.einsum("tn,tnd->td", w, p)``, each sum running over the
+      particles in order from 0.0 (einsum's order for D >= 2; the caller checks D);
+    * ``extents`` (T, D): :func:`pftrack.filter.core.weighted_extent`, ``2 sqrt(sum w (p -
+      state)^2)`` summed the same way;
+    * ``idx`` (T, N + 1) intp: :func:`systematic_indices` of each row with offset ``u[r]``
+      and its total from :func:`weight_total` (``idx[:, :N]`` are the indices);
+    * ``resampled`` (T, N, D): ``p[r, idx[r, j]]``.
+    """
+    t, n, d = p.shape
+    flat = w.reshape(t * n)
+    for j in range(flat.shape[0]):
+        flat[j] = 0.0
+    for j in range(pos.shape[0]):
+        flat[pos[j]] = vals[j]
+    for r in range(t):
+        row = w[r]
+        s = pairwise_sum(row, 0, n)
+        for i in range(n):
+            row[i] = row[i] / s
+        for k in range(d):
+            states[r, k] = 0.0
+            extents[r, k] = 0.0
+        # a zero weight adds +-0.0 to a running sum that is never -0.0: nothing, unless the
+        # particle is not finite (0 * inf is NaN); sharply peaked weights are mostly zeros
+        finite = True
+        for i in range(n):
+            for k in range(d):
+                if not abs(p[r, i, k]) < np.inf:
+                    finite = False
+        if d == 2:  # the image plane: the two running sums in registers
+            s0 = 0.0
+            s1 = 0.0
+            for i in range(n):
+                wi = row[i]
+                if wi == 0.0 and finite:
+                    continue
+                s0 += wi * p[r, i, 0]
+                s1 += wi * p[r, i, 1]
+            v0 = 0.0
+            v1 = 0.0
+            for i in range(n):
+                wi = row[i]
+                if wi == 0.0 and finite:
+                    continue
+                dv = p[r, i, 0] - s0
+                dv = dv * dv
+                v0 += wi * dv
+                dv = p[r, i, 1] - s1
+                dv = dv * dv
+                v1 += wi * dv
+            states[r, 0] = s0
+            states[r, 1] = s1
+            extents[r, 0] = v0
+            extents[r, 1] = v1
+        else:
+            for i in range(n):
+                wi = row[i]
+                if wi == 0.0 and finite:
+                    continue
+                for k in range(d):
+                    states[r, k] += wi * p[r, i, k]
+            for i in range(n):
+                wi = row[i]
+                if wi == 0.0 and finite:
+                    continue
+                for k in range(d):
+                    dv = p[r, i, k] - states[r, k]
+                    dv = dv * dv
+                    extents[r, k] += wi * dv
+        for k in range(d):
+            e = np.sqrt(extents[r, k])
+            extents[r, k] = e * 2.0
+        total, _ = weight_total(row)
+        systematic_indices(row, 1.0 / total, n, u[r], idx[r])
+        for j in range(n):
+            src = idx[r, j]
+            for k in range(d):
+                resampled[r, j, k] = p[r, src, k]
