@@ -19,6 +19,7 @@ from and moved towards each matched detection's height by :meth:`CameraBoxObserv
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -322,6 +323,18 @@ class CameraVolumeObservation(ObservationModel):
         lo, hi = px.min(axis=1), px.max(axis=1)
         out = np.concatenate([lo, hi - lo], axis=1)
         out[behind] = np.nan
+        return out
+
+    def to_boxes_rows(self, states: np.ndarray, targets: Sequence[Target]) -> np.ndarray:
+        """(T, N, D) -> (T, N, 4), equal to :meth:`to_boxes` row by row; with
+        ``particle_box="point"`` every target's particles in one projection
+        (:meth:`~pftrack.geometry.camera.Camera.project_rows`)."""
+        s = np.asarray(states, dtype=np.float64)
+        if self.particle_box != "point" or s.ndim != 3:
+            return super().to_boxes_rows(s, targets)
+        cam = self.get_camera()
+        out = np.zeros(s.shape[:2] + (4,))
+        out[:, :, :2] = cam.project_rows(s[:, :, list(self.position_dims)])
         return out
 
     def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:

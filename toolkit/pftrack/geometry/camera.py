@@ -593,6 +593,36 @@ class Camera:
         px[~front] = np.nan
         return px
 
+    def project_rows(self, points_world_m: Any) -> np.ndarray:
+        """:meth:`project` of T sets of points at once: (T, N, 3) metres -> (T, N, 2) pixels,
+        row ``t`` equal bit for bit to ``project(points_world_m[t])`` (Tsai's Newton
+        iterations stop per row, as they do per call).
+
+        With no lens or Tsai's, one compiled pass (:mod:`pftrack.geometry._kernels`) after
+        numpy's batched rotation (the same products per row as the (N, 3) call); with another
+        lens, or ``PFTRACK_NO_JIT=1``, or where the compiled pass was found to differ from the
+        numpy path when first loaded, row by row through :meth:`project`.
+        """
+        p = np.asarray(points_world_m, dtype=np.float64)
+        if p.ndim != 3 or p.shape[2] != 3:
+            raise ValueError(f"project_rows: expected an array of shape (T, N, 3), got "
+                             f"{p.shape}")
+        d = self.distortion
+        kernel = _rows_kernel() if isinstance(d, (TsaiDistortion, NoDistortion)) else None
+        if kernel is None:
+            out = np.empty(p.shape[:2] + (2,))
+            for i, row in enumerate(p):
+                out[i] = self.project(row)
+            return out
+        # matmul of a (T, N, 3) stack runs one (N, 3) product per row: the rows' own numbers
+        pc = np.ascontiguousarray(p @ self.R.T + self.t_m)
+        n = p.shape[1]
+        out = np.empty(p.shape[:2] + (2,))
+        kernel(pc, getattr(d, "kappa1", 0.0), self.K[0, 0], self.K[0, 1], self.K[0, 2],
+               self.K[1, 1], self.K[1, 2], out, np.empty(n), np.empty(n), np.empty(n),
+               np.empty(n, dtype=np.bool_))
+        return out
+
     def in_image(self, pixels: Any, margin_px: float = 0.0) -> np.ndarray:
         """Boolean (N,): pixel lies inside the image (pixel centres 0..w-1, 0..h-1), with a margin
         (positive: that far inside; negative: allows that much outside). NaN -> False."""
@@ -656,6 +686,67 @@ class Camera:
     def image_to_ground(self, pixels: Any, z_m: float = 0.0) -> np.ndarray:
         """Back-project pixels onto the horizontal plane z = ``z_m`` (metres), shape (N, 3)."""
         return self.image_to_plane(pixels, ((0.0, 0.0, 1.0), z_m))
+
+
+_ROWS_KERNEL: list[Any] = []  # [kernel or None] once decided
+
+
+def _rows_kernel() -> Any:
+    """The compiled :meth:`Camera.project_rows` kernel, or None (``PFTRACK_NO_JIT``, numba
+    missing, or its numbers differ from :meth:`Camera.project`'s on a check set).
+
+    Decided once per process: the kernel computes ``rd ** 3`` as libm's ``pow``; numpy's
+    ``power`` loop may use another implementation on other processors (SIMD), so on first use
+    both paths project a fixed set of points (both signs of kappa, points behind the camera,
+    far outside the image, on the optical axis) and the kernel is used only if every bit
+    agrees."""
+    if _ROWS_KERNEL:
+        return _ROWS_KERNEL[0]
+    kernel = None
+    from pftrack.filter import _jit
+
+    if _jit.ENABLED:
+        try:
+            from pftrack.geometry import _kernels
+
+            kernel = _kernels.camera_to_pixels_rows
+        except ImportError:  # pragma: no cover - numba is a dependency
+            kernel = None
+    if kernel is not None and not _rows_kernel_agrees(kernel):
+        kernel = None  # pragma: no cover - depends on the machine's numpy
+    _ROWS_KERNEL.append(kernel)
+    return kernel
+
+
+def _rows_kernel_agrees(kernel: Any) -> bool:
+    """Whether ``kernel`` gives :meth:`Camera.project`'s numbers on a check set."""
+    rng = np.random.default_rng(20261124)
+    pts = rng.normal(0.0, 1.0, (2, 4000, 3)) * np.array([8.0, 8.0, 3.0])
+    pts[:, :, 2] += 6.0  # mostly in front, some behind
+    pts[0, :4] = [[0.0, 0.0, 5.0], [0.0, 0.0, 0.0], [50.0, -40.0, 1.0], [np.nan, 0.0, 5.0]]
+    for kappa in (0.15772011860650012, -0.3, 0.0):
+        cam = Camera.look_at((0.3, -0.2, 0.1), (0.0, 0.0, 5.0), (768, 576), fx=700.0,
+                             distortion=TsaiDistortion(kappa))
+        pc = np.ascontiguousarray(pts @ cam.R.T + cam.t_m)
+        n = pts.shape[1]
+        out = np.empty(pts.shape[:2] + (2,))
+        kernel(pc, kappa, cam.K[0, 0], cam.K[0, 1], cam.K[0, 2], cam.K[1, 1], cam.K[1, 2],
+               out, np.empty(n), np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_))
+        ref = np.array([cam.project(row) for row in pts])
+        if not same_bits(out, ref):
+            return False
+    return True
+
+
+def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two float64 arrays hold the same numbers bit for bit (any NaN equals any NaN;
+    0.0 and -0.0 differ)."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    if a.shape != b.shape:
+        return False
+    na, nb = np.isnan(a), np.isnan(b)
+    return bool(np.array_equal(na, nb) and np.array_equal(np.where(na, 0.0, a).view(np.int64),
+                                                          np.where(nb, 0.0, b).view(np.int64)))
 
 
 #: What a component's ``camera`` parameter takes: a :class:`Camera` or a camera file path
