@@ -30,6 +30,16 @@ def _blocks_of_pixels(px: np.ndarray, block_size: int, grid_shape: tuple[int, in
     """Pixels (N, 2) -> which fall in the block grid (bool (N,)) and their block indices
     ``row * cols + col`` (for those that do); NaN pixels fall outside."""
     rows, cols = grid_shape
+    if len(px) > 64 and px.dtype == np.float64 and px.ndim == 2 and px.shape[1] == 2:
+        from pftrack.filter import _jit
+
+        if _jit.ENABLED:
+            from pftrack_coast._kernels import blocks_of_pixels
+
+            ok = np.empty(len(px), dtype=np.bool_)
+            idx = np.empty(len(px), dtype=np.intp)
+            count = blocks_of_pixels(px, float(block_size), rows, cols, ok, idx)
+            return ok, idx[:count]
     with np.errstate(invalid="ignore"):
         c = np.floor(px[:, 0] / block_size)
         r = np.floor(px[:, 1] / block_size)
@@ -117,10 +127,12 @@ class EigenspaceLikelihood(Likelihood):
         if n == 0:
             return out
         ok, blocks = _blocks_of_pixels(px, int(m.block_size), m.grid_shape_)
-        if not ok.any():
+        if not len(blocks):
             return out
-        need = np.unique(blocks)
-        need = need[np.isnan(self.excess_[need])]
+        # the blocks touched and not yet scored, in order (np.unique's, by a mask of the grid)
+        touched = np.zeros(len(self.excess_), dtype=np.bool_)
+        touched[blocks] = True
+        need = np.flatnonzero(touched & np.isnan(self.excess_))
         if len(need) > 0.2 * len(self.excess_):
             # most of the frame: every block at once (grouped by D) is cheaper than gathering
             rd = m.relative_variation_of_grey(self.grey_)

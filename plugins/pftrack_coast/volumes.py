@@ -67,6 +67,7 @@ from pftrack.components import (
     TrackRecord,
 )
 from pftrack.geometry.boxes import iou_matrix
+from pftrack.geometry.volumes import CuboidVolume
 
 from pftrack_coast.likelihood import _blocks_of_pixels
 
@@ -78,6 +79,18 @@ __all__ = ["InsideBoxesLikelihood", "VolumeTracks", "bhattacharyya", "cloud_box"
            "support_plane_estimate"]
 
 HSV_BINS = (8, 4, 4)
+
+
+def _kernel(name: str) -> Any:
+    """A compiled kernel of :mod:`pftrack_coast._kernels`, or None with ``PFTRACK_NO_JIT``
+    (the numpy path then runs: the same numbers)."""
+    from pftrack.filter import _jit
+
+    if not _jit.ENABLED:
+        return None
+    from pftrack_coast import _kernels
+
+    return getattr(_kernels, name)
 
 
 def hsv_histogram(image: np.ndarray, box_xywh_px: np.ndarray, inner: float = 0.4,
@@ -254,9 +267,35 @@ def _cloud_ends(pixels: np.ndarray, quantile: float,
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`cloud_box`'s (left, top), (right, bottom) and middle."""
     q = float(quantile)
-    lo, hi = np.quantile(pixels, [q, 1.0 - q], axis=0)
+    lo, hi = _quantiles(pixels, q, 1.0 - q)
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo) / (1.0 - 2.0 * q)  # a uniform spread's ends
     return mid - half, mid + half, mid
+
+
+def _quantiles(x: np.ndarray, q0: float, q1: float) -> tuple[np.ndarray, np.ndarray]:
+    """``np.quantile(x, [q0, q1], axis=0)`` of finite ``x`` (N, K), N >= 1, as two (K,)
+    arrays: the same numbers (numpy's "linear" method: the order statistics at the floor of
+    ``(N - 1) q`` and the next, and its interpolation), from one partition and no more."""
+    n = len(x)
+    idx = []
+    for q in (q0, q1):
+        v = (n - 1) * q
+        prev = int(math.floor(v))
+        if v >= n - 1:
+            prev = nxt = n - 1
+        elif v < 0:
+            prev = nxt = 0
+        else:
+            nxt = prev + 1
+        idx.append((v, prev, nxt))
+    part = np.partition(x, sorted({i for _, a, b in idx for i in (a, b)}), axis=0)
+    out = []
+    for v, prev, nxt in idx:
+        a, b = part[prev], part[nxt]
+        t = v - prev
+        d = b - a
+        out.append(b - d * (1 - t) if t >= 0.5 else a + d * t)  # numpy's _lerp
+    return out[0], out[1]
 
 
 def cuboid_boxes(camera: Camera, centres_m: np.ndarray, sizes_m: np.ndarray, across: np.ndarray,
@@ -611,7 +650,20 @@ class VolumeTracks(TrackManager):
     def _in_region(self, tid: int, volume: Any, mode: str, points: np.ndarray) -> np.ndarray:
         """Where particles of target ``tid`` may be: in ``volume``, and (``"exclude"``, a
         detection group) outside every tracked intruder's box enlarged by
-        ``exclusion_margin`` and outside its gate, or (``"gate"``, a track) inside its gate."""
+        ``exclusion_margin`` and outside its gate, or (``"gate"``, a track) inside its gate.
+        For a cuboid, one compiled pass (:func:`pftrack_coast._kernels.region_mask`, the same
+        comparisons)."""
+        kernel = _kernel("region_mask") if isinstance(volume, CuboidVolume) else None
+        if kernel is not None:
+            lo, hi = self._region_boxes(tid, mode)
+            local = volume.to_local(points)  # (CuboidVolume.contains' numbers)
+            tol = 1e-9 * max(1.0, float(np.max(np.abs(volume.center_m))))
+            lim = np.asarray(volume.size_m / 2.0 + tol, dtype=np.float64)
+            out = np.empty(len(local), dtype=np.bool_)
+            px = self._pixels(tid, points) if len(lo) else np.zeros((0, 2))
+            kernel(np.ascontiguousarray(local), lim, np.ascontiguousarray(px, dtype=np.float64),
+                   lo, hi, mode == "gate", out)
+            return out
         inside = volume.contains(points)
         if not inside.any():
             return inside
@@ -640,6 +692,30 @@ class VolumeTracks(TrackManager):
         with np.errstate(invalid="ignore"):
             hit = ((px[:, None, :] >= lo[None]) & (px[:, None, :] <= hi[None])).all(axis=2)
         return inside & ~hit.any(axis=1)
+
+    def _region_boxes(self, tid: int, mode: str) -> tuple[np.ndarray, np.ndarray]:
+        """The image boxes of :meth:`_in_region` as corners ``lo``, ``hi`` (B, 2): a track's
+        gate (``"gate"``; none without one), or the tracked intruders' boxes enlarged by
+        ``exclusion_margin`` and widened to their gates (``"exclude"``)."""
+        if mode == "gate":
+            gate = self.gates_.get(tid)
+            if gate is None:
+                return np.zeros((0, 2)), np.zeros((0, 2))
+            return np.ascontiguousarray(gate[None, :2]), (gate[:2] + gate[2:])[None]
+        boxes = list(self.boxes_.values())
+        if not boxes:
+            return np.zeros((0, 2)), np.zeros((0, 2))
+        b = np.array(boxes)
+        m = float(self.exclusion_margin)
+        lo = b[:, :2] - m * b[:, 2:]
+        hi = b[:, :2] + (1.0 + m) * b[:, 2:]
+        gates = [self.gates_.get(k) for k in self.boxes_]
+        if any(g is not None for g in gates):  # a track's gate is taken away too
+            g = np.array([x if x is not None else np.full(4, np.nan) for x in gates])
+            has = np.isfinite(g).all(axis=1)
+            lo[has] = np.minimum(lo[has], g[has, :2])
+            hi[has] = np.maximum(hi[has], g[has, :2] + g[has, 2:])
+        return lo, hi
 
     def _track_region(self, tid: int, volume: Any) -> Any:
         return _Region(self, volume, tid, "gate")

@@ -585,6 +585,22 @@ class Camera:
         Rows for points at or behind the camera's centre plane are NaN.
         """
         pc = self.world_to_camera(points_world_m)
+        d = self.distortion
+        if _ROWS_KERNEL and isinstance(d, (TsaiDistortion, NoDistortion)):
+            # once project_rows has loaded the kernel (never here: a process that only
+            # projects does not pay numba's import), the numbers below in one compiled pass
+            kernel = _ROWS_KERNEL[0]
+            if kernel is not None:
+                n = len(pc)
+                out = np.empty((1, n, 2))
+                kernel(np.ascontiguousarray(pc)[None], getattr(d, "kappa1", 0.0),
+                       self.K[0, 0], self.K[0, 1], self.K[0, 2], self.K[1, 1], self.K[1, 2],
+                       out, np.empty(n), np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_))
+                return out[0]
+        return self._project_numpy(pc)
+
+    def _project_numpy(self, pc: np.ndarray) -> np.ndarray:
+        """:meth:`project`'s numpy path from camera-frame points (N, 3)."""
         z = pc[:, 2]
         front = z > 1e-9
         zs = np.where(front, z, 1.0)
@@ -612,7 +628,7 @@ class Camera:
         if kernel is None:
             out = np.empty(p.shape[:2] + (2,))
             for i, row in enumerate(p):
-                out[i] = self.project(row)
+                out[i] = self._project_numpy(self.world_to_camera(row))
             return out
         # matmul of a (T, N, 3) stack runs one (N, 3) product per row: the rows' own numbers
         pc = np.ascontiguousarray(p @ self.R.T + self.t_m)
@@ -732,7 +748,7 @@ def _rows_kernel_agrees(kernel: Any) -> bool:
         out = np.empty(pts.shape[:2] + (2,))
         kernel(pc, kappa, cam.K[0, 0], cam.K[0, 1], cam.K[0, 2], cam.K[1, 1], cam.K[1, 2],
                out, np.empty(n), np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_))
-        ref = np.array([cam.project(row) for row in pts])
+        ref = np.array([cam._project_numpy(cam.world_to_camera(row)) for row in pts])
         if not same_bits(out, ref):
             return False
     return True
