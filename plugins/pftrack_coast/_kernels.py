@@ -52,3 +52,12 @@ def blocks_of_pixels(px, block_size, rows, cols, ok, idx):  # pragma: no cover -
             idx[m] = int(r * cols + c)
             m += 1
     return m
+
+
+def warm_up() -> None:
+    """Load every kernel (from numba's cache, or compile it) with tiny arguments of the types
+    the callers pass, so that the first frame does not pay for it."""
+    px = np.zeros((1, 2))
+    region_mask(np.zeros((1, 3)), np.ones(3), px, np.zeros((1, 2)), np.ones((1, 2)), True,
+                np.empty(1, dtype=np.bool_))
+    blocks_of_pixels(px, 8.0, 1, 1, np.empty(1, dtype=np.bool_), np.empty(1, dtype=np.intp))

@@ -96,9 +96,16 @@ class EigenspaceLikelihood(Likelihood):
         return self.model_
 
     def prepare(self) -> None:
+        """The model loaded and checked; the compiled block lookup loaded."""
         self._get_model()
         if not float(self.alpha) > 0:
             raise ValueError(f"EigenspaceLikelihood: alpha must be > 0, got {self.alpha!r}")
+        from pftrack.filter import _jit
+
+        if _jit.ENABLED:
+            from pftrack_coast._kernels import warm_up
+
+            warm_up()
 
     def begin_frame(self, frame: Frame, targets: Sequence[Target],
                     detections: Detections | None = None) -> None:

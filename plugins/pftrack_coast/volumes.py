@@ -516,6 +516,10 @@ class VolumeTracks(TrackManager):
         if context.camera is not None:
             self.camera_ = context.camera
         self._check()
+        if _kernel("region_mask") is not None:
+            from pftrack_coast._kernels import warm_up
+
+            warm_up()  # before the first frame
 
     def _check(self) -> None:
         if "volumes_" in self.__dict__:

@@ -281,10 +281,16 @@ class CameraVolumeObservation(ObservationModel):
                                              "context": RunContext(camera=cam)}
 
     def setup(self, context: RunContext) -> None:
-        """The run's camera when none was given."""
+        """The run's camera when none was given; with ``particle_box="point"``, the compiled
+        projection (:meth:`~pftrack.geometry.camera.Camera.project_rows`) loaded now, before
+        the first frame."""
         if self.camera is None and context.camera is not None:
             self.__dict__.pop("half_size_", None)
             self.camera_ = context.camera
+        if self.particle_box == "point":
+            from pftrack.geometry.camera import _rows_kernel
+
+            _rows_kernel()
 
     def get_camera(self) -> Camera:
         """The camera in use (``camera``, loaded when a path, or the run's)."""
