@@ -196,12 +196,23 @@ def support_plane_estimate(camera: Camera, pixels: np.ndarray, *, support_z_m: f
         (4,) the cloud's image box, ``across``/``along`` (3,) the view's unit axes; None when
         the cloud's foot row does not meet the plane in front of the camera.
     """
+    base = _support_base(camera, pixels, float(support_z_m), quantile)
+    if base is None:
+        return None
+    return _support_finish(camera, base, aspect=aspect, heading_deg=heading_deg,
+                           max_height_m=max_height_m)
+
+
+def _support_base(camera: Camera, pixels: np.ndarray, z: float, quantile: float,
+                  ) -> dict[str, Any] | None:
+    """:func:`support_plane_estimate`'s part that does not depend on the footprint's shape:
+    the cloud's image box, its foot row on the plane, the view's axes there and the width
+    across the view (None: no footprint)."""
     px = np.asarray(pixels, dtype=np.float64)
     px = px[np.isfinite(px).all(axis=1)]
     if len(px) < 2:
         return None
     (u0, v0), (u1, v1), mid = _cloud_ends(px, quantile)
-    z = float(support_z_m)
     g = camera.image_to_ground(np.array([[mid[0], v1], [u0, v1], [u1, v1]]), z_m=z)
     if not np.isfinite(g).all():
         return None
@@ -209,7 +220,17 @@ def support_plane_estimate(camera: Camera, pixels: np.ndarray, *, support_z_m: f
     front = g[0]
     across, along = _axes(camera, front[:2])
     width = float(abs(np.dot(g[2] - g[1], across)))
-    width, depth = footprint_size(width, aspect, heading_deg)
+    return {"z": z, "ends": (u0, v0, u1, v1), "front": front, "across": across,
+            "along": along, "width": width}
+
+
+def _support_finish(camera: Camera, base: dict[str, Any], *, aspect: float = 1.0,
+                    heading_deg: float | None = None, max_height_m: float = 50.0,
+                    ) -> dict[str, Any]:
+    """:func:`support_plane_estimate` from its :func:`_support_base`, for a footprint shape."""
+    z, (u0, v0, u1, v1) = base["z"], base["ends"]
+    front, across, along = base["front"], base["across"], base["along"]
+    width, depth = footprint_size(base["width"], aspect, heading_deg)
     back = front + depth * along
     # the top row on the vertical over the back of the footprint (the top edge seen last)
     hz = np.linspace(0.0, float(max_height_m), 65)
@@ -645,7 +666,7 @@ class VolumeTracks(TrackManager):
         b, ri = t.particle_boxes_xywh_px, t.resample_index
         if b is not None and ri is not None and len(ri) == len(points) and \
                 not b[:, 2:].any():
-            return b[ri, :2]
+            return b[:, :2].take(ri, axis=0)  # (b[ri, :2]: the same rows, faster)
         return self.camera_.project(points)
 
     def _group_region(self, volume: Any, tid: int) -> Any:
@@ -797,15 +818,17 @@ class VolumeTracks(TrackManager):
         across, along = _axes(cam, raw_centre[:2])
         est = None
         if fine.sum() >= 2:
-            est = support_plane_estimate(cam, px[fine], support_z_m=float(self.support_z_m))
-            if est is not None:
-                across, along = est["across"], est["along"]
+            # (support_plane_estimate, its shape-free part computed once)
+            base = _support_base(cam, px[fine], float(self.support_z_m), 0.02)
+            if base is not None:
+                across, along = base["across"], base["along"]
                 vel = t.state[3:5] if len(t.state) >= 6 else None
                 heading = self._heading(t.id, across, vel)
                 if float(self.footprint_aspect) != 1.0:  # (a square: the heading is moot)
-                    est = support_plane_estimate(
-                        cam, px[fine], support_z_m=float(self.support_z_m),
-                        aspect=float(self.footprint_aspect), heading_deg=heading)
+                    est = _support_finish(cam, base, aspect=float(self.footprint_aspect),
+                                          heading_deg=heading)
+                else:
+                    est = _support_finish(cam, base)
         cov = np.cov(pos.T, bias=True) if len(pos) > 1 else np.zeros((3, 3))
         up = np.array([0.0, 0.0, 1.0])
         size_raw = np.array([2.0 * math.sqrt(max(float(a @ cov @ a), 0.0))
