@@ -2,7 +2,8 @@
 imports it on first use of :meth:`~pftrack.geometry.camera.Camera.project_rows`).
 
 :func:`camera_to_pixels_rows` is :meth:`Camera.project`'s arithmetic after the rotation (the
-perspective division, Tsai's lens by Newton's method, the pixel mapping) for T independent calls
+perspective division, Tsai's lens by Newton's method or OpenCV's polynomial one, the pixel
+mapping) for T independent calls
 at once, one pass per call: each row gives the numbers ``project`` gives for it alone, bit for
 bit. The same operations in the same order (no fast-math: no fused multiply-add), ``rd ** 3``
 as libm's ``pow(rd, 3.0)`` (numpy's ``power`` loop on this machine; checked at first use, see
@@ -23,9 +24,11 @@ _JIT = {"cache": True, "nogil": True}
 
 
 @njit(**_JIT)  # type: ignore[call-overload]
-def camera_to_pixels_rows(pc, kappa, k00, k01, k02, k11, k12, out, rd, ru, fr, live):  # pragma: no cover - compiled
+def camera_to_pixels_rows(pc, kappa, opencv, k00, k01, k02, k11, k12, out, rd, ru, fr, live):  # pragma: no cover - compiled
     """Camera-frame points ``pc`` (T, N, 3) -> pixels ``out`` (T, N, 2), NaN at or behind the
-    centre plane; ``kappa`` Tsai's kappa1 on normalised coordinates (0: no lens). ``rd``,
+    centre plane; ``kappa`` Tsai's kappa1 on normalised coordinates (0: no lens), or
+    ``opencv`` (None: not) OpenCV's k1, k2, p1, p2, k3, k4, k5, k6 and the squared radius
+    beyond which the lens folds back (NaN there). ``rd``,
     ``ru``, ``fr`` (N,) float64 and ``live`` (N,) bool are work arrays."""
     n_rows, n = pc.shape[0], pc.shape[1]
     k = kappa
@@ -72,6 +75,22 @@ def camera_to_pixels_rows(pc, kappa, k00, k01, k02, k11, k12, out, rd, ru, fr, l
                     scale = np.nan
                 out[t, i, 0] = out[t, i, 0] * scale
                 out[t, i, 1] = out[t, i, 1] * scale
+        if opencv is not None:  # OpenCVDistortion.distort's closed form, its order of operations
+            k1, k2, p1, p2, k3, k4, k5, k6, max_r2 = (opencv[0], opencv[1], opencv[2], opencv[3],
+                                                      opencv[4], opencv[5], opencv[6], opencv[7],
+                                                      opencv[8])
+            p1x2, p2x2 = 2 * p1, 2 * p2
+            for i in range(n):
+                x, y = out[t, i, 0], out[t, i, 1]
+                r2 = x * x + y * y
+                radial = (1 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (
+                    1 + r2 * (k4 + r2 * (k5 + r2 * k6)))
+                xd = x * radial + p1x2 * x * y + p2 * (r2 + 2 * x * x)
+                yd = y * radial + p1 * (r2 + 2 * y * y) + p2x2 * x * y
+                if r2 > max_r2:
+                    xd = yd = np.nan
+                out[t, i, 0] = xd
+                out[t, i, 1] = yd
         for i in range(n):
             xd, yd = out[t, i, 0], out[t, i, 1]
             if pc[t, i, 2] > 1e-9:

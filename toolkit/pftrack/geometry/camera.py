@@ -586,17 +586,13 @@ class Camera:
         """
         pc = self.world_to_camera(points_world_m)
         d = self.distortion
-        if _ROWS_KERNEL and isinstance(d, (TsaiDistortion, NoDistortion)):
+        if _ROWS_KERNEL and _ROWS_KERNEL[0] is not None:
             # once project_rows has loaded the kernel (never here: a process that only
             # projects does not pay numba's import), the numbers below in one compiled pass
-            kernel = _ROWS_KERNEL[0]
-            if kernel is not None:
-                n = len(pc)
-                out = np.empty((1, n, 2))
-                kernel(np.ascontiguousarray(pc)[None], getattr(d, "kappa1", 0.0),
-                       self.K[0, 0], self.K[0, 1], self.K[0, 2], self.K[1, 1], self.K[1, 2],
-                       out, np.empty(n), np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_))
-                return out[0]
+            lens = _kernel_lens(d)
+            if lens is not None:
+                return _run_rows_kernel(_ROWS_KERNEL[0], np.ascontiguousarray(pc)[None],
+                                        lens, self.K)[0]
         return self._project_numpy(pc)
 
     def _project_numpy(self, pc: np.ndarray) -> np.ndarray:
@@ -614,8 +610,8 @@ class Camera:
         row ``t`` equal bit for bit to ``project(points_world_m[t])`` (Tsai's Newton
         iterations stop per row, as they do per call).
 
-        With no lens or Tsai's, one compiled pass (:mod:`pftrack.geometry._kernels`) after
-        numpy's batched rotation (the same products per row as the (N, 3) call); with another
+        With no lens, Tsai's or OpenCV's, one compiled pass (:mod:`pftrack.geometry._kernels`)
+        after numpy's batched rotation (the same products per row as the (N, 3) call); with another
         lens, or ``PFTRACK_NO_JIT=1``, or where the compiled pass was found to differ from the
         numpy path when first loaded, row by row through :meth:`project`.
         """
@@ -623,21 +619,16 @@ class Camera:
         if p.ndim != 3 or p.shape[2] != 3:
             raise ValueError(f"project_rows: expected an array of shape (T, N, 3), got "
                              f"{p.shape}")
-        d = self.distortion
-        kernel = _rows_kernel() if isinstance(d, (TsaiDistortion, NoDistortion)) else None
-        if kernel is None:
+        lens = _kernel_lens(self.distortion)
+        kernel = _rows_kernel() if lens is not None else None
+        if kernel is None or lens is None:
             out = np.empty(p.shape[:2] + (2,))
             for i, row in enumerate(p):
                 out[i] = self._project_numpy(self.world_to_camera(row))
             return out
         # matmul of a (T, N, 3) stack runs one (N, 3) product per row: the rows' own numbers
         pc = np.ascontiguousarray(p @ self.R.T + self.t_m)
-        n = p.shape[1]
-        out = np.empty(p.shape[:2] + (2,))
-        kernel(pc, getattr(d, "kappa1", 0.0), self.K[0, 0], self.K[0, 1], self.K[0, 2],
-               self.K[1, 1], self.K[1, 2], out, np.empty(n), np.empty(n), np.empty(n),
-               np.empty(n, dtype=np.bool_))
-        return out
+        return _run_rows_kernel(kernel, pc, lens, self.K)
 
     def in_image(self, pixels: Any, margin_px: float = 0.0) -> np.ndarray:
         """Boolean (N,): pixel lies inside the image (pixel centres 0..w-1, 0..h-1), with a margin
@@ -707,6 +698,30 @@ class Camera:
 _ROWS_KERNEL: list[Any] = []  # [kernel or None] once decided
 
 
+def _kernel_lens(d: LensDistortion) -> tuple[float, np.ndarray | None] | None:
+    """The compiled projection's lens arguments: Tsai's kappa1 (0: none) and OpenCV's
+    coefficients with the squared fold-back radius (None: not OpenCV's); None for a lens it
+    does not know."""
+    if isinstance(d, NoDistortion):
+        return 0.0, None
+    if isinstance(d, TsaiDistortion):
+        return d.kappa1, None
+    if type(d) is OpenCVDistortion:
+        return 0.0, np.array([d.k1, d.k2, d.p1, d.p2, d.k3, d.k4, d.k5, d.k6,
+                              d.max_radius ** 2])
+    return None
+
+
+def _run_rows_kernel(kernel: Any, pc: np.ndarray, lens: tuple[float, np.ndarray | None],
+                     K: np.ndarray) -> np.ndarray:
+    """Pixels (T, N, 2) of camera-frame points ``pc`` (T, N, 3, C-contiguous)."""
+    n = pc.shape[1]
+    out = np.empty(pc.shape[:2] + (2,))
+    kernel(pc, lens[0], lens[1], K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2], out, np.empty(n),
+           np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_))
+    return out
+
+
 def _rows_kernel() -> Any:
     """The compiled :meth:`Camera.project_rows` kernel, or None (``PFTRACK_NO_JIT``, numba
     missing, or its numbers differ from :meth:`Camera.project`'s on a check set).
@@ -740,14 +755,17 @@ def _rows_kernel_agrees(kernel: Any) -> bool:
     pts = rng.normal(0.0, 1.0, (2, 4000, 3)) * np.array([8.0, 8.0, 3.0])
     pts[:, :, 2] += 6.0  # mostly in front, some behind
     pts[0, :4] = [[0.0, 0.0, 5.0], [0.0, 0.0, 0.0], [50.0, -40.0, 1.0], [np.nan, 0.0, 5.0]]
-    for kappa in (0.15772011860650012, -0.3, 0.0):
+    lenses: list[LensDistortion] = [TsaiDistortion(0.15772011860650012), TsaiDistortion(-0.3),
+                                    TsaiDistortion(0.0), NoDistortion(), OpenCVDistortion(-0.05),
+                                    OpenCVDistortion(-0.2, 0.05, 1e-3, -2e-3, 0.01, 0.1, 0.02,
+                                                     0.003)]
+    for lens in lenses:
         cam = Camera.look_at((0.3, -0.2, 0.1), (0.0, 0.0, 5.0), (768, 576), fx=700.0,
-                             distortion=TsaiDistortion(kappa))
+                             distortion=lens)
         pc = np.ascontiguousarray(pts @ cam.R.T + cam.t_m)
-        n = pts.shape[1]
-        out = np.empty(pts.shape[:2] + (2,))
-        kernel(pc, kappa, cam.K[0, 0], cam.K[0, 1], cam.K[0, 2], cam.K[1, 1], cam.K[1, 2],
-               out, np.empty(n), np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_))
+        args = _kernel_lens(lens)
+        assert args is not None
+        out = _run_rows_kernel(kernel, pc, args, cam.K)
         ref = np.array([cam._project_numpy(cam.world_to_camera(row)) for row in pts])
         if not same_bits(out, ref):
             return False
