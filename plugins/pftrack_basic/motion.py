@@ -296,8 +296,12 @@ class _ConstantVelocityMotion(MotionModel):
         flat = _check_states(self, s.reshape(-1, s.shape[2]))
         dt, update, std = self._transition(dt)
         out = _standard_normal(rng, flat.shape)  # (the compiled ziggurat: numpy's numbers)
-        out *= std
-        update(out.T, flat.T)
+        if _jit.small_ready() or _jit.use(out.size):  # one compiled pass, the same numbers
+            _jit.constant_velocity_update(out, flat, std, self._ndim, dt,
+                                          bool(self.velocity_from_displacement) and dt > 0)
+        else:
+            out *= std
+            update(out.T, flat.T)
         return out.reshape(s.shape)
 
     def init_states(self, position: np.ndarray, n: int, rng: np.random.Generator,
