@@ -459,7 +459,7 @@ class BlockEigenspaceModel:
 
     def relative_variation_at(self, grey: np.ndarray, blocks: np.ndarray) -> np.ndarray:
         """r_D (eq. 3) of only the blocks ``blocks`` (K,) (indices ``row * cols + col``) of a
-        grey frame (:meth:`grey`), as (K,) float64; 0 for untrained blocks. One batched product
+        grey frame (:meth:`grey`, or its integer levels before the conversion), as (K,) float64; 0 for untrained blocks. One batched product
         over the K blocks: what a particle likelihood needs when particles touch few blocks."""
         self._fitted()
         b = np.asarray(blocks, dtype=np.intp).reshape(-1)
@@ -468,7 +468,9 @@ class BlockEigenspaceModel:
         r, c = np.divmod(b, cols)
         ys = r[:, None] * bs + np.arange(bs)[None, :]  # (K, bs) rows of each block
         xs = c[:, None] * bs + np.arange(bs)[None, :]
-        x = grey[ys[:, :, None], xs[:, None, :]].reshape(len(b), bs * bs)
+        # (an integer grey frame, see EigenspaceLikelihood.begin_frame: its float64 values)
+        x = grey[ys[:, :, None], xs[:, None, :]].reshape(len(b), bs * bs).astype(
+            np.float64, copy=False)
         s = np.matmul(x[:, None, :], self.whiten_[b])[:, 0, :] - self.offset_[b]
         return np.einsum("bd,bd->b", s, s)
 

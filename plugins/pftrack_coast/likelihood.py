@@ -111,8 +111,27 @@ class EigenspaceLikelihood(Likelihood):
                     detections: Detections | None = None) -> None:
         """The frame's grey levels; no block scored yet."""
         m = self._get_model()
-        self.grey_ = m.grey(frame.image)
         self.excess_ = np.full(m.grid_shape_[0] * m.grid_shape_[1], np.nan)  # r_D - v_D
+        img = frame.image
+        if m.frame_offset != "median" and img.ndim == 3 and img.shape[2] == 3 and \
+                img.dtype in (np.uint8, np.uint16):
+            # the grey levels as OpenCV gives them: the particles' blocks are gathered and
+            # converted to float64 (the model's grey(), exactly) without converting the frame
+            import cv2
+
+            raw = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+            if raw.shape == m.image_shape_:
+                self.grey_raw_ = raw
+                self.__dict__.pop("grey_", None)
+                return
+        self.grey_raw_ = None
+        self.grey_ = m.grey(img)
+
+    def _grey(self) -> np.ndarray:
+        """This frame's float64 grey levels (:meth:`BlockEigenspaceModel.grey`)."""
+        if "grey_" not in self.__dict__:
+            self.grey_ = self.grey_raw_.astype(np.float64)
+        return self.grey_
 
     def _pixels(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
         b = np.asarray(boxes_xywh_px, dtype=np.float64)
@@ -142,10 +161,11 @@ class EigenspaceLikelihood(Likelihood):
         need = np.flatnonzero(touched & np.isnan(self.excess_))
         if len(need) > 0.2 * len(self.excess_):
             # most of the frame: every block at once (grouped by D) is cheaper than gathering
-            rd = m.relative_variation_of_grey(self.grey_)
+            rd = m.relative_variation_of_grey(self._grey())
             self.excess_ = np.where(m.trained_, rd - m.v_, -np.inf)
         elif len(need):
-            rd = m.relative_variation_at(self.grey_, need)
+            raw = self.__dict__.get("grey_raw_")
+            rd = m.relative_variation_at(self._grey() if raw is None else raw, need)
             self.excess_[need] = np.where(m.trained_[need], rd - m.v_[need], -np.inf)
         z = float(self.alpha) * self.excess_[blocks]
         out[ok] = -np.logaddexp(0.0, -z)  # log sigmoid(z), stable; -inf for untrained blocks
