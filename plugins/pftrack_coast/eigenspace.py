@@ -459,8 +459,9 @@ class BlockEigenspaceModel:
 
     def relative_variation_at(self, grey: np.ndarray, blocks: np.ndarray) -> np.ndarray:
         """r_D (eq. 3) of only the blocks ``blocks`` (K,) (indices ``row * cols + col``) of a
-        grey frame (:meth:`grey`, or its integer levels before the conversion), as (K,) float64; 0 for untrained blocks. One batched product
-        over the K blocks: what a particle likelihood needs when particles touch few blocks."""
+        grey frame (:meth:`grey`, or its integer levels before the conversion), as (K,)
+        float64; 0 for untrained blocks. One batched product over the K blocks: what a
+        particle likelihood needs when particles touch few blocks."""
         self._fitted()
         b = np.asarray(blocks, dtype=np.intp).reshape(-1)
         bs = int(self.block_size)

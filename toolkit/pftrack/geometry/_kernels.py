@@ -24,7 +24,8 @@ _JIT = {"cache": True, "nogil": True}
 
 
 @njit(**_JIT)  # type: ignore[call-overload]
-def camera_to_pixels_rows(pc, kappa, opencv, k00, k01, k02, k11, k12, out, rd, ru, fr, live):  # pragma: no cover - compiled
+def camera_to_pixels_rows(pc, kappa, opencv, k00, k01, k02, k11, k12, out, rd, ru, fr,
+                          live):  # pragma: no cover - compiled
     """Camera-frame points ``pc`` (T, N, 3) -> pixels ``out`` (T, N, 2), NaN at or behind the
     centre plane; ``kappa`` Tsai's kappa1 on normalised coordinates (0: no lens), or
     ``opencv`` (None: not) OpenCV's k1, k2, p1, p2, k3, k4, k5, k6 and the squared radius
