@@ -702,9 +702,9 @@ def _kernel_lens(d: LensDistortion) -> tuple[float, np.ndarray | None] | None:
     """The compiled projection's lens arguments: Tsai's kappa1 (0: none) and OpenCV's
     coefficients with the squared fold-back radius (None: not OpenCV's); None for a lens it
     does not know."""
-    if isinstance(d, NoDistortion):
+    if type(d) is NoDistortion:  # (exact types: a subclass may change the arithmetic)
         return 0.0, None
-    if isinstance(d, TsaiDistortion):
+    if type(d) is TsaiDistortion:
         return d.kappa1, None
     if type(d) is OpenCVDistortion:
         return 0.0, np.array([d.k1, d.k2, d.p1, d.p2, d.k3, d.k4, d.k5, d.k6,
