@@ -47,6 +47,7 @@ __all__ = [
     "TsaiDistortion",
     "distortion_from_dict",
     "look_at_rotation",
+    "same_bits",
     "tsai_angles",
     "tsai_rotation",
 ]
@@ -582,7 +583,9 @@ class Camera:
     def project(self, points_world_m: Any) -> np.ndarray:
         """World points (N, 3) in metres -> pixel coordinates (N, 2).
 
-        Rows for points at or behind the camera's centre plane are NaN.
+        Rows for points at or behind the camera's centre plane are NaN. Once
+        :meth:`project_rows` has loaded its compiled pass (and checked it), the same numbers
+        come from it.
         """
         pc = self.world_to_camera(points_world_m)
         d = self.distortion
@@ -613,7 +616,23 @@ class Camera:
         With no lens, Tsai's or OpenCV's, one compiled pass (:mod:`pftrack.geometry._kernels`)
         after numpy's batched rotation (the same products per row as the (N, 3) call); with another
         lens, or ``PFTRACK_NO_JIT=1``, or where the compiled pass was found to differ from the
-        numpy path when first loaded, row by row through :meth:`project`.
+        numpy path when first loaded, row by row through :meth:`project`'s numpy path.
+
+        Parameters
+        ----------
+        points_world_m : array_like, shape (T, N, 3)
+            T sets of N world points, metres.
+
+        Returns
+        -------
+        ndarray, shape (T, N, 2)
+            Pixels; NaN for points at or behind the camera's centre plane (and where a lens
+            has no value).
+
+        Raises
+        ------
+        ValueError
+            If the points are not (T, N, 3).
         """
         p = np.asarray(points_world_m, dtype=np.float64)
         if p.ndim != 3 or p.shape[2] != 3:
@@ -773,8 +792,19 @@ def _rows_kernel_agrees(kernel: Any) -> bool:
 
 
 def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
-    """Whether two float64 arrays hold the same numbers bit for bit (any NaN equals any NaN;
-    0.0 and -0.0 differ)."""
+    """Whether two arrays hold the same float64 numbers bit for bit.
+
+    Parameters
+    ----------
+    a, b : array_like
+        Compared as float64.
+
+    Returns
+    -------
+    bool
+        Same shape and the same bits everywhere, any NaN equal to any NaN (0.0 and -0.0
+        differ).
+    """
     a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
     if a.shape != b.shape:
         return False
