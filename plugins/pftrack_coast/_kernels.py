@@ -61,3 +61,18 @@ def warm_up() -> None:
     region_mask(np.zeros((1, 3)), np.ones(3), px, np.zeros((1, 2)), np.ones((1, 2)), True,
                 np.empty(1, dtype=np.bool_))
     blocks_of_pixels(px, 8.0, 1, 1, np.empty(1, dtype=np.bool_), np.empty(1, dtype=np.intp))
+    for dtype in (np.uint8, np.uint16, np.float64):
+        gather_blocks(np.zeros((2, 2), dtype=dtype), np.zeros(1, dtype=np.intp), 2, 1,
+                      np.empty((1, 4)))
+
+
+@njit(**_JIT)  # type: ignore[call-overload]
+def gather_blocks(grey, blocks, bs, cols, out):  # pragma: no cover - compiled
+    """``out[k]`` (bs * bs,) float64: the pixels of block ``blocks[k]`` (``row * cols +
+    col``) of the frame ``grey`` (H, W, any real dtype), row-major (a copy: exact)."""
+    for k in range(blocks.shape[0]):
+        r0 = (blocks[k] // cols) * bs
+        c0 = (blocks[k] % cols) * bs
+        for i in range(bs):
+            for j in range(bs):
+                out[k, i * bs + j] = grey[r0 + i, c0 + j]

@@ -167,7 +167,9 @@ class EigenspaceLikelihood(Likelihood):
             raw = self.__dict__.get("grey_raw_")
             rd = m.relative_variation_at(self._grey() if raw is None else raw, need)
             self.excess_[need] = np.where(m.trained_[need], rd - m.v_[need], -np.inf)
-        z = float(self.alpha) * self.excess_[blocks]
+        z = self.excess_[blocks]
+        if float(self.alpha) != 1.0:  # (x * 1.0 is x, bit for bit: no pass for it)
+            z = float(self.alpha) * z
         out[ok] = -np.logaddexp(0.0, -z)  # log sigmoid(z), stable; -inf for untrained blocks
         return out
 

@@ -204,12 +204,13 @@ def support_plane_estimate(camera: Camera, pixels: np.ndarray, *, support_z_m: f
 
 
 def _support_base(camera: Camera, pixels: np.ndarray, z: float, quantile: float,
-                  ) -> dict[str, Any] | None:
+                  finite: bool = False) -> dict[str, Any] | None:
     """:func:`support_plane_estimate`'s part that does not depend on the footprint's shape:
     the cloud's image box, its foot row on the plane, the view's axes there and the width
-    across the view (None: no footprint)."""
+    across the view (None: no footprint). ``finite``: the pixels are known to be finite."""
     px = np.asarray(pixels, dtype=np.float64)
-    px = px[np.isfinite(px).all(axis=1)]
+    if not finite:
+        px = px[np.isfinite(px).all(axis=1)]
     if len(px) < 2:
         return None
     (u0, v0), (u1, v1), mid = _cloud_ends(px, quantile)
@@ -224,6 +225,10 @@ def _support_base(camera: Camera, pixels: np.ndarray, z: float, quantile: float,
             "along": along, "width": width}
 
 
+_HEIGHTS = np.linspace(0.0, 50.0, 65)  # the heights searched by default (read only)
+_HEIGHTS.flags.writeable = False
+
+
 def _support_finish(camera: Camera, base: dict[str, Any], *, aspect: float = 1.0,
                     heading_deg: float | None = None, max_height_m: float = 50.0,
                     ) -> dict[str, Any]:
@@ -233,7 +238,7 @@ def _support_finish(camera: Camera, base: dict[str, Any], *, aspect: float = 1.0
     width, depth = footprint_size(base["width"], aspect, heading_deg)
     back = front + depth * along
     # the top row on the vertical over the back of the footprint (the top edge seen last)
-    hz = np.linspace(0.0, float(max_height_m), 65)
+    hz = _HEIGHTS if float(max_height_m) == 50.0 else np.linspace(0.0, float(max_height_m), 65)
     col = np.repeat(back[None], len(hz), axis=0)
     col[:, 2] = z + hz
     vv = camera.project(col)[:, 1]
@@ -819,7 +824,7 @@ class VolumeTracks(TrackManager):
         est = None
         if fine.sum() >= 2:
             # (support_plane_estimate, its shape-free part computed once)
-            base = _support_base(cam, px[fine], float(self.support_z_m), 0.02)
+            base = _support_base(cam, px[fine], float(self.support_z_m), 0.02, finite=True)
             if base is not None:
                 across, along = base["across"], base["along"]
                 vel = t.state[3:5] if len(t.state) >= 6 else None
@@ -1239,6 +1244,7 @@ class VolumeTracks(TrackManager):
         px = px[np.isfinite(px).all(axis=1)]
         if not len(px):
             return "none"
+        est = None
         if self.object_size_m is not None or self.merge_distance_m is not None:
             est = support_plane_estimate(self.camera_, px, support_z_m=float(self.support_z_m))
             if est is None:
@@ -1255,7 +1261,10 @@ class VolumeTracks(TrackManager):
                     return "small"
         if not self.boxes_:
             return None
-        box = cloud_box(px) if len(px) >= 2 else np.concatenate([px[0], np.zeros(2)])
+        if est is not None:  # cloud_box(px): the estimate's image box, the same numbers
+            box = est["box_xywh_px"]
+        else:
+            box = cloud_box(px) if len(px) >= 2 else np.concatenate([px[0], np.zeros(2)])
         lo, hi = box[:2], box[:2] + box[2:]
         area = max(float(np.prod(hi - lo)), 1e-9)
         b = np.array(list(self.boxes_.values()))

@@ -98,3 +98,38 @@ def test_speed_3x5000_counts_only_frames_with_three_groups_of_5000():
     assert out["frames_3x5000"] == 4
     assert out["frames_per_second_3x5000"] == pytest.approx(4 / 0.05)
     assert speed_3x5000(runs[2:]) == {"frames_per_second_3x5000": None, "frames_3x5000": 0}
+
+
+def test_block_scores_from_the_integer_grey_and_the_compiled_gather_equal_numpy(monkeypatch):
+    """relative_variation_at on OpenCV's integer grey levels (compiled gather) gives the
+    numbers of the float64 frame through numpy's gather; the likelihood's values do not
+    depend on which path scored the blocks."""
+    import cv2
+    from pftrack.components import Frame
+    from pftrack.filter import _jit
+    from pftrack_coast.eigenspace import BlockEigenspaceModel
+    from pftrack_coast.likelihood import EigenspaceLikelihood
+
+    rng = np.random.default_rng(4)
+    base = np.linspace(40.0, 200.0, 96)[None, :, None] + np.zeros((64, 96, 3))
+    frames = [np.clip(base + rng.normal(0, 5, base.shape), 0, 255).astype(np.uint8)
+              for _ in range(12)]
+    model = BlockEigenspaceModel(block_size=8).fit(frames)
+    img = frames[0].copy()
+    img[20:40, 30:60] = 250  # an intruder
+    raw = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+    blocks = np.array([0, 5, 13, 30, 50, 95])
+    fast = model.relative_variation_at(raw, blocks)
+    assert fast.tobytes() == model.relative_variation_at(model.grey(img), blocks).tobytes()
+    like = EigenspaceLikelihood().set_model(model)
+    like.prepare()
+    px = np.column_stack([rng.uniform(0, 96, 3000), rng.uniform(0, 64, 3000)])
+    boxes = np.column_stack([px, np.zeros((3000, 2))])
+    like.begin_frame(Frame(1, img), [])
+    a = like.log_likelihood(boxes, None)
+    monkeypatch.setattr(_jit, "ENABLED", False)
+    slow = model.relative_variation_at(model.grey(img), blocks)
+    assert fast.tobytes() == slow.tobytes()
+    like.begin_frame(Frame(1, img), [])
+    assert a.tobytes() == like.log_likelihood(boxes, None).tobytes()
+    assert np.isfinite(a).any() and (a > np.log(0.5)).any() and (a < np.log(0.5)).any()
