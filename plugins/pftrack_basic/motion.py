@@ -23,7 +23,7 @@ Models
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from pftrack.components import MotionModel, Target
@@ -267,6 +267,13 @@ class _ConstantVelocityMotion(MotionModel):
     def predict(self, states: np.ndarray, dt: float, rng: np.random.Generator,
                 target: Target | None = None) -> np.ndarray:
         s = _check_states(self, states)
+        dt, update, std = self._transition(dt)
+        return _noisy_update(s, std, rng, update)
+
+    def _transition(self, dt: float) -> tuple[float, Callable[[np.ndarray, np.ndarray], None],
+                                              np.ndarray]:
+        """The checked ``dt``, the deterministic update ``update(noise.T, states.T)`` (in
+        place on the scaled noise) and the noise's standard deviations (D,)."""
         dt = _check_dt(self, dt)
         k = self._ndim
         sq = np.sqrt(dt)
@@ -283,7 +290,28 @@ class _ConstantVelocityMotion(MotionModel):
                 o[i] += x[i]
                 o[i] += dt * x[k + i]
 
-        return _noisy_update(s, std, rng, update)
+        return dt, update, std
+
+    def predict_rows(self, states: np.ndarray, dt: float, rng: np.random.Generator,
+                     targets: Sequence[Target]) -> np.ndarray:
+        """Every target's particles at once: (T, N, D) -> (T, N, D), equal to T successive
+        :meth:`predict` calls bit for bit (the noise does not depend on the target: one
+        ``standard_normal((T, N, D))`` draws the numbers the T calls would, and each update
+        is elementwise)."""
+        s = np.asarray(states, dtype=np.float64)
+        if s.ndim != 3:
+            raise ValueError(f"{type(self).__name__}.predict_rows: states must have shape "
+                             f"(T, N, {self.state_dim}), got {s.shape}")
+        flat = _check_states(self, s.reshape(-1, s.shape[2]))
+        dt, update, std = self._transition(dt)
+        out = _standard_normal(rng, flat.shape)  # (the compiled ziggurat: numpy's numbers)
+        if _jit.small_ready() or _jit.use(out.size):  # one compiled pass, the same numbers
+            _jit.constant_velocity_update(out, flat, std, self._ndim, dt,
+                                          bool(self.velocity_from_displacement) and dt > 0)
+        else:
+            out *= std
+            update(out.T, flat.T)
+        return out.reshape(s.shape)
 
     def init_states(self, position: np.ndarray, n: int, rng: np.random.Generator,
                     spread: float | np.ndarray = 1.0) -> np.ndarray:

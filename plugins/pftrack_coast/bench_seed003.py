@@ -23,6 +23,11 @@
     the paper's eq. 10 (2 sqrt of the particles' variance along the same axes);
   - ``frames_per_second``: frames over the time of scoring and tracking (one OpenCV thread;
     video decoding not included; ``frames_per_second_with_decoding`` includes it);
+    ``frames_per_second_cpu`` over its CPU time;
+  - ``frames_per_second_3x5000``: the speed goal's configuration -- frames per second of CPU
+    time over the ``frames_3x5000`` frames in which exactly 3 particle groups (the detection
+    group and two people) of 5000 particles were alive (background scoring, estimates and
+    track management included); the goal (>= 100) is checked against it;
   - ``mog2``: the same run and figures with the likelihood ``mog2-fraction`` (OpenCV's MOG2
     shown the training frames, then learning online) in place of the eigenspace one.
 
@@ -33,7 +38,11 @@
   Table 1 -- per object the median size of the estimates matched to it, the paper's eq. 10
   (``estimated_m``) and after the support-plane correction (``depth_corrected_m``), as width
   across the view, height, depth along it -- and the entry / exit frame errors; the ``multi``
-  clip (two boats and a car) gives ``MOTA_world`` and ``IDF1_world``. Matches on the coast are
+  clip (two boats and a car) gives ``MOTA_world`` and ``IDF1_world``; ``frames_per_second``
+  is over all three clips' CPU time, ``frames_per_second_boat_clip`` the boat clip's and
+  ``frames_per_second_3x5000`` that of the frames of the three clips with exactly 3 groups
+  (the two detection groups and one intruder) of 5000 particles, against which the speed goal
+  is checked. Matches on the coast are
   within 20 m (``COAST_MATCH_M``: a block spans tens of metres of sea along the line of sight).
 
 Tracking parameters were chosen on frames 201-400 (``--frames 201:400``); the identity ones
@@ -100,11 +109,16 @@ def track_frames(cfg: dict[str, Any], frames: list[Any], camera: Camera, seed: i
     threads = cv2.getNumThreads()
     cv2.setNumThreads(1)
     records = []
+    frame_cpu, frame_targets = [], []  # per frame: CPU seconds, live targets it weighted
     try:
         t0, c0 = time.perf_counter(), time.process_time()
         paused = paused_cpu = 0.0
         for f in frames:
+            live = len(engine.targets)
+            q = time.process_time()
             records.extend(engine.step(f))
+            frame_cpu.append(time.process_time() - q)
+            frame_targets.append(live)
             if snapshot is not None and f.index == snapshot[0]:
                 p0, q0 = time.perf_counter(), time.process_time()
                 snapshot[1](engine, f)
@@ -118,7 +132,31 @@ def track_frames(cfg: dict[str, Any], frames: list[Any], camera: Camera, seed: i
     if len(rows):
         rows = rows[np.lexsort((rows[:, 1], rows[:, 0]))]
     return {"rows": rows, "records": records, "tracks": engine.tracks, "wall_s": wall,
-            "cpu_s": cpu, "frames": len(frames)}
+            "cpu_s": cpu, "frames": len(frames), "frame_cpu_s": np.array(frame_cpu),
+            "frame_targets": np.array(frame_targets, dtype=int),
+            "n_particles": int(engine.n_particles)}
+
+
+#: the speed goal's configuration: this many particle groups (detection groups and tracks)
+GOAL_GROUPS = 3
+#: ... of this many particles each
+GOAL_PARTICLES = 5000
+
+
+def speed_3x5000(runs: list[dict[str, Any]]) -> dict[str, Any]:
+    """Frames per second of CPU time over the frames of ``runs`` that weighted exactly
+    ``GOAL_GROUPS`` particle groups of ``GOAL_PARTICLES`` particles (the issue's speed goal's
+    configuration; background scoring, estimates and track management included; a frame's
+    groups are those alive when it starts)."""
+    cpu = frames = 0.0
+    for r in runs:
+        if r["n_particles"] != GOAL_PARTICLES:
+            continue
+        sel = r["frame_targets"] == GOAL_GROUPS
+        cpu += float(r["frame_cpu_s"][sel].sum())
+        frames += int(sel.sum())
+    return {"frames_per_second_3x5000": frames / cpu if cpu > 0 else None,
+            "frames_3x5000": int(frames)}
 
 
 def _inside(volume: Any, gt: np.ndarray) -> np.ndarray:
@@ -254,6 +292,7 @@ def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
         decode = time.perf_counter() - t0 - run["wall_s"]
         out = score_pets(gt, run, volume)
         out["frames_per_second_with_decoding"] = run["frames"] / (run["wall_s"] + max(decode, 0))
+        out.update(speed_3x5000([run]))
         if not args.no_mog2:
             say("seed003: pets09 mog2-fraction")
             a, b = parse_frames(cfg["detector"]["train"]["frames"])
@@ -382,9 +421,11 @@ def _coast(args: argparse.Namespace, say: Any) -> dict[str, Any]:
                 f.image for f in CoastScene(seed=args.scene_seed).training_frames()).save(model)
         table, entry, exit_ = [], [], []
         seconds = frames = 0.0
+        runs = []
         for clip in ("boat", "car"):
             say(f"seed003: coast, clip {clip}")
             res = coast_clip(clip, cfg, model, args.seed, args.scene_seed)
+            runs.append(res["run"])
             seconds += res["run"]["cpu_s"]
             frames += res["run"]["frames"]
             if clip == "boat":
@@ -403,6 +444,7 @@ def _coast(args: argparse.Namespace, say: Any) -> dict[str, Any]:
         out["objects_found"] = f"{len(found_e)} of {len(entry)}"
         say("seed003: coast, clip multi")
         res = coast_clip("multi", cfg, model, args.seed, args.scene_seed)
+        runs.append(res["run"])
         seconds += res["run"]["cpu_s"]
         frames += res["run"]["frames"]
         rows = res["run"]["rows"]
@@ -411,6 +453,7 @@ def _coast(args: argparse.Namespace, say: Any) -> dict[str, Any]:
                         "FP": m["FP"], "FN": m["FN"], "objects": coast_objects(res),
                         "match_m": COAST_MATCH_M}
         out["frames_per_second"] = frames / max(seconds, 1e-12)
+        out.update(speed_3x5000(runs))
         out["setup"] = {"scene_seed": args.scene_seed, "seed": args.seed,
                         "particles_per_group": int(cfg["tracker"]["n_particles"]),
                         "match_m": COAST_MATCH_M, "config": str(args.coast_config),
@@ -446,15 +489,24 @@ WHY_NOT = {
     "unless it is found again within reid_frames and reid_m",
     "pets09 entry and exit within 10 frames for >= 80 % of people": "a person first found "
     "late, or lost before leaving, is outside",
-    "pets09 frames_per_second >= 100": "about 30 ms of CPU per frame with one detection group "
-    "and 3-8 people of 5000 particles each: the per-track estimates (support plane, cuboids), "
-    "projecting particles through the Tsai lens (Newton on the cubic), scoring, the regions "
-    "(measured on a shared, loaded machine)",
+    "pets09 frames_per_second_3x5000 >= 100": "the frames with 3 groups (one detection group, "
+    "two people) of 5000 particles: projecting them through the Tsai lens (libm's pow in "
+    "Newton's iterations), block scoring, each person's estimates (support plane, cuboids), "
+    "resampling (measured on a shared, loaded machine)",
     "coast depth error < 2 m (car)": "the car drives along the line of sight; its track breaks "
     "before its footprint has travelled far enough to give a heading, so the footprint prior "
     "lays its length across the view",
-    "coast frames_per_second >= 100 (3 groups)": "measured on a shared, loaded machine",
+    "coast frames_per_second_3x5000 >= 100": "the frames with 3 groups (two detection groups, "
+    "one intruder) of 5000 particles, on a shared, loaded machine",
 }
+
+
+def _speed_goal(part: str, r: dict[str, Any]) -> tuple[str, Any, bool]:
+    """The speed goal (3 groups of 5000 particles, 768x576, one core: >= 100 frames per
+    second) against ``frames_per_second_3x5000`` of a part (not met when no frame had exactly
+    3 groups)."""
+    fps = r.get("frames_per_second_3x5000")
+    return (f"{part} frames_per_second_3x5000 >= 100", fps, fps is not None and fps >= 100)
 
 
 def _goals(out: dict[str, Any]) -> list[dict[str, Any]]:
@@ -469,8 +521,7 @@ def _goals(out: dict[str, Any]) -> list[dict[str, Any]]:
                  ("pets09 eigenspace better than mog2-fraction (MOTA_world)",
                   p.get("mog2", {}).get("MOTA_world"),
                   "mog2" in p and p["MOTA_world"] > p["mog2"]["MOTA_world"]),
-                 ("pets09 frames_per_second >= 100", p["frames_per_second_cpu"],
-                  p["frames_per_second_cpu"] >= 100)]
+                 _speed_goal("pets09", p)]
     c = out.get("coast")
     if c:
         for o in c["table1"]:
@@ -478,9 +529,7 @@ def _goals(out: dict[str, Any]) -> list[dict[str, Any]]:
             err = None if corr is None else abs(corr[2] - o["real_m"][2])
             rows.append((f"coast depth error < 2 m ({o['object']})", err,
                          err is not None and err < 2.0))
-        fps = c.get("frames_per_second_boat_clip")
-        rows.append(("coast frames_per_second >= 100 (3 groups)", fps,
-                     fps is not None and fps >= 100))
+        rows.append(_speed_goal("coast", c))
     return [{"goal": g, "value": v, "met": bool(m), **({} if m else
              {"why_not": WHY_NOT.get(g, "not met as measured")})} for g, v, m in rows]
 

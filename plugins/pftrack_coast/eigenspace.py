@@ -88,6 +88,21 @@ def to_grey(image: np.ndarray) -> np.ndarray:
     raise ValueError(f"expected a grey (H, W) or BGR (H, W, 3) frame, got shape {img.shape}")
 
 
+def _gather_kernel(grey: np.ndarray) -> Any:
+    """The compiled block gather (:func:`pftrack_coast._kernels.gather_blocks`) for a 2-D
+    uint8, uint16 or float64 frame when the kernels are on (``PFTRACK_NO_JIT`` unset), else
+    None."""
+    if grey.ndim != 2 or grey.dtype not in (np.uint8, np.uint16, np.float64):
+        return None
+    from pftrack.filter import _jit
+
+    if not _jit.ENABLED:
+        return None
+    from pftrack_coast._kernels import gather_blocks
+
+    return gather_blocks
+
+
 def blocks_of(grey: np.ndarray, block_size: int) -> np.ndarray:
     """Cut a (H, W) array into blocks: (rows * cols, block_size²), block (r, c) at row
     ``r * cols + c``, its pixels row-major. The right and bottom remainders are dropped."""
@@ -459,16 +474,27 @@ class BlockEigenspaceModel:
 
     def relative_variation_at(self, grey: np.ndarray, blocks: np.ndarray) -> np.ndarray:
         """r_D (eq. 3) of only the blocks ``blocks`` (K,) (indices ``row * cols + col``) of a
-        grey frame (:meth:`grey`), as (K,) float64; 0 for untrained blocks. One batched product
-        over the K blocks: what a particle likelihood needs when particles touch few blocks."""
+        grey frame (:meth:`grey`, or its integer levels before the conversion), as (K,)
+        float64; 0 for untrained blocks. One batched product over the K blocks: what a
+        particle likelihood needs when particles touch few blocks."""
         self._fitted()
         b = np.asarray(blocks, dtype=np.intp).reshape(-1)
         bs = int(self.block_size)
         cols = self.grid_shape_[1]
-        r, c = np.divmod(b, cols)
-        ys = r[:, None] * bs + np.arange(bs)[None, :]  # (K, bs) rows of each block
-        xs = c[:, None] * bs + np.arange(bs)[None, :]
-        x = grey[ys[:, :, None], xs[:, None, :]].reshape(len(b), bs * bs)
+        gather = _gather_kernel(grey)
+        rows = self.grid_shape_[0]
+        if gather is not None and len(b) and 0 <= b.min() and b.max() < rows * cols and \
+                grey.shape[0] >= rows * bs and grey.shape[1] >= cols * bs:
+            # the same pixels, copied in one compiled pass
+            x = np.empty((len(b), bs * bs))
+            gather(grey, np.ascontiguousarray(b), bs, cols, x)
+        else:
+            r, c = np.divmod(b, cols)
+            ys = r[:, None] * bs + np.arange(bs)[None, :]  # (K, bs) rows of each block
+            xs = c[:, None] * bs + np.arange(bs)[None, :]
+            # (an integer grey frame, see EigenspaceLikelihood.begin_frame: its float64 values)
+            x = grey[ys[:, :, None], xs[:, None, :]].reshape(len(b), bs * bs).astype(
+                np.float64, copy=False)
         s = np.matmul(x[:, None, :], self.whiten_[b])[:, 0, :] - self.offset_[b]
         return np.einsum("bd,bd->b", s, s)
 

@@ -30,6 +30,16 @@ def _blocks_of_pixels(px: np.ndarray, block_size: int, grid_shape: tuple[int, in
     """Pixels (N, 2) -> which fall in the block grid (bool (N,)) and their block indices
     ``row * cols + col`` (for those that do); NaN pixels fall outside."""
     rows, cols = grid_shape
+    if len(px) > 64 and px.dtype == np.float64 and px.ndim == 2 and px.shape[1] == 2:
+        from pftrack.filter import _jit
+
+        if _jit.ENABLED:
+            from pftrack_coast._kernels import blocks_of_pixels
+
+            ok = np.empty(len(px), dtype=np.bool_)
+            idx = np.empty(len(px), dtype=np.intp)
+            count = blocks_of_pixels(px, float(block_size), rows, cols, ok, idx)
+            return ok, idx[:count]
     with np.errstate(invalid="ignore"):
         c = np.floor(px[:, 0] / block_size)
         r = np.floor(px[:, 1] / block_size)
@@ -86,16 +96,42 @@ class EigenspaceLikelihood(Likelihood):
         return self.model_
 
     def prepare(self) -> None:
+        """The model loaded and checked; the compiled block lookup loaded."""
         self._get_model()
         if not float(self.alpha) > 0:
             raise ValueError(f"EigenspaceLikelihood: alpha must be > 0, got {self.alpha!r}")
+        from pftrack.filter import _jit
+
+        if _jit.ENABLED:
+            from pftrack_coast._kernels import warm_up
+
+            warm_up()
 
     def begin_frame(self, frame: Frame, targets: Sequence[Target],
                     detections: Detections | None = None) -> None:
         """The frame's grey levels; no block scored yet."""
         m = self._get_model()
-        self.grey_ = m.grey(frame.image)
         self.excess_ = np.full(m.grid_shape_[0] * m.grid_shape_[1], np.nan)  # r_D - v_D
+        img = frame.image
+        if m.frame_offset != "median" and img.ndim == 3 and img.shape[2] == 3 and \
+                img.dtype in (np.uint8, np.uint16):
+            # the grey levels as OpenCV gives them: the particles' blocks are gathered and
+            # converted to float64 (the model's grey(), exactly) without converting the frame
+            import cv2
+
+            raw = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+            if raw.shape == m.image_shape_:
+                self.grey_raw_ = raw
+                self.__dict__.pop("grey_", None)
+                return
+        self.grey_raw_ = None
+        self.grey_ = m.grey(img)
+
+    def _grey(self) -> np.ndarray:
+        """This frame's float64 grey levels (:meth:`BlockEigenspaceModel.grey`)."""
+        if "grey_" not in self.__dict__:
+            self.grey_ = self.grey_raw_.astype(np.float64)
+        return self.grey_
 
     def _pixels(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
         b = np.asarray(boxes_xywh_px, dtype=np.float64)
@@ -117,18 +153,23 @@ class EigenspaceLikelihood(Likelihood):
         if n == 0:
             return out
         ok, blocks = _blocks_of_pixels(px, int(m.block_size), m.grid_shape_)
-        if not ok.any():
+        if not len(blocks):
             return out
-        need = np.unique(blocks)
-        need = need[np.isnan(self.excess_[need])]
+        # the blocks touched and not yet scored, in order (np.unique's, by a mask of the grid)
+        touched = np.zeros(len(self.excess_), dtype=np.bool_)
+        touched[blocks] = True
+        need = np.flatnonzero(touched & np.isnan(self.excess_))
         if len(need) > 0.2 * len(self.excess_):
             # most of the frame: every block at once (grouped by D) is cheaper than gathering
-            rd = m.relative_variation_of_grey(self.grey_)
+            rd = m.relative_variation_of_grey(self._grey())
             self.excess_ = np.where(m.trained_, rd - m.v_, -np.inf)
         elif len(need):
-            rd = m.relative_variation_at(self.grey_, need)
+            raw = self.__dict__.get("grey_raw_")
+            rd = m.relative_variation_at(self._grey() if raw is None else raw, need)
             self.excess_[need] = np.where(m.trained_[need], rd - m.v_[need], -np.inf)
-        z = float(self.alpha) * self.excess_[blocks]
+        z = self.excess_[blocks]
+        if float(self.alpha) != 1.0:  # (x * 1.0 is x, bit for bit: no pass for it)
+            z = float(self.alpha) * z
         out[ok] = -np.logaddexp(0.0, -z)  # log sigmoid(z), stable; -inf for untrained blocks
         return out
 

@@ -67,6 +67,7 @@ from pftrack.components import (
     TrackRecord,
 )
 from pftrack.geometry.boxes import iou_matrix
+from pftrack.geometry.volumes import CuboidVolume
 
 from pftrack_coast.likelihood import _blocks_of_pixels
 
@@ -78,6 +79,18 @@ __all__ = ["InsideBoxesLikelihood", "VolumeTracks", "bhattacharyya", "cloud_box"
            "support_plane_estimate"]
 
 HSV_BINS = (8, 4, 4)
+
+
+def _kernel(name: str) -> Any:
+    """A compiled kernel of :mod:`pftrack_coast._kernels`, or None with ``PFTRACK_NO_JIT``
+    (the numpy path then runs: the same numbers)."""
+    from pftrack.filter import _jit
+
+    if not _jit.ENABLED:
+        return None
+    from pftrack_coast import _kernels
+
+    return getattr(_kernels, name)
 
 
 def hsv_histogram(image: np.ndarray, box_xywh_px: np.ndarray, inner: float = 0.4,
@@ -183,12 +196,24 @@ def support_plane_estimate(camera: Camera, pixels: np.ndarray, *, support_z_m: f
         (4,) the cloud's image box, ``across``/``along`` (3,) the view's unit axes; None when
         the cloud's foot row does not meet the plane in front of the camera.
     """
+    base = _support_base(camera, pixels, float(support_z_m), quantile)
+    if base is None:
+        return None
+    return _support_finish(camera, base, aspect=aspect, heading_deg=heading_deg,
+                           max_height_m=max_height_m)
+
+
+def _support_base(camera: Camera, pixels: np.ndarray, z: float, quantile: float,
+                  finite: bool = False) -> dict[str, Any] | None:
+    """:func:`support_plane_estimate`'s part that does not depend on the footprint's shape:
+    the cloud's image box, its foot row on the plane, the view's axes there and the width
+    across the view (None: no footprint). ``finite``: the pixels are known to be finite."""
     px = np.asarray(pixels, dtype=np.float64)
-    px = px[np.isfinite(px).all(axis=1)]
+    if not finite:
+        px = px[np.isfinite(px).all(axis=1)]
     if len(px) < 2:
         return None
     (u0, v0), (u1, v1), mid = _cloud_ends(px, quantile)
-    z = float(support_z_m)
     g = camera.image_to_ground(np.array([[mid[0], v1], [u0, v1], [u1, v1]]), z_m=z)
     if not np.isfinite(g).all():
         return None
@@ -196,10 +221,24 @@ def support_plane_estimate(camera: Camera, pixels: np.ndarray, *, support_z_m: f
     front = g[0]
     across, along = _axes(camera, front[:2])
     width = float(abs(np.dot(g[2] - g[1], across)))
-    width, depth = footprint_size(width, aspect, heading_deg)
+    return {"z": z, "ends": (u0, v0, u1, v1), "front": front, "across": across,
+            "along": along, "width": width}
+
+
+_HEIGHTS = np.linspace(0.0, 50.0, 65)  # the heights searched by default (read only)
+_HEIGHTS.flags.writeable = False
+
+
+def _support_finish(camera: Camera, base: dict[str, Any], *, aspect: float = 1.0,
+                    heading_deg: float | None = None, max_height_m: float = 50.0,
+                    ) -> dict[str, Any]:
+    """:func:`support_plane_estimate` from its :func:`_support_base`, for a footprint shape."""
+    z, (u0, v0, u1, v1) = base["z"], base["ends"]
+    front, across, along = base["front"], base["across"], base["along"]
+    width, depth = footprint_size(base["width"], aspect, heading_deg)
     back = front + depth * along
     # the top row on the vertical over the back of the footprint (the top edge seen last)
-    hz = np.linspace(0.0, float(max_height_m), 65)
+    hz = _HEIGHTS if float(max_height_m) == 50.0 else np.linspace(0.0, float(max_height_m), 65)
     col = np.repeat(back[None], len(hz), axis=0)
     col[:, 2] = z + hz
     vv = camera.project(col)[:, 1]
@@ -254,9 +293,35 @@ def _cloud_ends(pixels: np.ndarray, quantile: float,
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`cloud_box`'s (left, top), (right, bottom) and middle."""
     q = float(quantile)
-    lo, hi = np.quantile(pixels, [q, 1.0 - q], axis=0)
+    lo, hi = _quantiles(pixels, q, 1.0 - q)
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo) / (1.0 - 2.0 * q)  # a uniform spread's ends
     return mid - half, mid + half, mid
+
+
+def _quantiles(x: np.ndarray, q0: float, q1: float) -> tuple[np.ndarray, np.ndarray]:
+    """``np.quantile(x, [q0, q1], axis=0)`` of finite ``x`` (N, K), N >= 1, as two (K,)
+    arrays: the same numbers (numpy's "linear" method: the order statistics at the floor of
+    ``(N - 1) q`` and the next, and its interpolation), from one partition and no more."""
+    n = len(x)
+    idx = []
+    for q in (q0, q1):
+        v = (n - 1) * q
+        prev = int(math.floor(v))
+        if v >= n - 1:
+            prev = nxt = n - 1
+        elif v < 0:
+            prev = nxt = 0
+        else:
+            nxt = prev + 1
+        idx.append((v, prev, nxt))
+    part = np.partition(x, sorted({i for _, a, b in idx for i in (a, b)}), axis=0)
+    out = []
+    for v, prev, nxt in idx:
+        a, b = part[prev], part[nxt]
+        t = v - prev
+        d = b - a
+        out.append(b - d * (1 - t) if t >= 0.5 else a + d * t)  # numpy's _lerp
+    return out[0], out[1]
 
 
 def cuboid_boxes(camera: Camera, centres_m: np.ndarray, sizes_m: np.ndarray, across: np.ndarray,
@@ -477,6 +542,10 @@ class VolumeTracks(TrackManager):
         if context.camera is not None:
             self.camera_ = context.camera
         self._check()
+        if _kernel("region_mask") is not None:
+            from pftrack_coast._kernels import warm_up
+
+            warm_up()  # before the first frame
 
     def _check(self) -> None:
         if "volumes_" in self.__dict__:
@@ -602,7 +671,7 @@ class VolumeTracks(TrackManager):
         b, ri = t.particle_boxes_xywh_px, t.resample_index
         if b is not None and ri is not None and len(ri) == len(points) and \
                 not b[:, 2:].any():
-            return b[ri, :2]
+            return b[:, :2].take(ri, axis=0)  # (b[ri, :2]: the same rows, faster)
         return self.camera_.project(points)
 
     def _group_region(self, volume: Any, tid: int) -> Any:
@@ -611,7 +680,20 @@ class VolumeTracks(TrackManager):
     def _in_region(self, tid: int, volume: Any, mode: str, points: np.ndarray) -> np.ndarray:
         """Where particles of target ``tid`` may be: in ``volume``, and (``"exclude"``, a
         detection group) outside every tracked intruder's box enlarged by
-        ``exclusion_margin`` and outside its gate, or (``"gate"``, a track) inside its gate."""
+        ``exclusion_margin`` and outside its gate, or (``"gate"``, a track) inside its gate.
+        For a cuboid, one compiled pass (:func:`pftrack_coast._kernels.region_mask`, the same
+        comparisons)."""
+        kernel = _kernel("region_mask") if isinstance(volume, CuboidVolume) else None
+        if kernel is not None:
+            lo, hi = self._region_boxes(tid, mode)
+            local = volume.to_local(points)  # (CuboidVolume.contains' numbers)
+            tol = 1e-9 * max(1.0, float(np.max(np.abs(volume.center_m))))
+            lim = np.asarray(volume.size_m / 2.0 + tol, dtype=np.float64)
+            out = np.empty(len(local), dtype=np.bool_)
+            px = self._pixels(tid, points) if len(lo) else np.zeros((0, 2))
+            kernel(np.ascontiguousarray(local), lim, np.ascontiguousarray(px, dtype=np.float64),
+                   lo, hi, mode == "gate", out)
+            return out
         inside = volume.contains(points)
         if not inside.any():
             return inside
@@ -640,6 +722,30 @@ class VolumeTracks(TrackManager):
         with np.errstate(invalid="ignore"):
             hit = ((px[:, None, :] >= lo[None]) & (px[:, None, :] <= hi[None])).all(axis=2)
         return inside & ~hit.any(axis=1)
+
+    def _region_boxes(self, tid: int, mode: str) -> tuple[np.ndarray, np.ndarray]:
+        """The image boxes of :meth:`_in_region` as corners ``lo``, ``hi`` (B, 2): a track's
+        gate (``"gate"``; none without one), or the tracked intruders' boxes enlarged by
+        ``exclusion_margin`` and widened to their gates (``"exclude"``)."""
+        if mode == "gate":
+            gate = self.gates_.get(tid)
+            if gate is None:
+                return np.zeros((0, 2)), np.zeros((0, 2))
+            return np.ascontiguousarray(gate[None, :2]), (gate[:2] + gate[2:])[None]
+        boxes = list(self.boxes_.values())
+        if not boxes:
+            return np.zeros((0, 2)), np.zeros((0, 2))
+        b = np.array(boxes)
+        m = float(self.exclusion_margin)
+        lo = b[:, :2] - m * b[:, 2:]
+        hi = b[:, :2] + (1.0 + m) * b[:, 2:]
+        gates = [self.gates_.get(k) for k in self.boxes_]
+        if any(g is not None for g in gates):  # a track's gate is taken away too
+            g = np.array([x if x is not None else np.full(4, np.nan) for x in gates])
+            has = np.isfinite(g).all(axis=1)
+            lo[has] = np.minimum(lo[has], g[has, :2])
+            hi[has] = np.maximum(hi[has], g[has, :2] + g[has, 2:])
+        return lo, hi
 
     def _track_region(self, tid: int, volume: Any) -> Any:
         return _Region(self, volume, tid, "gate")
@@ -717,15 +823,17 @@ class VolumeTracks(TrackManager):
         across, along = _axes(cam, raw_centre[:2])
         est = None
         if fine.sum() >= 2:
-            est = support_plane_estimate(cam, px[fine], support_z_m=float(self.support_z_m))
-            if est is not None:
-                across, along = est["across"], est["along"]
+            # (support_plane_estimate, its shape-free part computed once)
+            base = _support_base(cam, px[fine], float(self.support_z_m), 0.02, finite=True)
+            if base is not None:
+                across, along = base["across"], base["along"]
                 vel = t.state[3:5] if len(t.state) >= 6 else None
                 heading = self._heading(t.id, across, vel)
                 if float(self.footprint_aspect) != 1.0:  # (a square: the heading is moot)
-                    est = support_plane_estimate(
-                        cam, px[fine], support_z_m=float(self.support_z_m),
-                        aspect=float(self.footprint_aspect), heading_deg=heading)
+                    est = _support_finish(cam, base, aspect=float(self.footprint_aspect),
+                                          heading_deg=heading)
+                else:
+                    est = _support_finish(cam, base)
         cov = np.cov(pos.T, bias=True) if len(pos) > 1 else np.zeros((3, 3))
         up = np.array([0.0, 0.0, 1.0])
         size_raw = np.array([2.0 * math.sqrt(max(float(a @ cov @ a), 0.0))
@@ -1136,6 +1244,7 @@ class VolumeTracks(TrackManager):
         px = px[np.isfinite(px).all(axis=1)]
         if not len(px):
             return "none"
+        est = None
         if self.object_size_m is not None or self.merge_distance_m is not None:
             est = support_plane_estimate(self.camera_, px, support_z_m=float(self.support_z_m))
             if est is None:
@@ -1152,7 +1261,10 @@ class VolumeTracks(TrackManager):
                     return "small"
         if not self.boxes_:
             return None
-        box = cloud_box(px) if len(px) >= 2 else np.concatenate([px[0], np.zeros(2)])
+        if est is not None:  # cloud_box(px): the estimate's image box, the same numbers
+            box = est["box_xywh_px"]
+        else:
+            box = cloud_box(px) if len(px) >= 2 else np.concatenate([px[0], np.zeros(2)])
         lo, hi = box[:2], box[:2] + box[2:]
         area = max(float(np.prod(hi - lo)), 1e-9)
         b = np.array(list(self.boxes_.values()))

@@ -12,6 +12,9 @@ bit for bit:
   the Generator's PCG64 state, which is read before and written back after, so the Generator
   ends where ``standard_normal((N, 6))`` leaves it. Only an exact ``PCG64`` bit generator takes
   this path (``np.random.default_rng``'s); any other takes the numpy path;
+* :func:`constant_velocity_update`: the deterministic part of
+  :class:`pftrack_basic.motion.ConstantVelocity3DMotion`'s (and 2-D's) step, all targets' rows
+  in one pass (``predict_rows``);
 * :func:`centre_boxes`: the (N, 4) boxes of :class:`pftrack.tracker.ImageBoxObservation`
   (centre minus half the size, then the size), one row at a time;
 * :func:`gaussian_centre_log_likelihood`: the box-centre Gaussian of
@@ -49,6 +52,7 @@ __all__ = [
     "centre_boxes",
     "centre_boxes_rows",
     "constant_acceleration_predict",
+    "constant_velocity_update",
     "gaussian_centre_log_likelihood",
     "pcg64_standard_normal",
     "random_walk_predict",
@@ -170,6 +174,16 @@ def random_walk_predict(states: np.ndarray, std: np.ndarray,
     if _with_pcg64(rng, _k().random_walk_predict, s.reshape(-1), sd, out.reshape(-1)):
         return out
     return None
+
+
+def constant_velocity_update(out: np.ndarray, states: np.ndarray, std: np.ndarray, k: int,
+                             dt: float, from_displacement: bool) -> None:
+    """The deterministic part of ``_ConstantVelocityMotion``'s step on its drawn noise ``out``
+    (M, 2k, C-contiguous), in place: the numbers of its numpy path (``out *= std`` and the
+    column updates) in one pass."""
+    _k().constant_velocity_update(out, np.ascontiguousarray(states, dtype=np.float64),
+                                  np.ascontiguousarray(std, dtype=np.float64), int(k),
+                                  float(dt), bool(from_displacement))
 
 
 def gaussian_centre_log_likelihood(boxes: np.ndarray, ox: float, oy: float,

@@ -509,3 +509,21 @@ def estimate_resample_rows(vals, pos, w, p, u, states, extents, idx, resampled
             src = idx[r, j]
             for k in range(d):
                 resampled[r, j, k] = p[r, src, k]
+
+
+@njit(**_JIT)  # type: ignore[call-overload]
+def constant_velocity_update(out, states, std, k, dt, from_displacement):  # pragma: no cover
+    """``_ConstantVelocityMotion``'s step on drawn noise ``out`` (M, 2k), in place: ``out *=
+    std``, then per axis i the column updates of its numpy path, in their order (velocity
+    from the displacement, plus the old velocity; position plus the old position and the
+    old velocity times dt), one row at a time."""
+    d = out.shape[1]
+    for r in range(out.shape[0]):
+        for j in range(d):
+            out[r, j] *= std[j]
+        for i in range(k):
+            if from_displacement:
+                out[r, k + i] += out[r, i] / dt
+            out[r, k + i] += states[r, k + i]
+            out[r, i] += states[r, i]
+            out[r, i] += dt * states[r, k + i]

@@ -47,6 +47,7 @@ __all__ = [
     "TsaiDistortion",
     "distortion_from_dict",
     "look_at_rotation",
+    "same_bits",
     "tsai_angles",
     "tsai_rotation",
 ]
@@ -582,9 +583,23 @@ class Camera:
     def project(self, points_world_m: Any) -> np.ndarray:
         """World points (N, 3) in metres -> pixel coordinates (N, 2).
 
-        Rows for points at or behind the camera's centre plane are NaN.
+        Rows for points at or behind the camera's centre plane are NaN. Once
+        :meth:`project_rows` has loaded its compiled pass (and checked it), the same numbers
+        come from it.
         """
         pc = self.world_to_camera(points_world_m)
+        d = self.distortion
+        if _ROWS_KERNEL and _ROWS_KERNEL[0] is not None:
+            # once project_rows has loaded the kernel (never here: a process that only
+            # projects does not pay numba's import), the numbers below in one compiled pass
+            lens = _kernel_lens(d)
+            if lens is not None:
+                return _run_rows_kernel(_ROWS_KERNEL[0], np.ascontiguousarray(pc)[None],
+                                        lens, self.K)[0]
+        return self._project_numpy(pc)
+
+    def _project_numpy(self, pc: np.ndarray) -> np.ndarray:
+        """:meth:`project`'s numpy path from camera-frame points (N, 3)."""
         z = pc[:, 2]
         front = z > 1e-9
         zs = np.where(front, z, 1.0)
@@ -592,6 +607,47 @@ class Camera:
         px = self.normalized_to_pixels(xy)
         px[~front] = np.nan
         return px
+
+    def project_rows(self, points_world_m: Any) -> np.ndarray:
+        """:meth:`project` of T sets of points at once: (T, N, 3) metres -> (T, N, 2) pixels,
+        row ``t`` equal bit for bit to ``project(points_world_m[t])`` (Tsai's Newton
+        iterations stop per row, as they do per call).
+
+        With no lens, Tsai's or OpenCV's, one compiled pass (:mod:`pftrack.geometry._kernels`)
+        after numpy's batched rotation (the same products per row as the (N, 3) call); with another
+        lens, or ``PFTRACK_NO_JIT=1``, or where the compiled pass was found to differ from the
+        numpy path when first loaded, row by row through :meth:`project`'s numpy path.
+
+        Parameters
+        ----------
+        points_world_m : array_like, shape (T, N, 3)
+            T sets of N world points, metres.
+
+        Returns
+        -------
+        ndarray, shape (T, N, 2)
+            Pixels; NaN for points at or behind the camera's centre plane (and where a lens
+            has no value).
+
+        Raises
+        ------
+        ValueError
+            If the points are not (T, N, 3).
+        """
+        p = np.asarray(points_world_m, dtype=np.float64)
+        if p.ndim != 3 or p.shape[2] != 3:
+            raise ValueError(f"project_rows: expected an array of shape (T, N, 3), got "
+                             f"{p.shape}")
+        lens = _kernel_lens(self.distortion)
+        kernel = _rows_kernel() if lens is not None else None
+        if kernel is None or lens is None:
+            out = np.empty(p.shape[:2] + (2,))
+            for i, row in enumerate(p):
+                out[i] = self._project_numpy(self.world_to_camera(row))
+            return out
+        # matmul of a (T, N, 3) stack runs one (N, 3) product per row: the rows' own numbers
+        pc = np.ascontiguousarray(p @ self.R.T + self.t_m)
+        return _run_rows_kernel(kernel, pc, lens, self.K)
 
     def in_image(self, pixels: Any, margin_px: float = 0.0) -> np.ndarray:
         """Boolean (N,): pixel lies inside the image (pixel centres 0..w-1, 0..h-1), with a margin
@@ -656,6 +712,105 @@ class Camera:
     def image_to_ground(self, pixels: Any, z_m: float = 0.0) -> np.ndarray:
         """Back-project pixels onto the horizontal plane z = ``z_m`` (metres), shape (N, 3)."""
         return self.image_to_plane(pixels, ((0.0, 0.0, 1.0), z_m))
+
+
+_ROWS_KERNEL: list[Any] = []  # [kernel or None] once decided
+
+
+def _kernel_lens(d: LensDistortion) -> tuple[float, np.ndarray | None] | None:
+    """The compiled projection's lens arguments: Tsai's kappa1 (0: none) and OpenCV's
+    coefficients with the squared fold-back radius (None: not OpenCV's); None for a lens it
+    does not know."""
+    if type(d) is NoDistortion:  # (exact types: a subclass may change the arithmetic)
+        return 0.0, None
+    if type(d) is TsaiDistortion:
+        return d.kappa1, None
+    if type(d) is OpenCVDistortion:
+        return 0.0, np.array([d.k1, d.k2, d.p1, d.p2, d.k3, d.k4, d.k5, d.k6,
+                              d.max_radius ** 2])
+    return None
+
+
+def _run_rows_kernel(kernel: Any, pc: np.ndarray, lens: tuple[float, np.ndarray | None],
+                     K: np.ndarray) -> np.ndarray:
+    """Pixels (T, N, 2) of camera-frame points ``pc`` (T, N, 3, C-contiguous)."""
+    n = pc.shape[1]
+    out = np.empty(pc.shape[:2] + (2,))
+    kernel(pc, lens[0], lens[1], K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2], out, np.empty(n),
+           np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_))
+    return out
+
+
+def _rows_kernel() -> Any:
+    """The compiled :meth:`Camera.project_rows` kernel, or None (``PFTRACK_NO_JIT``, numba
+    missing, or its numbers differ from :meth:`Camera.project`'s on a check set).
+
+    Decided once per process: the kernel computes ``rd ** 3`` as libm's ``pow``; numpy's
+    ``power`` loop may use another implementation on other processors (SIMD), so on first use
+    both paths project a fixed set of points (both signs of kappa, points behind the camera,
+    far outside the image, on the optical axis) and the kernel is used only if every bit
+    agrees."""
+    if _ROWS_KERNEL:
+        return _ROWS_KERNEL[0]
+    kernel = None
+    from pftrack.filter import _jit
+
+    if _jit.ENABLED:
+        try:
+            from pftrack.geometry import _kernels
+
+            kernel = _kernels.camera_to_pixels_rows
+        except ImportError:  # pragma: no cover - numba is a dependency
+            kernel = None
+    if kernel is not None and not _rows_kernel_agrees(kernel):
+        kernel = None  # pragma: no cover - depends on the machine's numpy
+    _ROWS_KERNEL.append(kernel)
+    return kernel
+
+
+def _rows_kernel_agrees(kernel: Any) -> bool:
+    """Whether ``kernel`` gives :meth:`Camera.project`'s numbers on a check set."""
+    rng = np.random.default_rng(20261124)
+    pts = rng.normal(0.0, 1.0, (2, 4000, 3)) * np.array([8.0, 8.0, 3.0])
+    pts[:, :, 2] += 6.0  # mostly in front, some behind
+    pts[0, :4] = [[0.0, 0.0, 5.0], [0.0, 0.0, 0.0], [50.0, -40.0, 1.0], [np.nan, 0.0, 5.0]]
+    lenses: list[LensDistortion] = [TsaiDistortion(0.15772011860650012), TsaiDistortion(-0.3),
+                                    TsaiDistortion(0.0), NoDistortion(), OpenCVDistortion(-0.05),
+                                    OpenCVDistortion(-0.2, 0.05, 1e-3, -2e-3, 0.01, 0.1, 0.02,
+                                                     0.003)]
+    for lens in lenses:
+        cam = Camera.look_at((0.3, -0.2, 0.1), (0.0, 0.0, 5.0), (768, 576), fx=700.0,
+                             distortion=lens)
+        pc = np.ascontiguousarray(pts @ cam.R.T + cam.t_m)
+        args = _kernel_lens(lens)
+        assert args is not None
+        out = _run_rows_kernel(kernel, pc, args, cam.K)
+        ref = np.array([cam._project_numpy(cam.world_to_camera(row)) for row in pts])
+        if not same_bits(out, ref):
+            return False
+    return True
+
+
+def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two arrays hold the same float64 numbers bit for bit.
+
+    Parameters
+    ----------
+    a, b : array_like
+        Compared as float64.
+
+    Returns
+    -------
+    bool
+        Same shape and the same bits everywhere, any NaN equal to any NaN (0.0 and -0.0
+        differ).
+    """
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    if a.shape != b.shape:
+        return False
+    na, nb = np.isnan(a), np.isnan(b)
+    return bool(np.array_equal(na, nb) and np.array_equal(np.where(na, 0.0, a).view(np.int64),
+                                                          np.where(nb, 0.0, b).view(np.int64)))
 
 
 #: What a component's ``camera`` parameter takes: a :class:`Camera` or a camera file path

@@ -1,0 +1,135 @@
+"""The volume tracker's compiled paths (seed 003's speed): each gives the numpy path's numbers,
+and the whole run's tracks do not change; the benchmark's speed figure in the goal's
+configuration (3 groups of 5000 particles)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pftrack.geometry import camera as camera_module
+from pftrack_coast import likelihood as likelihood_module
+from pftrack_coast import volumes as volumes_module
+from pftrack_coast._kernels import blocks_of_pixels
+from pftrack_coast.bench_seed003 import speed_3x5000
+from pftrack_coast.volumes import _quantiles
+
+from tests.plugins.coast.test_coast_volumes import _run
+
+
+def _no_kernels(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every seed 003 kernel off: the numpy paths (as PFTRACK_NO_JIT=1)."""
+    monkeypatch.setattr(volumes_module, "_kernel", lambda name: None)
+    monkeypatch.setattr(camera_module, "_ROWS_KERNEL", [None])
+    monkeypatch.setenv("PFTRACK_NO_JIT", "1")
+    from pftrack.filter import _jit
+
+    monkeypatch.setattr(_jit, "ENABLED", False)
+
+
+def test_volume_run_with_and_without_the_compiled_paths_gives_the_same_tracks(monkeypatch):
+    """Two people walking through a volume (perfect foreground): records, estimates and
+    events of the compiled run equal the numpy run's, bit for bit."""
+    engine, tracks, rows, *_ = _run(seed=5, n_frames=45)
+    assert len(rows) > 40 and len(np.unique(rows[:, 1])) >= 2  # people were tracked
+    _no_kernels(monkeypatch)
+    engine2, tracks2, rows2, *_ = _run(seed=5, n_frames=45)
+    assert rows.tobytes() == rows2.tobytes()
+    assert tracks.events_ == tracks2.events_
+    for a, b in zip(tracks.estimates_, tracks2.estimates_, strict=True):
+        assert a.keys() == b.keys()
+        for k in a:
+            assert np.asarray(a[k]).tobytes() == np.asarray(b[k]).tobytes(), k
+
+
+def test_region_kernel_equals_the_numpy_region(monkeypatch):
+    """A detection group's region (off the tracked people's boxes and gates) and a track's
+    gate, on particles in and out of the volume and NaN pixels: the same masks."""
+    engine, tracks, *_ = _run(seed=2, n_frames=30)
+    assert tracks.boxes_ and tracks.gates_
+    vol = next(iter(tracks.volumes_.values()))
+    rng = np.random.default_rng(0)
+    pts = np.concatenate([vol.sample(3000, rng), rng.normal(0.0, 20.0, (1000, 3))])
+    gid, tid = next(iter(tracks.groups_)), next(iter(tracks.tracks_))
+    fast = [tracks._in_region(i, vol, m, pts) for i, m in ((gid, "exclude"), (tid, "gate"))]
+    monkeypatch.setattr(volumes_module, "_kernel", lambda name: None)
+    slow = [tracks._in_region(i, vol, m, pts) for i, m in ((gid, "exclude"), (tid, "gate"))]
+    for a, b in zip(fast, slow):
+        assert a.dtype == b.dtype == bool and np.array_equal(a, b)
+    assert 0 < fast[0].sum() < 3000 and 0 < fast[1].sum() < 100  # both masks do something
+
+
+def test_block_lookup_kernel_equals_numpy(monkeypatch):
+    rng = np.random.default_rng(1)
+    px = rng.uniform(-30.0, 800.0, (5000, 2))
+    px[:10] = np.nan
+    px[10:20] = [[-0.0, 0.0], [767.999, 575.999], [768.0, 0.0], [-1e-12, 5.0], [np.inf, 3.0],
+                 [8.0, 8.0], [7.999999, 8.0], [0.0, -np.inf], [1e300, 1e300], [64.0, 575.0]]
+    ok, idx = likelihood_module._blocks_of_pixels(px, 8, (72, 96))
+    from pftrack.filter import _jit
+
+    monkeypatch.setattr(_jit, "ENABLED", False)
+    ok2, idx2 = likelihood_module._blocks_of_pixels(px, 8, (72, 96))
+    assert np.array_equal(ok, ok2) and idx.dtype == idx2.dtype and np.array_equal(idx, idx2)
+    assert 0 < ok.sum() < len(px)
+    o, i = np.empty(2, dtype=bool), np.empty(2, dtype=np.intp)
+    assert blocks_of_pixels(np.array([[9.0, 17.0], [np.nan, 1.0]]), 8.0, 72, 96, o, i) == 1
+    assert o.tolist() == [True, False] and i[0] == 2 * 96 + 1
+
+
+def test_quantiles_equal_numpy_quantile():
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 3, 50, 5000):
+        for q in (0.0, 0.02, 0.25, 0.5, 0.7, 1.0):
+            x = rng.normal(0.0, 200.0, (n, 2))
+            if n > 3:
+                x[: n // 3] = np.round(x[: n // 3])  # ties
+            lo, hi = _quantiles(x, q, 1.0 - q)
+            ref = np.quantile(x, [q, 1.0 - q], axis=0)
+            assert lo.tobytes() == ref[0].tobytes() and hi.tobytes() == ref[1].tobytes()
+
+
+def test_speed_3x5000_counts_only_frames_with_three_groups_of_5000():
+    runs = [{"n_particles": 5000, "frame_cpu_s": np.array([0.5, 0.01, 0.02, 0.01, 0.2]),
+             "frame_targets": np.array([0, 3, 3, 3, 4])},
+            {"n_particles": 5000, "frame_cpu_s": np.array([0.01, 0.03]),
+             "frame_targets": np.array([3, 2])},
+            {"n_particles": 400, "frame_cpu_s": np.array([0.001]), "frame_targets": np.array([3])}]
+    out = speed_3x5000(runs)
+    assert out["frames_3x5000"] == 4
+    assert out["frames_per_second_3x5000"] == pytest.approx(4 / 0.05)
+    assert speed_3x5000(runs[2:]) == {"frames_per_second_3x5000": None, "frames_3x5000": 0}
+
+
+def test_block_scores_from_the_integer_grey_and_the_compiled_gather_equal_numpy(monkeypatch):
+    """relative_variation_at on OpenCV's integer grey levels (compiled gather) gives the
+    numbers of the float64 frame through numpy's gather; the likelihood's values do not
+    depend on which path scored the blocks."""
+    import cv2
+    from pftrack.components import Frame
+    from pftrack.filter import _jit
+    from pftrack_coast.eigenspace import BlockEigenspaceModel
+    from pftrack_coast.likelihood import EigenspaceLikelihood
+
+    rng = np.random.default_rng(4)
+    base = np.linspace(40.0, 200.0, 96)[None, :, None] + np.zeros((64, 96, 3))
+    frames = [np.clip(base + rng.normal(0, 5, base.shape), 0, 255).astype(np.uint8)
+              for _ in range(12)]
+    model = BlockEigenspaceModel(block_size=8).fit(frames)
+    img = frames[0].copy()
+    img[20:40, 30:60] = 250  # an intruder
+    raw = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+    blocks = np.array([0, 5, 13, 30, 50, 95])
+    fast = model.relative_variation_at(raw, blocks)
+    assert fast.tobytes() == model.relative_variation_at(model.grey(img), blocks).tobytes()
+    like = EigenspaceLikelihood().set_model(model)
+    like.prepare()
+    px = np.column_stack([rng.uniform(0, 96, 3000), rng.uniform(0, 64, 3000)])
+    boxes = np.column_stack([px, np.zeros((3000, 2))])
+    like.begin_frame(Frame(1, img), [])
+    a = like.log_likelihood(boxes, None)
+    monkeypatch.setattr(_jit, "ENABLED", False)
+    slow = model.relative_variation_at(model.grey(img), blocks)
+    assert fast.tobytes() == slow.tobytes()
+    like.begin_frame(Frame(1, img), [])
+    assert a.tobytes() == like.log_likelihood(boxes, None).tobytes()
+    assert np.isfinite(a).any() and (a > np.log(0.5)).any() and (a < np.log(0.5)).any()
