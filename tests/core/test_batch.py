@@ -18,7 +18,6 @@ import pytest
 import yaml
 from pftrack.batch import load_jobs, local_cluster, parse_jobs, run_batch
 from pftrack.cli import main
-from pftrack.cli._alloc import HEAP_ARRAYS_UP_TO, kept
 from pftrack.data import data_dir
 
 PETS = data_dir() / "pets09"
@@ -199,10 +198,8 @@ def test_a_local_cluster_gives_the_serial_bits(tmp_path, svm):
     assert serial.n_failed == 0 and len(serial.rows) == 7
     with local_cluster(2) as cluster, distributed.Client(cluster) as client:
         if "MALLOC_TRIM_THRESHOLD_" not in os.environ:
-            # glibc's own malloc thresholds in the workers (Dask's default would fix them), or
-            # the pftrack command's when this process has them (test_workers_get_...)
-            want = str(HEAP_ARRAYS_UP_TO) if kept() else None
-            assert set(client.run(os.getenv, "MALLOC_TRIM_THRESHOLD_").values()) == {want}
+            # glibc's own malloc thresholds in the workers (Dask's default would fix them)
+            assert set(client.run(os.getenv, "MALLOC_TRIM_THRESHOLD_").values()) == {None}
         par = run_batch(jobs, tmp_path / "dask", client=client, progress=False)
         assert client.status == "running"  # the caller's client is left open
     assert par.n_failed == 0
@@ -224,24 +221,6 @@ def test_a_local_cluster_gives_the_serial_bits(tmp_path, svm):
     assert agg["pets-set1"]["n"] == 2 and agg["pets-set1"]["seeds"] == [0, 1]
     mota = [par.row(f"pets-seed{s}-set1")["MOTA"] for s in (0, 1)]
     assert agg["pets-set1"]["MOTA_mean"] == pytest.approx(sum(mota) / 2)
-
-
-@pytest.mark.parametrize("command_heap", [True, False])
-def test_workers_get_the_commands_heap_setting(monkeypatch, command_heap):
-    """A local cluster's workers run with the malloc thresholds of the process that starts it:
-    the ``pftrack`` command's raised ones (so a job costs a worker what it costs the command
-    serially), or glibc's own (Dask's default MALLOC_TRIM_THRESHOLD_ removed)."""
-    distributed = pytest.importorskip("distributed")
-    import pftrack.cli._alloc as alloc
-
-    for var in ("MALLOC_TRIM_THRESHOLD_", "MALLOC_MMAP_THRESHOLD_"):
-        monkeypatch.delenv(var, raising=False)
-    monkeypatch.setattr(alloc, "_kept", command_heap)
-    with local_cluster(1) as cluster, distributed.Client(cluster) as client:
-        env = list(client.run(lambda: (os.getenv("MALLOC_TRIM_THRESHOLD_"),
-                                       os.getenv("MALLOC_MMAP_THRESHOLD_"))).values())
-    want = str(HEAP_ARRAYS_UP_TO) if command_heap else None
-    assert env == [(want, want)]
 
 
 def _free_port() -> int:

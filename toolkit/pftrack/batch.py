@@ -640,24 +640,11 @@ def local_cluster(n_workers: int) -> Any:
     calling process (4.0 against 2.85 s for 30 frames). ``MALLOC_TRIM_THRESHOLD_: null`` under
     ``distributed.nanny.pre-spawn-environ`` is Dask's documented way to leave it unset (the
     README shows the same for workers started with ``dask worker``).
-
-    Where this process runs with the ``pftrack`` command's heap setting
-    (:func:`pftrack.cli._alloc.keep_large_arrays`: glibc's mmap and trim thresholds raised so
-    that frame-sized arrays are reused, not mapped anew), the workers get the same through
-    ``MALLOC_MMAP_THRESHOLD_`` / ``MALLOC_TRIM_THRESHOLD_``, so that a job costs a worker what it
-    costs the command run serially; ``PFTRACK_MALLOC=default`` leaves both to glibc.
     """
     import dask
 
-    from pftrack.cli._alloc import HEAP_ARRAYS_UP_TO, kept
-
     distributed = require_dask()
-    environ: dict[str, str | None] = {"MALLOC_TRIM_THRESHOLD_": None}
-    if kept():
-        environ = {"MALLOC_TRIM_THRESHOLD_": str(HEAP_ARRAYS_UP_TO),
-                   "MALLOC_MMAP_THRESHOLD_": str(HEAP_ARRAYS_UP_TO)}
-    with dask.config.set({f"distributed.nanny.pre-spawn-environ.{k}": v
-                          for k, v in environ.items()}):
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
         return distributed.LocalCluster(n_workers=n_workers, threads_per_worker=1,
                                         processes=True, dashboard_address=None)
 
