@@ -697,30 +697,14 @@ class VolumeTracks(TrackManager):
         inside = volume.contains(points)
         if not inside.any():
             return inside
-        if mode == "gate":
-            gate = self.gates_.get(tid)
-            if gate is None:
-                return inside
-            px = self._pixels(tid, points)
-            with np.errstate(invalid="ignore"):
-                hit = ((px >= gate[:2]) & (px <= gate[:2] + gate[2:])).all(axis=1)
-            return inside & hit
-        boxes = list(self.boxes_.values())
-        if not boxes:
+        lo, hi = self._region_boxes(tid, mode)
+        if not len(lo):  # no gate, or no tracked intruder to keep away from
             return inside
-        b = np.array(boxes)
-        m = float(self.exclusion_margin)
-        lo = b[:, :2] - m * b[:, 2:]
-        hi = b[:, :2] + (1.0 + m) * b[:, 2:]
-        gates = [self.gates_.get(k) for k in self.boxes_]
-        if any(g is not None for g in gates):  # a track's gate is taken away too
-            g = np.array([x if x is not None else np.full(4, np.nan) for x in gates])
-            has = np.isfinite(g).all(axis=1)
-            lo[has] = np.minimum(lo[has], g[has, :2])
-            hi[has] = np.maximum(hi[has], g[has, :2] + g[has, 2:])
         px = self._pixels(tid, points)
         with np.errstate(invalid="ignore"):
             hit = ((px[:, None, :] >= lo[None]) & (px[:, None, :] <= hi[None])).all(axis=2)
+        if mode == "gate":
+            return inside & hit[:, 0]
         return inside & ~hit.any(axis=1)
 
     def _region_boxes(self, tid: int, mode: str) -> tuple[np.ndarray, np.ndarray]:
