@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from pftrack.batch import load_jobs, local_cluster, parse_jobs, run_batch
+from pftrack.batch import WORKER_CONFIG, load_jobs, local_cluster, parse_jobs, run_batch
 from pftrack.cli import main
 from pftrack.data import data_dir
 
@@ -189,6 +189,7 @@ def test_without_dask_it_says_what_to_install_and_runs_serially(tmp_path):
 
 def test_a_local_cluster_gives_the_serial_bits(tmp_path, svm):
     distributed = pytest.importorskip("distributed")
+    import dask
     jobs = parse_jobs({"jobs": [
         _pets_entry(svm, matrix={"seed": [0, 1], "set": [{"tracker.n_particles": 100},
                                                          {"tracker.n_particles": 200}]}),
@@ -200,6 +201,12 @@ def test_a_local_cluster_gives_the_serial_bits(tmp_path, svm):
         if "MALLOC_TRIM_THRESHOLD_" not in os.environ:
             # glibc's own malloc thresholds in the workers (Dask's default would fix them)
             assert set(client.run(os.getenv, "MALLOC_TRIM_THRESHOLD_").values()) == {None}
+        # Dask's bookkeeping made sparse in the workers themselves, not only in this process
+        got = client.run(lambda: [dask.config.get(k) for k in WORKER_CONFIG
+                                  if not k.startswith("distributed.nanny")])
+        want = [v for k, v in WORKER_CONFIG.items() if not k.startswith("distributed.nanny")]
+        assert len(got) == 2 and all(g == want for g in got.values())
+        assert want[0] is False and dask.config.get("distributed.worker.profile.enabled")
         par = run_batch(jobs, tmp_path / "dask", client=client, progress=False)
         assert client.status == "running"  # the caller's client is left open
     assert par.n_failed == 0
