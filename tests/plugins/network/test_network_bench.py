@@ -4,8 +4,10 @@ small case and the plugin's registration (pftrack_network)."""
 from __future__ import annotations
 
 import argparse
+import hashlib
 import itertools
 import json
+from collections import Counter
 
 import numpy as np
 import pytest
@@ -52,13 +54,65 @@ def test_virtual_dataset_follows_the_protocol():
         for a, b in itertools.pairwise(mine):  # consecutive cameras are neighbours, time moves on
             assert b.camera in net.neighbours(a.camera) and b.t_start_s > a.t_end_s
         cav = ds.caviar_person[p]
+        n_on = Counter(ds.real_camera[t.camera] for t in mine)
         for t in mine:  # the images are the real camera's images of that CAVIAR person
             real = people[cav][ds.real_camera[t.camera]]
-            assert len(t.images) == 3
+            # an equal share of the person's distinct images of that real camera, at most 3
+            distinct = len({_pixels(r) for r in real})
+            assert len(t.images) == min(3, distinct // n_on[ds.real_camera[t.camera]]) >= 1
             assert all(any(im is r for r in real) for im in t.images)
     again = make_dataset(np.random.default_rng(11))
-    assert [(t.camera, t.t_start_s) for t in again.tracklets] == \
-        [(t.camera, t.t_start_s) for t in ds.tracklets]
+    assert [(t.camera, t.t_start_s, [_pixels(im) for im in t.images]) for t in again.tracklets] \
+        == [(t.camera, t.t_start_s, [_pixels(im) for im in t.images]) for t in ds.tracklets]
+    # the old protocol (image_reuse) walks the same and gives every tracklet 3 images
+    old = make_dataset(np.random.default_rng(11), image_reuse=True)
+    assert [(t.camera, t.t_start_s, t.person) for t in old.tracklets] == \
+        [(t.camera, t.t_start_s, t.person) for t in ds.tracklets]
+    assert all(len(t.images) == 3 for t in old.tracklets)
+
+
+def _pixels(image):
+    return image.shape, hashlib.sha1(image.tobytes()).hexdigest()
+
+
+def _images_shared_within_people(ds):
+    """How many images (by pixels) appear in more than one tracklet of the same person."""
+    shared = 0
+    for p in set(ds.truth.tolist()):
+        seen = Counter(_pixels(im) for t in ds.tracklets if t.person == p for im in t.images)
+        shared += sum(c > 1 for c in seen.values())
+    return shared
+
+
+@pytest.mark.parametrize("seed", [1, 3, 1002])
+def test_no_image_appears_in_two_tracklets_of_one_person(seed):
+    """The protocol gives no two tracklets of a person the same image (by pixel hash), which
+    the old protocol (``image_reuse=True``, up to stop 23) did for most same-camera pairs. Seed
+    1 cuts two people's walks (an 11th and 13th tracklet through one real camera), seed 3
+    draws CAVIAR person 29, whose images 002 and 003 are pixel-identical, seed 1002 cuts the
+    walk of a person with 14 tracklets through one real camera."""
+    from pftrack_network.virtual import make_dataset
+
+    new = make_dataset(np.random.default_rng(seed))
+    old = make_dataset(np.random.default_rng(seed), image_reuse=True)
+    assert _images_shared_within_people(new) == 0
+    assert _images_shared_within_people(old) > 30  # the flaw the new protocol removes
+    assert all(len(t.images) >= 1 for t in new.tracklets)
+    # the same walks, times and people; only cut walks lose their last tracklets
+    key_new = [(t.camera, t.t_start_s, t.person) for t in new.tracklets]
+    key_old = [(t.camera, t.t_start_s, t.person) for t in old.tracklets]
+    assert set(key_new) <= set(key_old)
+    cut = {p for _, _, p in set(key_old) - set(key_new)}
+    for p in cut:
+        mine_old = [t for t in old.tracklets if t.person == p]
+        on_real = Counter(old.real_camera[t.camera] for t in mine_old)
+        assert max(on_real.values()) > 10  # more tracklets than images on a real camera
+        kept = [t for t in new.tracklets if t.person == p]
+        assert [(t.camera, t.t_start_s) for t in kept] == \
+            [(t.camera, t.t_start_s) for t in mine_old[:len(kept)]]  # a prefix of the walk
+        nxt = mine_old[len(kept)]  # the first dropped one: its real camera had no image left
+        assert sum(old.real_camera[t.camera] == old.real_camera[nxt.camera] for t in kept) >= 9
+    assert (len(cut) > 0) == (seed in (1, 1002))
 
 
 def test_project_ari_matches_scikit_learn_on_linker_output():
