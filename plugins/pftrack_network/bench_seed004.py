@@ -30,7 +30,8 @@ import numpy as np
 
 DROPPED = (5, 7, 9, 11, 13)
 #: C_d of Table 1's tuned row of the appearance-gated ensemble (``trajectory-ensemble-gated``),
-#: chosen on the tuning seeds 1000-1002 (README: "Seed 004: the ensemble above min-cost flow")
+#: chosen on the tuning seeds 1000-1002 (README: "Seed 004: the appearance-gated
+#: ensemble")
 GATED_DROPPED = 9
 SUBNETWORKS = (50, 100, 150)
 

@@ -488,9 +488,10 @@ class GatedTrajectoryEnsemble(TrajectoryEnsemble):
       on the kept tracklets), which is why :class:`TrajectoryEnsemble` needs its lower
       :data:`ENSEMBLE_PATH_COST`. Gated (0.7 there), they keep the full network's break cost
       (:data:`GATED_PATH_COST`): 47 % true joined links, ARI 0.34 (ungated at 5.5: 44 %,
-      0.32). One sub-network is thus hardly better than before, but the ensemble of them is
-      (see the README): the members link more of the real edges' pairs, which are mostly
-      right, and disagree where they are wrong.
+      0.32); without image reuse, gated at 0.65: 23 % -> 32 % true joined links, ARI 0.13 ->
+      0.26 (ungated at 5.5: 37 %, 0.26). One sub-network is thus hardly better than before,
+      but the ensemble of them is (see the README): the members link more of the real edges'
+      pairs, which are mostly right, and disagree where they are wrong.
     * ``distance="share"``: eq. 4's count of disagreeing runs divided by the runs in which
       both tracklets were tracked, so pairs of often-dropped cameras are not pulled together
       by a small count.
@@ -500,7 +501,7 @@ class GatedTrajectoryEnsemble(TrajectoryEnsemble):
 
     How it was chosen: tuning seeds 1000-1002 of ``pftrack bench seed004`` (never the
     benchmark's 0-4), S = 50 and 100, 2 runs each; the figures are in the README ("Seed 004: the
-    gated ensemble"). Everything but the gate was chosen on the old virtual protocol, in which
+    appearance-gated ensemble"). Everything but the gate was chosen on the old virtual protocol, in which
     a person's tracklets through the same real CAVIAR camera drew from the same 10 images and
     68-73 % of such same-person pairs shared an identical image (appearance 1). On the
     protocol without image reuse (stop 24) only the gate was chosen again, on the same tuning
