@@ -501,16 +501,14 @@ class GatedTrajectoryEnsemble(TrajectoryEnsemble):
 
     How it was chosen: tuning seeds 1000-1002 of ``pftrack bench seed004`` (never the
     benchmark's 0-4), S = 50 and 100, 2 runs each; the figures are in the README ("Seed 004: the
-    appearance-gated ensemble"). Everything but the gate was chosen on the old virtual
-    protocol, in which a person's tracklets through the same real CAVIAR camera drew from the
-    same 10 images and 68-73 % of such same-person pairs shared an identical image (appearance
-    1). On the
-    protocol without image reuse (stop 24) only the gate was chosen again, on the same tuning
-    seeds (C_d = 9, S = 100, mean ARI over 3 seeds x 6 runs; 4 runs at 0.625, 0.675 and with no
-    joined link, 2 at
-    0.75 and 0.8): 0.365 / 0.396 / 0.410 / 0.407 / 0.386 / 0.328 / 0.306 at 0.6 / 0.625 /
-    0.65 / 0.675 / 0.7 / 0.75 / 0.8, 0.306 with no joined link at all; min-cost flow scores
-    0.460 there, so on this protocol the gated ensemble no longer beats it.
+    appearance-gated ensemble"). Everything but the gate was chosen on the old virtual protocol,
+    in which a person's tracklets through the same real CAVIAR camera drew from the same 10
+    images and 68-73 % of such same-person pairs shared an identical image (appearance 1). On
+    the protocol without image reuse (stop 24) only the gate was chosen again, on the same
+    tuning seeds (C_d = 9, S = 100, mean ARI over 3 seeds x 6 runs; 4 runs at 0.625, 0.675 and
+    with no joined link, 2 at 0.75 and 0.8): 0.365 / 0.396 / 0.410 / 0.407 / 0.386 / 0.328 /
+    0.306 at 0.6 / 0.625 / 0.65 / 0.675 / 0.7 / 0.75 / 0.8, 0.306 with no joined link at all;
+    min-cost flow scores 0.460 there, so on this protocol the gated ensemble no longer beats it.
     """
 
     def __init__(self, n_dropped: int = 9, n_subnetworks: int = 100,
