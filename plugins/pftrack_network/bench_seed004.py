@@ -5,8 +5,10 @@ cameras dropped x S sub-networks) and the seconds each took.
 
 Protocol: ``--datasets`` virtual datasets (:func:`pftrack_network.virtual.make_dataset`,
 dataset d drawn from seed ``--seed + d``; the defaults were chosen on other seeds, 1000-1002),
-16 cameras, 24 people; greedy and min-cost flow are deterministic (one run per dataset); the
-ensemble runs ``--runs`` times per dataset, run r drawing its sub-networks from
+16 cameras, 24 people, no image shared between a person's tracklets (``--image-reuse``: the
+old, flawed protocol that shares them; see :mod:`pftrack_network.virtual`); greedy and
+min-cost flow are deterministic (one run per dataset); the ensemble runs ``--runs`` times per
+dataset, run r drawing its sub-networks from
 ``SeedSequence([seed + d, C_d, S, r])``. Table 1's ``ari_var`` is the variance (ddof 0) over
 datasets of the per-dataset mean ARI, as the paper's. ARI: :func:`pftrack.metrics.
 adjusted_rand_index` over every tracklet. Timing: one core, ``time.perf_counter``.
@@ -28,7 +30,8 @@ import numpy as np
 
 DROPPED = (5, 7, 9, 11, 13)
 #: C_d of Table 1's tuned row of the appearance-gated ensemble (``trajectory-ensemble-gated``),
-#: chosen on the tuning seeds 1000-1002 (README: "Seed 004: the ensemble above min-cost flow")
+#: chosen on the tuning seeds 1000-1002 (README: "Seed 004: the appearance-gated
+#: ensemble")
 GATED_DROPPED = 9
 SUBNETWORKS = (50, 100, 150)
 
@@ -85,17 +88,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "process, no Dask)")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
                         help="Table 3's cells on the Dask scheduler at ADDRESS instead")
+    parser.add_argument("--image-reuse", action="store_true",
+                        help="the old, flawed protocol (before stop 24): each tracklet draws its "
+                             "images independently, so a person's tracklets through the same "
+                             "real camera share identical images, which inflates appearance; "
+                             "default: each person's images are partitioned among their "
+                             "tracklets")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
 @lru_cache(maxsize=8)
-def dataset(seed: int, data: str | None = None) -> tuple[Any, np.ndarray]:
-    """Virtual dataset ``seed`` and its appearance matrix (cached per process)."""
+def dataset(seed: int, data: str | None = None,
+            image_reuse: bool = False) -> tuple[Any, np.ndarray]:
+    """Virtual dataset ``seed`` and its appearance matrix (cached per process; ``image_reuse``:
+    the old protocol, :func:`~pftrack_network.virtual.make_dataset`)."""
     from pftrack_network.similarity import appearance_matrix
     from pftrack_network.virtual import make_dataset
 
     folder = None if data is None else f"{data}/reid/caviar4reid"
-    ds = make_dataset(np.random.default_rng(seed), caviar_folder=folder)
+    ds = make_dataset(np.random.default_rng(seed), caviar_folder=folder,
+                      image_reuse=image_reuse)
     return ds, appearance_matrix(ds.tracklets)
 
 
@@ -108,7 +120,8 @@ def _ari(truth: np.ndarray, labels: np.ndarray) -> float:
 def ensemble_runs(dataset_seed: int, dropped: int, subnetworks: int, runs: int, *,
                   path_cost: float | None = None, transit_sum: str = "moments",
                   data: str | None = None, gated: bool = False,
-                  join_min_appearance: float | None = None) -> dict[str, list[float]]:
+                  join_min_appearance: float | None = None,
+                  image_reuse: bool = False) -> dict[str, list[float]]:
     """Trajectory Ensemble ``runs`` times on one dataset (``path_cost``: its sub-networks'
     min-cost flow, default :data:`~pftrack_network.linkers.ENSEMBLE_PATH_COST`, or
     :data:`~pftrack_network.linkers.GATED_PATH_COST` when ``gated``).
@@ -133,7 +146,7 @@ def ensemble_runs(dataset_seed: int, dropped: int, subnetworks: int, runs: int, 
         TrajectoryEnsemble,
     )
 
-    ds, app = dataset(dataset_seed, data)
+    ds, app = dataset(dataset_seed, data, image_reuse)
     te: TrajectoryEnsemble
     if gated:
         pc = GATED_PATH_COST if path_cost is None else path_cost
@@ -158,7 +171,8 @@ def ensemble_runs(dataset_seed: int, dropped: int, subnetworks: int, runs: int, 
 def table3_cell(dropped: int, subnetworks: int, *, seed: int = 0, datasets: int = 5,
                 runs: int = 10, path_cost: float | None = None,
                 transit_sum: str = "moments", data: str | None = None, gated: bool = False,
-                join_min_appearance: float | None = None) -> dict[str, Any]:
+                join_min_appearance: float | None = None,
+                image_reuse: bool = False) -> dict[str, Any]:
     """One cell of Table 3: the ensemble with C_d = ``dropped`` and S = ``subnetworks`` over
     ``datasets`` datasets x ``runs`` runs (independent of every other cell: the unit a
     scale-out engine maps); ``gated``: the appearance-gated ensemble (:func:`ensemble_runs`)."""
@@ -167,7 +181,8 @@ def table3_cell(dropped: int, subnetworks: int, *, seed: int = 0, datasets: int 
     for d in range(datasets):
         aris += ensemble_runs(seed + d, dropped, subnetworks, runs, path_cost=path_cost,
                               transit_sum=transit_sum, data=data, gated=gated,
-                              join_min_appearance=join_min_appearance)["ari"]
+                              join_min_appearance=join_min_appearance,
+                              image_reuse=image_reuse)["ari"]
     return {"dropped": dropped, "subnetworks": subnetworks, "ari_mean": float(np.mean(aris)),
             "ari_var": float(np.var(aris)), "seconds": time.perf_counter() - t0}
 
@@ -190,7 +205,8 @@ def _table3(grid: list[tuple[int, int]], args: argparse.Namespace, epc: float,
     kw = {"seed": args.seed, "datasets": args.datasets, "runs": args.runs,
           "path_cost": getattr(args, "gated_path_cost", None) if gated else epc,
           "transit_sum": args.transit_sum, "data": args.data, "gated": gated,
-          "join_min_appearance": getattr(args, "join_min_appearance", None)}
+          "join_min_appearance": getattr(args, "join_min_appearance", None),
+          "image_reuse": bool(getattr(args, "image_reuse", False))}
     workers = int(getattr(args, "workers", 1) or 1)
     scheduler = getattr(args, "scheduler", None)
     if workers < 1:
@@ -234,6 +250,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     if args.datasets < 1 or args.runs < 1:
         raise ValueError("--datasets and --runs must be >= 1")
     grid = _grid(args.table3)
+    reuse = bool(getattr(args, "image_reuse", False))
     say = (lambda s: None) if args.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     pc = DEFAULT_PATH_COST if args.path_cost is None else args.path_cost
     gpc = GREEDY_PATH_COST if args.greedy_path_cost is None else args.greedy_path_cost
@@ -260,12 +277,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     t_all = time.perf_counter()
     t0 = time.perf_counter()
     for d in range(args.datasets):
-        dataset(args.seed + d, args.data)
+        dataset(args.seed + d, args.data, reuse)
     seconds["datasets_and_appearance"] = time.perf_counter() - t0
     for name, linker in (("greedy", GreedyLinker(gpc)), ("min-cost-flow", MinCostFlowLinker(pc))):
         t0 = time.perf_counter()
         for d in range(args.datasets):
-            ds, app = dataset(args.seed + d, args.data)
+            ds, app = dataset(args.seed + d, args.data, reuse)
             per[name].append(_ari(ds.truth, linker.link(ds.tracklets, ds.network,
                                                         appearance=app)))
         seconds[name] = time.perf_counter() - t0
@@ -278,10 +295,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             if how == "gated":
                 res = ensemble_runs(args.seed + d, cd, args.subnetworks, args.runs,
                                     path_cost=gated_pc, transit_sum=args.transit_sum,
-                                    data=args.data, gated=True, join_min_appearance=gmin)
+                                    data=args.data, gated=True, join_min_appearance=gmin,
+                                    image_reuse=reuse)
             else:
                 res = ensemble_runs(args.seed + d, cd, args.subnetworks, args.runs,
-                                    path_cost=epc, transit_sum=how, data=args.data)
+                                    path_cost=epc, transit_sum=how, data=args.data,
+                                    image_reuse=reuse)
             per[label].append(float(np.mean(res["ari"])))
             if label == "trajectory-ensemble":
                 te_secs += res["seconds"]
@@ -301,7 +320,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     seconds["trajectory_ensemble_gated_one_run_median"] = float(np.median(gated_secs))
     seconds["trajectory_ensemble_gated_one_run_max"] = float(np.max(gated_secs))
     seconds["total"] = time.perf_counter() - t_all
-    ds0 = dataset(args.seed, args.data)[0]
+    ds0 = dataset(args.seed, args.data, reuse)[0]
     return {
         "table1": table1, "table2": table2, "table3": table3, "seconds": seconds,
         "setup": {"datasets": args.datasets, "runs": args.runs, "seed": args.seed,
@@ -315,9 +334,10 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                   "gated_path_cost": GATED_PATH_COST if gated_pc is None else gated_pc,
                   "join_min_appearance": JOIN_MIN_APPEARANCE if gmin is None else gmin,
                   "table3_method": getattr(args, "table3_method", "trajectory-ensemble"),
-                  "people": int(ds0.truth.max() + 1),
-                  "tracklets_per_dataset": [len(dataset(args.seed + d, args.data)[0].tracklets)
-                                            for d in range(args.datasets)],
+                  "people": int(ds0.truth.max() + 1), "image_reuse": reuse,
+                  "tracklets_per_dataset": [
+                      len(dataset(args.seed + d, args.data, reuse)[0].tracklets)
+                      for d in range(args.datasets)],
                   "paper_table1": {"greedy": 0.169, "min-cost-flow": 0.472,
                                    "trajectory-ensemble": 0.581}},
     }

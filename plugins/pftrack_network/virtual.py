@@ -11,14 +11,28 @@ Person images are real: CAVIAR4REID (``reid/caviar4reid`` of the shared data; Ch
 BMVC 2011), whose 50 people seen by two real cameras have images 001-010 from one camera and
 011-020 from the other. Each virtual camera is mapped to one of the two real cameras and each
 virtual person to one CAVIAR person, so a tracklet of person p on camera c holds
-``images_per_tracklet`` of p's images, drawn without replacement, from c's real camera. With
-10 images per person and real camera, two tracklets of one person through the same real camera
-may share an image; across the two real cameras they never do (the viewpoint and light differ,
-which is the appearance change the paper's method is about).
+images of p from c's real camera. No image is shared between two tracklets of one person: a
+person's 10 images from a real camera (9 for CAVIAR person 29's first camera, whose images
+002 and 003 are pixel-identical) are partitioned, in a seeded random order, among all of
+that person's tracklets on virtual cameras showing it; with n such tracklets each gets
+``min(images_per_tracklet, 10 // n)`` images (3, 2 or 1; the share is equal, so no tracklet's
+eq. 7 maximum runs over more pairs than another's of the same person and camera). A person
+whose walk would pass an 11th time through virtual cameras of one real camera (no image left)
+leaves the network there: the walk is cut before that tracklet, so that person may see fewer
+than ``min_cameras`` cameras (on the benchmark's seeds 0-4, 3 of 120 people; on the tuning
+seeds 1000-1002, 3 of 72). Across the two real cameras images never repeat either (the
+viewpoint and light differ, which is the appearance change the paper's method is about).
+
+``image_reuse=True`` is the protocol before (stop 23), kept to reproduce its figures and known
+to be flawed: each tracklet draws its images from the person's 10 independently, so 68-73 % of
+same-person pairs through the same real camera share an identical image (appearance 1), which
+inflates every method that compares appearance. The walks, times and cameras of both protocols
+are the same for a seed (the same draws), apart from the cut walks; only the images differ.
 """
 
 from __future__ import annotations
 
+import hashlib
 import os
 from dataclasses import dataclass
 from functools import lru_cache
@@ -148,7 +162,8 @@ def make_dataset(rng: np.random.Generator, *, n_cameras: int = 16, n_people: int
                  min_cameras: int = 7, gap_s: tuple[float, float] = (20.0, 300.0),
                  in_view_s: tuple[float, float] = (5.0, 15.0), images_per_tracklet: int = 3,
                  caviar_folder: str | os.PathLike[str] | None = None,
-                 network: CameraNetwork | None = None) -> VirtualDataset:
+                 network: CameraNetwork | None = None,
+                 image_reuse: bool = False) -> VirtualDataset:
     """A virtual dataset of sec. 4.1 (see the module docstring).
 
     Parameters
@@ -162,12 +177,17 @@ def make_dataset(rng: np.random.Generator, *, n_cameras: int = 16, n_people: int
     in_view_s : (float, float)
         Range of the time a person stays in one camera's view, seconds.
     images_per_tracklet : int
-        Images per tracklet (<= 10).
+        Images per tracklet (<= 10) at most: fewer where a person has more than
+        ``10 // images_per_tracklet`` tracklets through one real camera (module docstring).
     caviar_folder : path, optional
         CAVIAR4REID folder (default under the shared data).
     network : CameraNetwork, optional
         Use this network instead of drawing one (its edges' ``k * theta_s`` are the mean
         transits).
+    image_reuse : bool
+        The old, flawed protocol: every tracklet draws ``images_per_tracklet`` images of its
+        person and real camera independently, so a person's tracklets share images (module
+        docstring). Default False: a person's images are partitioned among their tracklets.
     """
     people = load_caviar4reid(caviar_folder)
     if n_people > len(people):
@@ -184,6 +204,7 @@ def make_dataset(rng: np.random.Generator, *, n_cameras: int = 16, n_people: int
     ids = sorted(people)
     chosen = [ids[i] for i in rng.choice(len(ids), n_people, replace=False)]
     tracklets: list[Tracklet] = []
+    picks: list[np.ndarray] = []  # the image_reuse protocol's draw, per tracklet
     t_enter = 0.0
     for p in range(n_people):
         if p:
@@ -195,8 +216,9 @@ def make_dataset(rng: np.random.Generator, *, n_cameras: int = 16, n_people: int
         for _ in range(20 * min_cameras):  # a walk long enough to see min_cameras cameras
             dwell = float(rng.uniform(*in_view_s))
             imgs = people[chosen[p]][real_camera[cam]]
-            pick = rng.choice(len(imgs), images_per_tracklet, replace=False)
-            tracklets.append(Tracklet(cam, t, t + dwell, [imgs[i] for i in sorted(pick)],
+            # drawn in both protocols, so that both walk the same for a seed
+            picks.append(np.sort(rng.choice(len(imgs), images_per_tracklet, replace=False)))
+            tracklets.append(Tracklet(cam, t, t + dwell, [imgs[i] for i in picks[-1]],
                                       person=p))
             seen.add(cam)
             t += dwell
@@ -211,5 +233,55 @@ def make_dataset(rng: np.random.Generator, *, n_cameras: int = 16, n_people: int
             prev, cam = cam, nxt
         else:
             raise RuntimeError(f"person {p} did not reach {min_cameras} cameras")
+    if not image_reuse:
+        tracklets = _partition_images(tracklets, people, chosen, real_camera,
+                                      images_per_tracklet, rng)
     tracklets.sort(key=lambda tr: tr.t_start_s)
     return VirtualDataset(net, tracklets, real_camera, chosen)
+
+
+def _distinct_images(images: tuple[np.ndarray, ...]) -> list[np.ndarray]:
+    """``images`` without pixel-identical repeats (first of each kept, in order): CAVIAR4REID
+    holds one (person 29, images 002 and 003)."""
+    seen: set[tuple[tuple[int, ...], bytes]] = set()
+    out = []
+    for im in images:
+        key = (im.shape, hashlib.sha1(im.tobytes()).digest())
+        if key not in seen:
+            seen.add(key)
+            out.append(im)
+    return out
+
+
+def _partition_images(tracklets: list[Tracklet],
+                      people: dict[int, tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]],
+                      chosen: list[int], real_camera: dict[str, int], images_per_tracklet: int,
+                      rng: np.random.Generator) -> list[Tracklet]:
+    """Give each tracklet its own images: per person and real camera, the person's images in
+    one seeded random order, cut into equal consecutive shares, one per tracklet in walk order
+    (``tracklets`` are in walk order, person by person); a walk is cut before a tracklet for
+    which no image is left (module docstring)."""
+    out: list[Tracklet] = []
+    for p in range(len(chosen)):
+        mine = [t for t in tracklets if t.person == p]
+        real = np.array([real_camera[t.camera] for t in mine])
+        distinct = [_distinct_images(people[chosen[p]][r]) for r in (0, 1)]
+        n_images = [len(d) for d in distinct]
+        # the walk's first tracklet beyond the images of its real camera ends it
+        seen = np.array([np.count_nonzero(real[:i + 1] == r) for i, r in enumerate(real)])
+        over = np.flatnonzero(seen > np.take(n_images, real))
+        keep = len(mine) if over.size == 0 else int(over[0])
+        mine, real = mine[:keep], real[:keep]
+        for r in (0, 1):
+            idx = np.flatnonzero(real == r)
+            if idx.size == 0:
+                continue
+            share = min(images_per_tracklet, n_images[r] // idx.size)
+            order = rng.permutation(n_images[r])
+            imgs = distinct[r]
+            for j, i in enumerate(idx):
+                own = np.sort(order[j * share:(j + 1) * share])
+                t = mine[i]
+                out.append(Tracklet(t.camera, t.t_start_s, t.t_end_s, [imgs[k] for k in own],
+                                    person=p))
+    return out
