@@ -418,8 +418,8 @@ class MultiTargetTracker:
         if (self._vectorise and len(filters) > 1 and self._rows_pay
                 and all(len(f.particles) == n for f in filters)):
             targets = [f.target for f in filters]
-            predicted = self.motion.predict_rows(np.array([f.particles for f in filters]),
-                                                 self.dt, rng, targets)
+            predicted = self.motion.predict_rows(self._stacked_particles(filters), self.dt,
+                                                 rng, targets)
             boxes = observation.to_boxes_rows(predicted, targets)
         else:
             predicted = [self.motion.predict(f.particles, self.dt, rng, target=f.target)
@@ -494,9 +494,7 @@ class MultiTargetTracker:
         # 4. normalise, estimate, resample: one filter per row, vectorised over the targets
         # (every row equals the single-filter computation bit for bit; the T systematic offsets
         # are the T numbers successive calls would draw)
-        resampler = RESAMPLERS[self.resampling]
         always_resample = self.ess_threshold >= 1.0  # ESS <= N: no need to compute it
-        ess_min = self.ess_threshold * n + 1e-9
         weights = ok_rows = best_rows = states = extents = resampled = resample_rows = None
         fused = None
         if (rows and check_stacked and always_resample and self.resampling == "systematic"
@@ -508,7 +506,6 @@ class MultiTargetTracker:
                                      predicted, frame)
         if fused is not None:
             weights, best_rows, states, extents, resample_rows, resampled = fused
-            ok_rows = np.ones(len(filters), dtype=bool)
         elif rows:
             if lw_rows is not None:
                 lw = lw_rows.copy()  # (T, N); the rows stay the targets' log_likelihoods
@@ -539,17 +536,148 @@ class MultiTargetTracker:
                     resampled = resampled.reshape(p.shape)
         # the base in_view is "the estimate's box overlaps the image": read it off that box
         box_in_view = type(observation).in_view is ObservationModel.in_view
+        recovered = False
+        if fused is not None:  # every row ok and resampled: the estimates of all rows at once
+            records, dead = self._finish_rows(frame, filters, detections, states, extents,
+                                              best_rows, resampled, resample_rows, pos_dims,
+                                              box_in_view)
+        else:
+            records, dead, recovered = self._finish_each(
+                frame, filters, detections, logls, weights, ok_rows, best_rows, states,
+                extents, resampled, resample_rows, pos_dims, box_in_view)
+        if recovered:
+            self.recoveries += 1
+            log.info("frame %d: every particle weight of a target vanished; re-spread around "
+                     "its last estimate", frame.index)
+        for tid in dead:
+            self.remove_target(tid)
+        # 6. per-target observation parameters from the matched detections (a height factor)
+        if type(observation).update_target is not ObservationModel.update_target:
+            for f in self._filters.values():
+                if f.target.detection is not None:
+                    observation.update_target(f.target, f.target.detection.box_xywh_px)
+        # 7. track management: births, confirmation, merging, ends, output
+        return self.tracks.after_frame(self, frame, detections, records, unmatched_dets)
+
+    def _finish_rows(self, frame: Frame, filters: list[_Filter], detections: Detections | None,
+                     states: np.ndarray, extents: np.ndarray, best_rows: list[float],
+                     resampled: np.ndarray, resample_rows: np.ndarray, pos_dims: list[int],
+                     box_in_view: bool) -> tuple[list[TrackRecord], list[int]]:
+        """The end of the frame when every target was weighted, estimated and resampled by
+        :meth:`_fused_rows`: the estimates' boxes, anchors and confidences of all targets at
+        once, support and death per target, and the records, each field a row of one block
+        copied once per frame (the numbers and the records of :meth:`_finish_each`). Returns
+        ``(records, dead ids)``."""
+        observation = self.observation
+        targets = [f.target for f in filters]
+        if type(observation).to_boxes_rows is not ObservationModel.to_boxes_rows:
+            est_boxes = observation.to_boxes_rows(states[:, None, :], targets)[:, 0]
+        else:
+            est_boxes = np.array([observation.to_boxes(s[None], t)[0]
+                                  for s, t in zip(states, targets)])
+        pos = self._pos_index(pos_dims)
+        anchors = states[:, pos].copy()  # the engine's: never a view of what callers get
+        confidences = expit(np.array(best_rows)).tolist()
+        # what the records own: one copy of each block (the targets keep views of the originals)
+        rec_boxes = est_boxes.copy()
+        rec_states = states.copy()
+        rec_positions = states[:, pos].copy()
+        rec_extents = extents.copy()
+        no_world = type(observation).world_position is ObservationModel.world_position
+        img_w, img_h = frame.size_wh
+        mll = self.min_log_likelihood
+        max_misses = self.max_misses
+        valid_region = self.valid_region
+        uniform, uniform_log = self._uniform, self._uniform_log
+        index = frame.index
+        records = []
+        dead = []
+        for i, f in enumerate(filters):
+            t = targets[i]
+            best = best_rows[i]
+            state = states[i]
+            t.state = state
+            t.extent = extents[i]
+            box = est_boxes[i]
+            t.box_xywh_px = box
+            supported = (t.detection is not None or (mll is not None and best >= mll)
+                         or (detections is None and mll is None))
+            t.frames_tracked = t.frames_tracked + 1 if supported else 0
+            t.misses = 0 if supported else t.misses + 1
+            f.anchor = anchors[i]
+            # resampled (``t.resample_index``: which weighted particle each new one copies)
+            f.particles = t.particles = resampled[i]
+            t.resample_index = resample_rows[i]
+            f.weights, f.log_weights = uniform, uniform_log
+            # 5. death
+            gone = max_misses is not None and t.misses > max_misses
+            if self.kill_out_of_view:
+                if box_in_view:
+                    bx, by, bw, bh = box.tolist()
+                    visible = bx < img_w and by < img_h and bx + bw > 0 and by + bh > 0
+                else:
+                    visible = observation.in_view(state[None], frame.size_wh, t)[0]
+                if not visible:
+                    gone = True
+            if valid_region is not None and not valid_region(state[None, pos_dims])[0]:
+                gone = True
+            if gone:
+                dead.append(t.id)
+                continue
+            world = None if no_world else observation.world_position(state)
+            records.append(TrackRecord(
+                frame=index, id=t.id, box_xywh_px=rec_boxes[i], state=rec_states[i],
+                position=rec_positions[i], extent=rec_extents[i],
+                confidence=confidences[i] if math.isfinite(best) else 0.0,
+                world_m=None if world is None else np.asarray(world, dtype=np.float64)))
+        # next frame's prediction reads these rows as they are while no filter changed
+        self._last_stack = (resampled, [f.particles for f in filters])
+        return records, dead
+
+    def _stacked_particles(self, filters: list[_Filter]) -> np.ndarray:
+        """Every filter's particles as one (T, N, D) array: the array the last frame's
+        resampling filled when each filter still holds its row of it (no copy: predict does
+        not modify its input), else a new stack."""
+        last = self.__dict__.get("_last_stack")
+        if last is not None:
+            arr, views = last
+            if len(views) == len(filters) and all(f.particles is v
+                                                  for f, v in zip(filters, views)):
+                return arr
+        return np.array([f.particles for f in filters])
+
+    def _pos_index(self, pos_dims: list[int]) -> slice | list[int]:
+        """``pos_dims`` as a slice when they are consecutive (a basic index: no fancy-index
+        machinery), else the list."""
+        hit = self.__dict__.get("_pos_slice")
+        if hit is not None and hit[0] == pos_dims:
+            return hit[1]
+        index: slice | list[int] = pos_dims
+        if pos_dims and pos_dims == list(range(pos_dims[0], pos_dims[0] + len(pos_dims))):
+            index = slice(pos_dims[0], pos_dims[0] + len(pos_dims))
+        self._pos_slice = (list(pos_dims), index)
+        return index
+
+    def _finish_each(self, frame: Frame, filters: list[_Filter], detections: Detections | None,
+                     logls: list[np.ndarray], weights: np.ndarray | None,
+                     ok_rows: np.ndarray | None, best_rows: list[float] | None,
+                     states: np.ndarray | None, extents: np.ndarray | None,
+                     resampled: np.ndarray | None, resample_rows: np.ndarray | None,
+                     pos_dims: list[int], box_in_view: bool,
+                     ) -> tuple[list[TrackRecord], list[int], bool]:
+        """The end of the frame target by target (the general path): normalise where step 4
+        did not, re-spread a target that lost every weight, estimate, support, resample,
+        death, record. Returns ``(records, dead ids, whether a target was re-spread)``."""
+        observation = self.observation
+        rng = self.rng
+        n = self.n_particles
+        resampler = RESAMPLERS[self.resampling]
+        always_resample = self.ess_threshold >= 1.0  # ESS <= N: no need to compute it
+        ess_min = self.ess_threshold * n + 1e-9
         img_w, img_h = frame.size_wh
         records = []
         dead = []
         recovered = False
-        est_boxes = anchors = confidences = None
-        if fused is not None:  # every row ok: the estimates' boxes, anchors, confidences at once
-            if type(observation).to_boxes_rows is not ObservationModel.to_boxes_rows:
-                est_boxes = observation.to_boxes_rows(states[:, None, :],  # type: ignore[index]
-                                                      [f.target for f in filters])[:, 0]
-            anchors = states[:, pos_dims]  # type: ignore[index]  # fancy indexing: a copy
-            confidences = expit(np.array(best_rows)).tolist()
         for i, f in enumerate(filters):
             t = f.target
             if weights is not None:
@@ -572,8 +700,7 @@ class MultiTargetTracker:
                 state = weighted_mean(f.particles, w)
                 t.extent = weighted_extent(f.particles, w, state)
             t.state = state
-            box = est_boxes[i] if est_boxes is not None else \
-                observation.to_boxes(state[None], t)[0]
+            box = observation.to_boxes(state[None], t)[0]
             t.box_xywh_px = box
             supported = ok and (
                 t.detection is not None
@@ -581,7 +708,7 @@ class MultiTargetTracker:
                 or (detections is None and self.min_log_likelihood is None))
             t.frames_tracked = t.frames_tracked + 1 if supported else 0
             t.misses = 0 if supported else t.misses + 1
-            f.anchor = anchors[i] if anchors is not None else state[pos_dims]  # a copy
+            f.anchor = state[pos_dims]  # a copy
             # resample (``t.resample_index``: which weighted particle each new one copies)
             if resampled is not None:
                 f.particles = resampled[i]
@@ -612,21 +739,8 @@ class MultiTargetTracker:
             if gone:
                 dead.append(t.id)
                 continue
-            records.append(self._record(frame, t, best, pos_dims,
-                                        None if confidences is None else confidences[i]))
-        if recovered:
-            self.recoveries += 1
-            log.info("frame %d: every particle weight of a target vanished; re-spread around "
-                     "its last estimate", frame.index)
-        for tid in dead:
-            self.remove_target(tid)
-        # 6. per-target observation parameters from the matched detections (a height factor)
-        if type(observation).update_target is not ObservationModel.update_target:
-            for f in self._filters.values():
-                if f.target.detection is not None:
-                    observation.update_target(f.target, f.target.detection.box_xywh_px)
-        # 7. track management: births, confirmation, merging, ends, output
-        return self.tracks.after_frame(self, frame, detections, records, unmatched_dets)
+            records.append(self._record(frame, t, best, pos_dims))
+        return records, dead, recovered
 
     def _fused_rows(self, lw: np.ndarray, filters: list[_Filter], p: np.ndarray, frame: Frame,
                     ) -> tuple[Any, ...] | None:
