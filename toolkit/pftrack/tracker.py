@@ -133,10 +133,7 @@ class ImageBoxObservation(ObservationModel):
     def to_boxes_rows(self, states: np.ndarray, targets: Sequence[Target]) -> np.ndarray:
         """(T, N, D) -> (T, N, 4) in one pass, each row's size its target's."""
         s = np.asarray(states, dtype=np.float64)
-        size = (float(self.width_px), float(self.height_px))
-        wh = np.array([size if t.box_wh_px is None else t.box_wh_px for t in targets],
-                      dtype=np.float64)
-        half = 0.5 * wh
+        wh, half = self._row_sizes(targets)
         if (_jit.small_ready() and s.ndim == 3 and s.shape[2] >= 2 and s.flags.c_contiguous
                 and wh.shape == (len(s), 2)):
             return _jit.centre_boxes_rows(s, half, wh)  # one compiled pass, same numbers
@@ -146,6 +143,20 @@ class ImageBoxObservation(ObservationModel):
             np.subtract(s[:, :, k], half[:, k:k + 1], out=out[:, :, k])
             out[:, :, 2 + k] = wh[:, k:k + 1]
         return out
+
+    def _row_sizes(self, targets: Sequence[Target]) -> tuple[np.ndarray, np.ndarray]:
+        """Each target's box size (T, 2) and half of it, kept while the sizes do not change
+        (the engine asks twice a frame: particles and estimates); read, never written."""
+        size = (float(self.width_px), float(self.height_px))
+        sizes = [size if t.box_wh_px is None else t.box_wh_px for t in targets]
+        hit = self.__dict__.get("_sizes_rows")
+        if hit is not None and len(hit[0]) == len(sizes) and all(
+                type(a) is tuple and a == b for a, b in zip(sizes, hit[0])):
+            return hit[1], hit[2]
+        wh = np.array(sizes, dtype=np.float64)
+        half = 0.5 * wh
+        self._sizes_rows = ([tuple(v) for v in sizes], wh, half)
+        return wh, half
 
     def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:
         b = np.asarray(box_xywh_px, dtype=np.float64)
