@@ -514,6 +514,7 @@ def warm_up() -> None:
         value_box_sums(region, lut, lut, lut, table[0], rects, table[:0], corners, corners, 0,
                        2, 2)
     grid_histogram(frame, 2, lut, lut, lut, rects, 8)
+    grid_histogram(frame[1:3, 1:4], 1, lut, lut, lut, rects, 8)  # a box's pixels (templates)
     fixed_layout(np.zeros((1, 4)), 6, 4)
     frame_background(frame, 2, lut, lut, lut, np.ones((1, 4)), 8, np.empty((1, 4), np.int64),
                      True, 1e-4, np.empty(8), np.empty(8))

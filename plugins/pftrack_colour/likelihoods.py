@@ -172,6 +172,16 @@ class ColourLikelihood(Likelihood):
 
     def _box_counts(self, image: np.ndarray, box_xywh_px: np.ndarray) -> np.ndarray:
         """Bin counts of the in-image pixels of one box's colour stripes, (parts, m)."""
+        binner = self.binner_
+        if (_jit.ENABLED and self.parts == 1 and self.region is None
+                and binner.conversion is None and image.ndim == 3 and image.dtype == np.uint8):
+            # one whole box inside the image: its pixels counted in one compiled pass (integer
+            # counts: those of the rounded box ParticleRegion reads, in any order)
+            x0, y0, x1, y1 = _integer_rect(box_xywh_px).tolist()
+            if 0 <= x0 and 0 <= y0 and x1 <= image.shape[1] and y1 <= image.shape[0]:
+                counts = _jit.grid_histogram(image[y0:y1, x0:x1], 1, *binner.channel_luts,
+                                             np.zeros((0, 4), dtype=np.int64), binner.n_bins)
+                return counts[None]
         region = ParticleRegion(image, self._colour_boxes(np.asarray(box_xywh_px, float)[None]))
         m = self.binner_.n_bins
         if region.n_pixels[0] == 0:

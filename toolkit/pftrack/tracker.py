@@ -305,7 +305,8 @@ class MultiTargetTracker:
         likelihood.prepare()  # compiled kernels and the like: before the first frame
         # a likelihood that imported numba: the engine's own kernels serve its small per-frame
         # calls too (same numbers), loaded now rather than in the first frame
-        _jit.warm_up_small()
+        if _jit.warm_up_small():
+            _jit.prepare_generator(rng)  # its state words found before the first frame
 
     # -- checks of what components return ----------------------------------------------------
 

@@ -55,6 +55,7 @@ __all__ = [
     "constant_velocity_update",
     "gaussian_centre_log_likelihood",
     "pcg64_standard_normal",
+    "prepare_generator",
     "random_walk_predict",
     "shifted_exp",
     "small_ready",
@@ -167,6 +168,15 @@ def _pcg64_words(bg: np.random.PCG64) -> tuple[np.ndarray | None, np.ndarray | N
         _pcg64_words_cache.clear()
     _pcg64_words_cache[id(bg)] = (bg, words, perm)
     return words, perm
+
+
+def prepare_generator(rng: np.random.Generator) -> None:
+    """Find ``rng``'s state words now (:func:`_pcg64_words`: a ctypes look-up, the first in a
+    process costs milliseconds) so that its first compiled draw, inside a timed loop, does not
+    pay for it. The engine calls it when it is built; a no-op for other bit generators."""
+    bg = rng.bit_generator
+    if ENABLED and type(bg) is np.random.PCG64:
+        _pcg64_words(bg)
 
 
 def _with_pcg64(rng: np.random.Generator, kernel, *args) -> bool:
