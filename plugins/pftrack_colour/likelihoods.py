@@ -79,6 +79,7 @@ __all__ = [
 ]
 
 _OVERLAP_MODES = ("mixture", "product", "independent")
+_NO_MASKS = np.zeros(0, dtype=np.int64)  # no sets of stripes (writable: the kernels' signature)
 
 class ColourLikelihood(Likelihood):
     """Shared machinery: binning, templates, per-frame background; not registered itself.
@@ -669,7 +670,7 @@ class CrossEntropyLikelihood(ColourLikelihood):
         l0, l1, l2 = binner.channel_luts
         lam = 0.0 if self.lam is None else float(self.lam)
         overlays = pairs.shape[2] > 0
-        no_masks = np.zeros(0, dtype=np.int64)
+        no_masks = _NO_MASKS
         _jit.value_box_sums_rows(image, l0, l1, l2, tables, cboxes, ids_arr, rects, rect_ids,
                                  pairs, no_masks, pairs[:, :, :0, 0], overlays, lam, out, done)
         if False not in done.tolist():  # every target done (a list: cheaper than .all() for few)

@@ -67,6 +67,9 @@ from pftrack.filter.core import _EXP_ZERO_BELOW
 
 log = logging.getLogger(__name__)
 
+_NO_DETECTIONS = np.zeros(0, dtype=int)  # unmatched detections of a frame without any
+_NO_DETECTIONS.flags.writeable = False
+
 __all__ = [
     "ComponentOutputError",
     "ImageBoxObservation",
@@ -427,8 +430,8 @@ class MultiTargetTracker:
         n = self.n_particles
         predicted: np.ndarray | list[np.ndarray]
         boxes: np.ndarray | list[np.ndarray]
-        if (self._vectorise and len(filters) > 1 and self._rows_pay
-                and all(len(f.particles) == n for f in filters)):
+        same_n = all(len(f.particles) == n for f in filters)  # (prediction keeps the counts)
+        if self._vectorise and len(filters) > 1 and self._rows_pay and same_n:
             targets = [f.target for f in filters]
             predicted = self.motion.predict_rows(self._stacked_particles(filters), self.dt,
                                                  rng, targets)
@@ -445,7 +448,7 @@ class MultiTargetTracker:
             t.age += 1
             t.detection = None
         # 2. associate
-        unmatched_dets = np.arange(len(detections)) if detections is not None else np.zeros(0, int)
+        unmatched_dets = np.arange(len(detections)) if detections is not None else _NO_DETECTIONS
         if detections is not None and self.associator is not None and filters:
             targets = [f.target for f in filters]
             a = self.associator.associate(targets, detections)
@@ -459,7 +462,7 @@ class MultiTargetTracker:
         logls = []
         # step 4 takes all targets as one (T, N) array: the NaN / +inf check then runs once on
         # it (rows a valid region masks are checked before the mask, one by one)
-        rows = bool(self._vectorise and filters and all(len(f.particles) == n for f in filters))
+        rows = bool(self._vectorise and filters and same_n)
         check_stacked = rows and self.valid_region is None
         lw_rows = None  # (T, N): a likelihood that scores every target in one call
         if rows and self.likelihood.offers_rows():
