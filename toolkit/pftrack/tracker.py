@@ -519,9 +519,7 @@ class MultiTargetTracker:
             # the whole of step 4 in two compiled passes around numpy's exp (same numbers)
             fused = self._fused_rows(np.array(logls) if lw_rows is None else lw_rows, filters,
                                      predicted, frame)
-        if fused is not None:
-            weights, best_rows, states, extents, resample_rows, resampled = fused
-        elif rows:
+        if fused is None and rows:
             if lw_rows is not None:
                 lw = lw_rows.copy()  # (T, N); the rows stay the targets' log_likelihoods
             else:
@@ -553,9 +551,9 @@ class MultiTargetTracker:
         box_in_view = type(observation).in_view is ObservationModel.in_view
         recovered = False
         if fused is not None:  # every row ok and resampled: the estimates of all rows at once
-            records, dead = self._finish_rows(frame, filters, detections, states, extents,
-                                              best_rows, resampled, resample_rows, pos_dims,
-                                              box_in_view)
+            _, best_f, states_f, extents_f, idx_f, resampled_f = fused
+            records, dead = self._finish_rows(frame, filters, detections, states_f, extents_f,
+                                              best_f, resampled_f, idx_f, pos_dims, box_in_view)
         else:
             records, dead, recovered = self._finish_each(
                 frame, filters, detections, logls, weights, ok_rows, best_rows, states,
