@@ -15,7 +15,8 @@ Data flow per frame (top to bottom)::
           -> normalise, estimate (weighted mean), extent, resample on ESS: vectorised over
              the targets (one row per filter, each row the single-filter numbers bit for bit;
              systematic resampling every frame with the compiled kernels loaded: two compiled
-             passes around numpy's exp, :meth:`MultiTargetTracker._fused_rows`)
+             passes around numpy's exp, :meth:`MultiTargetTracker._fused_rows`, then the
+             estimates' boxes and the records of all targets per block, ``_finish_rows``)
           -> the filter's deaths (misses, leaving the image or the valid region)
           -> observation.update_target (matched targets)
           -> tracks.after_frame: births, confirmation, merging, ends, the records to output
