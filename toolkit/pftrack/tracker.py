@@ -584,16 +584,14 @@ class MultiTargetTracker:
         ``(records, dead ids)``."""
         observation = self.observation
         targets = [f.target for f in filters]
+        est_boxes = rec_boxes = None
         if type(observation).to_boxes_rows is not ObservationModel.to_boxes_rows:
             est_boxes = observation.to_boxes_rows(states[:, None, :], targets)[:, 0]
-        else:
-            est_boxes = np.array([observation.to_boxes(s[None], t)[0]
-                                  for s, t in zip(states, targets)])
+            rec_boxes = est_boxes.copy()
         pos = self._pos_index(pos_dims)
         anchors = states[:, pos].copy()  # the engine's: never a view of what callers get
         confidences = expit(np.array(best_rows)).tolist()
         # what the records own: one copy of each block (the targets keep views of the originals)
-        rec_boxes = est_boxes.copy()
         rec_states = states.copy()
         rec_positions = states[:, pos].copy()
         rec_extents = extents.copy()
@@ -612,7 +610,9 @@ class MultiTargetTracker:
             state = states[i]
             t.state = state
             t.extent = extents[i]
-            box = est_boxes[i]
+            # (a model without a rows method sees the target's new state and extent, as before)
+            box = est_boxes[i] if est_boxes is not None else \
+                observation.to_boxes(state[None], t)[0]
             t.box_xywh_px = box
             supported = (t.detection is not None or (mll is not None and best >= mll)
                          or (detections is None and mll is None))
@@ -640,7 +640,9 @@ class MultiTargetTracker:
                 continue
             world = None if no_world else observation.world_position(state)
             records.append(TrackRecord(
-                frame=index, id=t.id, box_xywh_px=rec_boxes[i], state=rec_states[i],
+                frame=index, id=t.id,
+                box_xywh_px=rec_boxes[i] if rec_boxes is not None else box.copy(),
+                state=rec_states[i],
                 position=rec_positions[i], extent=rec_extents[i],
                 confidence=confidences[i] if math.isfinite(best) else 0.0,
                 world_m=None if world is None else np.asarray(world, dtype=np.float64)))
