@@ -370,10 +370,11 @@ class GivenBoxTracks(TrackManager):
                          self.first_sizes_)
         if self.perspective and self.fit_ is not None:
             _perspective_size(engine, records, self.fit_, self.start_boxes_)
-        ends = self.ends or {}
-        for t in list(engine.targets):
-            if ends.get(t.id, np.inf) <= frame.index:
-                engine.remove_target(t.id)
+        ends = self.ends
+        if ends:  # none given (seed 000's walkers): no target to look at
+            for t in list(engine.targets):
+                if ends.get(t.id, np.inf) <= frame.index:
+                    engine.remove_target(t.id)
         return records
 
     def end_target(self, target: Target) -> None:

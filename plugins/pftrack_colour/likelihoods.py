@@ -79,6 +79,7 @@ __all__ = [
 ]
 
 _OVERLAP_MODES = ("mixture", "product", "independent")
+_NO_MASKS = np.zeros(0, dtype=np.int64)  # no sets of stripes (writable: the kernels' signature)
 
 class ColourLikelihood(Likelihood):
     """Shared machinery: binning, templates, per-frame background; not registered itself.
@@ -143,6 +144,11 @@ class ColourLikelihood(Likelihood):
 
     def _setup(self) -> ColourBins:
         """Validate the parameters and build the binner (again if they changed)."""
+        raw = self.__dict__.get("_setup_raw")
+        if (raw is not None and raw[0] is self.bins and raw[1] is self.colour_space
+                and raw[2] is self.region and raw[3] is self.parts
+                and self.__dict__.get("binner_") is not None):
+            return self.binner_  # the same immutable values as at the last check (per frame)
         key = (self.bins if np.isscalar(self.bins) else tuple(self.bins), self.colour_space,
                self.region if self.region is None else tuple(self.region), self.parts)
         if getattr(self, "binner_", None) is None or self._setup_key != key:
@@ -156,6 +162,10 @@ class ColourLikelihood(Likelihood):
             self.target_rects_: dict[int, np.ndarray] = {}
             self.values_: dict[int, np.ndarray] = {}
             self.prev_image_: np.ndarray | None = None
+        immutable = (type(self.bins) in (int, tuple) and type(self.region) in (type(None), tuple)
+                     and type(self.colour_space) is str and type(self.parts) is int)
+        self._setup_raw = ((self.bins, self.colour_space, self.region, self.parts)
+                           if immutable else None)
         return self.binner_
 
     def _colour_boxes(self, boxes_xywh_px: np.ndarray) -> np.ndarray:
@@ -163,6 +173,16 @@ class ColourLikelihood(Likelihood):
 
     def _box_counts(self, image: np.ndarray, box_xywh_px: np.ndarray) -> np.ndarray:
         """Bin counts of the in-image pixels of one box's colour stripes, (parts, m)."""
+        binner = self.binner_
+        if (_jit.ENABLED and self.parts == 1 and self.region is None
+                and binner.conversion is None and image.ndim == 3 and image.dtype == np.uint8):
+            # one whole box inside the image: its pixels counted in one compiled pass (integer
+            # counts: those of the rounded box ParticleRegion reads, in any order)
+            x0, y0, x1, y1 = _integer_rect(box_xywh_px).tolist()
+            if 0 <= x0 and 0 <= y0 and x1 <= image.shape[1] and y1 <= image.shape[0]:
+                counts = _jit.grid_histogram(image[y0:y1, x0:x1], 1, *binner.channel_luts,
+                                             np.zeros((0, 4), dtype=np.int64), binner.n_bins)
+                return counts[None]
         region = ParticleRegion(image, self._colour_boxes(np.asarray(box_xywh_px, float)[None]))
         m = self.binner_.n_bins
         if region.n_pixels[0] == 0:
@@ -216,7 +236,8 @@ class ColourLikelihood(Likelihood):
                                              + a * normalise_histogram(counts, self.eps))
         self.image_ = frame.image
         self._rect_rows = None
-        if not self._compiled_frame(frame.image, live):
+        ids = [t.id for t in live]
+        if not self._compiled_frame(frame.image, live, ids):
             if self.region is None:  # a handful of boxes: rounded one by one (same numbers)
                 self.target_rects_ = {t.id: _integer_rect(t.box_xywh_px) for t in live}
             elif live:
@@ -226,7 +247,6 @@ class ColourLikelihood(Likelihood):
                 self.target_rects_ = {}
             if self.uses_background:
                 self._background(frame.image)
-        ids = [t.id for t in live]
         rows = self._value_tables(ids) if ids else None
         if rows is None:
             self.values_ = {i: self._value_table(i) for i in ids}
@@ -236,7 +256,7 @@ class ColourLikelihood(Likelihood):
             self._value_rows = (ids, rows)
         self.prev_image_ = frame.image if self.update_rate > 0 else None
 
-    def _compiled_frame(self, image: np.ndarray, live: list[Target]) -> bool:
+    def _compiled_frame(self, image: np.ndarray, live: list[Target], ids: list[int]) -> bool:
         """The targets' colour boxes (``target_rects_``) and, for the background likelihoods,
         the background histogram in one compiled call
         (:func:`pftrack_colour._jit.frame_background`: the numbers of the general path); False
@@ -257,7 +277,6 @@ class ColourLikelihood(Likelihood):
                                            self.uses_background, float(self.eps), hist, scaled)
         if not ok:
             return False
-        ids = [t.id for t in live]
         self.target_rects_ = dict(zip(ids, rects))
         self._rect_rows = (ids, rects, np.array(ids, dtype=np.int64))
         if self.uses_background:  # _set_background's numbers, the normalisation compiled
@@ -651,10 +670,10 @@ class CrossEntropyLikelihood(ColourLikelihood):
         l0, l1, l2 = binner.channel_luts
         lam = 0.0 if self.lam is None else float(self.lam)
         overlays = pairs.shape[2] > 0
-        no_masks = np.zeros(0, dtype=np.int64)
+        no_masks = _NO_MASKS
         _jit.value_box_sums_rows(image, l0, l1, l2, tables, cboxes, ids_arr, rects, rect_ids,
                                  pairs, no_masks, pairs[:, :, :0, 0], overlays, lam, out, done)
-        if done.all():
+        if False not in done.tolist():  # every target done (a list: cheaper than .all() for few)
             return out
         left = np.flatnonzero(~done)
         if overlays:  # pixels under several stripes: again with the tables of those sets
@@ -766,7 +785,10 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
         return (self._log_template(target_id) - self.log_background_).astype(np.float32)
 
     def _value_tables(self, ids: list[int]) -> np.ndarray:
-        return (self._log_template_rows(ids) - self.log_background_).astype(np.float32)
+        lq = self._log_template_rows(ids)
+        # the float64 difference cast to float32 as it is written: astype's numbers, one pass
+        return np.subtract(lq, self.log_background_, out=np.empty(lq.shape, dtype=np.float32),
+                           casting="same_kind")
 
     def _log_likelihood(self, region, q, target_id):
         self._cover_cache = None  # per call: the other targets' coverage of this region
@@ -818,14 +840,14 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
         tp = self.templates_
         try:
             own = [tp[i] for i in ids]
-            others = [tp[i] for i in rect_ids]
+            others = own if rect_ids == ids else [tp[i] for i in rect_ids]
         except KeyError:
             own = [self.template(i) for i in ids]  # raises, naming the target
             others = [self.template(i) for i in rect_ids]
         hit = self.__dict__.get("_pair_stack")
         if (hit is not None and hit[0] == ids and hit[1] == rect_ids
                 and all(a is b for a, b in zip(hit[2], own))
-                and all(a is b for a, b in zip(hit[3], others))):
+                and (others is own or all(a is b for a, b in zip(hit[3], others)))):
             pairs = hit[4]
         else:
             p = len(self._parts)

@@ -443,3 +443,93 @@ def test_errors_from_the_rows_method_name_the_likelihood_and_the_target():
                        match=r"_RowsWrongShape.*shape \(3, 199\) from log_likelihood_rows, "
                              r"expected \(3, 200\)"):
         _three_targets(_RowsWrongShape())
+
+
+def _record_bytes(recs):
+    """Every field of every record, as bytes (arrays) and values, for exact comparison."""
+    out = []
+    for r in recs:
+        out.append((r.frame, r.id, r.box_xywh_px.tobytes(), r.state.tobytes(),
+                    r.position.tobytes(), r.extent.tobytes(), r.confidence,
+                    None if r.world_m is None else r.world_m.tobytes(), r.size_m))
+    return out
+
+
+@pytest.mark.skipif(not __import__("pftrack.filter._jit").filter._jit.ENABLED,
+                    reason="PFTRACK_NO_JIT is set")
+def test_fused_frame_end_gives_the_general_paths_records_and_is_used(monkeypatch):
+    """With the compiled step 4 (every target weighted, estimated and resampled at once) the
+    frame ends for all targets at once (``_finish_rows``: estimate boxes, anchors, confidences
+    and records per block) and the next prediction reads the resampled rows as they are: every
+    field of every record, the recoveries, the deaths and the generator's final state are those
+    of the numpy path's per-target end; and the fast end really runs (a spy counts it)."""
+    import numba  # noqa: F401  (what a compiled likelihood does first)
+    from pftrack.filter import _jit
+
+    truth = {1: lambda k: np.array([20.0 + 4 * k, 50.0]),  # leaves the 200 px image: dies
+             2: lambda k: None if 30 <= k < 33 else np.array([150.0 - k, 40.0]),  # recoveries
+             3: lambda k: np.array([100.0, 20.0 + 0.5 * k])}
+    calls = {"finish": 0, "reused": 0}
+
+    def run(fast):
+        with monkeypatch.context() as m:
+            m.setattr(_jit, "_small_warm", False)
+            if not fast:
+                m.setattr(_jit, "warm_up_small", lambda: False)
+            lik = _TruthLikelihood()
+            lik.truth_ = truth
+            rng = np.random.default_rng(3)
+            motion = RandomWalkMotion(sigma_px=1.5)
+            tr = MultiTargetTracker(motion, lik, ImageBoxObservation(10, 10), n_particles=300,
+                                    rng=rng, min_log_likelihood=-20.0, max_misses=2)
+            real_finish, real_predict = tr._finish_rows, motion.predict_rows
+
+            def finish(*a, **k):
+                calls["finish"] += 1
+                return real_finish(*a, **k)
+
+            def predict_rows(states, *a, **k):
+                last = tr.__dict__.get("_last_stack")
+                calls["reused"] += last is not None and states is last[0]
+                return real_predict(states, *a, **k)
+
+            m.setattr(tr, "_finish_rows", finish)
+            m.setattr(motion, "predict_rows", predict_rows)
+            frames = list(_frames(60))
+            for tid, path in truth.items():
+                tr.add_target(frames[0], path(0), target_id=tid)
+            recs = [r for f in frames[1:] for r in tr.step(f)]
+            left = {t.id: (t.state.tobytes(), t.particles.tobytes(), t.misses)
+                    for t in tr.targets}
+            return _record_bytes(recs), tr.recoveries, left, rng.random()
+
+    slow = run(False)
+    assert calls == {"finish": 0, "reused": 0}
+    fast = run(True)
+    assert fast == slow
+    assert fast[1] == 3  # the recovery frames took the general path
+    assert 1 not in fast[2] and 3 in fast[2]  # target 1 left the image and died
+    # frames 2-53 with two or three targets ended in _finish_rows but for the three general
+    # ones (30-31 re-spread target 2, 32 its death by misses; from 54 one target is left: no
+    # rows); the prediction after each of them read its rows without a new stack, but at 33
+    # (after a general frame) and at 54 (one target)
+    assert calls["finish"] == 52 - 3
+    assert calls["reused"] == (30 - 3 + 1) + (53 - 34 + 1)
+
+
+def test_box_sizes_kept_between_calls_follow_a_changed_size():
+    """``ImageBoxObservation.to_boxes_rows`` keeps the targets' sizes between calls: a target
+    whose ``box_wh_px`` changes (scale adaptation) gets boxes of its new size at once."""
+    obs = ImageBoxObservation(10, 10)
+    targets = [Target(id=i, state=np.zeros(2), box_xywh_px=np.zeros(4)) for i in (1, 2)]
+    states = np.arange(2 * 3 * 2, dtype=float).reshape(2, 3, 2)
+    first = obs.to_boxes_rows(states, targets)
+    assert np.all(first[:, :, 2:] == 10.0)
+    targets[1].box_wh_px = (20.0, 30.0)
+    second = obs.to_boxes_rows(states, targets)
+    assert np.all(second[0, :, 2:] == 10.0) and np.all(second[1, :, 2:] == [20.0, 30.0])
+    assert np.array_equal(second[1, :, :2], states[1] - [10.0, 15.0])
+    targets[1].box_wh_px = (20.0, 30.0)  # an equal new tuple: the same boxes
+    assert np.array_equal(obs.to_boxes_rows(states, targets), second)
+    obs.width_px = 12.0  # the default size changed
+    assert np.all(obs.to_boxes_rows(states, targets)[0, :, 2] == 12.0)

@@ -15,7 +15,8 @@ Data flow per frame (top to bottom)::
           -> normalise, estimate (weighted mean), extent, resample on ESS: vectorised over
              the targets (one row per filter, each row the single-filter numbers bit for bit;
              systematic resampling every frame with the compiled kernels loaded: two compiled
-             passes around numpy's exp, :meth:`MultiTargetTracker._fused_rows`)
+             passes around numpy's exp, :meth:`MultiTargetTracker._fused_rows`, then the
+             estimates' boxes and the records of all targets per block, ``_finish_rows``)
           -> the filter's deaths (misses, leaving the image or the valid region)
           -> observation.update_target (matched targets)
           -> tracks.after_frame: births, confirmation, merging, ends, the records to output
@@ -66,6 +67,9 @@ from pftrack.filter import (
 from pftrack.filter.core import _EXP_ZERO_BELOW
 
 log = logging.getLogger(__name__)
+
+_NO_DETECTIONS = np.zeros(0, dtype=int)  # unmatched detections of a frame without any
+_NO_DETECTIONS.flags.writeable = False
 
 __all__ = [
     "ComponentOutputError",
@@ -133,10 +137,7 @@ class ImageBoxObservation(ObservationModel):
     def to_boxes_rows(self, states: np.ndarray, targets: Sequence[Target]) -> np.ndarray:
         """(T, N, D) -> (T, N, 4) in one pass, each row's size its target's."""
         s = np.asarray(states, dtype=np.float64)
-        size = (float(self.width_px), float(self.height_px))
-        wh = np.array([size if t.box_wh_px is None else t.box_wh_px for t in targets],
-                      dtype=np.float64)
-        half = 0.5 * wh
+        wh, half = self._row_sizes(targets)
         if (_jit.small_ready() and s.ndim == 3 and s.shape[2] >= 2 and s.flags.c_contiguous
                 and wh.shape == (len(s), 2)):
             return _jit.centre_boxes_rows(s, half, wh)  # one compiled pass, same numbers
@@ -146,6 +147,20 @@ class ImageBoxObservation(ObservationModel):
             np.subtract(s[:, :, k], half[:, k:k + 1], out=out[:, :, k])
             out[:, :, 2 + k] = wh[:, k:k + 1]
         return out
+
+    def _row_sizes(self, targets: Sequence[Target]) -> tuple[np.ndarray, np.ndarray]:
+        """Each target's box size (T, 2) and half of it, kept while the sizes do not change
+        (the engine asks twice a frame: particles and estimates); read, never written."""
+        size = (float(self.width_px), float(self.height_px))
+        sizes = [size if t.box_wh_px is None else t.box_wh_px for t in targets]
+        hit = self.__dict__.get("_sizes_rows")
+        if hit is not None and len(hit[0]) == len(sizes) and all(
+                type(a) is tuple and a == b for a, b in zip(sizes, hit[0])):
+            return hit[1], hit[2]
+        wh = np.array(sizes, dtype=np.float64)
+        half = 0.5 * wh
+        self._sizes_rows = ([tuple(v) for v in sizes], wh, half)
+        return wh, half
 
     def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:
         b = np.asarray(box_xywh_px, dtype=np.float64)
@@ -294,7 +309,8 @@ class MultiTargetTracker:
         likelihood.prepare()  # compiled kernels and the like: before the first frame
         # a likelihood that imported numba: the engine's own kernels serve its small per-frame
         # calls too (same numbers), loaded now rather than in the first frame
-        _jit.warm_up_small()
+        if _jit.warm_up_small():
+            _jit.prepare_generator(rng)  # its state words found before the first frame
 
     # -- checks of what components return ----------------------------------------------------
 
@@ -415,11 +431,11 @@ class MultiTargetTracker:
         n = self.n_particles
         predicted: np.ndarray | list[np.ndarray]
         boxes: np.ndarray | list[np.ndarray]
-        if (self._vectorise and len(filters) > 1 and self._rows_pay
-                and all(len(f.particles) == n for f in filters)):
+        same_n = all(len(f.particles) == n for f in filters)  # (prediction keeps the counts)
+        if self._vectorise and len(filters) > 1 and self._rows_pay and same_n:
             targets = [f.target for f in filters]
-            predicted = self.motion.predict_rows(np.array([f.particles for f in filters]),
-                                                 self.dt, rng, targets)
+            predicted = self.motion.predict_rows(self._stacked_particles(filters), self.dt,
+                                                 rng, targets)
             boxes = observation.to_boxes_rows(predicted, targets)
         else:
             predicted = [self.motion.predict(f.particles, self.dt, rng, target=f.target)
@@ -433,7 +449,7 @@ class MultiTargetTracker:
             t.age += 1
             t.detection = None
         # 2. associate
-        unmatched_dets = np.arange(len(detections)) if detections is not None else np.zeros(0, int)
+        unmatched_dets = np.arange(len(detections)) if detections is not None else _NO_DETECTIONS
         if detections is not None and self.associator is not None and filters:
             targets = [f.target for f in filters]
             a = self.associator.associate(targets, detections)
@@ -447,7 +463,7 @@ class MultiTargetTracker:
         logls = []
         # step 4 takes all targets as one (T, N) array: the NaN / +inf check then runs once on
         # it (rows a valid region masks are checked before the mask, one by one)
-        rows = bool(self._vectorise and filters and all(len(f.particles) == n for f in filters))
+        rows = bool(self._vectorise and filters and same_n)
         check_stacked = rows and self.valid_region is None
         lw_rows = None  # (T, N): a likelihood that scores every target in one call
         if rows and self.likelihood.offers_rows():
@@ -494,9 +510,7 @@ class MultiTargetTracker:
         # 4. normalise, estimate, resample: one filter per row, vectorised over the targets
         # (every row equals the single-filter computation bit for bit; the T systematic offsets
         # are the T numbers successive calls would draw)
-        resampler = RESAMPLERS[self.resampling]
         always_resample = self.ess_threshold >= 1.0  # ESS <= N: no need to compute it
-        ess_min = self.ess_threshold * n + 1e-9
         weights = ok_rows = best_rows = states = extents = resampled = resample_rows = None
         fused = None
         if (rows and check_stacked and always_resample and self.resampling == "systematic"
@@ -506,10 +520,7 @@ class MultiTargetTracker:
             # the whole of step 4 in two compiled passes around numpy's exp (same numbers)
             fused = self._fused_rows(np.array(logls) if lw_rows is None else lw_rows, filters,
                                      predicted, frame)
-        if fused is not None:
-            weights, best_rows, states, extents, resample_rows, resampled = fused
-            ok_rows = np.ones(len(filters), dtype=bool)
-        elif rows:
+        if fused is None and rows:
             if lw_rows is not None:
                 lw = lw_rows.copy()  # (T, N); the rows stay the targets' log_likelihoods
             else:
@@ -539,17 +550,150 @@ class MultiTargetTracker:
                     resampled = resampled.reshape(p.shape)
         # the base in_view is "the estimate's box overlaps the image": read it off that box
         box_in_view = type(observation).in_view is ObservationModel.in_view
+        recovered = False
+        if fused is not None:  # every row ok and resampled: the estimates of all rows at once
+            _, best_f, states_f, extents_f, idx_f, resampled_f = fused
+            records, dead = self._finish_rows(frame, filters, detections, states_f, extents_f,
+                                              best_f, resampled_f, idx_f, pos_dims, box_in_view)
+        else:
+            records, dead, recovered = self._finish_each(
+                frame, filters, detections, logls, weights, ok_rows, best_rows, states,
+                extents, resampled, resample_rows, pos_dims, box_in_view)
+        if recovered:
+            self.recoveries += 1
+            log.info("frame %d: every particle weight of a target vanished; re-spread around "
+                     "its last estimate", frame.index)
+        for tid in dead:
+            self.remove_target(tid)
+        # 6. per-target observation parameters from the matched detections (a height factor)
+        if type(observation).update_target is not ObservationModel.update_target:
+            for f in self._filters.values():
+                if f.target.detection is not None:
+                    observation.update_target(f.target, f.target.detection.box_xywh_px)
+        # 7. track management: births, confirmation, merging, ends, output
+        return self.tracks.after_frame(self, frame, detections, records, unmatched_dets)
+
+    def _finish_rows(self, frame: Frame, filters: list[_Filter], detections: Detections | None,
+                     states: np.ndarray, extents: np.ndarray, best_rows: list[float],
+                     resampled: np.ndarray, resample_rows: np.ndarray, pos_dims: list[int],
+                     box_in_view: bool) -> tuple[list[TrackRecord], list[int]]:
+        """The end of the frame when every target was weighted, estimated and resampled by
+        :meth:`_fused_rows`: the estimates' boxes, anchors and confidences of all targets at
+        once, support and death per target, and the records, each field a row of one block
+        copied once per frame (the numbers and the records of :meth:`_finish_each`). Returns
+        ``(records, dead ids)``."""
+        observation = self.observation
+        targets = [f.target for f in filters]
+        est_boxes = rec_boxes = None
+        if type(observation).to_boxes_rows is not ObservationModel.to_boxes_rows:
+            est_boxes = observation.to_boxes_rows(states[:, None, :], targets)[:, 0]
+            rec_boxes = est_boxes.copy()
+        pos = self._pos_index(pos_dims)
+        anchors = states[:, pos].copy()  # the engine's: never a view of what callers get
+        confidences = expit(np.array(best_rows)).tolist()
+        # what the records own: one copy of each block (the targets keep views of the originals)
+        rec_states = states.copy()
+        rec_positions = states[:, pos].copy()
+        rec_extents = extents.copy()
+        no_world = type(observation).world_position is ObservationModel.world_position
+        img_w, img_h = frame.size_wh
+        mll = self.min_log_likelihood
+        max_misses = self.max_misses
+        valid_region = self.valid_region
+        uniform, uniform_log = self._uniform, self._uniform_log
+        index = frame.index
+        records = []
+        dead = []
+        for i, f in enumerate(filters):
+            t = targets[i]
+            best = best_rows[i]
+            state = states[i]
+            t.state = state
+            t.extent = extents[i]
+            # (a model without a rows method sees the target's new state and extent, as before)
+            box = est_boxes[i] if est_boxes is not None else \
+                observation.to_boxes(state[None], t)[0]
+            t.box_xywh_px = box
+            supported = (t.detection is not None or (mll is not None and best >= mll)
+                         or (detections is None and mll is None))
+            t.frames_tracked = t.frames_tracked + 1 if supported else 0
+            t.misses = 0 if supported else t.misses + 1
+            f.anchor = anchors[i]
+            # resampled (``t.resample_index``: which weighted particle each new one copies)
+            f.particles = t.particles = resampled[i]
+            t.resample_index = resample_rows[i]
+            f.weights, f.log_weights = uniform, uniform_log
+            # 5. death
+            gone = max_misses is not None and t.misses > max_misses
+            if self.kill_out_of_view:
+                if box_in_view:
+                    bx, by, bw, bh = box.tolist()
+                    visible = bx < img_w and by < img_h and bx + bw > 0 and by + bh > 0
+                else:
+                    visible = observation.in_view(state[None], frame.size_wh, t)[0]
+                if not visible:
+                    gone = True
+            if valid_region is not None and not valid_region(state[None, pos_dims])[0]:
+                gone = True
+            if gone:
+                dead.append(t.id)
+                continue
+            world = None if no_world else observation.world_position(state)
+            records.append(TrackRecord(
+                frame=index, id=t.id,
+                box_xywh_px=rec_boxes[i] if rec_boxes is not None else box.copy(),
+                state=rec_states[i],
+                position=rec_positions[i], extent=rec_extents[i],
+                confidence=confidences[i] if math.isfinite(best) else 0.0,
+                world_m=None if world is None else np.asarray(world, dtype=np.float64)))
+        # next frame's prediction reads these rows as they are while no filter changed
+        self._last_stack = (resampled, [f.particles for f in filters])
+        return records, dead
+
+    def _stacked_particles(self, filters: list[_Filter]) -> np.ndarray:
+        """Every filter's particles as one (T, N, D) array: the array the last frame's
+        resampling filled when each filter still holds its row of it (no copy: predict does
+        not modify its input), else a new stack."""
+        last = self.__dict__.get("_last_stack")
+        if last is not None:
+            arr, views = last
+            if len(views) == len(filters) and all(f.particles is v
+                                                  for f, v in zip(filters, views)):
+                return arr
+        return np.array([f.particles for f in filters])
+
+    def _pos_index(self, pos_dims: list[int]) -> slice | list[int]:
+        """``pos_dims`` as a slice when they are consecutive (a basic index: no fancy-index
+        machinery), else the list."""
+        hit = self.__dict__.get("_pos_slice")
+        if hit is not None and hit[0] == pos_dims:
+            return hit[1]
+        index: slice | list[int] = pos_dims
+        if pos_dims and pos_dims == list(range(pos_dims[0], pos_dims[0] + len(pos_dims))):
+            index = slice(pos_dims[0], pos_dims[0] + len(pos_dims))
+        self._pos_slice = (list(pos_dims), index)
+        return index
+
+    def _finish_each(self, frame: Frame, filters: list[_Filter], detections: Detections | None,
+                     logls: list[np.ndarray], weights: np.ndarray | None,
+                     ok_rows: np.ndarray | None, best_rows: list[float] | None,
+                     states: np.ndarray | None, extents: np.ndarray | None,
+                     resampled: np.ndarray | None, resample_rows: np.ndarray | None,
+                     pos_dims: list[int], box_in_view: bool,
+                     ) -> tuple[list[TrackRecord], list[int], bool]:
+        """The end of the frame target by target (the general path): normalise where step 4
+        did not, re-spread a target that lost every weight, estimate, support, resample,
+        death, record. Returns ``(records, dead ids, whether a target was re-spread)``."""
+        observation = self.observation
+        rng = self.rng
+        n = self.n_particles
+        resampler = RESAMPLERS[self.resampling]
+        always_resample = self.ess_threshold >= 1.0  # ESS <= N: no need to compute it
+        ess_min = self.ess_threshold * n + 1e-9
         img_w, img_h = frame.size_wh
         records = []
         dead = []
         recovered = False
-        est_boxes = anchors = confidences = None
-        if fused is not None:  # every row ok: the estimates' boxes, anchors, confidences at once
-            if type(observation).to_boxes_rows is not ObservationModel.to_boxes_rows:
-                est_boxes = observation.to_boxes_rows(states[:, None, :],  # type: ignore[index]
-                                                      [f.target for f in filters])[:, 0]
-            anchors = states[:, pos_dims]  # type: ignore[index]  # fancy indexing: a copy
-            confidences = expit(np.array(best_rows)).tolist()
         for i, f in enumerate(filters):
             t = f.target
             if weights is not None:
@@ -572,8 +716,7 @@ class MultiTargetTracker:
                 state = weighted_mean(f.particles, w)
                 t.extent = weighted_extent(f.particles, w, state)
             t.state = state
-            box = est_boxes[i] if est_boxes is not None else \
-                observation.to_boxes(state[None], t)[0]
+            box = observation.to_boxes(state[None], t)[0]
             t.box_xywh_px = box
             supported = ok and (
                 t.detection is not None
@@ -581,7 +724,7 @@ class MultiTargetTracker:
                 or (detections is None and self.min_log_likelihood is None))
             t.frames_tracked = t.frames_tracked + 1 if supported else 0
             t.misses = 0 if supported else t.misses + 1
-            f.anchor = anchors[i] if anchors is not None else state[pos_dims]  # a copy
+            f.anchor = state[pos_dims]  # a copy
             # resample (``t.resample_index``: which weighted particle each new one copies)
             if resampled is not None:
                 f.particles = resampled[i]
@@ -612,21 +755,8 @@ class MultiTargetTracker:
             if gone:
                 dead.append(t.id)
                 continue
-            records.append(self._record(frame, t, best, pos_dims,
-                                        None if confidences is None else confidences[i]))
-        if recovered:
-            self.recoveries += 1
-            log.info("frame %d: every particle weight of a target vanished; re-spread around "
-                     "its last estimate", frame.index)
-        for tid in dead:
-            self.remove_target(tid)
-        # 6. per-target observation parameters from the matched detections (a height factor)
-        if type(observation).update_target is not ObservationModel.update_target:
-            for f in self._filters.values():
-                if f.target.detection is not None:
-                    observation.update_target(f.target, f.target.detection.box_xywh_px)
-        # 7. track management: births, confirmation, merging, ends, output
-        return self.tracks.after_frame(self, frame, detections, records, unmatched_dets)
+            records.append(self._record(frame, t, best, pos_dims))
+        return records, dead, recovered
 
     def _fused_rows(self, lw: np.ndarray, filters: list[_Filter], p: np.ndarray, frame: Frame,
                     ) -> tuple[Any, ...] | None:

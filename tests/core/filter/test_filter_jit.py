@@ -67,6 +67,38 @@ def test_pcg64_normals_cover_the_ziggurat_tail_and_rejections():
     assert np.array_equal(out, ref) and _same_generator_state(a, b)
 
 
+def test_pcg64_state_is_read_and_written_in_place(monkeypatch):
+    """The kernels read the generator's state words in place (no ``bg.state`` round trip) on
+    this platform, and that path and the dictionary path give numpy's numbers and state, also
+    across a ``bg.state`` assignment and other draws in between."""
+    a = np.random.default_rng(11)
+    words, perm = _jit._pcg64_words(a.bit_generator)
+    assert words is not None and sorted(perm.tolist()) == [0, 1, 2, 3]
+    real_dict_path = _jit._with_state_dict
+
+    def no_dict(*args):
+        raise AssertionError("the bg.state dictionary path was taken")
+
+    monkeypatch.setattr(_jit, "_with_state_dict", no_dict)
+    b = np.random.default_rng(11)
+    for _ in range(3):
+        out = np.empty(1001)
+        assert _jit.pcg64_standard_normal(a, out)
+        assert np.array_equal(out, b.standard_normal(1001))
+        assert a.random() == b.random()  # numpy draws in between see the written state
+    monkeypatch.setattr(_jit, "_with_state_dict", real_dict_path)
+    st = np.random.default_rng(99).bit_generator.state
+    a.bit_generator.state = st  # an assignment lands in the same memory
+    b.bit_generator.state = st
+    out = np.empty(5)
+    _jit.pcg64_standard_normal(a, out)
+    assert np.array_equal(out, b.standard_normal(5)) and _same_generator_state(a, b)
+    # the dictionary path (another memory layout) gives the same
+    monkeypatch.setattr(_jit, "_pcg64_words", lambda bg: (None, None))
+    _jit.pcg64_standard_normal(a, out)
+    assert np.array_equal(out, b.standard_normal(5)) and _same_generator_state(a, b)
+
+
 def test_other_bit_generators_are_not_handled():
     rng = np.random.Generator(np.random.Philox(3))
     before = repr(rng.bit_generator.state)

@@ -329,3 +329,58 @@ def test_the_frames_boxes_and_background_from_one_kernel_equal_the_general_path(
             for tid in a.values_:
                 assert a.values_[tid].tobytes() == b.values_[tid].tobytes()
     assert len(calls) == 6  # the compiled pass ran for every frame with the kernels on
+
+
+@pytest.mark.skipif(not _jit.ENABLED, reason="PFTRACK_NO_JIT is set")
+def test_template_counts_of_a_box_inside_the_image_are_compiled_and_the_same(monkeypatch):
+    """A template's counts (``init_target``) of a box wholly inside the image come from one
+    compiled pass over its pixels (half-pixel boxes rounded as ParticleRegion rounds them):
+    the numpy path's templates exactly; boxes leaving the image, stripes and sub-box regions
+    keep the numpy path."""
+    frame, targets = _scene(8, third=True)
+    edge = Target(id=4, state=np.zeros(2), box_xywh_px=np.array([-5.5, 70.4, 20.0, 30.6]))
+    odd = Target(id=5, state=np.zeros(2), box_xywh_px=np.array([30.5, 20.49, 17.5, 12.5]))
+    calls = []
+    real = _jit.grid_histogram
+    monkeypatch.setattr(_jit, "grid_histogram", lambda *a: calls.append(a[0].shape) or real(*a))
+    for kw in ({}, {"parts": 2}, {"region": (0.1, 0.1, 0.9, 0.9)}):
+        got = {}
+        for enabled in (True, False):
+            monkeypatch.setattr(_jit, "ENABLED", enabled)
+            lik = CrossEntropyBackgroundLikelihood(**kw)
+            calls.clear()
+            for t in [*targets, edge, odd]:
+                lik.init_target(frame, t)
+            got[enabled] = ({i: q.tobytes() for i, q in lik.templates_.items()}, len(calls))
+        assert got[True][0] == got[False][0]
+        assert got[False][1] == 0
+        # compiled: every box but the one leaving the image, and only for whole boxes
+        assert got[True][1] == (4 if not kw else 0)
+    monkeypatch.setattr(_jit, "ENABLED", True)
+    lik = CrossEntropyBackgroundLikelihood()
+    calls.clear()
+    lik.init_target(frame, odd)
+    assert calls == [(13, 18, 3)]  # x 31-49, y 20-33: floor(v + 0.5) of each value
+
+
+def test_changed_parameters_rebuild_the_binner_after_frames():
+    """The per-frame set-up check is by identity of the parameter values: assigning new ones
+    between frames still rebuilds the binner (and validates them)."""
+    frame, targets = _scene(9)
+    lik = CrossEntropyBackgroundLikelihood()
+    for t in targets:
+        lik.init_target(frame, t)
+    lik.begin_frame(frame, targets)
+    assert lik.binner_.n_bins == 512
+    assert lik._setup() is lik.binner_  # unchanged values: the same binner
+    lik.bins = 4
+    assert lik._setup().n_bins == 64
+    lik.eps = -1.0  # not part of the binner: validated with the next rebuild
+    lik.colour_space = "hsv"
+    with pytest.raises(ValueError, match="eps"):
+        lik._setup()
+    lik.eps = 1e-4
+    lik.region = [0.1, 0.1, 0.9, 0.9]  # a list: compared by value every time
+    lik._setup()
+    lik.region[2] = 0.5
+    assert lik._setup() is not None and lik._setup_key[2] == (0.1, 0.1, 0.5, 0.9)

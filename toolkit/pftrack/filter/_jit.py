@@ -55,6 +55,7 @@ __all__ = [
     "constant_velocity_update",
     "gaussian_centre_log_likelihood",
     "pcg64_standard_normal",
+    "prepare_generator",
     "random_walk_predict",
     "shifted_exp",
     "small_ready",
@@ -119,10 +120,63 @@ def warm_up_small() -> bool:
     return True
 
 
-def _k():
-    from pftrack.filter import _kernels  # numba: imported on first use
+_kernel_module = None
 
-    return _kernels
+
+def _k():
+    global _kernel_module
+    if _kernel_module is None:
+        from pftrack.filter import _kernels  # numba: imported on first use
+
+        _kernel_module = _kernels
+    return _kernel_module
+
+
+# bit generator -> (it, its state words in place or None, their order): a few kept (PCG64 takes
+# no weak reference; holding the last few generators alive costs nothing worth counting)
+_pcg64_words_cache: dict[int, tuple[np.random.PCG64, np.ndarray | None, np.ndarray | None]] = {}
+
+
+def _pcg64_words(bg: np.random.PCG64) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The generator's 128-bit state and increment as a (4,) uint64 array over its own memory
+    (numpy's ``pcg64_random_t``, found through ``bg.ctypes.state_address``) and the order
+    ``perm`` such that ``words[perm]`` is ``(hi, lo, inc_hi, inc_lo)``; ``(None, None)`` when
+    the memory does not hold exactly the state ``bg.state`` reports (another layout: the
+    caller goes through ``bg.state``). Reading and writing the words in place replaces the
+    ``bg.state`` dictionary round trip (a few microseconds a call)."""
+    hit = _pcg64_words_cache.get(id(bg))
+    if hit is not None and hit[0] is bg:
+        return hit[1], hit[2]
+    words = perm = None
+    try:
+        import ctypes
+
+        addr = ctypes.c_void_p.from_address(bg.ctypes.state_address).value  # pcg64_state.pcg_state
+        if addr:
+            mem = np.ctypeslib.as_array((ctypes.c_uint64 * 4).from_address(addr))
+            st = bg.state["state"]
+            want = [st["state"] >> 64, st["state"] & _M64, st["inc"] >> 64, st["inc"] & _M64]
+            got = [int(v) for v in mem]
+            # __uint128_t halves little-endian (low first), or numpy's {high, low} struct
+            fits = [order for order in ((1, 0, 3, 2), (0, 1, 2, 3))
+                    if [got[i] for i in order] == want]
+            if len(fits) == 1:
+                words, perm = mem, np.array(fits[0], dtype=np.intp)
+    except (AttributeError, TypeError, ValueError, OSError):  # no ctypes view: the dict path
+        words = perm = None
+    if len(_pcg64_words_cache) >= 4:
+        _pcg64_words_cache.clear()
+    _pcg64_words_cache[id(bg)] = (bg, words, perm)
+    return words, perm
+
+
+def prepare_generator(rng: np.random.Generator) -> None:
+    """Find ``rng``'s state words now (:func:`_pcg64_words`: a ctypes look-up, the first in a
+    process costs milliseconds) so that its first compiled draw, inside a timed loop, does not
+    pay for it. The engine calls it when it is built; a no-op for other bit generators."""
+    bg = rng.bit_generator
+    if ENABLED and type(bg) is np.random.PCG64:
+        _pcg64_words(bg)
 
 
 def _with_pcg64(rng: np.random.Generator, kernel, *args) -> bool:
@@ -132,14 +186,27 @@ def _with_pcg64(rng: np.random.Generator, kernel, *args) -> bool:
     bg = rng.bit_generator
     if type(bg) is not np.random.PCG64:
         return False
+    words, perm = _pcg64_words(bg)
     with bg.lock:
-        st = bg.state
-        s, inc = st["state"]["state"], st["state"]["inc"]
-        state = np.array([s >> 64, s & _M64, inc >> 64, inc & _M64], dtype=np.uint64)
-        kernel(*args, state)
-        st["state"]["state"] = (int(state[0]) << 64) | int(state[1])
-        bg.state = st  # has_uint32 / uinteger as they were: next64 leaves them alone
+        if words is not None and perm is not None:  # the state words in place
+            state = words[perm]  # (hi, lo, inc_hi, inc_lo), a copy
+            kernel(*args, state)
+            words[perm[0]] = state[0]
+            words[perm[1]] = state[1]
+            return True
+        _with_state_dict(bg, kernel, args)
     return True
+
+
+def _with_state_dict(bg: np.random.PCG64, kernel, args: tuple) -> None:
+    """:func:`_with_pcg64` through ``bg.state`` (read, run, write back); the caller holds the
+    lock."""
+    st = bg.state
+    s, inc = st["state"]["state"], st["state"]["inc"]
+    state = np.array([s >> 64, s & _M64, inc >> 64, inc & _M64], dtype=np.uint64)
+    kernel(*args, state)
+    st["state"]["state"] = (int(state[0]) << 64) | int(state[1])
+    bg.state = st  # has_uint32 / uinteger as they were: next64 leaves them alone
 
 
 def pcg64_standard_normal(rng: np.random.Generator, out: np.ndarray) -> bool:
