@@ -261,7 +261,7 @@ def test_cli_people_from_a_detection_file_writes_the_camera(capsys, tmp_path):
     assert r["slants_used"] > 300 and r["focal_identified"]
     assert r["reference"]["median_error_m"] < 0.3 and r["reference"]["horizon_error_px"] < 50
     assert set(r["uncertainty"]) == {"horizon_row", "camera_height_m", "tilt_deg", "roll_deg",
-                                     "focal_px"}
+                                     "focal_px", "distortion_k"}
     # the file is the project's camera format and holds the same camera
     cam = load_camera(out)
     assert cam.image_size == (768, 576)
