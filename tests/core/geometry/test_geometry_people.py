@@ -344,12 +344,23 @@ def test_cli_people_from_a_detection_file_writes_the_camera(capsys, tmp_path):
     assert cam.center_m[2] == pytest.approx(r["camera_height_m"])
     assert horizon_row(cam, 383.5) == pytest.approx(r["horizon_row"])
     assert cam.metadata["people_fit"]["inliers"] == r["inliers"]
+    # the lens's radial distortion, fitted with the leans, is in the file as Tsai's kappa1
+    assert r["distortion_k"] != 0.0 and any("distortion" in t for t in r["notes"])
+    assert cam.distortion.params()["kappa1"] == pytest.approx(
+        r["distortion_k"] * r["focal_px"] ** 2 / (383.5 ** 2 + 287.5 ** 2))
+    # --no-distortion: the same leans, a pinhole
+    code, r3 = _cli(capsys, "calib", "people", "--video", str(data_path("pets09", "vtest.avi")),
+                    "--detections", str(det), "--frames", "1:100", "--bootstrap", "0",
+                    "--no-distortion", "--json")
+    assert code == 0 and r3["slants_used"] == r["slants_used"] and r3["distortion_k"] == 0.0
+    assert r3["uncertainty"]["distortion_k"] == 0.0
     # --no-lean: the focal-length prior
     code, r2 = _cli(capsys, "calib", "people", "--video", str(data_path("pets09", "vtest.avi")),
                     "--detections", str(det), "--frames", "1:100", "--bootstrap", "0",
                     "--no-lean", "--reference", str(data_path("pets09", "View_001.xml")),
                     "--gt", str(data_path("pets09", "gt.txt")), "--json")
     assert code == 0 and r2["slants_used"] == 0 and not r2["focal_identified"]
+    assert r2["distortion_k"] == 0.0  # (no leans: not fitted)
     assert r2["reference"]["median_error_m"] < 0.9 and r2["reference"]["horizon_error_px"] < 40
 
 
