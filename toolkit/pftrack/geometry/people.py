@@ -446,12 +446,22 @@ def _solve(p0: np.ndarray, feet: np.ndarray, hgt: np.ndarray, centre: np.ndarray
         s_sd = sigma_s * (1.0 if slant_scale is None else slant_scale[has])
         # where each lean was measured: the box's centre column, the middle of its rows
         s_at = np.column_stack([s_feet[:, 0], s_feet[:, 1] - (1 - top_fraction / 2) * s_hgt])
+    if use_dist:
+        # the undistortion is a function of the observed (distorted) pixels: their offsets from
+        # the centre and squared radii are constants of the fit (_undistort_boxes, inlined)
+        r2c = float(centre @ centre)
+        d_f = feet - centre
+        rad_f = np.sum(d_f * d_f, axis=1) / r2c
+        d_t = feet[:, 1] - hgt - centre[1]
+        rad_t = (d_f[:, 0] ** 2 + d_t ** 2) / r2c
 
     def fun(q: np.ndarray) -> np.ndarray:
         p = fixed.copy()
         p[free] = q
         if use_dist:
-            fu, hu = _undistort_boxes(p, feet, hgt, centre)
+            k = float(p[4])
+            fu = centre + d_f * (1.0 + k * rad_f)[:, None]
+            hu = fu[:, 1] - centre[1] - d_t * (1.0 + k * rad_t)
             with np.errstate(invalid="ignore", divide="ignore"):
                 r = (np.log(hu) - np.log(_predict_heights(p, fu, centre, person_height_m))
                      ) / sigma
@@ -462,9 +472,8 @@ def _solve(p0: np.ndarray, feet: np.ndarray, hgt: np.ndarray, centre: np.ndarray
         r[~np.isfinite(r)] = 10.0 / sigma  # foot above the horizon: a large, bounded residual
         if slants is not None:
             if use_dist:
-                sf, sh = _undistort_boxes(p, s_feet, s_hgt, centre)
-                pred_s = _distort_slants(s_at, _predict_slants(p, sf, sh, centre, top_fraction),
-                                         float(p[4]), centre)
+                pred_s = _distort_slants(s_at, _predict_slants(p, fu[has], hu[has], centre,
+                                                               top_fraction), k, centre)
                 rs = (s_obs - pred_s) / s_sd
             else:
                 rs = (s_obs - _predict_slants(p, s_feet, s_hgt, centre, top_fraction)) / s_sd
