@@ -7,8 +7,8 @@
 * a camera estimated from those detections alone (:func:`pftrack.fresh.estimate_camera`:
   :func:`pftrack.geometry.people.estimate_camera_from_people` on every 2nd of the first 600
   frames' confident detections, mean person height 1.7 m, their top and bottom rows and the
-  focal length from their silhouettes in the moving pixels,
-  :func:`~pftrack.geometry.people.measure_silhouettes`);
+  focal length and the lens's radial distortion from their silhouettes' lean in the moving
+  pixels, :func:`~pftrack.geometry.people.measure_silhouettes`);
 * the ``people-ground`` preset on the same detections, their ground points through that camera;
 * the same detections (score >= the detector's threshold) tracked by a peer a user would pick:
   norfair (``norfair-enough``, the ``bench`` extra) with IoU distance, its constant-velocity

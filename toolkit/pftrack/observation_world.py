@@ -112,10 +112,18 @@ class CameraBoxObservation(ObservationModel):
         self.dims_ = tuple(int(d) for d in self.position_dims)
 
     def setup(self, context: RunContext) -> None:
-        """The run's camera when none was given."""
+        """The run's camera when none was given; with a lens, the compiled projection
+        (:meth:`~pftrack.geometry.camera.Camera.project_rows`'s, checked bit for bit against
+        numpy's when loaded) loaded now, so that :meth:`foot_head_px` does not run Tsai's
+        Newton iterations in numpy every frame (the same numbers)."""
         if self.camera is None and context.camera is not None:
             self.__dict__.pop("dims_", None)
             self.camera_ = context.camera
+        cam = _resolve_camera(self, required=False)
+        if cam is not None and not cam.distortion.is_identity:
+            from pftrack.geometry.camera import _rows_kernel
+
+            _rows_kernel()
 
     def get_camera(self) -> Camera:
         """The camera in use (``camera``, loaded when a path, or the run's)."""

@@ -144,6 +144,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--no-lean", action="store_true",
                    help="do not measure people's lean in the video (the focal length then "
                         "comes from the prior unless --focal/--hfov)")
+    e.add_argument("--no-distortion", action="store_true",
+                   help="a pinhole: do not fit the lens's radial distortion with the leans "
+                        "(fitted by default whenever the leans are used)")
     e.add_argument("--silhouettes", action=argparse.BooleanOptionalAction, default=None,
                    help="fit from the people's silhouettes in the moving pixels (their top and "
                         "bottom rows, their lean) rather than the boxes' rows (default: on when "
@@ -334,7 +337,8 @@ def _people(args: argparse.Namespace) -> int:
     if rows is not None and len(rows) == 0:
         raise ValueError(f"calib people: no person boxes from {source}; lower --min-score, "
                          "widen --frames or give --boxes")
-    fit_kw = {"focal_px": focal, "fit_focal": args.fit_focal, "n_bootstrap": args.bootstrap}
+    fit_kw = {"focal_px": focal, "fit_focal": args.fit_focal, "n_bootstrap": args.bootstrap,
+              "fit_distortion": False if args.no_distortion else None}
     rng = np.random.default_rng(args.seed)
     if args.video and (rows is None or np.all(rows[:, 4] >= 1)):
         # detection (when no boxes), the people's lean and the fit, as a library call
@@ -386,6 +390,8 @@ def _people(args: argparse.Namespace) -> int:
              f"  focal length  {fit.focal_px:9.1f} +- {u['focal_px']:.1f} px"
              + ("" if fit.focal_identified else " (prior)")
              + (f" (from {fit.slants_used} people's lean)" if fit.slants_used else ""),
+             (f"  distortion k  {fit.distortion_k:9.4f} +- {u['distortion_k']:.4f} "
+             "(radial, relative displacement at the image corner; 0: pinhole)"),
              (f"  box height spread (1-sigma, relative) {fit.residual_sd:.3f}; "
              f"1-sigma by {fit.uncertainty_method}")]
     lines += [f"  note: {n}" for n in fit.notes]
