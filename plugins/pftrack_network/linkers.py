@@ -35,10 +35,15 @@ NA = -1
 #: default trajectory break cost ``C_en + C_ex`` (-log of a similarity in 1/s) of the
 #: min-cost-flow linker (alone and inside the ensemble), chosen on the tuning datasets (seeds
 #: 1000-1002, not the benchmark's 0-4) of ``pftrack bench seed004``: mean ARI 0.391, 0.411,
-#: 0.426, 0.403, 0.353 at 5.5, 6, 6.5, 7, 7.5
+#: 0.426, 0.403, 0.353 at 5.5, 6, 6.5, 7, 7.5 (old protocol, with image reuse; re-chosen at
+#: stop 24 on the protocol without it, the same seeds: 0.197, 0.346, 0.419, 0.459, 0.460,
+#: 0.430, 0.415, 0.396, 0.371 at 5, 5.5, 6, 6.25, 6.5, 6.75, 7, 7.5, 8; the candidate limit of
+#: sec. 3.3 at 1, 2, 3 tracklets: at most 0.329, 0.427, 0.440, so none, as before)
 DEFAULT_PATH_COST = 6.5
 #: the greedy linker's, chosen the same way: 0.345, 0.342, 0.313, 0.282 at 5.5, 6, 6.5, 7
-GREEDY_PATH_COST = 6.0
+#: (old protocol; 6.0 there); without image reuse 0.189, 0.290, 0.304, 0.311, 0.317, 0.307,
+#: 0.291 at 5, 5.5, 5.75, 6, 6.25, 6.5, 7
+GREEDY_PATH_COST = 6.25
 #: the break cost of the min-cost-flow linker run on each Camera Dropout sub-network of
 #: :class:`TrajectoryEnsemble` (its default linker and ``pftrack bench seed004``'s), chosen on
 #: the tuning seeds 1000-1002 with S = 100, 2 runs each, mean ARI of the ensemble (transit
@@ -468,8 +473,12 @@ class TrajectoryEnsemble(TrackletLinker):
 #: edge; see there for how it was chosen (re-chosen at stop 24 on the protocol without image
 #: reuse: 0.7 before)
 JOIN_MIN_APPEARANCE = 0.65
-#: :class:`GatedTrajectoryEnsemble`'s sub-network break cost (see there)
-GATED_PATH_COST = DEFAULT_PATH_COST
+#: :class:`GatedTrajectoryEnsemble`'s sub-network break cost (see there): the full network's
+#: 6.5 up to stop 23; re-chosen at stop 24 on the protocol without image reuse (tuning seeds,
+#: C_d = 5, S = 100, gate 0.65, 3 seeds x 4 runs): 0.470 / 0.478 / 0.484 / 0.478 at 6.25 /
+#: 6.5 / 6.75 / 7 (C_d = 9, S = 50, 2 runs: 0.343 / 0.375 / 0.398 / 0.394 / 0.382 at 5.5 / 6 /
+#: 6.5 / 7 / 7.5)
+GATED_PATH_COST = 6.75
 
 
 class GatedTrajectoryEnsemble(TrajectoryEnsemble):

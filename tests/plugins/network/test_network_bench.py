@@ -261,12 +261,12 @@ def test_gated_joins_let_sub_networks_use_the_full_networks_break_cost():
     Measured on the old protocol with image reuse at its gate 0.7, where the method was built
     (the protocol without reuse: the next-but-one test)."""
     from pftrack_network.bench_seed004 import dataset
-    from pftrack_network.linkers import ENSEMBLE_PATH_COST, GATED_PATH_COST
+    from pftrack_network.linkers import DEFAULT_PATH_COST, ENSEMBLE_PATH_COST
 
     ds, app = dataset(1000, None, True)
     ari_low, prec_low = _sub_network_scores(ds, app, "moments", ENSEMBLE_PATH_COST)
-    ari_free, prec_free = _sub_network_scores(ds, app, "moments", GATED_PATH_COST)
-    ari_gated, prec_gated = _sub_network_scores(ds, app, "moments", GATED_PATH_COST,
+    ari_free, prec_free = _sub_network_scores(ds, app, "moments", DEFAULT_PATH_COST)
+    ari_gated, prec_gated = _sub_network_scores(ds, app, "moments", DEFAULT_PATH_COST,
                                                 gate=0.7)
     assert prec_free < 0.3 and prec_gated > 0.45  # measured 0.28 and 0.47 (0.44 at 5.5)
     assert ari_gated > 2 * ari_free  # measured 0.34 and 0.15
@@ -281,6 +281,7 @@ def test_gated_ensemble_beats_min_cost_flow_on_a_tuning_dataset():
     from pftrack.metrics import adjusted_rand_index
     from pftrack_network.bench_seed004 import dataset
     from pftrack_network.linkers import (
+        DEFAULT_PATH_COST,
         GatedTrajectoryEnsemble,
         MinCostFlowLinker,
         TrajectoryEnsemble,
@@ -290,7 +291,8 @@ def test_gated_ensemble_beats_min_cost_flow_on_a_tuning_dataset():
     mcf = adjusted_rand_index(ds.truth, MinCostFlowLinker().link(ds.tracklets, ds.network,
                                                                   appearance=app))
     ari = {}
-    for te in (TrajectoryEnsemble(9, 50), GatedTrajectoryEnsemble(9, 50,
+    old = MinCostFlowLinker(DEFAULT_PATH_COST)  # the gated ensemble's break cost then
+    for te in (TrajectoryEnsemble(9, 50), GatedTrajectoryEnsemble(9, 50, old,
                                                                   join_min_appearance=0.7)):
         rng = np.random.default_rng(np.random.SeedSequence([1002, 9, 50, 0]))
         labels = te.link(ds.tracklets, ds.network, appearance=app, rng=rng)
@@ -322,11 +324,11 @@ def test_gated_joins_without_image_reuse():
     their share of true links (measured 0.23 -> 0.32) and doubles the ARI on the kept
     tracklets (0.127 -> 0.264; ungated at the ensemble's 5.5: 0.258)."""
     from pftrack_network.bench_seed004 import dataset
-    from pftrack_network.linkers import GATED_PATH_COST, JOIN_MIN_APPEARANCE
+    from pftrack_network.linkers import DEFAULT_PATH_COST, JOIN_MIN_APPEARANCE
 
     ds, app = dataset(1000)
-    ari_free, prec_free = _sub_network_scores(ds, app, "moments", GATED_PATH_COST)
-    ari_gated, prec_gated = _sub_network_scores(ds, app, "moments", GATED_PATH_COST,
+    ari_free, prec_free = _sub_network_scores(ds, app, "moments", DEFAULT_PATH_COST)
+    ari_gated, prec_gated = _sub_network_scores(ds, app, "moments", DEFAULT_PATH_COST,
                                                 gate=JOIN_MIN_APPEARANCE)
     assert prec_free < 0.26 and prec_gated > 0.29
     assert ari_gated > 1.8 * ari_free
