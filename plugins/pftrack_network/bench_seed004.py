@@ -30,9 +30,9 @@ import numpy as np
 
 DROPPED = (5, 7, 9, 11, 13)
 #: C_d of Table 1's tuned row of the appearance-gated ensemble (``trajectory-ensemble-gated``),
-#: chosen on the tuning seeds 1000-1002 (README: "Seed 004: the appearance-gated
-#: ensemble"; stop 24, protocol without image reuse, S = 100, 3 seeds x 4 runs: 0.478 / 0.458
-#: / 0.403 (S = 50) at C_d = 5 / 7 / 9; 9 on the old protocol)
+#: chosen on the tuning seeds 1000-1002 (README: "Seed 004: re-tuned without image reuse"):
+#: the linker's own default, :data:`pftrack_network.linkers.GATED_DROPPED` (5; 9 on the old
+#: protocol; the same number here so that ``--help`` needs no import of the linkers)
 GATED_DROPPED = 5
 #: C_d of Table 1's tuned row of the paper's ensemble, chosen on the tuning seeds 1000-1002
 #: (stop 24, protocol without image reuse, S = 50, 3 seeds x 4 runs, each C_d at its best break
