@@ -143,6 +143,19 @@ def test_seed004_benchmark_small_case_prints_both_tables():
     # the paper's ensemble keeps its row; the gated change of method has its own at C_d = 9
     assert "trajectory-ensemble-gated (C_d=9)" in methods
     assert result["setup"]["join_min_appearance"] == 0.65  # re-chosen without image reuse
+    # the choices of the tuning seeds without image reuse (stop 24): the tuned rows' C_d and
+    # break costs; min-cost flow's and the paper's ensemble's break costs stayed
+    assert "trajectory-ensemble (C_d=5, tuned)" in methods
+    assert "trajectory-ensemble-gated (C_d=5, tuned)" in methods
+    setup = result["setup"]
+    assert (setup["path_cost"], setup["greedy_path_cost"], setup["ensemble_path_cost"],
+            setup["tuned_path_cost"], setup["gated_path_cost"]) == (6.5, 6.25, 5.5, 5.75, 6.75)
+    # the tuned row runs with its own break cost, not the paper's row's
+    tuned = next(r for r in result["table1"] if r["method"].endswith("(C_d=5, tuned)")
+                 and r["method"].startswith("trajectory-ensemble ("))
+    for d in range(2):
+        own = bench_seed004.ensemble_runs(d, 5, 10, 2, path_cost=5.75)["ari"]
+        assert tuned["per_dataset"][d] == pytest.approx(np.mean(own))
     assert result["setup"]["image_reuse"] is False
     assert result["seconds"]["trajectory_ensemble_gated_one_run_median"] > 0
     for r in result["table1"]:
@@ -261,12 +274,12 @@ def test_gated_joins_let_sub_networks_use_the_full_networks_break_cost():
     Measured on the old protocol with image reuse at its gate 0.7, where the method was built
     (the protocol without reuse: the next-but-one test)."""
     from pftrack_network.bench_seed004 import dataset
-    from pftrack_network.linkers import ENSEMBLE_PATH_COST, GATED_PATH_COST
+    from pftrack_network.linkers import DEFAULT_PATH_COST, ENSEMBLE_PATH_COST
 
     ds, app = dataset(1000, None, True)
     ari_low, prec_low = _sub_network_scores(ds, app, "moments", ENSEMBLE_PATH_COST)
-    ari_free, prec_free = _sub_network_scores(ds, app, "moments", GATED_PATH_COST)
-    ari_gated, prec_gated = _sub_network_scores(ds, app, "moments", GATED_PATH_COST,
+    ari_free, prec_free = _sub_network_scores(ds, app, "moments", DEFAULT_PATH_COST)
+    ari_gated, prec_gated = _sub_network_scores(ds, app, "moments", DEFAULT_PATH_COST,
                                                 gate=0.7)
     assert prec_free < 0.3 and prec_gated > 0.45  # measured 0.28 and 0.47 (0.44 at 5.5)
     assert ari_gated > 2 * ari_free  # measured 0.34 and 0.15
@@ -281,6 +294,7 @@ def test_gated_ensemble_beats_min_cost_flow_on_a_tuning_dataset():
     from pftrack.metrics import adjusted_rand_index
     from pftrack_network.bench_seed004 import dataset
     from pftrack_network.linkers import (
+        DEFAULT_PATH_COST,
         GatedTrajectoryEnsemble,
         MinCostFlowLinker,
         TrajectoryEnsemble,
@@ -290,7 +304,8 @@ def test_gated_ensemble_beats_min_cost_flow_on_a_tuning_dataset():
     mcf = adjusted_rand_index(ds.truth, MinCostFlowLinker().link(ds.tracklets, ds.network,
                                                                   appearance=app))
     ari = {}
-    for te in (TrajectoryEnsemble(9, 50), GatedTrajectoryEnsemble(9, 50,
+    old = MinCostFlowLinker(DEFAULT_PATH_COST)  # the gated ensemble's break cost then
+    for te in (TrajectoryEnsemble(9, 50), GatedTrajectoryEnsemble(9, 50, old,
                                                                   join_min_appearance=0.7)):
         rng = np.random.default_rng(np.random.SeedSequence([1002, 9, 50, 0]))
         labels = te.link(ds.tracklets, ds.network, appearance=app, rng=rng)
@@ -300,9 +315,10 @@ def test_gated_ensemble_beats_min_cost_flow_on_a_tuning_dataset():
 
 @pytest.mark.parametrize("seed", [1000, 1001, 1002])
 def test_gated_ensemble_beats_the_papers_without_image_reuse(seed):
-    """The protocol without image reuse, tuning datasets (one run, S = 50): the gated
-    ensemble (gate 0.65) above the paper's on each (measured 0.400 / 0.348 / 0.459 against
-    0.246 / 0.242 / 0.331), though not above min-cost flow (0.462 / 0.350 / 0.568)."""
+    """The protocol without image reuse, tuning datasets (one run, S = 50, C_d = 9): the gated
+    ensemble (gate 0.65, break cost 6.75) above the paper's on each (measured 0.402 / 0.339 /
+    0.452 against 0.246 / 0.242 / 0.331; 0.400 / 0.348 / 0.459 at the break cost 6.5 of
+    before), though not above min-cost flow (0.462 / 0.350 / 0.568)."""
     from pftrack.metrics import adjusted_rand_index
     from pftrack_network.bench_seed004 import dataset
     from pftrack_network.linkers import GatedTrajectoryEnsemble, TrajectoryEnsemble
@@ -322,11 +338,11 @@ def test_gated_joins_without_image_reuse():
     their share of true links (measured 0.23 -> 0.32) and doubles the ARI on the kept
     tracklets (0.127 -> 0.264; ungated at the ensemble's 5.5: 0.258)."""
     from pftrack_network.bench_seed004 import dataset
-    from pftrack_network.linkers import GATED_PATH_COST, JOIN_MIN_APPEARANCE
+    from pftrack_network.linkers import DEFAULT_PATH_COST, JOIN_MIN_APPEARANCE
 
     ds, app = dataset(1000)
-    ari_free, prec_free = _sub_network_scores(ds, app, "moments", GATED_PATH_COST)
-    ari_gated, prec_gated = _sub_network_scores(ds, app, "moments", GATED_PATH_COST,
+    ari_free, prec_free = _sub_network_scores(ds, app, "moments", DEFAULT_PATH_COST)
+    ari_gated, prec_gated = _sub_network_scores(ds, app, "moments", DEFAULT_PATH_COST,
                                                 gate=JOIN_MIN_APPEARANCE)
     assert prec_free < 0.26 and prec_gated > 0.29
     assert ari_gated > 1.8 * ari_free

@@ -335,6 +335,25 @@ def test_trajectory_ensemble_defaults_are_the_tuned_ones():
     assert ENSEMBLE_PATH_COST < DEFAULT_PATH_COST
 
 
+def test_gated_ensemble_defaults_are_the_tuned_ones():
+    """The named change of method's defaults are the choices of the tuning seeds (stop 24,
+    protocol without image reuse), and the benchmark's tuned gated row uses the same C_d."""
+    from pftrack_network.bench_seed004 import GATED_DROPPED as BENCH_GATED_DROPPED
+    from pftrack_network.linkers import (
+        GATED_DROPPED,
+        GATED_PATH_COST,
+        JOIN_MIN_APPEARANCE,
+        GatedTrajectoryEnsemble,
+    )
+
+    te = GatedTrajectoryEnsemble()
+    assert (te.n_dropped, te.n_subnetworks, te.join_min_appearance, te.distance) == (
+        5, 100, 0.65, "share")
+    assert te.n_dropped == GATED_DROPPED == BENCH_GATED_DROPPED
+    assert te.join_min_appearance == JOIN_MIN_APPEARANCE
+    assert te.default_linker().path_cost == GATED_PATH_COST == 6.75
+
+
 # -- changes of method: joined edges marked, appearance-gated joins, the share distance -----
 
 
