@@ -363,9 +363,10 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def format_table(result: dict[str, Any]) -> str:
-    lines = [f"{'method':<34} {'ARI mean':>9} {'var':>8}"]
+    w = max([34] + [len(r["method"]) for r in result["table1"]])
+    lines = [f"{'method':<{w}} {'ARI mean':>9} {'var':>8}"]
     for r in result["table1"]:
-        lines.append(f"{r['method']:<34} {r['ari_mean']:9.3f} {r['ari_var']:8.4f}")
+        lines.append(f"{r['method']:<{w}} {r['ari_mean']:9.3f} {r['ari_var']:8.4f}")
     if result["table3"]:
         subs = sorted({c["subnetworks"] for c in result["table3"]})
         lines += ["", "Table 3 (mean ARI)  " + " ".join(f"S={s:<6}" for s in subs)]
