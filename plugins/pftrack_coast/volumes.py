@@ -127,11 +127,32 @@ def hsv_histogram(image: np.ndarray, box_xywh_px: np.ndarray, inner: float = 0.4
         return None
     hsv = cv2.cvtColor(np.ascontiguousarray(image[y0:y1, x0:x1]), cv2.COLOR_BGR2HSV)
     nh, ns, nv = bins
-    hsv = hsv.reshape(-1, 3).astype(np.intp)
-    idx = (np.minimum(hsv[:, 0] * nh // 180, nh - 1) * ns + hsv[:, 1] * ns // 256) * nv \
-        + hsv[:, 2] * nv // 256
+    lut_h, lut_s, lut_v = _hsv_luts(nh, ns, nv)
+    hsv = hsv.reshape(-1, 3)
+    # (min(h nh // 180, nh - 1) ns + s ns // 256) nv + v nv // 256, from three tables
+    idx = lut_h.take(hsv[:, 0])
+    idx += lut_s.take(hsv[:, 1])
+    idx += lut_v.take(hsv[:, 2])
     hist = np.bincount(idx, minlength=nh * ns * nv).astype(np.float64)
     return hist / hist.sum()
+
+
+_HSV_LUTS: dict[tuple[int, int, int], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+
+def _hsv_luts(nh: int, ns: int, nv: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each 8-bit hue, saturation and value's share of its histogram bin index (integers, the
+    smallest unsigned type that holds every index)."""
+    key = (nh, ns, nv)
+    if key not in _HSV_LUTS:
+        n = nh * ns * nv
+        dtype = np.uint8 if n <= 256 else np.uint16 if n <= 65536 else np.intp
+        g = np.arange(256, dtype=np.intp)
+        _HSV_LUTS[key] = (
+            (np.minimum(g * nh // 180, nh - 1) * ns * nv).astype(dtype),
+            (g * ns // 256 * nv).astype(dtype),
+            (g * nv // 256).astype(dtype))
+    return _HSV_LUTS[key]
 
 
 def bhattacharyya(p: np.ndarray, q: np.ndarray) -> np.ndarray:
