@@ -54,6 +54,13 @@ def _engine_points(boxes_xywh_px: np.ndarray, target: Target | None) -> bool:
             and len(boxes_xywh_px) > 0 and not np.asarray(boxes_xywh_px)[:, 2:].any())
 
 
+def _same_rows(a: np.ndarray | None, b: np.ndarray) -> bool:
+    """Whether ``a`` is the array ``b`` views (the same memory, shape and strides): a
+    target's particle boxes of this frame, as the engine stacked them."""
+    return (type(a) is np.ndarray and a.shape == b.shape and a.strides == b.strides
+            and a.dtype == b.dtype and a.ctypes.data == b.ctypes.data)
+
+
 class EigenspaceLikelihood(Likelihood):
     """Sigmoid of the block eigenspace's relative variation (seed 003 eq. 12-13).
 
@@ -156,6 +163,16 @@ class EigenspaceLikelihood(Likelihood):
         if not len(blocks):
             return out
         # the blocks touched and not yet scored, in order (np.unique's, by a mask of the grid)
+        self._score_blocks(m, blocks)
+        z = self.excess_[blocks]
+        if float(self.alpha) != 1.0:  # (x * 1.0 is x, bit for bit: no pass for it)
+            z = float(self.alpha) * z
+        out[ok] = -np.logaddexp(0.0, -z)  # log sigmoid(z), stable; -inf for untrained blocks
+        return out
+
+    def _score_blocks(self, m: BlockEigenspaceModel, blocks: np.ndarray) -> None:
+        """Score the blocks of ``blocks`` (indices, one particle each) not yet scored this
+        frame: the whole frame at once when they are more than a fifth of the grid."""
         touched = np.zeros(len(self.excess_), dtype=np.bool_)
         touched[blocks] = True
         need = np.flatnonzero(touched & np.isnan(self.excess_))
@@ -167,11 +184,54 @@ class EigenspaceLikelihood(Likelihood):
             raw = self.__dict__.get("grey_raw_")
             rd = m.relative_variation_at(self._grey() if raw is None else raw, need)
             self.excess_[need] = np.where(m.trained_[need], rd - m.v_[need], -np.inf)
-        z = self.excess_[blocks]
-        if float(self.alpha) != 1.0:  # (x * 1.0 is x, bit for bit: no pass for it)
+
+    def log_likelihood_rows(self, boxes_xywh_px: np.ndarray,
+                            targets: Sequence[Target]) -> np.ndarray:
+        """Every target's log-likelihoods at once (the engine's stacked path): one block
+        lookup over all (T, N) pixels and one sigmoid, with the blocks scored target by target
+        in the rows' order exactly as :meth:`log_likelihood` would (so each row equals its
+        per-target call bit for bit). Rows whose boxes are not the engine's projected points
+        of this frame go through :meth:`log_likelihood`.
+
+        Parameters
+        ----------
+        boxes_xywh_px : ndarray, shape (T, N, 4), float64
+            Each target's particles as image boxes (points when projected by the engine).
+        targets : sequence of Target
+            The T targets, in the rows' order.
+
+        Returns
+        -------
+        ndarray, shape (T, N), float64
+        """
+        b = boxes_xywh_px
+        if (type(b) is not np.ndarray or b.ndim != 3 or b.shape[0] != len(targets)
+                or b.shape[1] == 0 or b.shape[2] != 4 or b.dtype != np.float64
+                or b[:, :, 2:].any()
+                or not all(_same_rows(t.particle_boxes_xywh_px, b[i])
+                           for i, t in enumerate(targets))):
+            return super().log_likelihood_rows(boxes_xywh_px, targets)
+        m = self._get_model()
+        n_t, n = b.shape[:2]
+        px = np.ascontiguousarray(b[:, :, :2]).reshape(n_t * n, 2)  # the engine's pixels
+        ok, blocks = _blocks_of_pixels(px, int(m.block_size), m.grid_shape_)
+        out = np.full(n_t * n, -np.inf)
+        if not len(blocks):
+            return out.reshape(n_t, n)
+        ends = np.cumsum(ok.reshape(n_t, n).sum(axis=1))  # each row's share of ``blocks``
+        z = np.empty(len(blocks))
+        start = 0
+        for end in ends.tolist():
+            if end > start:
+                # this row's blocks scored and looked up before the next row's (a later row
+                # may rescore the whole frame, as successive calls would)
+                self._score_blocks(m, blocks[start:end])
+                np.take(self.excess_, blocks[start:end], out=z[start:end])
+            start = end
+        if float(self.alpha) != 1.0:
             z = float(self.alpha) * z
-        out[ok] = -np.logaddexp(0.0, -z)  # log sigmoid(z), stable; -inf for untrained blocks
-        return out
+        out[ok] = -np.logaddexp(0.0, -z)
+        return out.reshape(n_t, n)
 
     @classmethod
     def _conformance_example(cls) -> Any:

@@ -127,11 +127,32 @@ def hsv_histogram(image: np.ndarray, box_xywh_px: np.ndarray, inner: float = 0.4
         return None
     hsv = cv2.cvtColor(np.ascontiguousarray(image[y0:y1, x0:x1]), cv2.COLOR_BGR2HSV)
     nh, ns, nv = bins
-    hsv = hsv.reshape(-1, 3).astype(np.intp)
-    idx = (np.minimum(hsv[:, 0] * nh // 180, nh - 1) * ns + hsv[:, 1] * ns // 256) * nv \
-        + hsv[:, 2] * nv // 256
+    lut_h, lut_s, lut_v = _hsv_luts(nh, ns, nv)
+    hsv = hsv.reshape(-1, 3)
+    # (min(h nh // 180, nh - 1) ns + s ns // 256) nv + v nv // 256, from three tables
+    idx = lut_h.take(hsv[:, 0])
+    idx += lut_s.take(hsv[:, 1])
+    idx += lut_v.take(hsv[:, 2])
     hist = np.bincount(idx, minlength=nh * ns * nv).astype(np.float64)
     return hist / hist.sum()
+
+
+_HSV_LUTS: dict[tuple[int, int, int], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+
+def _hsv_luts(nh: int, ns: int, nv: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each 8-bit hue, saturation and value's share of its histogram bin index (integers, the
+    smallest unsigned type that holds every index)."""
+    key = (nh, ns, nv)
+    if key not in _HSV_LUTS:
+        n = nh * ns * nv
+        dtype = np.uint8 if n <= 256 else np.uint16 if n <= 65536 else np.intp
+        g = np.arange(256, dtype=np.intp)
+        _HSV_LUTS[key] = (
+            (np.minimum(g * nh // 180, nh - 1) * ns * nv).astype(dtype),
+            (g * ns // 256 * nv).astype(dtype),
+            (g * nv // 256).astype(dtype))
+    return _HSV_LUTS[key]
 
 
 def bhattacharyya(p: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -510,6 +531,12 @@ class VolumeTracks(TrackManager):
         "inside its volume's ground footprint: one view sees an intruder through the volume "
         "before it enters and after it leaves; its footprint says where it is (False: the "
         "paper, output while the particles see it).")
+    partition: bool = Param(
+        False, "With object_size_m and gate_margin: tracks share the image between them: a "
+        "track's particle that lies, in units of each box's width and height, nearer the "
+        "centre of another track's predicted box (a cuboid of object_size_m where that track's "
+        "footprint goes next) than of its own gets likelihood 0 (a neighbour's blob cannot "
+        "capture a track's particles; no constant).")
     blob_block_px: int = Param(8, "Cell size (pixels) of the image grid on which a new track "
                                   "takes the largest connected patch of the group's particles.",
                                unit="px")
@@ -630,6 +657,7 @@ class VolumeTracks(TrackManager):
         self.together_: set[tuple[int, int]] = set()
         self.hists_: dict[int, np.ndarray] = {}
         self.look_: dict[int, np.ndarray] = {}
+        self.ahead_: dict[int, np.ndarray] = {}
         self.estimates_: list[dict[str, Any]] = []
         self.events_: list[dict[str, Any]] = []
 
@@ -693,6 +721,8 @@ class VolumeTracks(TrackManager):
             px = self._pixels(tid, points) if len(lo) else np.zeros((0, 2))
             kernel(np.ascontiguousarray(local), lim, np.ascontiguousarray(px, dtype=np.float64),
                    lo, hi, mode == "gate", out)
+            if mode == "gate" and self.partition and len(lo):
+                out &= self._own_share(tid, px)
             return out
         inside = volume.contains(points)
         if not inside.any():
@@ -704,8 +734,41 @@ class VolumeTracks(TrackManager):
         with np.errstate(invalid="ignore"):
             hit = ((px[:, None, :] >= lo[None]) & (px[:, None, :] <= hi[None])).all(axis=2)
         if mode == "gate":
+            if self.partition:
+                return inside & hit[:, 0] & self._own_share(tid, px)
             return inside & hit[:, 0]
         return inside & ~hit.any(axis=1)
+
+    def _own_share(self, tid: int, px: np.ndarray) -> np.ndarray:
+        """``partition``: whether each pixel (N, 2) lies at least as near (in units of each
+        box's width and height) the centre of track ``tid``'s predicted box as the centre of
+        any other track's whose gate overlaps ``tid``'s (NaN pixels: not near any)."""
+        own = self.ahead_.get(tid)
+        gate = self.gates_.get(tid)
+        keep = np.ones(len(px), dtype=np.bool_)
+        if own is None or gate is None or not np.isfinite(own).all():
+            return keep
+        others = []
+        for k, b in self.ahead_.items():
+            g = self.gates_.get(k)
+            if k == tid or g is None or k not in self.tracks_ or not np.isfinite(b).all():
+                continue
+            if g[0] < gate[0] + gate[2] and gate[0] < g[0] + g[2] and \
+                    g[1] < gate[1] + gate[3] and gate[1] < g[1] + g[3]:
+                others.append(b)
+        if not others:
+            return keep
+
+        def dist2(b: np.ndarray) -> np.ndarray:
+            u = (px[:, 0] - (b[0] + 0.5 * b[2])) / b[2]
+            v = (px[:, 1] - (b[1] + 0.5 * b[3])) / b[3]
+            return u * u + v * v
+
+        d_own = dist2(own)
+        with np.errstate(invalid="ignore"):
+            for b in others:
+                keep &= ~(dist2(b) < d_own)
+        return keep
 
     def _region_boxes(self, tid: int, mode: str) -> tuple[np.ndarray, np.ndarray]:
         """The image boxes of :meth:`_in_region` as corners ``lo``, ``hi`` (B, 2): a track's
@@ -857,6 +920,7 @@ class VolumeTracks(TrackManager):
             prior = boxes[1]
             self.look_[t.id] = prior  # (appearance: a typical intruder on the footprint)
             ahead = boxes[2] if np.isfinite(boxes[2]).all() else prior
+            self.ahead_[t.id] = ahead
             if self.gate_margin is not None:
                 lo = np.minimum(prior[:2], ahead[:2])
                 hi = np.maximum(prior[:2] + prior[2:], ahead[:2] + ahead[2:])
@@ -893,7 +957,8 @@ class VolumeTracks(TrackManager):
         self.alias_.pop(tid, None)
         self.shown_.discard(tid)
         for d in (self.groups_, self.tracks_, self.idle_, self.low_, self.boxes_, self.paths_,
-                  self.pending_, self.gates_, self.targets_, self.gather_, self.look_):
+                  self.pending_, self.gates_, self.targets_, self.gather_, self.look_,
+                  self.ahead_):
             d.pop(tid, None)
 
     def after_frame(self, engine: Any, frame: Frame, detections: Detections | None,

@@ -113,3 +113,24 @@ def test_appearance_is_off_by_default_and_bad_parameters_are_named():
         VolumeTracks(volumes="near", appearance_rate=0.0).setup(ctx)
     with pytest.raises(ValueError, match="appearance_near_m"):
         VolumeTracks(volumes="near", appearance_near_m=-1.0).setup(ctx)
+
+
+@pytest.mark.parametrize("bins", [(8, 4, 4), (16, 8, 8), (5, 3, 7)])
+def test_hsv_histogram_tables_give_the_bin_formula(bins):
+    """The bin indices from the lookup tables are the formula's, for any bins (8-bit and
+    16-bit tables), on every hue, saturation and value."""
+    import cv2
+
+    rng = np.random.default_rng(1)
+    img = rng.integers(0, 256, (120, 160, 3), dtype=np.uint8)
+    box = np.array([10.0, 5.0, 140.0, 110.0])
+    h = hsv_histogram(img, box, inner=1.0, bins=bins)
+    x0, x1, y0, y1 = 10, 150, int(5 + 0.05 * 110), int(5 + 0.95 * 110)
+    hsv = cv2.cvtColor(np.ascontiguousarray(img[y0:y1, x0:x1]), cv2.COLOR_BGR2HSV)
+    hsv = hsv.reshape(-1, 3).astype(np.intp)
+    nh, ns, nv = bins
+    assert set(np.unique(hsv[:, 0])) == set(range(180))  # every hue met
+    idx = (np.minimum(hsv[:, 0] * nh // 180, nh - 1) * ns + hsv[:, 1] * ns // 256) * nv \
+        + hsv[:, 2] * nv // 256
+    want = np.bincount(idx, minlength=nh * ns * nv).astype(np.float64)
+    assert h.tobytes() == (want / want.sum()).tobytes()

@@ -133,3 +133,60 @@ def test_block_scores_from_the_integer_grey_and_the_compiled_gather_equal_numpy(
     like.begin_frame(Frame(1, img), [])
     assert a.tobytes() == like.log_likelihood(boxes, None).tobytes()
     assert np.isfinite(a).any() and (a > np.log(0.5)).any() and (a < np.log(0.5)).any()
+
+
+def test_eigenspace_rows_equal_the_per_target_calls_bit_for_bit(monkeypatch):
+    """log_likelihood_rows scores every group in one lookup: each row equals what successive
+    log_likelihood calls give, also when a later row scores the whole frame after an earlier
+    row scored a few blocks by gathering (the blocks are scored row by row, in order)."""
+    from pftrack.components import Frame, Target
+    from pftrack.filter import _jit
+    from pftrack_coast.eigenspace import BlockEigenspaceModel
+    from pftrack_coast.likelihood import EigenspaceLikelihood
+
+    rng = np.random.default_rng(7)
+    base = np.linspace(40.0, 200.0, 96)[None, :, None] + np.zeros((64, 96, 3))
+    frames = [np.clip(base + rng.normal(0, 5, base.shape), 0, 255).astype(np.uint8)
+              for _ in range(12)]
+    model = BlockEigenspaceModel(block_size=8).fit(frames)
+    img = frames[0].copy()
+    img[20:40, 30:60] = 250  # an intruder
+    n = 3000
+    # row 0: a few blocks (gathered); row 1: the whole grid (the frame at once); row 2: some
+    # pixels outside the image and NaN (behind the camera)
+    px = np.stack([
+        np.column_stack([rng.uniform(28, 44, n), rng.uniform(18, 30, n)]),
+        np.column_stack([rng.uniform(0, 96, n), rng.uniform(0, 64, n)]),
+        np.column_stack([rng.uniform(-20, 120, n), rng.uniform(10, 50, n)]),
+    ])
+    px[2, :50] = np.nan
+    for jit in (True, False):
+        monkeypatch.setattr(_jit, "ENABLED", jit)
+        for alpha in (1.0, 0.5):
+            like = EigenspaceLikelihood(alpha=alpha).set_model(model)
+            assert like.offers_rows()
+            boxes = np.concatenate([px, np.zeros((3, n, 2))], axis=2)  # (T, N, 4) points
+            targets = []
+            for b in boxes:  # the engine's rows: each target's boxes view the stacked array
+                t = Target(id=len(targets) + 1, state=np.zeros(6), box_xywh_px=np.zeros(4))
+                t.particle_boxes_xywh_px = b
+                targets.append(t)
+            like.begin_frame(Frame(1, img), targets)
+            one = [like.log_likelihood(t.particle_boxes_xywh_px, t) for t in targets]
+            excess_one = like.excess_.copy()
+            like.begin_frame(Frame(1, img), targets)
+            rows = like.log_likelihood_rows(boxes, targets)
+            assert rows.shape == (3, n) and rows.dtype == np.float64
+            assert rows.tobytes() == np.array(one).tobytes()
+            assert like.excess_.tobytes() == excess_one.tobytes()
+            assert np.isneginf(rows[2, :50]).all() and np.isfinite(rows[0]).all()
+            assert (rows[1] > np.log(0.5)).any() and (rows[1] < np.log(0.5)).any()
+            # the order matters: row 0 alone gathers its blocks, which the whole-frame pass
+            # of row 1 would have scored otherwise (a different path, the same blocks)
+            like.begin_frame(Frame(1, img), targets)
+            like.log_likelihood_rows(boxes[:1], targets[:1])
+            assert np.isnan(like.excess_).sum() > 0.5 * len(like.excess_)
+            # boxes that are not the targets' own: the per-target path (projected again)
+            copy = boxes.copy()
+            like.begin_frame(Frame(1, img), targets)
+            assert like.log_likelihood_rows(copy, targets).tobytes() == rows.tobytes()
