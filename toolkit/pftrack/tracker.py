@@ -596,10 +596,7 @@ class MultiTargetTracker:
         rec_positions = states[:, pos].copy()
         rec_extents = extents.copy()
         no_world = type(observation).world_position is ObservationModel.world_position
-        img_w, img_h = frame.size_wh
         mll = self.min_log_likelihood
-        max_misses = self.max_misses
-        valid_region = self.valid_region
         uniform, uniform_log = self._uniform, self._uniform_log
         index = frame.index
         records = []
@@ -624,18 +621,7 @@ class MultiTargetTracker:
             t.resample_index = resample_rows[i]
             f.weights, f.log_weights = uniform, uniform_log
             # 5. death
-            gone = max_misses is not None and t.misses > max_misses
-            if self.kill_out_of_view:
-                if box_in_view:
-                    bx, by, bw, bh = box.tolist()
-                    visible = bx < img_w and by < img_h and bx + bw > 0 and by + bh > 0
-                else:
-                    visible = observation.in_view(state[None], frame.size_wh, t)[0]
-                if not visible:
-                    gone = True
-            if valid_region is not None and not valid_region(state[None, pos_dims])[0]:
-                gone = True
-            if gone:
+            if self._gone(t, state, box, box_in_view, observation, frame, pos_dims):
                 dead.append(t.id)
                 continue
             world = None if no_world else observation.world_position(state)
@@ -674,6 +660,25 @@ class MultiTargetTracker:
         self._pos_slice = (list(pos_dims), index)
         return index
 
+    def _gone(self, t: Target, state: np.ndarray, box: np.ndarray, box_in_view: bool,
+              observation: ObservationModel, frame: Frame, pos_dims: list[int]) -> bool:
+        """Step 5 for one target at the end of a frame: whether it dies (more than
+        ``max_misses`` frames unsupported, out of view under ``kill_out_of_view`` -- by its box
+        when ``box_in_view``, else by the observation model -- or outside ``valid_region``)."""
+        gone = self.max_misses is not None and t.misses > self.max_misses
+        if self.kill_out_of_view:
+            if box_in_view:
+                img_w, img_h = frame.size_wh
+                bx, by, bw, bh = box.tolist()
+                visible = bx < img_w and by < img_h and bx + bw > 0 and by + bh > 0
+            else:
+                visible = observation.in_view(state[None], frame.size_wh, t)[0]
+            if not visible:
+                gone = True
+        if self.valid_region is not None and not self.valid_region(state[None, pos_dims])[0]:
+            gone = True
+        return bool(gone)
+
     def _finish_each(self, frame: Frame, filters: list[_Filter], detections: Detections | None,
                      logls: list[np.ndarray], weights: np.ndarray | None,
                      ok_rows: np.ndarray | None, best_rows: list[float] | None,
@@ -690,7 +695,6 @@ class MultiTargetTracker:
         resampler = RESAMPLERS[self.resampling]
         always_resample = self.ess_threshold >= 1.0  # ESS <= N: no need to compute it
         ess_min = self.ess_threshold * n + 1e-9
-        img_w, img_h = frame.size_wh
         records = []
         dead = []
         recovered = False
@@ -741,18 +745,7 @@ class MultiTargetTracker:
                 f.weights, f.log_weights = w, np.log(w)
             t.particles = f.particles
             # 5. death
-            gone = self.max_misses is not None and t.misses > self.max_misses
-            if self.kill_out_of_view:
-                if box_in_view:
-                    bx, by, bw, bh = box.tolist()
-                    visible = bx < img_w and by < img_h and bx + bw > 0 and by + bh > 0
-                else:
-                    visible = observation.in_view(state[None], frame.size_wh, t)[0]
-                if not visible:
-                    gone = True
-            if self.valid_region is not None and not self.valid_region(state[None, pos_dims])[0]:
-                gone = True
-            if gone:
+            if self._gone(t, state, box, box_in_view, observation, frame, pos_dims):
                 dead.append(t.id)
                 continue
             records.append(self._record(frame, t, best, pos_dims))
