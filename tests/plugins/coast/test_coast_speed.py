@@ -4,6 +4,8 @@ configuration (3 groups of 5000 particles)."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 from pftrack.geometry import camera as camera_module
@@ -100,6 +102,20 @@ def test_speed_3x5000_counts_only_frames_with_three_groups_of_5000():
     assert speed_3x5000(runs[2:]) == {"frames_per_second_3x5000": None, "frames_3x5000": 0}
 
 
+def _small_scene(rng: np.random.Generator) -> tuple[Any, np.ndarray]:
+    """A block eigenspace model (8-px blocks) fitted on 12 noisy 96x64 ramps drawn from
+    ``rng``, and the first of them with a bright intruder (rows 20-40, columns 30-60)."""
+    from pftrack_coast.eigenspace import BlockEigenspaceModel
+
+    base = np.linspace(40.0, 200.0, 96)[None, :, None] + np.zeros((64, 96, 3))
+    frames = [np.clip(base + rng.normal(0, 5, base.shape), 0, 255).astype(np.uint8)
+              for _ in range(12)]
+    model = BlockEigenspaceModel(block_size=8).fit(frames)
+    img = frames[0].copy()
+    img[20:40, 30:60] = 250  # an intruder
+    return model, img
+
+
 def test_block_scores_from_the_integer_grey_and_the_compiled_gather_equal_numpy(monkeypatch):
     """relative_variation_at on OpenCV's integer grey levels (compiled gather) gives the
     numbers of the float64 frame through numpy's gather; the likelihood's values do not
@@ -107,16 +123,10 @@ def test_block_scores_from_the_integer_grey_and_the_compiled_gather_equal_numpy(
     import cv2
     from pftrack.components import Frame
     from pftrack.filter import _jit
-    from pftrack_coast.eigenspace import BlockEigenspaceModel
     from pftrack_coast.likelihood import EigenspaceLikelihood
 
     rng = np.random.default_rng(4)
-    base = np.linspace(40.0, 200.0, 96)[None, :, None] + np.zeros((64, 96, 3))
-    frames = [np.clip(base + rng.normal(0, 5, base.shape), 0, 255).astype(np.uint8)
-              for _ in range(12)]
-    model = BlockEigenspaceModel(block_size=8).fit(frames)
-    img = frames[0].copy()
-    img[20:40, 30:60] = 250  # an intruder
+    model, img = _small_scene(rng)
     raw = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
     blocks = np.array([0, 5, 13, 30, 50, 95])
     fast = model.relative_variation_at(raw, blocks)
@@ -141,16 +151,10 @@ def test_eigenspace_rows_equal_the_per_target_calls_bit_for_bit(monkeypatch):
     row scored a few blocks by gathering (the blocks are scored row by row, in order)."""
     from pftrack.components import Frame, Target
     from pftrack.filter import _jit
-    from pftrack_coast.eigenspace import BlockEigenspaceModel
     from pftrack_coast.likelihood import EigenspaceLikelihood
 
     rng = np.random.default_rng(7)
-    base = np.linspace(40.0, 200.0, 96)[None, :, None] + np.zeros((64, 96, 3))
-    frames = [np.clip(base + rng.normal(0, 5, base.shape), 0, 255).astype(np.uint8)
-              for _ in range(12)]
-    model = BlockEigenspaceModel(block_size=8).fit(frames)
-    img = frames[0].copy()
-    img[20:40, 30:60] = 250  # an intruder
+    model, img = _small_scene(rng)
     n = 3000
     # row 0: a few blocks (gathered); row 1: the whole grid (the frame at once); row 2: some
     # pixels outside the image and NaN (behind the camera)
