@@ -236,6 +236,14 @@ class NCCLikelihood(_TemplateLikelihood):
     def ncc(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
         """NCC (N,) in [-1, 1] of each window with the target's template (NaN: too little of
         the window inside the image)."""
+        kern = _kernels()
+        gw, gh = (int(v) for v in self.grid_wh)
+        if kern is not None and gw * gh <= kern.PAIRWISE_MAX:
+            out = np.empty(len(boxes_xywh_px))
+            kern.ncc_values(self.integral_, sub_boxes(boxes_xywh_px, self.region), gw, gh,
+                            np.ascontiguousarray(self.templates_[target.id], dtype=np.float64),
+                            float(self.min_valid), out)
+            return out
         vals, valid = self._cells(self.integral_, boxes_xywh_px)
         tmpl = self.templates_[target.id][None, :]
         m = valid.astype(np.float64)
@@ -263,6 +271,28 @@ class NCCLikelihood(_TemplateLikelihood):
 # --------------------------------------------------------------------------------------------
 # EMD (eq. 7)
 # --------------------------------------------------------------------------------------------
+
+
+_KERNELS: Any = None
+
+
+def _kernels() -> Any:
+    """:mod:`pftrack_world._kernels`, loaded (numba imported, the kernels warmed up) on first
+    use; None with ``PFTRACK_NO_JIT`` set or without numba: the numpy paths."""
+    global _KERNELS
+    if _KERNELS is None:
+        from pftrack.filter._jit import ENABLED
+
+        _KERNELS = False
+        if ENABLED:
+            try:
+                from pftrack_world import _kernels as kern
+            except ImportError:  # pragma: no cover - numba is a dependency
+                pass
+            else:
+                kern.warm_up()
+                _KERNELS = kern
+    return _KERNELS or None
 
 
 def emd_1d(hist_a: np.ndarray, hist_b: np.ndarray) -> np.ndarray:
@@ -396,6 +426,14 @@ class EMDLikelihood(_TemplateLikelihood):
     def distance(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
         """EMD / (bins - 1) averaged over channels, (N,) in [0, 1]; NaN for windows with no
         sample inside the image."""
+        kern = _kernels()
+        if kern is not None and int(self.bins) <= kern.PAIRWISE_MAX:
+            gw, gh = (int(v) for v in self.grid_wh)
+            out = np.empty(len(boxes_xywh_px))
+            kern.emd_distances(self.quantised_, sub_boxes(boxes_xywh_px, self.region), gw, gh,
+                               int(self.bins), np.ascontiguousarray(self.templates_[target.id],
+                                                                    dtype=np.float64), out)
+            return out
         hist, k = self.histograms(self.quantised_, boxes_xywh_px)
         d = emd_1d(hist, self.templates_[target.id][None]).mean(axis=1) / (int(self.bins) - 1)
         return np.where(k > 0, d, np.nan)

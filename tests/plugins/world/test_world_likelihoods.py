@@ -253,3 +253,57 @@ def test_composite_exclusion_keeps_a_coasting_target_off_a_detected_one(host_wit
     np.testing.assert_allclose(comp.log_likelihood(np.zeros((2, 4)), coasting), np.log(0.5))
     with pytest.raises(ValueError, match="exclusion_m"):
         CompositeLikelihood(terms=[{"likelihood": a}], exclusion_m=0.0).begin_frame(f, [])
+
+
+def _awkward_boxes(rng, n: int, w_img: int, h_img: int) -> np.ndarray:
+    """Particle windows as a tracker makes them, and the awkward ones: reaching out of the
+    image, wholly outside, tiny, NaN."""
+    b = np.column_stack([rng.uniform(-30, w_img, n), rng.uniform(-40, h_img, n),
+                         rng.uniform(0.3, 70, n), rng.uniform(0.3, 120, n)])
+    b[::17] = np.nan
+    b[5::23, 0] = 1e4
+    return b
+
+
+@pytest.mark.parametrize("lik_cls, params", [
+    (EMDLikelihood, {"bins": 16, "grid_wh": (8, 16)}),
+    (EMDLikelihood, {"bins": 7, "grid_wh": (3, 5), "region": None, "colour_space": "hsv"}),
+    (NCCLikelihood, {"grid_wh": (8, 16)}),
+    (NCCLikelihood, {"grid_wh": (5, 3), "region": (0.2, 0.1, 0.8, 0.6), "min_valid": 0.9}),
+    (NCCLikelihood, {"grid_wh": (20, 16)}),  # 320 cells: numpy's pairwise sums split in halves
+    (NCCLikelihood, {"grid_wh": (22, 44)}),  # 968 cells: the most the kernel sums, 3 splits
+])
+def test_compiled_emd_and_ncc_give_the_numpy_numbers_bit_for_bit(lik_cls, params, monkeypatch):
+    import pftrack_world.likelihoods as mod
+
+    if mod._kernels() is None:
+        pytest.skip("numba kernels disabled (PFTRACK_NO_JIT)")
+    rng = np.random.default_rng(11)
+    f = _frame(seed=4)
+    lik = lik_cls(**params)
+    targets = [_target([60, 30, 25, 60]), _target([-10, 100, 30, 50], tid=2)]
+    for t in targets:
+        lik.init_target(f, t)
+    f2 = _frame(seed=5, index=2)
+    lik.begin_frame(f2, targets)
+    boxes = _awkward_boxes(rng, 600, 160, 120)
+    measure = lik.distance if lik_cls is EMDLikelihood else lik.ncc
+    for t in targets:
+        fast = measure(boxes, t)
+        monkeypatch.setattr(mod, "_KERNELS", False)
+        slow = measure(boxes, t)
+        ll_slow = lik.log_likelihood(boxes, t)
+        monkeypatch.undo()
+        assert np.isnan(fast).sum() > 0
+        np.testing.assert_array_equal(fast, slow)
+        np.testing.assert_array_equal(lik.log_likelihood(boxes, t), ll_slow)
+
+
+def test_the_kernels_pairwise_sums_are_numpys_at_every_length():
+    kern = pytest.importorskip("pftrack_world._kernels")
+    rng = np.random.default_rng(2)
+    for n in [*range(0, 140), 247, 248, 249, 255, 256, 257, 300, 487, 488, 489, 700, 967, 968]:
+        a = rng.random(n) * rng.choice([1e-9, 1.0, 1e9], size=n)
+        assert kern._pairwise(a, 0, n) == a.sum(), n
+        b = np.concatenate([rng.random(5), a])
+        assert kern._pairwise(b, 5, n) == a.sum(), n
