@@ -207,6 +207,10 @@ def test_a_local_cluster_gives_the_serial_bits(tmp_path, svm):
         want = [v for k, v in WORKER_CONFIG.items() if not k.startswith("distributed.nanny")]
         assert len(got) == 2 and all(g == want for g in got.values())
         assert want[0] is False and dask.config.get("distributed.worker.profile.enabled")
+        if sys.platform.startswith("linux"):  # forked after this process imported the pipeline
+            assert WORKER_CONFIG["distributed.worker.multiprocessing-method"] == "fork"
+            assert set(client.run(lambda: "pftrack.pipeline" in __import__("sys").modules
+                                  ).values()) == {True}  # before any job ran there
         par = run_batch(jobs, tmp_path / "dask", client=client, progress=False)
         assert client.status == "running"  # the caller's client is left open
     assert par.n_failed == 0
