@@ -257,6 +257,20 @@ def _table3(grid: list[tuple[int, int]], args: argparse.Namespace, epc: float,
     return list(out)
 
 
+def _with_appearance_parameters(args: argparse.Namespace) -> argparse.Namespace:
+    """``args`` with :data:`~pftrack_network.linkers.STRIPES_PARAMETERS` filled in where
+    ``--appearance stripes`` was given without that option (a copy; paper: unchanged)."""
+    if getattr(args, "appearance", "paper") != "stripes":
+        return args
+    from pftrack_network.linkers import STRIPES_PARAMETERS
+
+    out = argparse.Namespace(**vars(args))
+    for key, value in STRIPES_PARAMETERS.items():
+        if getattr(out, key, None) is None:
+            setattr(out, key, value)
+    return out
+
+
 def run(args: argparse.Namespace) -> dict[str, Any]:
     from pftrack_network.linkers import (
         DEFAULT_PATH_COST,
@@ -270,6 +284,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
     if args.datasets < 1 or args.runs < 1:
         raise ValueError("--datasets and --runs must be >= 1")
+    args = _with_appearance_parameters(args)
     grid = _grid(args.table3)
     reuse = bool(getattr(args, "image_reuse", False))
     feat = getattr(args, "appearance", "paper")

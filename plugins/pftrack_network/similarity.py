@@ -17,7 +17,9 @@
   value histograms (16 bins each, each normalised to sum 1; the 128 x 48 pixels are split
   into 12 runs of 512, row after row, so a stripe is 10 2/3 rows); the similarity of two images is
   the mean over stripes of the stripes' histogram intersections (each in [0, 1]), and that of
-  two tracklets the **mean** over all their image pairs (not the maximum). In [0, 1], so eq. 6
+  two tracklets the **mean** over all their image pairs (not the maximum), to the power
+  :data:`STRIPE_POWER` (8; a monotone calibration chosen with min-cost flow on the bench's
+  tuning seeds). In [0, 1], so eq. 6
   and every linker are unchanged. Pair-ranking probability (AUC, 3 random images per real
   camera, 10 draws) on the odd-numbered people: 0.806 across the two real cameras (the paper's
   0.648), 0.948 within one camera between disjoint images (the paper's 0.860).
@@ -37,7 +39,7 @@ import numpy as np
 from pftrack_network.network import CameraNetwork, Tracklet
 
 __all__ = ["APPEARANCES", "appearance_matrix", "hsv_histograms", "image_histogram",
-           "image_stripes", "similarity_matrix", "stripe_histograms", "transit_matrices",
+           "image_stripes", "pair_ranking_auc", "similarity_matrix", "stripe_histograms", "transit_matrices",
            "transit_matrix"]
 
 #: the appearance features of :func:`appearance_matrix`: the paper's eq. 7 and the stripes
@@ -53,6 +55,14 @@ STRIPES = 12
 STRIPE_BINS = 16
 STRIPE_CROP_W = 0.15
 STRIPE_SIZE = (128, 48)
+#: the stripes appearance is the mean intersection to this power (a monotone calibration: the
+#: ranking, hence the AUC, is the mean's; it sets the weight of appearance against transit in
+#: eq. 6's ``-log S``). Chosen on the tuning seeds 1000-1002 of ``pftrack bench seed004`` with
+#: min-cost flow, each power at its best break cost on a 0.5 grid (mean ARI of the three): 1:
+#: 0.410, 2: 0.405, 3: 0.431, 4: 0.449, 6: 0.469, **8: 0.530**, 10: 0.530, 12: 0.517, 16:
+#: 0.522, 20: 0.497 (the mean intersections of tracklets lie in 0.45-0.75, so at power 1
+#: appearance hardly moves a link's cost)
+STRIPE_POWER = 8.0
 _BLOCK_ELEMENTS = 8_000_000  # float32 elements per broadcast block (32 MB)
 
 
@@ -175,8 +185,8 @@ def appearance_matrix(tracklets: Sequence[Tracklet], bins: tuple[int, int, int] 
     Returns
     -------
     ndarray (n, n) float
-        ``A[i, j]`` = max (paper) or mean (stripes) over images a of i and b of j of
-        ``sum(min(h_a, h_b))``, in [0, 1]; symmetric.
+        ``A[i, j]`` = max (paper) or mean (stripes, then to the power :data:`STRIPE_POWER`)
+        over images a of i and b of j of ``sum(min(h_a, h_b))``, in [0, 1]; symmetric.
     """
     if feature not in APPEARANCES:
         raise ValueError(f"appearance_matrix: feature must be one of {APPEARANCES}, got "
@@ -196,9 +206,39 @@ def appearance_matrix(tracklets: Sequence[Tracklet], bins: tuple[int, int, int] 
         counts = np.diff(np.append(offsets, m)).astype(float)
         sums = np.add.reduceat(np.add.reduceat(inter.astype(float), offsets, axis=0), offsets,
                                axis=1)
-        return np.clip(sums / np.outer(counts, counts), 0.0, 1.0)
+        return np.clip(sums / np.outer(counts, counts), 0.0, 1.0) ** STRIPE_POWER
     per_row = np.maximum.reduceat(inter, offsets, axis=0)
     return np.maximum.reduceat(per_row, offsets, axis=1).astype(float)
+
+
+def pair_ranking_auc(first: Sequence[Tracklet], second: Sequence[Tracklet],
+                     feature: str = "paper") -> float:
+    """How well an appearance ranks true pairs above false ones: the probability (AUC) that
+    ``A(first[i], second[i])`` exceeds ``A(first[i], second[j])`` and ``A(first[j],
+    second[i])``, j != i (ties count half), over every i and j.
+
+    Parameters
+    ----------
+    first, second : sequence of Tracklet, the same length n >= 2
+        ``first[i]`` and ``second[i]`` are the same person (e.g. as seen by two cameras).
+    feature : {"paper", "stripes"}
+        :func:`appearance_matrix`'s.
+
+    Returns
+    -------
+    float in [0, 1]
+        0.5 is chance.
+    """
+    n = len(first)
+    if n != len(second) or n < 2:
+        raise ValueError(f"pair_ranking_auc: first and second must hold the same number (>= 2) "
+                         f"of tracklets, got {len(first)} and {len(second)}")
+    a = appearance_matrix(list(first) + list(second), feature=feature)[:n, n:]
+    true = np.diag(a)
+    off = ~np.eye(n, dtype=bool)
+    by_row = (true[:, None] > a) + 0.5 * (true[:, None] == a)  # first[i] against second[j]
+    by_col = (true[None, :] > a) + 0.5 * (true[None, :] == a)  # second[j] against first[i]
+    return float(0.5 * (by_row[off].mean() + by_col[off].mean()))
 
 
 def transit_matrix(tracklets: Sequence[Tracklet], network: CameraNetwork,
