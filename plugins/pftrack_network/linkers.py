@@ -571,7 +571,7 @@ STRIPES_PARAMETERS: dict[str, float] = {
     "greedy_path_cost": 10.0,
     "ensemble_path_cost": 9.5,
     "tuned_path_cost": 10.0,
-    "gated_path_cost": 11.0,
+    "gated_path_cost": 12.0,
     "join_min_appearance": 0.02,
 }
 
