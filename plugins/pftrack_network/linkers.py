@@ -28,8 +28,9 @@ import numpy as np
 from pftrack_network.network import CameraNetwork, Tracklet, camera_dropout
 
 __all__ = ["ENSEMBLE_PATH_COST", "GATED_DROPPED", "GATED_PATH_COST", "JOIN_MIN_APPEARANCE",
-           "LINKERS", "NA", "STRIPES_PARAMETERS", "GatedTrajectoryEnsemble", "GreedyLinker", "MinCostFlowLinker",
-           "TrackletLinker", "TrajectoryEnsemble", "ensemble_distance", "labels_from_links"]
+           "LINKERS", "NA", "STRIPES_PARAMETERS", "GatedTrajectoryEnsemble", "GreedyLinker",
+           "MinCostFlowLinker", "TrackletLinker", "TrajectoryEnsemble", "ensemble_distance",
+           "labels_from_links"]
 
 NA = -1
 #: default trajectory break cost ``C_en + C_ex`` (-log of a similarity in 1/s) of the

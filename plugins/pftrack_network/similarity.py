@@ -39,8 +39,8 @@ import numpy as np
 from pftrack_network.network import CameraNetwork, Tracklet
 
 __all__ = ["APPEARANCES", "appearance_matrix", "hsv_histograms", "image_histogram",
-           "image_stripes", "pair_ranking_auc", "similarity_matrix", "stripe_histograms", "transit_matrices",
-           "transit_matrix"]
+           "image_stripes", "pair_ranking_auc", "similarity_matrix", "stripe_histograms",
+           "transit_matrices", "transit_matrix"]
 
 #: the appearance features of :func:`appearance_matrix`: the paper's eq. 7 and the stripes
 APPEARANCES = ("paper", "stripes")
