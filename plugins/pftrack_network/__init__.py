@@ -6,7 +6,8 @@ Python API (imported on use; nothing heavy at plugin load):
 * :mod:`pftrack_network.network`: the exchange types :class:`~pftrack_network.network.Tracklet`
   and :class:`~pftrack_network.network.CameraNetwork` (file format, picture) and
   :func:`~pftrack_network.network.camera_dropout` (sec. 3.2);
-* :mod:`pftrack_network.similarity`: eq. 6-9 (HSV-histogram appearance, gamma transit);
+* :mod:`pftrack_network.similarity`: eq. 6-9 (HSV-histogram appearance, gamma transit) and the
+  stripes appearance (`feature="stripes"`, a change of method);
 * :mod:`pftrack_network.linkers`: :class:`~pftrack_network.linkers.TrackletLinker` and the
   built-ins ``greedy``, ``min-cost-flow`` (OR-Tools) and ``trajectory-ensemble`` (sec. 3.4);
 * :mod:`pftrack_network.virtual`: the virtual experiment of sec. 4.1 on real CAVIAR4REID images;

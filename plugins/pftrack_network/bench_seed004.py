@@ -106,21 +106,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "real camera share identical images, which inflates appearance; "
                              "default: each person's images are partitioned among their "
                              "tracklets")
+    parser.add_argument("--appearance", choices=("paper", "stripes"), default="paper",
+                        help="the appearance of every method (pftrack_network.similarity."
+                             "appearance_matrix): paper (eq. 7, the default) or stripes (a "
+                             "change of method: 12 horizontal stripes' HSV histograms, the mean "
+                             "over image pairs); the break costs and the gate are the paper "
+                             "appearance's unless given")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
 @lru_cache(maxsize=8)
-def dataset(seed: int, data: str | None = None,
-            image_reuse: bool = False) -> tuple[Any, np.ndarray]:
+def dataset(seed: int, data: str | None = None, image_reuse: bool = False,
+            appearance: str = "paper") -> tuple[Any, np.ndarray]:
     """Virtual dataset ``seed`` and its appearance matrix (cached per process; ``image_reuse``:
-    the old protocol, :func:`~pftrack_network.virtual.make_dataset`)."""
+    the old protocol, :func:`~pftrack_network.virtual.make_dataset`; ``appearance``: the
+    ``feature`` of :func:`~pftrack_network.similarity.appearance_matrix`)."""
     from pftrack_network.similarity import appearance_matrix
     from pftrack_network.virtual import make_dataset
 
     folder = None if data is None else f"{data}/reid/caviar4reid"
     ds = make_dataset(np.random.default_rng(seed), caviar_folder=folder,
                       image_reuse=image_reuse)
-    return ds, appearance_matrix(ds.tracklets)
+    return ds, appearance_matrix(ds.tracklets, feature=appearance)
 
 
 def _ari(truth: np.ndarray, labels: np.ndarray) -> float:
@@ -133,7 +140,8 @@ def ensemble_runs(dataset_seed: int, dropped: int, subnetworks: int, runs: int, 
                   path_cost: float | None = None, transit_sum: str = "moments",
                   data: str | None = None, gated: bool = False,
                   join_min_appearance: float | None = None,
-                  image_reuse: bool = False) -> dict[str, list[float]]:
+                  image_reuse: bool = False, appearance: str = "paper"
+                  ) -> dict[str, list[float]]:
     """Trajectory Ensemble ``runs`` times on one dataset (``path_cost``: its sub-networks'
     min-cost flow, default :data:`~pftrack_network.linkers.ENSEMBLE_PATH_COST`, or
     :data:`~pftrack_network.linkers.GATED_PATH_COST` when ``gated``).
@@ -158,7 +166,7 @@ def ensemble_runs(dataset_seed: int, dropped: int, subnetworks: int, runs: int, 
         TrajectoryEnsemble,
     )
 
-    ds, app = dataset(dataset_seed, data, image_reuse)
+    ds, app = dataset(dataset_seed, data, image_reuse, appearance)
     te: TrajectoryEnsemble
     if gated:
         pc = GATED_PATH_COST if path_cost is None else path_cost
@@ -184,7 +192,7 @@ def table3_cell(dropped: int, subnetworks: int, *, seed: int = 0, datasets: int 
                 runs: int = 10, path_cost: float | None = None,
                 transit_sum: str = "moments", data: str | None = None, gated: bool = False,
                 join_min_appearance: float | None = None,
-                image_reuse: bool = False) -> dict[str, Any]:
+                image_reuse: bool = False, appearance: str = "paper") -> dict[str, Any]:
     """One cell of Table 3: the ensemble with C_d = ``dropped`` and S = ``subnetworks`` over
     ``datasets`` datasets x ``runs`` runs (independent of every other cell: the unit a
     scale-out engine maps); ``gated``: the appearance-gated ensemble (:func:`ensemble_runs`)."""
@@ -194,7 +202,7 @@ def table3_cell(dropped: int, subnetworks: int, *, seed: int = 0, datasets: int 
         aris += ensemble_runs(seed + d, dropped, subnetworks, runs, path_cost=path_cost,
                               transit_sum=transit_sum, data=data, gated=gated,
                               join_min_appearance=join_min_appearance,
-                              image_reuse=image_reuse)["ari"]
+                              image_reuse=image_reuse, appearance=appearance)["ari"]
     return {"dropped": dropped, "subnetworks": subnetworks, "ari_mean": float(np.mean(aris)),
             "ari_var": float(np.var(aris)), "seconds": time.perf_counter() - t0}
 
@@ -218,7 +226,8 @@ def _table3(grid: list[tuple[int, int]], args: argparse.Namespace, epc: float,
           "path_cost": getattr(args, "gated_path_cost", None) if gated else epc,
           "transit_sum": args.transit_sum, "data": args.data, "gated": gated,
           "join_min_appearance": getattr(args, "join_min_appearance", None),
-          "image_reuse": bool(getattr(args, "image_reuse", False))}
+          "image_reuse": bool(getattr(args, "image_reuse", False)),
+          "appearance": getattr(args, "appearance", "paper")}
     workers = int(getattr(args, "workers", 1) or 1)
     scheduler = getattr(args, "scheduler", None)
     if workers < 1:
@@ -248,6 +257,20 @@ def _table3(grid: list[tuple[int, int]], args: argparse.Namespace, epc: float,
     return list(out)
 
 
+def _with_appearance_parameters(args: argparse.Namespace) -> argparse.Namespace:
+    """``args`` with :data:`~pftrack_network.linkers.STRIPES_PARAMETERS` filled in where
+    ``--appearance stripes`` was given without that option (a copy; paper: unchanged)."""
+    if getattr(args, "appearance", "paper") != "stripes":
+        return args
+    from pftrack_network.linkers import STRIPES_PARAMETERS
+
+    out = argparse.Namespace(**vars(args))
+    for key, value in STRIPES_PARAMETERS.items():
+        if getattr(out, key, None) is None:
+            setattr(out, key, value)
+    return out
+
+
 def run(args: argparse.Namespace) -> dict[str, Any]:
     from pftrack_network.linkers import (
         DEFAULT_PATH_COST,
@@ -261,8 +284,10 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
     if args.datasets < 1 or args.runs < 1:
         raise ValueError("--datasets and --runs must be >= 1")
+    args = _with_appearance_parameters(args)
     grid = _grid(args.table3)
     reuse = bool(getattr(args, "image_reuse", False))
+    feat = getattr(args, "appearance", "paper")
     say = (lambda s: None) if args.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     pc = DEFAULT_PATH_COST if args.path_cost is None else args.path_cost
     gpc = GREEDY_PATH_COST if args.greedy_path_cost is None else args.greedy_path_cost
@@ -291,12 +316,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     t_all = time.perf_counter()
     t0 = time.perf_counter()
     for d in range(args.datasets):
-        dataset(args.seed + d, args.data, reuse)
+        dataset(args.seed + d, args.data, reuse, feat)
     seconds["datasets_and_appearance"] = time.perf_counter() - t0
     for name, linker in (("greedy", GreedyLinker(gpc)), ("min-cost-flow", MinCostFlowLinker(pc))):
         t0 = time.perf_counter()
         for d in range(args.datasets):
-            ds, app = dataset(args.seed + d, args.data, reuse)
+            ds, app = dataset(args.seed + d, args.data, reuse, feat)
             per[name].append(_ari(ds.truth, linker.link(ds.tracklets, ds.network,
                                                         appearance=app)))
         seconds[name] = time.perf_counter() - t0
@@ -310,15 +335,16 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                 res = ensemble_runs(args.seed + d, cd, args.subnetworks, args.runs,
                                     path_cost=gated_pc, transit_sum=args.transit_sum,
                                     data=args.data, gated=True, join_min_appearance=gmin,
-                                    image_reuse=reuse)
+                                    image_reuse=reuse, appearance=feat)
             elif how == "tuned":
                 res = ensemble_runs(args.seed + d, cd, args.subnetworks, args.runs,
                                     path_cost=tpc, transit_sum=args.transit_sum,
-                                    data=args.data, image_reuse=reuse)
+                                    data=args.data, image_reuse=reuse,
+                                    appearance=feat)
             else:
                 res = ensemble_runs(args.seed + d, cd, args.subnetworks, args.runs,
                                     path_cost=epc, transit_sum=how, data=args.data,
-                                    image_reuse=reuse)
+                                    image_reuse=reuse, appearance=feat)
             per[label].append(float(np.mean(res["ari"])))
             if label == "trajectory-ensemble":
                 te_secs += res["seconds"]
@@ -338,7 +364,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     seconds["trajectory_ensemble_gated_one_run_median"] = float(np.median(gated_secs))
     seconds["trajectory_ensemble_gated_one_run_max"] = float(np.max(gated_secs))
     seconds["total"] = time.perf_counter() - t_all
-    ds0 = dataset(args.seed, args.data, reuse)[0]
+    ds0 = dataset(args.seed, args.data, reuse, feat)[0]
     return {
         "table1": table1, "table2": table2, "table3": table3, "seconds": seconds,
         "setup": {"datasets": args.datasets, "runs": args.runs, "seed": args.seed,
@@ -354,8 +380,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                   "join_min_appearance": JOIN_MIN_APPEARANCE if gmin is None else gmin,
                   "table3_method": getattr(args, "table3_method", "trajectory-ensemble"),
                   "people": int(ds0.truth.max() + 1), "image_reuse": reuse,
+                  "appearance": feat,
                   "tracklets_per_dataset": [
-                      len(dataset(args.seed + d, args.data, reuse)[0].tracklets)
+                      len(dataset(args.seed + d, args.data, reuse, feat)[0].tracklets)
                       for d in range(args.datasets)],
                   "paper_table1": {"greedy": 0.169, "min-cost-flow": 0.472,
                                    "trajectory-ensemble": 0.581}},
