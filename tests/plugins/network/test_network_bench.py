@@ -169,6 +169,20 @@ def test_seed004_benchmark_small_case_prints_both_tables():
     assert result["seconds"]["trajectory_ensemble_one_run_median"] > 0
     text = bench_seed004.format_table(result)
     assert "min-cost-flow" in text and "C_d=9" in text
+    # the goals, read off Table 1 and the timings for each ensemble
+    g = result["goals"]
+    assert set(g) == {"paper", "paper_tuned", "gated"}
+    assert g["paper"]["row"] == "trajectory-ensemble"
+    assert g["gated"]["row"] == "trajectory-ensemble-gated (C_d=5, tuned)"
+    for k in g:
+        te, mcf, gr = g[k]["order"]["value"]
+        assert te == t1[g[k]["row"]] and (mcf, gr) == (t1["min-cost-flow"], t1["greedy"])
+        assert g[k]["order"]["met"] == (te > mcf > gr)
+        assert g[k]["ari"]["met"] == (te >= 0.65)
+    assert g["gated"]["one_run_s"]["value"] == result["seconds"][
+        "trajectory_ensemble_gated_one_run_median"] and g["gated"]["one_run_s"]["met"] == (
+        g["gated"]["one_run_s"]["value"] < 1.0)
+    assert text.count("goals (") == 3
     # the grid's unit of work is independent and seeded: the same cell twice, the same ARI
     from pftrack_network.bench_seed004 import table3_cell
 
