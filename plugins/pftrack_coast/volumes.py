@@ -543,6 +543,13 @@ class VolumeTracks(TrackManager):
         "inside its volume's ground footprint: one view sees an intruder through the volume "
         "before it enters and after it leaves; its footprint says where it is (False: the "
         "paper, output while the particles see it).")
+    footprint_held: bool = Param(
+        False, "With footprint_inside: a track is not output while its foot row may be held "
+        "by the volume: while the image row of blob_block_px cells (the likelihood's blocks) "
+        "below the one holding the cloud's foot sees the support plane outside the volume, "
+        "the particles, which live in the volume, could not follow an intruder's foot that "
+        "is nearer than the volume's near face, so the footprint may be that face's, not the "
+        "intruder's.")
     partition: bool = Param(
         False, "With object_size_m and gate_margin: tracks share the image between them: a "
         "track's particle that lies, in units of each box's width and height, nearer the "
@@ -661,6 +668,7 @@ class VolumeTracks(TrackManager):
         self.paths_: dict[int, deque] = {}
         self.tops_: dict[int, deque] = {}
         self.established_: set[int] = set()
+        self.held_: set[int] = set()
         self.overlaps_: dict[tuple[int, int], int] = {}
         self.gates_: dict[int, np.ndarray] = {}
         self.targets_: dict[int, Target] = {}
@@ -886,6 +894,23 @@ class VolumeTracks(TrackManager):
             self.tops_.setdefault(tid, deque(maxlen=int(self.heading_frames))).append(
                 np.asarray(g[:2], dtype=np.float64))
 
+    def _hold(self, tid: int, base: dict[str, Any]) -> None:
+        """``footprint_held``: track ``tid`` is in ``held_`` while the support-plane point of
+        the first pixel row of the ``blob_block_px`` cells below the cell row holding its
+        cloud's foot (the cloud's 98 % row), in the cloud's middle column, lies outside its
+        volume (the cloud may be cut there by the volume)."""
+        u0, v0, u1, v1 = base["ends"]
+        bs = float(self.blob_block_px)
+        row = (math.floor((v1 - 0.02 * (v1 - v0)) / bs) + 1.0) * bs + 0.5
+        vol = self.volumes_[self.tracks_[tid]]
+        g = self.camera_.image_to_ground(np.array([[0.5 * (u0 + u1), row]]), z_m=base["z"])[0]
+        held = bool(np.isfinite(g).all()) and not bool(
+            vol.contains(np.array([[g[0], g[1], float(vol.center_m[2])]]))[0])
+        if held:
+            self.held_.add(tid)
+        else:
+            self.held_.discard(tid)
+
     def _estimate(self, engine: Any, frame: Frame, t: Target, record: TrackRecord,
                   n_above: int) -> TrackRecord:
         cam = self.camera_
@@ -904,6 +929,8 @@ class VolumeTracks(TrackManager):
                 across, along = base["across"], base["along"]
                 if self.heading_from == "top":
                     self._top_path(t.id, base)
+                if self.footprint_held:
+                    self._hold(t.id, base)
                 vel = t.state[3:5] if len(t.state) >= 6 else None
                 heading = self._heading(t.id, across, vel)
                 extra["heading_deg"] = heading
@@ -989,6 +1016,7 @@ class VolumeTracks(TrackManager):
         self.alias_.pop(tid, None)
         self.shown_.discard(tid)
         self.established_.discard(tid)
+        self.held_.discard(tid)
         for d in (self.groups_, self.tracks_, self.idle_, self.low_, self.boxes_, self.paths_,
                   self.tops_,
                   self.pending_, self.gates_, self.targets_, self.gather_, self.look_,
@@ -1292,6 +1320,8 @@ class VolumeTracks(TrackManager):
         the intruder is still outside it is not yet an entry)."""
         if not self.footprint_inside or record.world_m is None:
             return True
+        if record.id in self.held_:
+            return False
         vol = self.volumes_[self.tracks_[record.id]] if record.id in self.tracks_ else None
         if vol is None:
             return True

@@ -530,3 +530,31 @@ def test_exit_established_holds_a_new_track_to_n_m_until_it_gathers():
     assert len(np.unique(rows[:, 1])) == 2
     _, low, rows_100, _, _, _ = _run()  # exit_particles 100
     np.testing.assert_array_equal(rows, rows_100)
+
+
+def test_footprint_held_while_the_car_is_seen_from_in_front_of_the_volume():
+    """The same car: its cloud's foot is cut by the near face (y = 95 m) while the car's near
+    end is in front of it; held (not output) on those frames, measured once the cell row below
+    the foot sees the plane inside the volume. Within 8 px cells at about 100 m (6 m of
+    ground per cell) the release comes between the near end's crossing and one cell (6 m)
+    later; the footprint output after it is within 1.5 m of the car's true near end."""
+    from pftrack_coast.volumes import _support_base
+
+    cam, frames = _car_through_the_near_volume(30)
+    tracks = VolumeTracks(volumes=["near"], footprint_held=True, blob_block_px=8)
+    tracks.setup(RunContext(camera=cam))
+    tracks.tracks_[1] = "near"
+    held, fronts = [], []
+    for px in frames:
+        base = _support_base(cam, px, 0.0, 0.02)
+        tracks._hold(1, base)
+        held.append(1 in tracks.held_)
+        fronts.append(base["front"][1])
+    near_end = 86.0 + 0.6 * np.arange(len(frames)) - 2.35  # the car's end nearest the camera
+    assert held[0] and not held[-1]
+    release = held.index(False)
+    assert all(not h for h in held[release:])  # released once, for good
+    assert 95.0 <= near_end[release] <= 95.0 + 6.0
+    assert np.all(np.array(fronts[:release]) >= 95.0)  # held at (behind) the face meanwhile,
+    assert fronts[0] - near_end[0] > 10.0  # 11 m behind the car's near end at first
+    assert np.all(np.abs(np.array(fronts[release:]) - near_end[release:]) < 1.5)
