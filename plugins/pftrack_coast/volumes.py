@@ -508,10 +508,12 @@ class VolumeTracks(TrackManager):
     heading_frames: int = Param(15, "Frames over which the heading is measured.", unit="frames")
     heading_from: str = Param(
         "footprint", "What min_travel_m's travel is measured on: 'footprint' (the footprint's "
-        "centre) or 'top' (the particle cloud's top centre pixel, put on the support plane: a "
-        "point at a constant height moves there in the same direction as the object, scaled "
-        "by H / (H - h), and the top is not held at the volume's near face as the foot row is "
-        "while an intruder is seen through the volume from in front of it).")
+        "centre) or 'top': the footprint's, but the travel of the particle cloud's top centre "
+        "pixel put on the support plane while the footprint is held (footprint_held) or has "
+        "not yet travelled min_travel_m (a point at a constant height h moves there in the "
+        "same direction as the object, scaled by H / (H - h); the top is not held at the "
+        "volume's near face as the foot row is while an intruder is seen through the volume "
+        "from in front of it).")
     min_speed: float = Param(0.3, "Before the footprint has travelled min_travel_m: the heading "
                                   "is the particles' mean horizontal velocity once faster than "
                                   "this (metres per time step; state entries 3, 4).", unit="m/dt")
@@ -869,13 +871,18 @@ class VolumeTracks(TrackManager):
                  ) -> float | None:
         """Degrees from the across-view direction to the track's travel: its footprint's
         over the last heading_frames once it exceeds min_travel_m (heading_from 'top': its
-        cloud's top centre's on the support plane), else its particles' mean horizontal
-        velocity once faster than min_speed, else None."""
-        path = (self.tops_ if self.heading_from == "top" else self.paths_).get(tid)
+        cloud's top centre's on the support plane while the footprint is held or has not
+        travelled that far), else its particles' mean horizontal velocity once faster than
+        min_speed, else None."""
+        paths = [self.paths_.get(tid)]
+        if self.heading_from == "top":
+            paths.insert(0 if tid in self.held_ else 1, self.tops_.get(tid))
         d = None
-        if path and len(path) >= 2:
-            d = path[-1] - path[0]
-            if float(np.hypot(d[0], d[1])) < float(self.min_travel_m):
+        for path in paths:
+            if path and len(path) >= 2:
+                d = path[-1] - path[0]
+                if float(np.hypot(d[0], d[1])) >= float(self.min_travel_m):
+                    break
                 d = None
         if d is None and velocity is not None and \
                 float(np.hypot(velocity[0], velocity[1])) >= float(self.min_speed):

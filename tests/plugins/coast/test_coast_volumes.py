@@ -473,16 +473,17 @@ def test_heading_from_the_cloud_top_sees_a_car_driving_along_the_view(heading_fr
     at the volume's near face (the footprint moves < 3 m in 24 frames: no heading, so the
     footprint's length is laid across the view, depth about 0.6 m), while the cloud's top,
     put on the plane, travels with the car: heading within 5 degrees of along the view from
-    the frame its travel passes min_travel_m (3 m), and the corrected depth within 0.7 m of
-    the true 4.7 m."""
+    the frame its travel passes min_travel_m (3 m) (the top's while the foot is held, then
+    the footprint's), and the corrected depth within 0.7 m of the true 4.7 m."""
     from collections import deque
 
     from pftrack_coast.volumes import _support_base, _support_finish
 
     cam, frames = _car_through_the_near_volume()
     tracks = VolumeTracks(volumes=["near"], footprint_aspect=3.0, min_travel_m=3.0,
-                          heading_frames=15, heading_from=heading_from)
+                          heading_frames=15, heading_from=heading_from, footprint_held=True)
     tracks.setup(RunContext(camera=cam))
+    tracks.tracks_[1] = "near"
     fronts: deque = deque(maxlen=15)
     tracks.paths_[1] = fronts
     headings, depths = [], []
@@ -490,6 +491,7 @@ def test_heading_from_the_cloud_top_sees_a_car_driving_along_the_view(heading_fr
         base = _support_base(cam, px, 0.0, 0.02)
         if heading_from == "top":
             tracks._top_path(1, base)
+        tracks._hold(1, base)
         heading = tracks._heading(1, base["across"])
         est = _support_finish(cam, base, aspect=3.0, heading_deg=heading)
         fronts.append(est["footprint_m"][:2].copy())
