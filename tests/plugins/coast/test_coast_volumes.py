@@ -567,10 +567,10 @@ def test_coast_car_along_the_view_is_one_track_with_its_length_along_it(tmp_path
     """The coast scene's car (scene seed 4, one of the seeds the rules were chosen on) driving
     along the line of sight through the near volume, through coast-volumes and the eigenspace
     model of every 5th background frame: with the paper's exit count its tracks end about one
-    frame after each entry (more entries than output records); with exit_established, heading_from 'top' and
-    footprint_held (the preset) it is one output track whose corrected depth is within 2 m of
-    the true 4.7 m (across the view: 0.9 m before, the length laid across) and whose first
-    output frame comes after its centre entered the volume."""
+    frame after each entry (more entries than output records); with exit_established,
+    heading_from 'top' and footprint_held (the preset) it is one output track whose corrected
+    depth is within 2 m of the true 4.7 m (across the view: 0.9 m before, the length laid
+    across) and whose first output frame comes after its centre entered the volume."""
     import itertools
     import warnings
 
