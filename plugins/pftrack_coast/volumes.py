@@ -435,6 +435,12 @@ class VolumeTracks(TrackManager):
                         unit="1")
     exit_frames: int = Param(1, "Frames in a row at or below N_out before a track ends "
                                 "(1: the paper).", unit="frames")
+    exit_established: bool = Param(
+        False, "A track is held to N_out only once it has had more than N_out particles above "
+        "v_pi (its particles have gathered on its intruder); before that it ends when fewer "
+        "than N_m are (the evidence that started it is gone). False: N_out from the first "
+        "frame (the paper), which ends a new track on an intruder smaller than its first "
+        "frame's spread one frame after its entry.")
     idle_frames: int = Param(10, "A detection group without an entry for this many frames is "
                                  "spread uniformly through its volume again.", unit="frames")
     exclusion_margin: float = Param(0.2, "A tracked intruder's image box, enlarged by this "
@@ -500,6 +506,14 @@ class VolumeTracks(TrackManager):
                                      "travel over the last heading_frames once it exceeds "
                                      "this distance (before: across the view).", unit="m")
     heading_frames: int = Param(15, "Frames over which the heading is measured.", unit="frames")
+    heading_from: str = Param(
+        "footprint", "What min_travel_m's travel is measured on: 'footprint' (the footprint's "
+        "centre) or 'top': the footprint's, but the travel of the particle cloud's top centre "
+        "pixel put on the support plane while the footprint is held (footprint_held) or has "
+        "not yet travelled min_travel_m (a point at a constant height h moves there in the "
+        "same direction as the object, scaled by H / (H - h); the top is not held at the "
+        "volume's near face as the foot row is while an intruder is seen through the volume "
+        "from in front of it).")
     min_speed: float = Param(0.3, "Before the footprint has travelled min_travel_m: the heading "
                                   "is the particles' mean horizontal velocity once faster than "
                                   "this (metres per time step; state entries 3, 4).", unit="m/dt")
@@ -531,6 +545,13 @@ class VolumeTracks(TrackManager):
         "inside its volume's ground footprint: one view sees an intruder through the volume "
         "before it enters and after it leaves; its footprint says where it is (False: the "
         "paper, output while the particles see it).")
+    footprint_held: bool = Param(
+        False, "With footprint_inside: a track is not output while its foot row may be held "
+        "by the volume: while the image row of blob_block_px cells (the likelihood's blocks) "
+        "below the one holding the cloud's foot sees the support plane outside the volume, "
+        "the particles, which live in the volume, could not follow an intruder's foot that "
+        "is nearer than the volume's near face, so the footprint may be that face's, not the "
+        "intruder's.")
     partition: bool = Param(
         False, "With object_size_m and gate_margin: tracks share the image between them: a "
         "track's particle that lies, in units of each box's width and height, nearer the "
@@ -629,6 +650,9 @@ class VolumeTracks(TrackManager):
         if int(self.gather_frames) < 0:
             raise ValueError(f"tracks 'volumes': gather_frames must be >= 0, got "
                              f"{self.gather_frames!r}")
+        if self.heading_from not in ("footprint", "top"):
+            raise ValueError(f"tracks 'volumes': heading_from must be 'footprint' or 'top', "
+                             f"got {self.heading_from!r}")
         if not float(self.footprint_aspect) > 0:
             raise ValueError(f"tracks 'volumes': footprint_aspect must be > 0, got "
                              f"{self.footprint_aspect!r}")
@@ -644,6 +668,9 @@ class VolumeTracks(TrackManager):
         self.low_: dict[int, int] = {}
         self.boxes_: dict[int, np.ndarray] = {}
         self.paths_: dict[int, deque] = {}
+        self.tops_: dict[int, deque] = {}
+        self.established_: set[int] = set()
+        self.held_: set[int] = set()
         self.overlaps_: dict[tuple[int, int], int] = {}
         self.gates_: dict[int, np.ndarray] = {}
         self.targets_: dict[int, Target] = {}
@@ -843,13 +870,19 @@ class VolumeTracks(TrackManager):
     def _heading(self, tid: int, across: np.ndarray, velocity: np.ndarray | None = None,
                  ) -> float | None:
         """Degrees from the across-view direction to the track's travel: its footprint's
-        over the last heading_frames once it exceeds min_travel_m, else its particles' mean
-        horizontal velocity once faster than min_speed, else None."""
-        path = self.paths_.get(tid)
+        over the last heading_frames once it exceeds min_travel_m (heading_from 'top': its
+        cloud's top centre's on the support plane while the footprint is held or has not
+        travelled that far), else its particles' mean horizontal velocity once faster than
+        min_speed, else None."""
+        paths = [self.paths_.get(tid)]
+        if self.heading_from == "top":
+            paths.insert(0 if tid in self.held_ else 1, self.tops_.get(tid))
         d = None
-        if path and len(path) >= 2:
-            d = path[-1] - path[0]
-            if float(np.hypot(d[0], d[1])) < float(self.min_travel_m):
+        for path in paths:
+            if path and len(path) >= 2:
+                d = path[-1] - path[0]
+                if float(np.hypot(d[0], d[1])) >= float(self.min_travel_m):
+                    break
                 d = None
         if d is None and velocity is not None and \
                 float(np.hypot(velocity[0], velocity[1])) >= float(self.min_speed):
@@ -858,6 +891,32 @@ class VolumeTracks(TrackManager):
             return None
         along = np.array([-across[1], across[0]])
         return math.degrees(math.atan2(float(np.dot(d, along)), float(np.dot(d, across[:2]))))
+
+    def _top_path(self, tid: int, base: dict[str, Any]) -> None:
+        """Append the cloud's top centre pixel, put on the support plane, to track ``tid``'s
+        ``tops_`` (heading_from 'top'; nothing when that ray misses the plane)."""
+        u0, v0, u1, _ = base["ends"]
+        g = self.camera_.image_to_ground(np.array([[0.5 * (u0 + u1), v0]]), z_m=base["z"])[0]
+        if np.isfinite(g[:2]).all():
+            self.tops_.setdefault(tid, deque(maxlen=int(self.heading_frames))).append(
+                np.asarray(g[:2], dtype=np.float64))
+
+    def _hold(self, tid: int, base: dict[str, Any]) -> None:
+        """``footprint_held``: track ``tid`` is in ``held_`` while the support-plane point of
+        the first pixel row of the ``blob_block_px`` cells below the cell row holding its
+        cloud's foot (the cloud's 98 % row), in the cloud's middle column, lies outside its
+        volume (the cloud may be cut there by the volume)."""
+        u0, v0, u1, v1 = base["ends"]
+        bs = float(self.blob_block_px)
+        row = (math.floor((v1 - 0.02 * (v1 - v0)) / bs) + 1.0) * bs + 0.5
+        vol = self.volumes_[self.tracks_[tid]]
+        g = self.camera_.image_to_ground(np.array([[0.5 * (u0 + u1), row]]), z_m=base["z"])[0]
+        held = bool(np.isfinite(g).all()) and not bool(
+            vol.contains(np.array([[g[0], g[1], float(vol.center_m[2])]]))[0])
+        if held:
+            self.held_.add(tid)
+        else:
+            self.held_.discard(tid)
 
     def _estimate(self, engine: Any, frame: Frame, t: Target, record: TrackRecord,
                   n_above: int) -> TrackRecord:
@@ -869,13 +928,19 @@ class VolumeTracks(TrackManager):
         raw_centre = t.state[pos_dims].copy()
         across, along = _axes(cam, raw_centre[:2])
         est = None
+        extra: dict[str, Any] = {}
         if fine.sum() >= 2:
             # (support_plane_estimate, its shape-free part computed once)
             base = _support_base(cam, px[fine], float(self.support_z_m), 0.02, finite=True)
             if base is not None:
                 across, along = base["across"], base["along"]
+                if self.heading_from == "top":
+                    self._top_path(t.id, base)
+                if self.footprint_held:
+                    self._hold(t.id, base)
                 vel = t.state[3:5] if len(t.state) >= 6 else None
                 heading = self._heading(t.id, across, vel)
+                extra["heading_deg"] = heading
                 if float(self.footprint_aspect) != 1.0:  # (a square: the heading is moot)
                     est = _support_finish(cam, base, aspect=float(self.footprint_aspect),
                                           heading_deg=heading)
@@ -887,7 +952,8 @@ class VolumeTracks(TrackManager):
                              for a in (across, up, along)])
         entry = {"frame": frame.index, "id": self.alias_.get(t.id, t.id),
                  "volume": self.tracks_[t.id],
-                 "centre_raw_m": raw_centre, "size_raw_m": size_raw, "n_above": int(n_above)}
+                 "centre_raw_m": raw_centre, "size_raw_m": size_raw, "n_above": int(n_above),
+                 **extra}
         if est is None:  # no footprint: the particles' mean, put on the support plane
             record.world_m = np.array([raw_centre[0], raw_centre[1], float(self.support_z_m)])
             self.boxes_[t.id] = record.box_xywh_px.copy()
@@ -956,7 +1022,10 @@ class VolumeTracks(TrackManager):
         self.templates_.pop(tid, None)
         self.alias_.pop(tid, None)
         self.shown_.discard(tid)
+        self.established_.discard(tid)
+        self.held_.discard(tid)
         for d in (self.groups_, self.tracks_, self.idle_, self.low_, self.boxes_, self.paths_,
+                  self.tops_,
                   self.pending_, self.gates_, self.targets_, self.gather_, self.look_,
                   self.ahead_):
             d.pop(tid, None)
@@ -979,8 +1048,13 @@ class VolumeTracks(TrackManager):
             if t is None:
                 continue
             n_above = above(t)
-            self.low_[tid] = self.low_.get(tid, 0) + 1 if n_above <= int(self.exit_particles) \
-                else 0
+            if n_above > int(self.exit_particles):
+                self.established_.add(tid)
+            if self.exit_established and tid not in self.established_:
+                low = n_above < int(self.entry_particles)  # not gathered yet: N_m holds it
+            else:
+                low = n_above <= int(self.exit_particles)
+            self.low_[tid] = self.low_.get(tid, 0) + 1 if low else 0
             if self.low_[tid] >= int(self.exit_frames) or tid not in by_id:
                 self.events_.append({"frame": frame.index, "id": tid,
                                      "volume": self.tracks_[tid], "event": "exit"})
@@ -1253,6 +1327,8 @@ class VolumeTracks(TrackManager):
         the intruder is still outside it is not yet an entry)."""
         if not self.footprint_inside or record.world_m is None:
             return True
+        if record.id in self.held_:
+            return False
         vol = self.volumes_[self.tracks_[record.id]] if record.id in self.tracks_ else None
         if vol is None:
             return True
