@@ -8,82 +8,17 @@ and frame on arrays of a few hundred KB (grid samples, a bincount, cumulative su
 gather, masked means, products), and those calls are the cost. Each kernel here does a target's
 particles in one pass and returns the same numbers bit for bit: the same float operations in
 the same order (no fast-math), sums over an axis in numpy's own pairwise order
-(:func:`_pairwise`), so that every figure of the pipelines that use them stays identical; the
-tests compare both paths.
+(:func:`pftrack.filter._kernels.pairwise_sum`), so that every figure of the pipelines that use
+them stays identical; the tests compare both paths.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from pftrack.filter._kernels import pairwise_sum as _pairwise
 
 _JIT = {"cache": True, "nogil": True}
-
-
-@njit(**_JIT)  # type: ignore[call-overload]
-def _pairwise0(a, lo, n):  # pragma: no cover - compiled
-    """``a[lo:lo + n].sum()`` in numpy's order for ``n <= 128`` (``pairwise_sum`` of numpy's
-    ``loops_utils``: a plain loop below 8 values, else 8 running sums)."""
-    if n < 8:
-        res = 0.0
-        for i in range(n):
-            res += a[lo + i]
-        return res
-    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
-    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
-    i = 8
-    while i < n - n % 8:
-        r0 += a[lo + i]
-        r1 += a[lo + i + 1]
-        r2 += a[lo + i + 2]
-        r3 += a[lo + i + 3]
-        r4 += a[lo + i + 4]
-        r5 += a[lo + i + 5]
-        r6 += a[lo + i + 6]
-        r7 += a[lo + i + 7]
-        i += 8
-    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < n:
-        res += a[lo + i]
-        i += 1
-    return res
-
-
-# Above 128 values numpy sums the two halves (the first a multiple of 8) and adds them. numba
-# cannot load a cached recursive function (the process crashes), so the recursion is unrolled
-# into levels: _pairwise0, 1, 2 sum up to 128, 248 and 488 values, _pairwise up to 968
-# (PAIRWISE_MAX; a test checks the levels against numpy's sums).
-@njit(**_JIT)  # type: ignore[call-overload]
-def _pairwise1(a, lo, n):  # pragma: no cover - compiled
-    if n <= 128:
-        return _pairwise0(a, lo, n)
-    n2 = n // 2
-    n2 -= n2 % 8
-    return _pairwise0(a, lo, n2) + _pairwise0(a, lo + n2, n - n2)
-
-
-@njit(**_JIT)  # type: ignore[call-overload]
-def _pairwise2(a, lo, n):  # pragma: no cover - compiled
-    if n <= 128:
-        return _pairwise0(a, lo, n)
-    n2 = n // 2
-    n2 -= n2 % 8
-    return _pairwise1(a, lo, n2) + _pairwise1(a, lo + n2, n - n2)
-
-
-@njit(**_JIT)  # type: ignore[call-overload]
-def _pairwise(a, lo, n):  # pragma: no cover - compiled
-    """``a[lo:lo + n].sum()`` in numpy's order, for ``n <= PAIRWISE_MAX``."""
-    if n <= 128:
-        return _pairwise0(a, lo, n)
-    n2 = n // 2
-    n2 -= n2 % 8
-    return _pairwise2(a, lo, n2) + _pairwise2(a, lo + n2, n - n2)
-
-
-#: Most values :func:`_pairwise` sums (cells of the NCC grid, bins of the EMD); the likelihoods
-#: take their numpy paths above it.
-PAIRWISE_MAX = 968
 
 
 @njit(**_JIT)  # type: ignore[call-overload]

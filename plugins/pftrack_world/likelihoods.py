@@ -238,7 +238,7 @@ class NCCLikelihood(_TemplateLikelihood):
         the window inside the image)."""
         kern = _kernels()
         gw, gh = (int(v) for v in self.grid_wh)
-        if kern is not None and gw * gh <= kern.PAIRWISE_MAX:
+        if kern is not None:
             out = np.empty(len(boxes_xywh_px))
             kern.ncc_values(self.integral_, sub_boxes(boxes_xywh_px, self.region), gw, gh,
                             np.ascontiguousarray(self.templates_[target.id], dtype=np.float64),
@@ -427,7 +427,7 @@ class EMDLikelihood(_TemplateLikelihood):
         """EMD / (bins - 1) averaged over channels, (N,) in [0, 1]; NaN for windows with no
         sample inside the image."""
         kern = _kernels()
-        if kern is not None and int(self.bins) <= kern.PAIRWISE_MAX:
+        if kern is not None:
             gw, gh = (int(v) for v in self.grid_wh)
             out = np.empty(len(boxes_xywh_px))
             kern.emd_distances(self.quantised_, sub_boxes(boxes_xywh_px, self.region), gw, gh,

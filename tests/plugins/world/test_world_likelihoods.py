@@ -271,7 +271,8 @@ def _awkward_boxes(rng, n: int, w_img: int, h_img: int) -> np.ndarray:
     (NCCLikelihood, {"grid_wh": (8, 16)}),
     (NCCLikelihood, {"grid_wh": (5, 3), "region": (0.2, 0.1, 0.8, 0.6), "min_valid": 0.9}),
     (NCCLikelihood, {"grid_wh": (20, 16)}),  # 320 cells: numpy's pairwise sums split in halves
-    (NCCLikelihood, {"grid_wh": (22, 44)}),  # 968 cells: the most the kernel sums, 3 splits
+    (NCCLikelihood, {"grid_wh": (22, 44)}),  # 968 cells: 3 levels of halving
+    (NCCLikelihood, {"grid_wh": (40, 50)}),  # 2000 cells
 ])
 def test_compiled_emd_and_ncc_give_the_numpy_numbers_bit_for_bit(lik_cls, params, monkeypatch):
     import pftrack_world.likelihoods as mod
@@ -297,13 +298,3 @@ def test_compiled_emd_and_ncc_give_the_numpy_numbers_bit_for_bit(lik_cls, params
         assert np.isnan(fast).sum() > 0
         np.testing.assert_array_equal(fast, slow)
         np.testing.assert_array_equal(lik.log_likelihood(boxes, t), ll_slow)
-
-
-def test_the_kernels_pairwise_sums_are_numpys_at_every_length():
-    kern = pytest.importorskip("pftrack_world._kernels")
-    rng = np.random.default_rng(2)
-    for n in [*range(0, 140), 247, 248, 249, 255, 256, 257, 300, 487, 488, 489, 700, 967, 968]:
-        a = rng.random(n) * rng.choice([1e-9, 1.0, 1e9], size=n)
-        assert kern._pairwise(a, 0, n) == a.sum(), n
-        b = np.concatenate([rng.random(5), a])
-        assert kern._pairwise(b, 5, n) == a.sum(), n
