@@ -76,6 +76,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also track the same detections through the same camera with "
                              "seeds SEED..SEED+S-1 and report their mean (default 5; 1: only "
                              "SEED)")
+    parser.add_argument("--full-every", type=int, default=None, metavar="K",
+                        help="the detector searches the whole frame on every K-th frame only, "
+                             "near the people found before on the others (hog-people's "
+                             "full_every; default: the preset's, 1)")
     parser.add_argument("--no-peer", action="store_true", help="skip the peer tracker")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
@@ -154,6 +158,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, file=sys.stderr,
                                                                   flush=True))
     cfg = load_config(args.preset)
+    if getattr(args, "full_every", None) is not None:
+        det = cfg.get("detector")
+        if not isinstance(det, dict):
+            raise ValueError(f"fresh-video: --full-every needs a detector section in "
+                             f"{args.preset}")
+        det.setdefault("params", {})["full_every"] = int(args.full_every)
     threshold = float(((cfg.get("detector") or {}).get("params") or {}).get("threshold", 0.5))
     threads = cv2.getNumThreads()
     cv2.setNumThreads(1)
@@ -224,6 +234,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                         "tracking_and_decoding": c_all - c_det - c_cal},
         "frames": f"{first}:{first + main.n_frames - 1}", "n_frames": main.n_frames,
         "preset": cfg.get("name", args.preset), "detector_threshold": threshold,
+        "detector_full_every": int(((cfg.get("detector") or {}).get("params") or {}).get(
+            "full_every", 1)),
         "tuned_on": "frames 1-200 (detector margin and score map, presets, peer settings)",
     })
     goals = {}

@@ -432,9 +432,91 @@ def window_features(crops: np.ndarray, feature: str) -> np.ndarray:
 # --------------------------------------------------------------------------------------------
 
 
+def _band_strip(band: ScaleBand, ih: int, window_h: int) -> tuple[int, int] | None:
+    """Rows ``[y0, y1)`` of the image a band scans, or None when too few for one window."""
+    f = band.f
+    y0 = max(band.top_min, 0)
+    y1 = min(int(np.ceil(band.top_max + window_h * f)) + 1, ih)
+    if y1 - y0 < window_h * f * 0.999:
+        return None
+    return y0, y1
+
+
+def _small_windows(model: SVMModel, small: np.ndarray, threshold: float, hog: Any,
+                   kernel: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Window tops (K, 2) of the resized strip ``small`` scoring at least ``threshold``, and
+    their scores; stride 8 from the strip's corner (HOG), local maxima (grey)."""
+    import cv2
+
+    W, H = model.window_wh
+    sh, sw = small.shape[:2]
+    if model.feature == "hog":
+        loc, wt = hog.detect(small, hitThreshold=float(threshold), winStride=(8, 8),
+                             padding=(0, 0))
+        return (np.asarray(loc, dtype=np.float64).reshape(-1, 2),
+                np.asarray(wt, dtype=np.float64).reshape(-1))
+    resp = cv2.filter2D(small.astype(np.float32), cv2.CV_32F, kernel, anchor=(0, 0),
+                        borderType=cv2.BORDER_CONSTANT)
+    resp = resp[: sh - H + 1, : sw - W + 1] + np.float32(model.bias)
+    # keep 3x3 local maxima only: dense windows one pixel apart add nothing after NMS
+    peak = resp >= cv2.dilate(resp, np.ones((3, 3), np.uint8))
+    yy, xx = np.nonzero(peak & (resp >= threshold))
+    return np.stack([xx, yy], axis=1).astype(np.float64), resp[yy, xx].astype(np.float64)
+
+
+def _roi_crops(model: SVMModel, rois: np.ndarray, f: float, y0: int, fx: float, fy: float,
+               small_wh: tuple[int, int], margin: float, ratio: float) -> list[tuple[int, ...]]:
+    """Crops ``(x0, y0, x1, y1)`` of a band's resized strip (corners on its stride-8 grid, so
+    that their windows are the whole strip's; one stride of apron on every side) holding every
+    window whose person box lies
+    within ``margin`` box heights of one of ``rois`` (person boxes xywh, original pixels) of a
+    height within a factor ``ratio`` of the band's; overlapping crops merged."""
+    W, H = model.window_wh
+    bl, bt, bw, bh = model.box_in_window
+    sw, sh = small_wh
+    hb = bh * f
+    r = rois[(rois[:, 3] <= hb * ratio) & (rois[:, 3] >= hb / ratio)]
+    if not len(r):
+        return []
+    m = margin * r[:, 3]
+    # window corners (small pixels) of person boxes at the ROI moved by up to the margin
+    x0 = (r[:, 0] - m) / fx - bl
+    x1 = (r[:, 0] + r[:, 2] + m) / fx - bl - bw + W
+    ya = (r[:, 1] - m - y0) / fy - bt
+    yb = (r[:, 1] + r[:, 3] + m - y0) / fy - bt - bh + H
+    # an apron of one stride on every side (gradients at a crop's outer pixels differ from
+    # the whole strip's; windows reaching into the apron are dropped by the caller)
+    c = np.stack([np.maximum(np.floor(x0 / 8) * 8 - 8, 0), np.maximum(np.floor(ya / 8) * 8 - 8, 0),
+                  np.minimum(np.ceil(x1) + 8, sw), np.minimum(np.ceil(yb) + 8, sh)], axis=1)
+    c = c[(c[:, 2] - c[:, 0] >= W) & (c[:, 3] - c[:, 1] >= H)].astype(int)
+    # merge overlapping crops into their bounding box (windows then counted once)
+    crops = [tuple(v) for v in c[np.argsort(c[:, 0])]]
+    merged = True
+    while merged and len(crops) > 1:
+        merged = False
+        out: list[tuple[int, ...]] = []
+        for a in crops:
+            for i, b in enumerate(out):
+                if a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]:
+                    out[i] = (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]),
+                              max(a[3], b[3]))
+                    merged = True
+                    break
+            else:
+                out.append(a)
+        crops = out
+    return crops
+
+
 def _dense_windows(model: SVMModel, grey: np.ndarray, bands: Sequence[ScaleBand],
-                   threshold: float, hog: Any = None) -> tuple[np.ndarray, np.ndarray]:
+                   threshold: float, hog: Any = None, rois: np.ndarray | None = None,
+                   roi_margin: float = 0.3, roi_ratio: float = 1.5
+                   ) -> tuple[np.ndarray, np.ndarray]:
     """Every window scoring at least ``threshold`` over the scale bands.
+
+    With ``rois`` (person boxes xywh, original pixels), only the windows near them are scored
+    (:func:`_roi_crops`): at the whole search's window positions, clear of the crops' outer
+    pixels, so that each scores exactly as in the whole search.
 
     Returns (person boxes (K, 4) xywh px, scores (K,))."""
     import cv2
@@ -446,33 +528,38 @@ def _dense_windows(model: SVMModel, grey: np.ndarray, bands: Sequence[ScaleBand]
     kernel = None
     if model.feature == "grey":
         kernel = (model.weights.reshape(H, W) / 255.0).astype(np.float32)
+    if rois is not None:
+        rois = np.asarray(rois, dtype=np.float64).reshape(-1, 4)
     for band in bands:
         f = band.f
-        y0 = max(band.top_min, 0)
-        y1 = min(int(np.ceil(band.top_max + H * f)) + 1, ih)
-        if y1 - y0 < H * f * 0.999:
+        rows = _band_strip(band, ih, H)
+        if rows is None:
             continue
-        strip = grey[y0:y1]
+        y0, y1 = rows
         sw, sh = round(iw / f), round((y1 - y0) / f)
         if sw < W or sh < H:
             continue
-        interp = cv2.INTER_AREA if f > 1 else cv2.INTER_LINEAR
-        small = cv2.resize(strip, (sw, sh), interpolation=interp)
         fx, fy = iw / sw, (y1 - y0) / sh  # exact scale of this resize
-        if model.feature == "hog":
-            loc, wt = hog.detect(small, hitThreshold=float(threshold), winStride=(8, 8),
-                                 padding=(0, 0))
-            loc = np.asarray(loc, dtype=np.float64).reshape(-1, 2)
-            wt = np.asarray(wt, dtype=np.float64).reshape(-1)
+        interp = cv2.INTER_AREA if f > 1 else cv2.INTER_LINEAR
+        if rois is None:
+            small = cv2.resize(grey[y0:y1], (sw, sh), interpolation=interp)
+            loc, wt = _small_windows(model, small, threshold, hog, kernel)
         else:
-            resp = cv2.filter2D(small.astype(np.float32), cv2.CV_32F, kernel, anchor=(0, 0),
-                                borderType=cv2.BORDER_CONSTANT)
-            resp = resp[: sh - H + 1, : sw - W + 1] + np.float32(model.bias)
-            # keep 3x3 local maxima only: dense windows one pixel apart add nothing after NMS
-            peak = resp >= cv2.dilate(resp, np.ones((3, 3), np.uint8))
-            yy, xx = np.nonzero(peak & (resp >= threshold))
-            loc = np.stack([xx, yy], axis=1).astype(np.float64)
-            wt = resp[yy, xx].astype(np.float64)
+            crops = _roi_crops(model, rois, f, y0, fx, fy, (sw, sh), roi_margin, roi_ratio)
+            if not crops:
+                continue
+            small = cv2.resize(grey[y0:y1], (sw, sh), interpolation=interp)
+            locs, wts = [], []
+            for cx0, cy0, cx1, cy1 in crops:
+                lc, wc = _small_windows(model, small[cy0:cy1, cx0:cx1], threshold, hog, kernel)
+                # only windows clear of the crop's outer pixels (unless that is the strip's
+                # border too): they score exactly as in the whole search
+                ok = (((lc[:, 0] > 0) | (cx0 == 0)) & ((lc[:, 1] > 0) | (cy0 == 0))
+                      & ((lc[:, 0] + W < cx1 - cx0) | (cx1 == sw))
+                      & ((lc[:, 1] + H < cy1 - cy0) | (cy1 == sh)))
+                locs.append(lc[ok] + (cx0, cy0))
+                wts.append(wc[ok])
+            loc, wt = np.concatenate(locs), np.concatenate(wts)
         if len(wt) == 0:
             continue
         b = np.empty((len(wt), 4))
@@ -680,12 +767,19 @@ class SVMDetector(Detector):
     # -- detection ----------------------------------------------------------------------------
 
     def score_windows(self, grey: np.ndarray, threshold: float | None = None,
+                      rois: np.ndarray | None = None, roi_margin: float = 0.3,
                       ) -> tuple[np.ndarray, np.ndarray]:
         """Every window above ``threshold`` (default: the detector's) before NMS.
 
         Parameters
         ----------
         grey : ndarray, shape (H, W), uint8
+        rois : ndarray (K, 4), optional
+            Person boxes (xywh px): only windows whose person box lies within ``roi_margin``
+            box heights of one of them, at scales within a factor 1.5 of its height, are
+            scored (at the whole search's window positions). Default: the whole search.
+        roi_margin : float
+            See ``rois``. Unit: box heights.
 
         Returns
         -------
@@ -694,7 +788,8 @@ class SVMDetector(Detector):
         """
         self._prepare((grey.shape[1], grey.shape[0]))
         thr = self.threshold if threshold is None else threshold
-        return _dense_windows(self._model(), grey, self.plan_, thr, getattr(self, "hog_", None))
+        return _dense_windows(self._model(), grey, self.plan_, thr, getattr(self, "hog_", None),
+                              rois=rois, roi_margin=roi_margin)
 
     def detect(self, frame: Frame) -> Detections:
         """Detections in ``frame``: person boxes (xywh px), scores c(det), ground points (m)."""

@@ -110,6 +110,19 @@ class HOGPeopleDetector(SVMDetector):
     tolerance : float
         A scale is searched at a row when the expected person height there is within this
         factor (times sqrt(scale_step)) of the scale's height. Unit: 1.
+    full_every : int
+        Search the whole frame (every scale band) on every ``full_every``-th frame only; on
+        the frames between, only near the people found in the previous frame and in the last
+        whole search (``roi_margin``; scales within a factor 1.5 of each one's height), at the
+        whole search's window positions. A person who appears away from everyone found so far
+        is first found at the next whole search. 1: every frame is searched whole. Unit:
+        frames.
+    roi_margin : float
+        How far from a person found before a window is still scored on the frames between
+        whole searches. Unit: box heights.
+    roi_memory : int
+        The people found in this many frames before are searched near on the frames between
+        whole searches. Unit: frames.
     """
 
     def __init__(self, camera: CameraSpec | None = None, height_m: float = 1.7,
@@ -118,7 +131,8 @@ class HOGPeopleDetector(SVMDetector):
                  min_height_px: float = 48.0, max_height_px: float = 480.0,
                  box_fraction: Sequence[float] = HOG_PEOPLE_BOX,
                  score_offset: float = 0.46, score_scale: float = 0.32, learn_scales: int = 10,
-                 tolerance: float = 1.1) -> None:
+                 tolerance: float = 1.1, full_every: int = 1, roi_margin: float = 0.3,
+                 roi_memory: int = 10) -> None:
         self.camera = camera
         self.height_m = height_m
         self.threshold = threshold
@@ -132,6 +146,9 @@ class HOGPeopleDetector(SVMDetector):
         self.score_scale = score_scale
         self.learn_scales = learn_scales
         self.tolerance = tolerance
+        self.full_every = full_every
+        self.roi_margin = roi_margin
+        self.roi_memory = roi_memory
 
     # the SVM detector's training parameters do not apply
     model = None
@@ -142,6 +159,12 @@ class HOGPeopleDetector(SVMDetector):
         if not 0.0 < float(self.threshold) < 1.0:
             raise ValueError(f"detector hog-people: threshold is a calibrated score in (0, 1), "
                              f"got {self.threshold}")
+        if int(self.full_every) < 1 or int(self.full_every) != self.full_every:
+            raise ValueError(f"detector hog-people: full_every is a whole number of frames >= 1, "
+                             f"got {self.full_every}")
+        if not float(self.roi_margin) > 0.0:
+            raise ValueError(f"detector hog-people: roi_margin must be > 0 (box heights), got "
+                             f"{self.roi_margin}")
         if self.camera is None and context.camera is not None:
             self.camera_ = context.camera
         if context.detector_model is not None:
@@ -200,13 +223,15 @@ class HOGPeopleDetector(SVMDetector):
 
     # -- detection ------------------------------------------------------------------------
 
-    def detect_margins(self, grey: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def detect_margins(self, grey: np.ndarray, rois: np.ndarray | None = None
+                       ) -> tuple[np.ndarray, np.ndarray]:
         """Person boxes (K, 4) and raw margins (K,) after suppression and refinement, down to
-        the margin of ``threshold``."""
+        the margin of ``threshold``; only near ``rois`` (person boxes) when given."""
         thr = self.margin_of(self.threshold)
         tau = self.merge_tau
         low = thr - (3.0 * float(tau) if tau is not None else 0.0)
-        boxes, m = self.score_windows(grey, threshold=low)
+        boxes, m = self.score_windows(grey, threshold=low, rois=rois,
+                                      roi_margin=float(self.roi_margin))
         keep = nms(boxes, m, self.nms_iou)
         keep = keep[m[keep] >= thr]
         if tau is not None and len(keep):
@@ -222,17 +247,42 @@ class HOGPeopleDetector(SVMDetector):
 
         img = frame.image
         grey = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
-        boxes, margins = self.detect_margins(grey)
-        scores = self.calibrate(margins)
         cam = self._camera()
-        if cam is None and int(self.learn_scales) > 0 and \
-                not hasattr(self, "expected_heights_"):
+        learning = cam is None and int(self.learn_scales) > 0 and \
+            not hasattr(self, "expected_heights_")
+        if int(self.full_every) > 1 and \
+                int(frame.index) != self.__dict__.get("last_index_", -2) + 1:
+            # the first frame, or a seek: the cycle of whole searches starts here
+            self.__dict__["start_index_"] = int(frame.index)
+            self.__dict__["recent_"] = []
+        rois = None if learning else self._rois(int(frame.index))
+        boxes, margins = self.detect_margins(grey, rois)
+        scores = self.calibrate(margins)
+        if learning:
             self._learn_scales(boxes, scores, (grey.shape[1], grey.shape[0]))
+        if int(self.full_every) > 1:
+            idx = int(frame.index)
+            recent = self.__dict__.get("recent_", [])
+            recent = [(i, b) for i, b in recent if i > idx - int(self.roi_memory)]
+            recent.append((idx, boxes))
+            if rois is None:
+                self.__dict__["full_index_"] = idx
+            self.__dict__["recent_"] = recent
+            self.__dict__["last_index_"] = idx
         points = None
         if cam is not None:
             feet = foot_points(boxes)
             points = cam.image_to_ground(feet) if len(feet) else np.zeros((0, 3))
         return Detections(boxes, scores, points)
+
+    def _rois(self, index: int) -> np.ndarray | None:
+        """The boxes to search near on frame ``index``, or None for a whole search (the frames
+        while the scales are learnt, then every ``full_every``-th frame from the first, counted
+        again from any frame not following the previous one)."""
+        k = int(self.full_every)
+        if k <= 1 or "start_index_" not in self.__dict__ or (index - self.start_index_) % k == 0:
+            return None
+        return np.concatenate([b for _, b in self.recent_])
 
     def _learn_scales(self, boxes: np.ndarray, scores: np.ndarray,
                       size_wh: tuple[int, int]) -> None:

@@ -46,3 +46,11 @@ def test_fresh_video_bench_on_a_slice(capsys):
     table = bench.format_table(r)
     assert "mean of 2 seeds" in table
     assert "peer norfair: MOTA" in table and "better_than_peer" in table
+    # the detector's whole search on every 2nd frame only, near the people found on the others:
+    # the camera sees the same boxes (every 2nd frame from the first), nearly all of the people
+    r2 = bench.run(parser.parse_args(["--frames", "201:280", "--seeds", "1", "--quiet",
+                                      "--no-peer", "--full-every", "2"]))
+    assert r2["detector_full_every"] == 2 and r["detector_full_every"] == 1
+    assert r2["camera_median_error_m"] == r["camera_median_error_m"]
+    assert abs(r2["detector_recall"] - r["detector_recall"]) < 0.02
+    assert r2["detector_precision"] > 0.85 and r2["MOTA"] > 0.5

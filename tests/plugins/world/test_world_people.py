@@ -119,3 +119,87 @@ def test_svm_trained_on_one_frame_warns(tmp_path):
     assert info["train_recall_positives"] < 0.5 and info["train_accuracy"] > 0.95
     msgs = [str(w.message) for w in caught if issubclass(w.category, TrainingRecallWarning)]
     assert msgs and "own" in msgs[0] and "hog-people" in msgs[0]
+
+
+def test_local_search_parameters_are_checked():
+    from pftrack.components import RunContext
+
+    for bad in ({"full_every": 0}, {"full_every": 1.5}, {"roi_margin": 0.0}):
+        det = get_host().build("detector", {"type": "hog-people", "params": bad})
+        with pytest.raises(ValueError, match=f"hog-people: {next(iter(bad))}"):
+            det.setup(RunContext())
+
+
+def test_roi_crops_keep_the_whole_search_window_grid():
+    """A crop's windows sit on the whole strip's stride-8 grid, and the windows of a crop
+    not touching its border score exactly as in the whole search."""
+    import cv2
+    from pftrack_world.detector import _roi_crops
+    from pftrack_world.people import default_people_model
+
+    m = default_people_model()
+    rng = np.random.default_rng(0)
+    small = cv2.GaussianBlur(rng.integers(0, 255, (300, 500), dtype=np.uint8), (5, 5), 2)
+    rois = np.array([[100.0, 60.0, 30.0, 90.0], [115.0, 70.0, 30.0, 90.0],
+                     [400.0, 100.0, 30.0, 90.0]])
+    f = 90.0 / m.box_in_window[3]
+    crops = _roi_crops(m, rois, f, 0, 1.0, 1.0, (500, 300), 0.3, 1.5)
+    # the two overlapping people share one crop; all corners on the grid; at least a window
+    assert len(crops) == 2
+    for x0, y0, x1, y1 in crops:
+        assert x0 % 8 == 0 and y0 % 8 == 0 and x1 - x0 >= 64 and y1 - y0 >= 128
+    hog = cv2.HOGDescriptor()
+    hog.setSVMDetector(cv2.HOGDescriptor_getDefaultPeopleDetector())
+    loc, wt = hog.detect(small, hitThreshold=-10.0, winStride=(8, 8), padding=(0, 0))
+    whole = {tuple(p): w for p, w in zip(np.asarray(loc).reshape(-1, 2).tolist(),
+                                         np.asarray(wt).ravel(), strict=True)}
+    x0, y0, x1, y1 = crops[0]
+    lc, wc = hog.detect(small[y0:y1, x0:x1], hitThreshold=-10.0, winStride=(8, 8),
+                        padding=(0, 0))
+    inner = 0
+    for (u, v), w in zip(np.asarray(lc).reshape(-1, 2).tolist(), np.asarray(wc).ravel(),
+                         strict=True):
+        assert (u + x0, v + y0) in whole  # the same grid
+        if 0 < u and 0 < v and u + 64 < x1 - x0 and v + 128 < y1 - y0:
+            inner += 1
+            assert w == pytest.approx(whole[(u + x0, v + y0)], abs=1e-5)
+    assert inner > 0
+
+
+@needs_pets
+def test_local_search_between_whole_searches_finds_the_same_people():
+    """``full_every`` 3 on frames 201-260 with the real camera: frames 201, 204, ... are
+    searched whole (identical detections), the others only near the people found in the last
+    ``roi_memory`` frames: at least 97 % of the whole search's detections found there at the
+    same boxes (IoU > 0.95; a crop's border moves a few), at most 1 % that the whole search
+    does not have (a window at a crop's border scoring above the threshold); a frame out of
+    sequence is searched whole."""
+    from pftrack.geometry.boxes import iou_matrix
+    from pftrack.geometry.formats import load_camera
+    from scipy.optimize import linear_sum_assignment
+
+    host = get_host()
+    cam = load_camera(PETS / "View_001.xml")
+    whole = host.build("detector", {"type": "hog-people", "params": {"camera": cam}})
+    local = host.build("detector", {"type": "hog-people", "params": {"camera": cam,
+                                                                     "full_every": 3}})
+    n = found = extra = 0
+    for frame in iter_frames(PETS / "vtest.avi", 201, 260):
+        a, b = whole.detect(frame), local.detect(frame)
+        if (frame.index - 201) % 3 == 0:
+            assert local.full_index_ == frame.index
+            np.testing.assert_array_equal(a.boxes_xywh_px, b.boxes_xywh_px)
+            continue
+        assert local.full_index_ < frame.index
+        n += len(a.scores)
+        iou = iou_matrix(a.boxes_xywh_px, b.boxes_xywh_px)
+        if iou.size:
+            r, c = linear_sum_assignment(-iou)
+            found += int((iou[r, c] > 0.95).sum())
+            extra += len(b.scores) - int((iou[r, c] >= 0.5).sum())
+        else:
+            extra += len(b.scores)
+    assert n > 200 and found >= 0.97 * n and extra <= 0.01 * n, (n, found, extra)
+    # out of sequence (a seek, another video): a whole search
+    local.detect(next(iter_frames(PETS / "vtest.avi", 300, 300)))
+    assert local.full_index_ == 300
