@@ -35,7 +35,9 @@ by ``min_height_px`` / ``max_height_px``, ``scale_step`` and ``tolerance``. On P
 people 50-150 px, so the smallest scales enlarge their band of rows about twice): 0.08 s of CPU
 per frame on one core with a camera or with the learnt bands (measured on the shared
 development machine under load), against 0.2-0.4 s for OpenCV's own pyramid over the frame
-enlarged 1.5-2 times.
+enlarged 1.5-2 times. With ``full_every`` 2 (the ``people-*`` presets) the frames between whole
+searches score only crops near the people found before and where the frame changed, each window
+exactly as the whole search would: on PETS 201-795, 34-37 s of detection against 52-54 s.
 """
 
 from __future__ import annotations
@@ -123,6 +125,12 @@ class HOGPeopleDetector(SVMDetector):
     roi_memory : int
         The people found in this many frames before are searched near on the frames between
         whole searches. Unit: frames.
+    motion_threshold : float or None
+        On the frames between whole searches, also search where the frame changed since the
+        previous one (someone entering, or coming out from behind something): the grey
+        levels, averaged over 4 x 4 pixels, moved by more than this; each changed region is
+        searched as a person of the expected height standing at its bottom. None: only near
+        the people found before. Unit: grey levels.
     """
 
     def __init__(self, camera: CameraSpec | None = None, height_m: float = 1.7,
@@ -132,7 +140,7 @@ class HOGPeopleDetector(SVMDetector):
                  box_fraction: Sequence[float] = HOG_PEOPLE_BOX,
                  score_offset: float = 0.46, score_scale: float = 0.32, learn_scales: int = 10,
                  tolerance: float = 1.1, full_every: int = 1, roi_margin: float = 0.3,
-                 roi_memory: int = 10) -> None:
+                 roi_memory: int = 10, motion_threshold: float | None = 15.0) -> None:
         self.camera = camera
         self.height_m = height_m
         self.threshold = threshold
@@ -149,6 +157,7 @@ class HOGPeopleDetector(SVMDetector):
         self.full_every = full_every
         self.roi_margin = roi_margin
         self.roi_memory = roi_memory
+        self.motion_threshold = motion_threshold
 
     # the SVM detector's training parameters do not apply
     model = None
@@ -256,6 +265,14 @@ class HOGPeopleDetector(SVMDetector):
             self.__dict__["start_index_"] = int(frame.index)
             self.__dict__["recent_"] = []
         rois = None if learning else self._rois(int(frame.index))
+        if int(self.full_every) > 1 and self.motion_threshold is not None:
+            small = cv2.resize(grey, (grey.shape[1] // 4, grey.shape[0] // 4),
+                               interpolation=cv2.INTER_AREA)
+            prev = self.__dict__.get("prev_small_")
+            if rois is not None and prev is not None and prev.shape == small.shape:
+                rois = np.concatenate([rois, self._motion_rois(small, prev,
+                                                               (grey.shape[1], grey.shape[0]))])
+            self.__dict__["prev_small_"] = small
         boxes, margins = self.detect_margins(grey, rois)
         scores = self.calibrate(margins)
         if learning:
@@ -283,6 +300,58 @@ class HOGPeopleDetector(SVMDetector):
         if k <= 1 or "start_index_" not in self.__dict__ or (index - self.start_index_) % k == 0:
             return None
         return np.concatenate([b for _, b in self.recent_])
+
+    def _motion_rois(self, small: np.ndarray, prev: np.ndarray, size_wh: tuple[int, int]
+                     ) -> np.ndarray:
+        """Person boxes (K, 4) over the regions that changed between two quarter-size frames
+        (changed pixels grouped within 2 quarter-size pixels; at least 2 % of a person's
+        height squared of them): each region's bottom row holds a person of the expected
+        height there (the camera's, or the learnt height-row relation), as wide as the region
+        or 0.4 of that height."""
+        import cv2
+
+        grid = self._height_grid(size_wh)
+        if grid is None:
+            return np.zeros((0, 4))
+        changed = (cv2.absdiff(small, prev) > float(self.motion_threshold)).astype(np.uint8)
+        mask = cv2.dilate(changed, np.ones((3, 3), np.uint8), iterations=2)
+        n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        if n <= 1:
+            return np.zeros((0, 4))
+        st = stats[1:, :4].astype(np.float64) * 4.0
+        x0, y0, w, h = st.T
+        # the changed pixels themselves (not the dilation's) measure the region's size
+        area = 16.0 * np.bincount(labels[changed > 0], minlength=n)[1:]
+        u, v = x0 + w / 2, y0 + h
+        step, cols, rows, heights = grid
+        c = np.clip(np.round(u / step), 0, cols - 1).astype(int)
+        r = np.clip(np.round(v / step), 0, rows - 1).astype(int)
+        H = heights[r * cols + c]
+        ok = np.isfinite(H) & (area >= 0.02 * np.where(np.isfinite(H), H, 0.0) ** 2)
+        H, u, v, x0, w = H[ok], u[ok], v[ok], x0[ok], w[ok]
+        bw = np.maximum(w, 0.4 * H)
+        return np.stack([np.minimum(x0, u - 0.2 * H), v - H, bw, H], axis=1)
+
+    def _height_grid(self, size_wh: tuple[int, int]) -> tuple[int, int, int, np.ndarray] | None:
+        """(grid step, columns, rows, expected heights (rows * cols,)) of the expected person
+        height at each foot pixel of a 16-px grid, or None when there is no relation."""
+        cached = self.__dict__.get("height_grid_")
+        if cached is not None and cached[0] == size_wh:
+            return cached[1]
+        from .detector import expected_heights_px
+
+        cam = self._camera()
+        if cam is not None:
+            _, heights = expected_heights_px(cam, self.height_m, size_wh, step_px=16)
+        elif getattr(self, "expected_heights_", None) is not None:
+            heights = self.expected_heights_[1]
+        else:
+            return None
+        w, h = size_wh
+        cols, rows = len(range(0, w, 16)), len(range(0, h, 16))
+        grid = (16, cols, rows, np.asarray(heights, dtype=np.float64))
+        self.__dict__["height_grid_"] = (size_wh, grid)
+        return grid
 
     def _learn_scales(self, boxes: np.ndarray, scores: np.ndarray,
                       size_wh: tuple[int, int]) -> None:

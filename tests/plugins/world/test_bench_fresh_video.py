@@ -46,11 +46,13 @@ def test_fresh_video_bench_on_a_slice(capsys):
     table = bench.format_table(r)
     assert "mean of 2 seeds" in table
     assert "peer norfair: MOTA" in table and "better_than_peer" in table
-    # the detector's whole search on every 2nd frame only, near the people found on the others:
-    # the camera sees the same boxes (every 2nd frame from the first), nearly all of the people
-    r2 = bench.run(parser.parse_args(["--frames", "201:280", "--seeds", "1", "--quiet",
-                                      "--no-peer", "--full-every", "2"]))
-    assert r2["detector_full_every"] == 2 and r["detector_full_every"] == 1
-    assert r2["camera_median_error_m"] == r["camera_median_error_m"]
-    assert abs(r2["detector_recall"] - r["detector_recall"]) < 0.02
-    assert r2["detector_precision"] > 0.85 and r2["MOTA"] > 0.5
+    # the preset's detector searches the whole frame on every 2nd frame only (near the people
+    # found before and where the frame changed on the others); every frame searched whole: the
+    # camera sees the same boxes (every 2nd frame from the first), nearly the same people
+    r1 = bench.run(parser.parse_args(["--frames", "201:280", "--seeds", "1", "--quiet",
+                                      "--no-peer", "--full-every", "1"]))
+    assert r["detector_full_every"] == 2 and r1["detector_full_every"] == 1
+    assert r1["camera_median_error_m"] == r["camera_median_error_m"]
+    assert abs(r1["detector_recall"] - r["detector_recall"]) < 0.01
+    assert abs(r1["detector_precision"] - r["detector_precision"]) < 0.01
+    assert r1["MOTA"] > 0.5

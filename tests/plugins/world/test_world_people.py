@@ -203,3 +203,26 @@ def test_local_search_between_whole_searches_finds_the_same_people():
     # out of sequence (a seek, another video): a whole search
     local.detect(next(iter_frames(PETS / "vtest.avi", 300, 300)))
     assert local.full_index_ == 300
+
+
+def test_motion_rois_stand_a_person_on_each_changed_region():
+    """Between whole searches, a region that changed becomes a person box of the expected
+    height at its bottom row (here a learnt relation: height = 0.25 * row), as wide as the
+    region; a change below the threshold or too small for a person there gives none."""
+    det = get_host().build("detector", {"type": "hog-people",
+                                        "params": {"full_every": 2, "learn_scales": 0}})
+    w, h = 320, 240
+    us, vs = np.meshgrid(np.arange(0, w, 16.0), np.arange(0, h, 16.0))
+    det.expected_heights_ = (np.stack([us.ravel(), vs.ravel()], 1), 0.25 * vs.ravel())
+    prev = np.full((h // 4, w // 4), 100, np.uint8)
+    cur = prev.copy()
+    cur[30:40, 20:26] = 140  # a 24 x 40 px region, bottom at row 160
+    cur[50:51, 60:61] = 140  # one quarter-size pixel (16 px²): too small at row 200 (H 50)
+    cur[20:30, 50:60] = 110  # changed by 10 grey levels only
+    r = det._motion_rois(cur, prev, (w, h))
+    assert r.shape == (1, 4)
+    x, y, bw, bh = r[0]
+    # dilated twice by a 3 x 3 kernel: two quarter-size pixels (8 px) on each side
+    assert bh == pytest.approx(0.25 * (160 + 8), abs=4) and y + bh == pytest.approx(168, abs=1)
+    assert x <= 80 - 8 and x + bw >= 104 + 8
+    assert det._motion_rois(prev, prev, (w, h)).shape == (0, 4)
