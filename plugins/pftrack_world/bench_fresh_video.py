@@ -78,8 +78,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "SEED)")
     parser.add_argument("--full-every", type=int, default=None, metavar="K",
                         help="the detector searches the whole frame on every K-th frame only, "
-                             "near the people found before on the others (hog-people's "
-                             "full_every; default: the preset's, 1)")
+                             "near the people found before and where the frame changed on the "
+                             "others (hog-people's full_every; default: the preset's, 2 in "
+                             "people-ground)")
     parser.add_argument("--no-peer", action="store_true", help="skip the peer tracker")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
 

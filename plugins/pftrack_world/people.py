@@ -113,12 +113,13 @@ class HOGPeopleDetector(SVMDetector):
         A scale is searched at a row when the expected person height there is within this
         factor (times sqrt(scale_step)) of the scale's height. Unit: 1.
     full_every : int
-        Search the whole frame (every scale band) on every ``full_every``-th frame only; on
-        the frames between, only near the people found in the previous frame and in the last
-        whole search (``roi_margin``; scales within a factor 1.5 of each one's height), at the
-        whole search's window positions. A person who appears away from everyone found so far
-        is first found at the next whole search. 1: every frame is searched whole. Unit:
-        frames.
+        Search the whole frame (every scale band) on every ``full_every``-th frame only,
+        counted from the first frame (again after a seek); on the frames between, only near
+        the people found in the last ``roi_memory`` frames (``roi_margin``; scales within a
+        factor 1.5 of each one's height) and where the frame changed (``motion_threshold``),
+        at the whole search's window positions, each window scoring exactly as in the whole
+        search. A person who appears without moving away from everyone found before is first
+        found at the next whole search. 1: every frame is searched whole. Unit: frames.
     roi_margin : float
         How far from a person found before a window is still scored on the frames between
         whole searches. Unit: box heights.
@@ -174,6 +175,12 @@ class HOGPeopleDetector(SVMDetector):
         if not float(self.roi_margin) > 0.0:
             raise ValueError(f"detector hog-people: roi_margin must be > 0 (box heights), got "
                              f"{self.roi_margin}")
+        if int(self.roi_memory) < 1 or int(self.roi_memory) != self.roi_memory:
+            raise ValueError(f"detector hog-people: roi_memory is a whole number of frames >= 1, "
+                             f"got {self.roi_memory}")
+        if self.motion_threshold is not None and not float(self.motion_threshold) >= 0.0:
+            raise ValueError(f"detector hog-people: motion_threshold is a grey-level difference "
+                             f">= 0 or null, got {self.motion_threshold}")
         if self.camera is None and context.camera is not None:
             self.camera_ = context.camera
         if context.detector_model is not None:
@@ -349,7 +356,10 @@ class HOGPeopleDetector(SVMDetector):
             return None
         w, h = size_wh
         cols, rows = len(range(0, w, 16)), len(range(0, h, 16))
-        grid = (16, cols, rows, np.asarray(heights, dtype=np.float64))
+        heights = np.asarray(heights, dtype=np.float64)
+        if heights.shape != (rows * cols,):  # a relation learnt on frames of another size
+            return None
+        grid = (16, cols, rows, heights)
         self.__dict__["height_grid_"] = (size_wh, grid)
         return grid
 

@@ -124,7 +124,8 @@ def test_svm_trained_on_one_frame_warns(tmp_path):
 def test_local_search_parameters_are_checked():
     from pftrack.components import RunContext
 
-    for bad in ({"full_every": 0}, {"full_every": 1.5}, {"roi_margin": 0.0}):
+    for bad in ({"full_every": 0}, {"full_every": 1.5}, {"roi_margin": 0.0},
+                {"roi_memory": 0}, {"motion_threshold": -1.0}):
         det = get_host().build("detector", {"type": "hog-people", "params": bad})
         with pytest.raises(ValueError, match=f"hog-people: {next(iter(bad))}"):
             det.setup(RunContext())
