@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 from pftrack.components import Detections, Frame, Target, TrackManager, TrackRecord
-from pftrack.geometry.boxes import iou_matrix
+from pftrack.geometry.boxes import box_iou, iou_matrix
 
 __all__ = ["ConfirmedTracks", "DetectionBirthTracks"]
 
@@ -111,6 +111,19 @@ class ConfirmedTracks(TrackManager):
         highest of the targets'), so a person returning is re-identified by colour, and someone
         else walking where a hidden target waits starts a track of their own. No constant. The
         barred pairs get ``appearance_scores`` NaN, which associators treat as "no match".
+    box_from_detection : float
+        Weight ``w`` (0-1) of a target's matched detection in its output box: in a frame
+        where the target matched a detection its record's box is ``(1 - w) * estimate's box
+        + w * detection's box`` (0: the estimate's box alone, as before). Only the output
+        box; the state, its world position and what the next frame predicts are the
+        filter's own. A projected estimate's box carries the model's errors (the assumed
+        height and width ratio, the camera's tilt); the detector's box follows the person's
+        own outline. Unit: 1.
+    box_min_iou : float
+        ``box_from_detection`` moves a box only towards a detection that overlaps it by at
+        least this intersection over union: a detection the associator matched from further
+        away (it gates by distance) may be someone else's, and pulling the output onto it
+        would write that mistake into the tracks. Unit: 1.
     appearance : dict, optional
         ``{bins, sigma, update_rate, region}``: keep a colour model per target (per-channel BGR
         histograms of its matched detections, ``bins`` per channel, running mean with
@@ -133,7 +146,8 @@ class ConfirmedTracks(TrackManager):
                  confirm_window: int = 5, merge_iou: float = 0.6,
                  merge_distance_m: float | None = None, hide_after_misses: int | None = None,
                  end_at_border: bool = False, hidden_reid: bool = False,
-                 appearance: dict[str, Any] | None = None) -> None:
+                 appearance: dict[str, Any] | None = None,
+                 box_from_detection: float = 0.0, box_min_iou: float = 0.3) -> None:
         self.min_score = min_score
         self.max_iou = max_iou
         self.confirm_hits = confirm_hits
@@ -144,6 +158,8 @@ class ConfirmedTracks(TrackManager):
         self.end_at_border = end_at_border
         self.hidden_reid = hidden_reid
         self.appearance = appearance
+        self.box_from_detection = box_from_detection
+        self.box_min_iou = box_min_iou
 
     def setup(self, context: Any) -> None:
         """Validate the parameters (``__init__`` only stores them)."""
@@ -161,6 +177,12 @@ class ConfirmedTracks(TrackManager):
         if self.hidden_reid and (self.appearance is None or self.hide_after_misses is None):
             raise ValueError("tracks.hidden_reid needs tracks.appearance and "
                              "tracks.hide_after_misses")
+        w = self.box_from_detection
+        if isinstance(w, bool) or not isinstance(w, (int, float)) or not 0.0 <= w <= 1.0:
+            raise ValueError(f"tracks.box_from_detection must be a number in [0, 1], got {w!r}")
+        m = self.box_min_iou
+        if isinstance(m, bool) or not isinstance(m, (int, float)) or not 0.0 <= m <= 1.0:
+            raise ValueError(f"tracks.box_min_iou must be a number in [0, 1], got {m!r}")
         if self.appearance is not None:
             bad = set(self.appearance) - APPEARANCE_KEYS
             if bad:
@@ -283,6 +305,8 @@ class ConfirmedTracks(TrackManager):
         self._check()
         live = {t.id: t for t in engine.targets}
         self._update_appearance(list(live.values()))
+        if self.box_from_detection > 0.0:
+            self._boxes_from_detections(records, live)
         tentative = self.tentative_
         out: list[TrackRecord] = []
         by_id = {r.id: r for r in records}
@@ -326,6 +350,22 @@ class ConfirmedTracks(TrackManager):
         if detections is not None and len(detections):
             self._births(engine, frame, detections, matched, live, out)
         return out
+
+    def _boxes_from_detections(self, records: list[TrackRecord], live: dict[int, Target]
+                               ) -> None:
+        """Move each output box of a target matched this frame towards its detection's box
+        (``box_from_detection``) when the two overlap by ``box_min_iou`` or more."""
+        pairs = [(r, live[r.id].detection) for r in records
+                 if r.id in live and live[r.id].detection is not None]
+        if not pairs:
+            return
+        est = np.array([r.box_xywh_px for r, _ in pairs], dtype=np.float64)
+        det = np.array([d.box_xywh_px for _, d in pairs], dtype=np.float64)
+        w = float(self.box_from_detection)
+        ok = box_iou(est, det) >= float(self.box_min_iou)
+        for (r, _), ok_r, d in zip(pairs, ok, det, strict=True):
+            if ok_r:  # each record owns its box (a copy of the target's)
+                r.box_xywh_px[:] = (1.0 - w) * r.box_xywh_px + w * d
 
     def _end_at_border(self, engine: Any, frame: Frame, live: dict[int, Target],
                        tentative: dict[int, _Tentative]) -> None:

@@ -145,6 +145,10 @@ _TRACKER = Field("tracker", "mapping", doc="Engine options (pftrack.tracker.Mult
     Field("min_log_likelihood", "float", None, "log-likelihood",
           "A frame supports a target whose best particle reaches this.", nullable=True),
     Field("kill_out_of_view", "bool", True, "", "A target dies when its box leaves the image."),
+    Field("detection_proposal", "float", 0.0, "fraction of n_particles",
+          "Particles of a target redrawn around its matched detection (init_spread) before "
+          "weighting: a mixture of the motion prior and the detections; 0: prior alone.",
+          range=(0.0, 1.0)),
     Field("target_size", "float", 1.0, "m", "Default target size (adaptive motion noise).",
           range=(0.0, None)),
 ))

@@ -67,7 +67,7 @@ CONFIG_KEYS = {"name", "description", "state", "observation", "motion", "likelih
 RUN_OUTPUTS = ("tracks.txt", "metrics.json", "report")  # what a run owns in its --out folder
 TRACKER_KEYS = {"n_particles", "resampling", "ess_threshold", "dt", "init_spread",
                 "recover_spread", "max_misses", "min_log_likelihood", "kill_out_of_view",
-                "target_size"}
+                "detection_proposal", "target_size"}
 
 
 # --------------------------------------------------------------------------------------------

@@ -240,6 +240,16 @@ class MultiTargetTracker:
         handed to :meth:`step`) and no threshold, every frame supports.
     kill_out_of_view : bool
         A target dies when its estimate's box leaves the image.
+    detection_proposal : float
+        Fraction (0-1) of a target's predicted particles redrawn around its matched
+        detection before weighting, as a newborn target's are (``init_spread`` about the
+        detection's position; velocity and the other state dimensions kept from the
+        particles they replace): a mixture proposal of the motion prior and the detections
+        (Okuma et al., "A boosted particle filter", ECCV 2004). A target whose particles
+        drifted while its detections were missing then has particles where its person is
+        found again, which the detection likelihood can weight; with the prior alone a
+        matched detection a few particle spreads away supports none of them. 0: the motion
+        prior alone (no random draws). Unit: 1.
     valid_region : callable, optional
         ``f(positions (N, P)) -> bool (N,)``; particles outside get likelihood zero (seed 003:
         particles leaving the volume) and a target whose estimate leaves it dies.
@@ -258,6 +268,7 @@ class MultiTargetTracker:
                  detector: Detector | None = None, associator: Associator | None = None,
                  detection_driven: bool | None = None, max_misses: int | None = None,
                  min_log_likelihood: float | None = None, kill_out_of_view: bool = True,
+                 detection_proposal: float = 0.0,
                  valid_region: Callable[[np.ndarray], np.ndarray] | None = None,
                  target_size: float = 1.0, rng: np.random.Generator | None = None) -> None:
         if n_particles < 1:
@@ -267,6 +278,11 @@ class MultiTargetTracker:
         if rng is None:
             raise ValueError("MultiTargetTracker needs rng=np.random.default_rng(seed): "
                              "pftrack never uses global random state")
+        if (isinstance(detection_proposal, bool)
+                or not isinstance(detection_proposal, (int, float))
+                or not 0.0 <= detection_proposal <= 1.0):
+            raise ValueError(f"tracker.detection_proposal must be a number in [0, 1], got "
+                             f"{detection_proposal!r}")
         if resampling not in RESAMPLERS:
             raise ValueError(f"resampling scheme {resampling!r} unknown; choose one of "
                              f"{sorted(RESAMPLERS)}")
@@ -287,6 +303,7 @@ class MultiTargetTracker:
         self.max_misses = max_misses
         self.min_log_likelihood = min_log_likelihood
         self.kill_out_of_view = kill_out_of_view
+        self.detection_proposal = float(detection_proposal)
         self.valid_region = valid_region
         self.target_size = float(target_size)
         self.rng = rng
@@ -457,6 +474,8 @@ class MultiTargetTracker:
                 targets[ti].detection = DetectionMatch(detections.boxes_xywh_px[di],
                                                        float(detections.scores[di]), int(di))
             unmatched_dets = a.unmatched_detections
+            if self.detection_proposal > 0.0 and len(a.matches):
+                self._propose_at_detections(targets)
         # 3. weight every target (each sees the others as the frame found them)
         targets = [f.target for f in filters]
         self.likelihood.begin_frame(frame, targets, detections)
@@ -572,6 +591,31 @@ class MultiTargetTracker:
                     observation.update_target(f.target, f.target.detection.box_xywh_px)
         # 7. track management: births, confirmation, merging, ends, output
         return self.tracks.after_frame(self, frame, detections, records, unmatched_dets)
+
+    def _propose_at_detections(self, targets: list[Target]) -> None:
+        """Redraw ``detection_proposal`` of each matched target's predicted particles around
+        its detection's position (in place: the stacked rows and their boxes stay shared)."""
+        n = self.n_particles
+        k = int(round(self.detection_proposal * n))
+        if k < 1:
+            return
+        pos_dims = list(self.motion.position_dims)
+        for t in targets:
+            p = t.particles
+            if t.detection is None or p is None or len(p) != n:
+                continue
+            pos = self.observation.position_from_box(
+                np.asarray(t.detection.box_xywh_px, dtype=np.float64))
+            if not np.all(np.isfinite(pos)):
+                continue
+            idx = np.sort(self.rng.choice(n, size=k, replace=False))
+            fresh = self.motion.init_states(pos, k, self.rng, spread=self.init_spread)
+            rows = p[idx]
+            rows[:, pos_dims] = fresh[:, pos_dims]
+            p[idx] = rows
+            b = t.particle_boxes_xywh_px
+            if b is not None:
+                b[idx] = self.observation.to_boxes(rows, t)
 
     def _finish_rows(self, frame: Frame, filters: list[_Filter], detections: Detections | None,
                      states: np.ndarray, extents: np.ndarray, best_rows: list[float],
