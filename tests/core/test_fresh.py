@@ -17,6 +17,24 @@ needs_pets = pytest.mark.skipif(not (PETS / "gt.txt").is_file(), reason="PETS 20
 NO_ROWS = np.zeros((0, 10))
 
 
+def test_ground_truth_in_the_camera_frame_is_its_feet_on_that_cameras_ground():
+    from pftrack.fresh import ground_truth_in_camera_frame
+    from pftrack.geometry.boxes import foot_points
+    from pftrack.geometry.camera import Camera
+
+    cam = Camera.look_at((0.0, -10.0, 6.0), (0.0, 5.0, 0.0), (640, 480), fx=800.0)
+    feet = cam.project(np.array([[1.0, 3.0, 0.0], [-2.0, 8.0, 0.0]]))
+    boxes = np.c_[feet[:, 0] - 10, feet[:, 1] - 60, np.full(2, 20.0), np.full(2, 60.0)]
+    # a third box whose foot point lies above the horizon: no ground under it
+    boxes = np.vstack([boxes, [300.0, -400.0, 20.0, 60.0]])
+    gt = np.c_[[5, 5, 6], [1, 2, 3], boxes, np.ones(3), np.full((3, 3), 99.0)]
+    out = ground_truth_in_camera_frame(gt, cam)
+    np.testing.assert_allclose(foot_points(out[:, 2:6])[:2], feet, atol=1e-9)  # boxes kept
+    np.testing.assert_allclose(out[:2, 7:10], [[1.0, 3.0, 0.0], [-2.0, 8.0, 0.0]], atol=1e-6)
+    np.testing.assert_array_equal(out[2, 7:10], [-1.0, -1.0, -1.0])
+    np.testing.assert_array_equal(gt[:, 7:10], 99.0)  # the caller's rows untouched
+
+
 def _dets(*scores):
     return {1: Detections(np.tile([10.0, 10, 20, 60], (len(scores), 1)), np.array(scores))}
 
@@ -79,6 +97,11 @@ def test_track_command_on_a_pets_slice(tmp_path, capsys):
     assert rows[:, 0].min() >= 201 and rows[:, 0].max() <= 260
     assert s["metrics"]["MOTA"] > 0.4 and s["metrics"]["IDF1"] > 0.4, s["metrics"]
     assert load_camera(out / "camera.yaml").image_size == (768, 576)
+    # the ground truth carried into the estimated camera's frame: ground errors of the tracking
+    # (tens of metres when the ground truth's own frame was compared with the camera's)
+    m = json.loads((out / "metrics.json").read_text())
+    assert m["n_world_pairs"] > 100 and m["median_error_m"] < 0.5, m["median_error_m"]
+    assert any(x.startswith("--gt: its world positions") for x in s["messages"])
     assert sorted(p.suffix for p in (out / "report").iterdir()) and \
         all(p.suffix == ".png" for p in (out / "report").iterdir())
 

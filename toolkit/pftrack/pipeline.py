@@ -179,12 +179,16 @@ def video_fps(video: str | os.PathLike[str]) -> float:
     return float(VideoScene(str(video)).fps)
 
 
-def read_ground_truth(path: str | os.PathLike[str], first: int = 1,
+def read_ground_truth(path: str | os.PathLike[str] | np.ndarray, first: int = 1,
                       last: int | None = None) -> np.ndarray:
-    """MOT rows (M, 10) of frames ``first..last``."""
+    """MOT rows (M, 10) of frames ``first..last`` (``path``: a MOTChallenge file, or its rows
+    already read)."""
     from pftrack.io.mot import read_mot
 
-    rows = read_mot(path)
+    if isinstance(path, np.ndarray):
+        rows = np.asarray(path, dtype=np.float64).reshape(-1, 10)
+    else:
+        rows = read_mot(path)
     keep = rows[:, 0] >= first
     if last is not None:
         keep &= rows[:, 0] <= last
@@ -351,10 +355,12 @@ def build_engine(cfg: dict[str, Any], *, camera: Camera | None = None, fps: floa
 
 def _matched_world_errors(gt: np.ndarray, tracks: np.ndarray, iou_threshold: float = 0.5
                           ) -> np.ndarray:
-    """Ground-plane distances (m) of gt/track rows matched per frame (Hungarian on IoU >= thr)."""
+    """Ground-plane distances (m) of gt/track rows matched per frame (Hungarian on IoU >= thr);
+    ground-truth rows without a world position (x, y, z all -1) are matched but not measured."""
     from scipy.optimize import linear_sum_assignment
 
     from pftrack.geometry.boxes import iou_matrix
+    from pftrack.io.mot import has_world
 
     errs = []
     tf = tracks[:, 0].astype(int)
@@ -365,7 +371,7 @@ def _matched_world_errors(gt: np.ndarray, tracks: np.ndarray, iou_threshold: flo
             continue
         iou = iou_matrix(g[:, 2:6], t[:, 2:6])
         r, c = linear_sum_assignment(-iou)
-        ok = iou[r, c] >= iou_threshold
+        ok = (iou[r, c] >= iou_threshold) & has_world(g[r])
         d = np.linalg.norm(g[r[ok], 7:9] - t[c[ok], 7:9], axis=1)
         errs.append(d)
     return np.concatenate(errs) if errs else np.zeros(0)
@@ -434,7 +440,7 @@ def _load_camera(camera: CameraSpec | None) -> Camera | None:
 
 def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str | os.PathLike[str],
                  camera: CameraSpec | None = None, out_dir: str | os.PathLike[str] | None = None,
-                 gt: str | os.PathLike[str] | None = None,
+                 gt: str | os.PathLike[str] | np.ndarray | None = None,
                  frames: str | tuple[int, int | None] | None = None,
                  detector_model: str | os.PathLike[str] | None = None, seed: int = 0,
                  detections: dict[int, Detections] | None = None, progress: bool = True,
@@ -444,6 +450,9 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
 
     Parameters
     ----------
+    gt : path or ndarray (M, 10), optional
+        MOTChallenge ground truth (a file, or its rows): scored into ``metrics.json`` and drawn
+        in the report.
     detections : dict {frame: Detections} or path, optional
         Precomputed detections (another run's ``RunResult.detections``, or a MOTChallenge
         ``det.txt`` file, :func:`pftrack.io.detections.read_detections`): the detector is not
@@ -460,7 +469,9 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
                                     "report": "dir"})
     if report and out_dir is not None:
         report_writer(cfg)  # an unknown writer stops the run before it tracks, not after
-    for option, path in (("video", video), ("--gt", gt), ("--detector-model", detector_model),
+    for option, path in (("video", video),
+                         ("--gt", gt if isinstance(gt, (str, os.PathLike)) else None),
+                         ("--detector-model", detector_model),
                          ("--camera", camera if isinstance(camera, (str, os.PathLike)) else None),
                          ("--detections", detections if isinstance(detections, (str, os.PathLike))
                           else None)):
