@@ -370,7 +370,7 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
     messages.extend(check_thresholds(cfg))
     gt_rows: Any = gt
     if gt is not None and fit is not None:
-        gt_rows = ground_truth_in_camera_frame(gt, cam)
+        gt_rows = ground_truth_in_camera_frame(gt, fit.camera)
         messages.append("--gt: its world positions are in its own frame, not the estimated "
                         "camera's; re-derived from its boxes' foot points through the "
                         "estimated camera, so metrics.json's ground errors and the top view "
