@@ -113,3 +113,41 @@ def test_a_detection_overlapping_less_than_box_min_iou_leaves_the_box_alone():
 def test_bad_box_options_are_refused_with_their_name(key, bad):
     with pytest.raises(ValueError, match=f"tracks.{key}"):
         build_engine(_cfg(**{key: bad}), fps=25.0, seed=0)
+
+
+def test_the_proposal_on_the_stacked_rows_of_several_targets():
+    """Three targets weighted as one (T, N) block (the vectorised path): each drifted target
+    returns to its own detection, and the particle boxes the likelihood scored are the boxes of
+    the particles the filter kept (the redrawn rows updated in place, not stale)."""
+    sc = synthetic_scene(seed=3, n_frames=2)
+    boxes = np.array([BOX, BOX + [60.0, 10.0, 0.0, 0.0], BOX + [-40.0, 30.0, 0.0, 0.0]])
+    engine = build_engine(_cfg({"detection_proposal": 0.1}), fps=25.0, seed=3)
+    engine.step(sc.frames[0], Detections(boxes, np.full(3, 0.9)))
+    targets = sorted(engine.targets, key=lambda t: t.id)
+    assert len(targets) == 3
+    rng = np.random.default_rng(3)
+    for t, b in zip(targets, boxes, strict=True):
+        p = t.particles.copy()
+        p[:, :2] = engine.observation.position_from_box(b) + [12.0, -5.0]
+        p[:, :2] += rng.normal(0.0, 0.5, (len(p), 2))
+        p[:, 2:] = 0.0
+        engine.set_particles(t.id, p)
+    seen = {}
+    lik = engine.likelihood
+    orig = type(lik).log_likelihood
+
+    def spy(self, boxes_xywh_px, target):
+        seen[target.id] = (np.array(boxes_xywh_px), target.particles.copy())
+        return orig(self, boxes_xywh_px, target)
+
+    type(lik).log_likelihood = spy
+    try:
+        recs = {r.id: r for r in engine.step(sc.frames[1], Detections(boxes, np.full(3, 0.9)))}
+    finally:
+        type(lik).log_likelihood = orig
+    for t, b in zip(targets, boxes, strict=True):
+        assert t.detection is not None
+        scored, parts = seen[t.id]
+        np.testing.assert_allclose(scored, engine.observation.to_boxes(parts, t), atol=1e-9)
+        at = engine.observation.position_from_box(b)
+        assert np.linalg.norm(recs[t.id].position[:2] - at) < 2.0, (t.id, recs[t.id].position)
