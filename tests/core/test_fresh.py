@@ -18,9 +18,9 @@ NO_ROWS = np.zeros((0, 10))
 
 
 def test_ground_truth_in_the_camera_frame_is_its_feet_on_that_cameras_ground():
-    from pftrack.fresh import ground_truth_in_camera_frame
     from pftrack.geometry.boxes import foot_points
     from pftrack.geometry.camera import Camera
+    from pftrack.pipeline import ground_truth_in_camera_frame
 
     cam = Camera.look_at((0.0, -10.0, 6.0), (0.0, 5.0, 0.0), (640, 480), fx=800.0)
     feet = cam.project(np.array([[1.0, 3.0, 0.0], [-2.0, 8.0, 0.0]]))
@@ -160,3 +160,31 @@ def test_pitch_blob_takes_the_run_camera_file(tmp_path):
                  str(cam), "--frames", "1:3", "--out", str(tmp_path / "s"), "--no-report",
                  "--quiet"]) == 0
     assert (tmp_path / "s" / "tracks.txt").is_file()
+
+
+@needs_pets
+@pytest.mark.parametrize("people_fit", [True, False])
+def test_run_with_a_camera_made_from_people_carries_the_ground_truth(people_fit, recwarn):
+    """``pftrack run --gt`` (the two-step path): with a camera written by ``calib people`` the
+    ground truth's world columns are taken into its frame, and the run says so; with any other
+    camera (here PETS's own, whose frame is the ground truth's) they are used as they are."""
+    from pftrack.geometry.formats import load_camera
+    from pftrack.pipeline import GroundTruthFrameWarning, read_ground_truth, run_pipeline
+
+    cam = load_camera(PETS / "View_001.xml")
+    if people_fit:
+        cam.metadata["people_fit"] = {"camera_height_m": 7.0}
+    gt = read_ground_truth(PETS / "gt.txt", 201, 203)
+    dets = {f: Detections(gt[gt[:, 0] == f, 2:6], np.full(int((gt[:, 0] == f).sum()), 0.9))
+            for f in (201, 202, 203)}
+    cfg = load_config("people-ground")
+    cfg["tracks"]["params"]["confirm_hits"] = 1
+    cfg["tracks"]["params"]["confirm_window"] = 1
+    r = run_pipeline(cfg, video=PETS / "vtest.avi", camera=cam, gt=PETS / "gt.txt",
+                     frames="201:203", detections=dets, progress=False, report=False)
+    said = [w for w in recwarn if issubclass(w.category, GroundTruthFrameWarning)]
+    assert len(said) == int(people_fit)
+    assert r.metrics["n_world_pairs"] > 10
+    # both compare like with like: the tracks (started on the ground-truth boxes) against the
+    # truth's feet through this camera, or against its surveyed positions in the camera's frame
+    assert r.metrics["median_error_m"] < 0.5

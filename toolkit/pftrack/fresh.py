@@ -252,25 +252,6 @@ def with_ground_points(detections: dict[int, Detections], camera: Camera
     return out
 
 
-def ground_truth_in_camera_frame(gt: str | os.PathLike[str] | np.ndarray, camera: Camera
-                                 ) -> np.ndarray:
-    """MOT ground-truth rows with their world columns (x, y, z) replaced by their boxes' foot
-    points back-projected to the ground (z = 0) through ``camera``: a camera estimated from
-    the video has a world frame of its own (origin under it, axes from its view), so the
-    ground truth's world columns, in the frame of whoever surveyed the scene, cannot be
-    compared with its tracks; the rows carried to its frame can. Rows whose foot point does
-    not meet the ground get -1 (no world position)."""
-    from pftrack.io.mot import read_mot
-
-    rows = (np.asarray(gt, dtype=np.float64).reshape(-1, 10).copy()
-            if isinstance(gt, np.ndarray) else read_mot(gt).copy())
-    if len(rows):
-        pts = camera.image_to_ground(foot_points(rows[:, 2:6]))
-        ok = np.all(np.isfinite(pts), axis=1)
-        rows[:, 7:10] = np.where(ok[:, None], pts, -1.0)
-    return rows
-
-
 @dataclass
 class FreshResult:
     """What :func:`track_video` did: ``summary`` (also in ``DIR/summary.json``), the
@@ -368,17 +349,22 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
     if cfg.get("state", "world") == "world" and cam is not None:
         dets = with_ground_points(dets, cam)
     messages.extend(check_thresholds(cfg))
-    gt_rows: Any = gt
-    if gt is not None and fit is not None:
-        gt_rows = ground_truth_in_camera_frame(gt, fit.camera)
-        messages.append("--gt: its world positions are in its own frame, not the estimated "
-                        "camera's; re-derived from its boxes' foot points through the "
-                        "estimated camera, so metrics.json's ground errors and the top view "
-                        "compare the tracks with the ground truth in that camera's frame (the "
-                        "camera's own error is not in them)")
+    if gt is not None and cam is not None and "people_fit" in cam.metadata:
+        # (run_pipeline carries it, for any camera made from the people; said here once)
+        messages.append("--gt: its world positions are in its own frame, not the "
+                        "camera's (made from the people); re-derived from its boxes' foot "
+                        "points through that camera, so metrics.json's ground errors and the "
+                        "top view compare the tracks with the ground truth in that camera's "
+                        "frame (the camera's own error is not in them)")
     # 3. track
-    run = run_pipeline(cfg, video=video, camera=cam, out_dir=out_dir, gt=gt_rows, frames=frames,
-                       seed=seed, detections=dets, progress=progress, report=report)
+    import warnings
+
+    from pftrack.pipeline import GroundTruthFrameWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", GroundTruthFrameWarning)  # (in the messages)
+        run = run_pipeline(cfg, video=video, camera=cam, out_dir=out_dir, gt=gt, frames=frames,
+                           seed=seed, detections=dets, progress=progress, report=report)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     n = max(run.n_frames, 1)
     messages.extend(explain_no_tracks(cfg, run.rows, dets, run.n_frames))

@@ -195,6 +195,27 @@ def read_ground_truth(path: str | os.PathLike[str] | np.ndarray, first: int = 1,
     return rows[keep]
 
 
+def ground_truth_in_camera_frame(gt: str | os.PathLike[str] | np.ndarray, camera: Camera
+                                 ) -> np.ndarray:
+    """MOT ground-truth rows with their world columns (x, y, z) replaced by their boxes' foot
+    points back-projected to the ground (z = 0) through ``camera``: a camera estimated from
+    the video has a world frame of its own (origin under it, axes from its view), so the
+    ground truth's world columns, in the frame of whoever surveyed the scene, cannot be
+    compared with its tracks; the rows carried to its frame can. Rows whose foot point does
+    not meet the ground get -1 (no world position)."""
+    from pftrack.geometry.boxes import foot_points
+    from pftrack.io.mot import read_mot
+
+    rows = (np.asarray(gt, dtype=np.float64).reshape(-1, 10).copy()
+            if isinstance(gt, np.ndarray) else read_mot(gt).copy())
+    if len(rows):
+        pts = camera.image_to_ground(foot_points(rows[:, 2:6]))
+        ok = np.all(np.isfinite(pts), axis=1)
+        rows[:, 7:10] = np.where(ok[:, None], pts, -1.0)
+    return rows
+
+
+
 # --------------------------------------------------------------------------------------------
 # Detector
 # --------------------------------------------------------------------------------------------
@@ -482,6 +503,15 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     first, last = parse_frames(frames)
     gt_all = None if gt is None else read_ground_truth(gt, first, last if last is not None
                                                          else 10**9)
+    if gt_all is not None and cam is not None and "people_fit" in cam.metadata:
+        import warnings
+
+        gt_all = ground_truth_in_camera_frame(gt_all, cam)
+        warnings.warn(f"--gt {gt if isinstance(gt, (str, os.PathLike)) else '(rows)'}: the "
+                      "camera was estimated from the people (pftrack calib people), its world "
+                      "frame is its own: the ground truth's world positions are its boxes' foot "
+                      "points through that camera (ground errors measure the tracking in its "
+                      "frame, not the camera)", GroundTruthFrameWarning, stacklevel=2)
     from pftrack.scenes.source import FrameSource
 
     source = FrameSource(video, first, last)
@@ -577,6 +607,10 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     if out_dir is not None:
         result.out_dir = write_outputs(out_dir, cfg, result, keep_frames, gt_rows)
     return result
+
+
+class GroundTruthFrameWarning(UserWarning):
+    """The ground truth's world positions were carried into the run camera's own frame."""
 
 
 class FrameWarning(UserWarning):
