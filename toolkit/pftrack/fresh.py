@@ -349,22 +349,22 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
     if cfg.get("state", "world") == "world" and cam is not None:
         dets = with_ground_points(dets, cam)
     messages.extend(check_thresholds(cfg))
-    if gt is not None and cam is not None and "people_fit" in cam.metadata:
-        # (run_pipeline carries it, for any camera made from the people; said here once)
-        messages.append("--gt: its world positions are in its own frame, not the "
-                        "camera's (made from the people); re-derived from its boxes' foot "
-                        "points through that camera, so metrics.json's ground errors and the "
-                        "top view compare the tracks with the ground truth in that camera's "
-                        "frame (the camera's own error is not in them)")
     # 3. track
     import warnings
 
     from pftrack.pipeline import GroundTruthFrameWarning
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", GroundTruthFrameWarning)  # (in the messages)
+    with warnings.catch_warnings(record=True) as said:
+        # the ground truth carried into a people-made camera's frame: said in the messages
+        warnings.simplefilter("always", GroundTruthFrameWarning)
         run = run_pipeline(cfg, video=video, camera=cam, out_dir=out_dir, gt=gt, frames=frames,
                            seed=seed, detections=dets, progress=progress, report=report)
+    for caught in said or []:
+        if issubclass(caught.category, GroundTruthFrameWarning):
+            messages.append(str(caught.message))
+        else:  # everything else as it would have been
+            warnings.warn_explicit(caught.message, caught.category, caught.filename,
+                                   caught.lineno)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     n = max(run.n_frames, 1)
     messages.extend(explain_no_tracks(cfg, run.rows, dets, run.n_frames))

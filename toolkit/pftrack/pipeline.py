@@ -195,8 +195,7 @@ def read_ground_truth(path: str | os.PathLike[str] | np.ndarray, first: int = 1,
     return rows[keep]
 
 
-def ground_truth_in_camera_frame(gt: str | os.PathLike[str] | np.ndarray, camera: Camera
-                                 ) -> np.ndarray:
+def ground_truth_in_camera_frame(gt_rows: np.ndarray, camera: Camera) -> np.ndarray:
     """MOT ground-truth rows with their world columns (x, y, z) replaced by their boxes' foot
     points back-projected to the ground (z = 0) through ``camera``: a camera estimated from
     the video has a world frame of its own (origin under it, axes from its view), so the
@@ -204,10 +203,8 @@ def ground_truth_in_camera_frame(gt: str | os.PathLike[str] | np.ndarray, camera
     compared with its tracks; the rows carried to its frame can. Rows whose foot point does
     not meet the ground get -1 (no world position)."""
     from pftrack.geometry.boxes import foot_points
-    from pftrack.io.mot import read_mot
 
-    rows = (np.asarray(gt, dtype=np.float64).reshape(-1, 10).copy()
-            if isinstance(gt, np.ndarray) else read_mot(gt).copy())
+    rows = np.array(gt_rows, dtype=np.float64).reshape(-1, 10)  # a copy
     if len(rows):
         pts = camera.image_to_ground(foot_points(rows[:, 2:6]))
         ok = np.all(np.isfinite(pts), axis=1)

@@ -58,15 +58,23 @@ def test_a_drifted_target_returns_to_its_matched_detection_with_the_proposal(see
     assert np.linalg.norm(r1.position[:2] - at) < 2.0
 
 
-def test_the_proposal_is_seeded_and_zero_draws_nothing():
+def test_the_proposal_is_seeded_and_zero_draws_nothing(monkeypatch):
     a, _ = _drifted(0.1, seed=4)
     b, _ = _drifted(0.1, seed=4)
     np.testing.assert_array_equal(a.state, b.state)
-    # 0: no draw at all, so the run is the prior alone bit for bit (and unseeded parts equal)
     c, _ = _drifted(0.0, seed=4)
+    assert not np.array_equal(a.state, c.state)
+    # 0: the proposal is never entered (no draw: every other preset's tracks unchanged)
+    from pftrack.tracker import MultiTargetTracker
+
+    def never(self, targets):
+        raise AssertionError("proposal entered with detection_proposal 0")
+
+    monkeypatch.setattr(MultiTargetTracker, "_propose_at_detections", never)
     d, _ = _drifted(0.0, seed=4)
     np.testing.assert_array_equal(c.state, d.state)
-    assert not np.array_equal(a.state, c.state)
+    with pytest.raises(AssertionError, match="proposal entered"):
+        _drifted(0.1, seed=4)
 
 
 @pytest.mark.parametrize("bad", [-0.1, 1.5, True, "half"])
