@@ -558,6 +558,24 @@ class VolumeTracks(TrackManager):
         "centre of another track's predicted box (a cuboid of object_size_m where that track's "
         "footprint goes next) than of its own gets likelihood 0 (a neighbour's blob cannot "
         "capture a track's particles; no constant).")
+    colour_share: bool = Param(
+        False, "With appearance: among tracks whose gates overlap, a track's particle whose "
+        "pixel's colour (its bin of the HSV histograms) is more than colour_share_ratio times "
+        "as likely under a neighbouring track's template as under its own gets likelihood 0: "
+        "a neighbour's blob cannot take a track's particles where the colours say whose they "
+        "are. Colour (8-bit BGR) frames only; a grey frame bars nothing.")
+    colour_share_ratio: float = Param(
+        1.25, "colour_share's ratio (>= 1; chosen on PETS frames 401-600).", unit="1")
+    colour_share_floor: float = Param(
+        0.01, "Added to both templates' bin probabilities before colour_share's ratio (> 0): "
+        "a colour neither template holds decides nothing.", unit="1")
+    colour_share_distance: float = Param(
+        0.35, "colour_share only between tracks whose templates lie at least this "
+        "Bhattacharyya distance apart (in [0, 1); alike templates decide nothing; chosen on "
+        "PETS frames 401-600).", unit="1")
+    colour_share_max_barred: float = Param(
+        0.7, "When colour_share would bar more than this fraction (in (0, 1]) of a track's "
+        "particles (its intruder hidden behind a neighbour), it bars none.", unit="1")
     blob_block_px: int = Param(8, "Cell size (pixels) of the image grid on which a new track "
                                   "takes the largest connected patch of the group's particles.",
                                unit="px")
@@ -647,6 +665,18 @@ class VolumeTracks(TrackManager):
                              f"appearance_near_m > 0 and appearance_min_frames >= 1, got "
                              f"{self.appearance_rate!r}, {self.appearance_near_m!r}, "
                              f"{self.appearance_min_frames!r}")
+        if self.colour_share and not self.appearance:
+            raise ValueError("tracks 'volumes': colour_share needs appearance: true (it reads "
+                             "the tracks' colour templates)")
+        if not float(self.colour_share_ratio) >= 1.0 or \
+                not float(self.colour_share_floor) > 0 or \
+                not 0.0 <= float(self.colour_share_distance) < 1.0 or \
+                not 0.0 < float(self.colour_share_max_barred) <= 1.0:
+            raise ValueError(f"tracks 'volumes': need colour_share_ratio >= 1, "
+                             f"colour_share_floor > 0, 0 <= colour_share_distance < 1 and 0 < "
+                             f"colour_share_max_barred <= 1, got {self.colour_share_ratio!r}, "
+                             f"{self.colour_share_floor!r}, {self.colour_share_distance!r}, "
+                             f"{self.colour_share_max_barred!r}")
         if int(self.gather_frames) < 0:
             raise ValueError(f"tracks 'volumes': gather_frames must be >= 0, got "
                              f"{self.gather_frames!r}")
@@ -750,6 +780,8 @@ class VolumeTracks(TrackManager):
                    lo, hi, mode == "gate", out)
             if mode == "gate" and self.partition and len(lo):
                 out &= self._own_share(tid, px)
+            if mode == "gate" and self.colour_share and len(lo):
+                out &= self._colour_own(tid, px)
             return out
         inside = volume.contains(points)
         if not inside.any():
@@ -761,9 +793,12 @@ class VolumeTracks(TrackManager):
         with np.errstate(invalid="ignore"):
             hit = ((px[:, None, :] >= lo[None]) & (px[:, None, :] <= hi[None])).all(axis=2)
         if mode == "gate":
+            keep = inside & hit[:, 0]
             if self.partition:
-                return inside & hit[:, 0] & self._own_share(tid, px)
-            return inside & hit[:, 0]
+                keep &= self._own_share(tid, px)
+            if self.colour_share:
+                keep &= self._colour_own(tid, px)
+            return keep
         return inside & ~hit.any(axis=1)
 
     def _own_share(self, tid: int, px: np.ndarray) -> np.ndarray:
@@ -771,18 +806,11 @@ class VolumeTracks(TrackManager):
         box's width and height) the centre of track ``tid``'s predicted box as the centre of
         any other track's whose gate overlaps ``tid``'s (NaN pixels: not near any)."""
         own = self.ahead_.get(tid)
-        gate = self.gates_.get(tid)
         keep = np.ones(len(px), dtype=np.bool_)
-        if own is None or gate is None or not np.isfinite(own).all():
+        if own is None or self.gates_.get(tid) is None or not np.isfinite(own).all():
             return keep
-        others = []
-        for k, b in self.ahead_.items():
-            g = self.gates_.get(k)
-            if k == tid or g is None or k not in self.tracks_ or not np.isfinite(b).all():
-                continue
-            if g[0] < gate[0] + gate[2] and gate[0] < g[0] + g[2] and \
-                    g[1] < gate[1] + gate[3] and gate[1] < g[1] + g[3]:
-                others.append(b)
+        others = [self.ahead_[k] for k in self._neighbours(tid)
+                  if k in self.ahead_ and np.isfinite(self.ahead_[k]).all()]
         if not others:
             return keep
 
@@ -795,6 +823,86 @@ class VolumeTracks(TrackManager):
         with np.errstate(invalid="ignore"):
             for b in others:
                 keep &= ~(dist2(b) < d_own)
+        return keep
+
+    def _neighbours(self, tid: int) -> list[int]:
+        """The live tracks other than ``tid`` whose gates overlap ``tid``'s gate."""
+        gate = self.gates_.get(tid)
+        if gate is None:
+            return []
+        out = []
+        for k, g in self.gates_.items():
+            if k == tid or g is None or k not in self.tracks_:
+                continue
+            if g[0] < gate[0] + gate[2] and gate[0] < g[0] + g[2] and \
+                    g[1] < gate[1] + gate[3] and gate[1] < g[1] + g[3]:
+                out.append(k)
+        return out
+
+    def _colour_bins(self, px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The HSV histogram bin (:func:`hsv_histogram`'s) of the frame's pixel under each of
+        ``px`` (N, 2), and which of them lie in the image: the frame's bins are computed once
+        per frame, over the box that holds every track's gate (a grey or 16-bit frame: none)."""
+        if self.__dict__.get("bins_at_") != self.frame_:
+            import cv2
+
+            self.bins_at_ = self.frame_
+            self.bins_ = None
+            img = self.__dict__.get("image_")
+            gates = [g for g in self.gates_.values() if g is not None and np.isfinite(g).all()]
+            if img is not None and img.ndim == 3 and img.shape[2] == 3 and \
+                    img.dtype == np.uint8 and gates:
+                g = np.array(gates)
+                h, w = img.shape[:2]
+                x0, y0 = (int(max(math.floor(v), 0)) for v in g[:, :2].min(axis=0))
+                x1 = int(min(math.ceil(float((g[:, 0] + g[:, 2]).max())) + 1, w))
+                y1 = int(min(math.ceil(float((g[:, 1] + g[:, 3]).max())) + 1, h))
+                if x1 > x0 and y1 > y0:
+                    hsv = cv2.cvtColor(np.ascontiguousarray(img[y0:y1, x0:x1]),
+                                       cv2.COLOR_BGR2HSV)
+                    lut_h, lut_s, lut_v = _hsv_luts(*HSV_BINS)
+                    idx = lut_h.take(hsv[:, :, 0])
+                    idx += lut_s.take(hsv[:, :, 1])
+                    idx += lut_v.take(hsv[:, :, 2])
+                    self.bins_ = (idx, x0, y0)
+        if self.bins_ is None:
+            return np.zeros(0, dtype=np.intp), np.zeros(len(px), dtype=np.bool_)
+        idx, x0, y0 = self.bins_
+        with np.errstate(invalid="ignore"):
+            u = np.floor(px[:, 0]) - x0
+            v = np.floor(px[:, 1]) - y0
+            ok = (u >= 0) & (u < idx.shape[1]) & (v >= 0) & (v < idx.shape[0])
+        return idx[v[ok].astype(np.intp), u[ok].astype(np.intp)], ok
+
+    def _colour_own(self, tid: int, px: np.ndarray) -> np.ndarray:
+        """``colour_share``: whether each pixel (N, 2) is not more than
+        ``colour_share_ratio`` times as likely, by its colour, under a neighbouring track's
+        template as under track ``tid``'s own (both plus ``colour_share_floor``); only
+        neighbours whose gates overlap ``tid``'s and whose templates are ready and lie at
+        least ``colour_share_distance`` from ``tid``'s count. True where nothing decides
+        (no template ready, no such neighbour, off the image, NaN)."""
+        keep = np.ones(len(px), dtype=np.bool_)
+        n = int(self.appearance_min_frames)
+        own = self.templates_.get(tid)
+        if own is None or own[1] < n:
+            return keep
+        dmin = float(self.colour_share_distance)
+        others = [self.templates_[k][0] for k in self._neighbours(tid)
+                  if k in self.templates_ and self.templates_[k][1] >= n
+                  and float(bhattacharyya(self.templates_[k][0], own[0])) >= dmin]
+        if not others:
+            return keep
+        bins, ok = self._colour_bins(px)
+        if not len(bins):
+            return keep
+        floor = float(self.colour_share_floor)
+        limit = float(self.colour_share_ratio) * (own[0].take(bins) + floor)
+        barred = np.zeros(len(bins), dtype=np.bool_)
+        for tpl in others:
+            barred |= tpl.take(bins) + floor > limit
+        if np.count_nonzero(barred) > float(self.colour_share_max_barred) * len(px):
+            return keep  # hidden behind the neighbour: nothing of its own to keep to
+        keep[np.flatnonzero(ok)[barred]] = False
         return keep
 
     def _region_boxes(self, tid: int, mode: str) -> tuple[np.ndarray, np.ndarray]:
@@ -1007,6 +1115,7 @@ class VolumeTracks(TrackManager):
         self._check()
         self._camera(engine)
         self.frame_ = frame.index
+        self.image_ = frame.image
         if not self.groups_:
             self._start_groups(engine, frame)
 

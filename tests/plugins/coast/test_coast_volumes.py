@@ -51,7 +51,7 @@ def _boxes(cam: Camera, centres: np.ndarray) -> np.ndarray:
     return obs.to_boxes(np.column_stack([centres, np.zeros((len(centres), 3))]))
 
 
-def _run(seed: int = 0, n_frames: int = 80, walk=None, **params):
+def _run(seed: int = 0, n_frames: int = 80, walk=None, colours=None, **params):
     cam = _camera()
     vol = CuboidVolume([0.0, 0.0, 1.25], [30.0, 30.0, 2.5], None, "yard")
     kw = dict(volumes=[vol.to_dict()], entry_particles=5, exit_particles=100,
@@ -70,6 +70,10 @@ def _run(seed: int = 0, n_frames: int = 80, walk=None, **params):
     records, gt = [], []
     for f, centres in truth.items():
         boxes = _boxes(cam, centres)
+        if colours is not None:  # each person's box painted in its colour (BGR), in order
+            image = np.full((480, 640, 3), 90, np.uint8)
+            for b, c in zip(np.round(boxes).astype(int), colours):
+                image[max(b[1], 0):b[1] + b[3], max(b[0], 0):b[0] + b[2]] = c
         records += engine.step(Frame(f, image), Detections(boxes, np.ones(len(boxes))))
         for k, (c, b) in enumerate(zip(centres, boxes)):
             gt.append([f, k + 1, *b, 1, c[0], c[1], 0.0])
@@ -608,3 +612,151 @@ def test_coast_car_along_the_view_is_one_track_with_its_length_along_it(tmp_path
     sizes = np.array([est[(r.frame, r.id)]["size_m"] for r in records])
     assert abs(np.median(sizes[:, 2]) - 4.7) < 2.0
     assert abs(np.median(sizes[:, 0]) - 1.7) < 1.2
+
+
+def _two_colours() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A 200 x 300 BGR picture: red (x < 150) and blue (x >= 150) halves on a grey row band
+    (y >= 180); and the red and blue halves' templates (:func:`hsv_histogram`)."""
+    from pftrack_coast.volumes import hsv_histogram
+
+    img = np.zeros((200, 300, 3), np.uint8)
+    img[:, :150] = (20, 20, 220)
+    img[:, 150:] = (220, 30, 20)
+    img[180:] = (128, 128, 128)
+    return img, hsv_histogram(img, np.array([40.0, 20.0, 60.0, 150.0])), \
+        hsv_histogram(img, np.array([200.0, 20.0, 60.0, 150.0]))
+
+
+def _colour_tracks(**params) -> VolumeTracks:
+    img, red, blue = _two_colours()
+    tracks = VolumeTracks(volumes=["near"], appearance=True, colour_share=True, **params)
+    tracks._check()
+    tracks.frame_, tracks.image_ = 7, img
+    tracks.tracks_ = {1: "near", 2: "near", 3: "near"}
+    tracks.templates_ = {1: (red, 9), 2: (blue, 9), 3: (blue, 9)}
+    tracks.gates_ = {1: np.array([100.0, 0.0, 80.0, 200.0]),
+                     2: np.array([130.0, 0.0, 80.0, 200.0]),
+                     3: np.array([260.0, 0.0, 30.0, 30.0])}
+    return tracks
+
+
+def test_colour_share_bars_a_tracks_pixels_whose_colour_a_neighbour_explains_better():
+    """``colour_share``: among tracks whose gates overlap, a red track's particle on a blue
+    pixel (which the blue neighbour's template explains better) is barred, and the other way
+    round; a colour neither template holds (grey), pixels off the picture and NaN bar nothing;
+    a track whose gate overlaps no other's, a template not yet ready (appearance_min_frames),
+    templates closer than colour_share_distance and a grey picture bar nothing."""
+    px = np.array([[120.0, 50.0], [160.0, 50.0], [140.0, 190.0], [-5.0, 50.0],
+                   [np.nan, np.nan], [149.9, 10.0], [150.0, 10.0]])
+    tracks = _colour_tracks()
+    assert tracks._colour_own(1, px).tolist() == [True, False, True, True, True, True, False]
+    assert tracks._colour_own(2, px).tolist() == [False, True, True, True, True, False, True]
+    assert tracks._colour_own(3, px).all()  # its gate overlaps no other
+    tracks.templates_[2] = (tracks.templates_[2][0], 4)  # not ready (appearance_min_frames 5)
+    assert tracks._colour_own(1, px).all()
+    tracks = _colour_tracks()
+    tracks.templates_[2] = tracks.templates_[1]  # alike templates decide nothing
+    assert tracks._colour_own(1, px).all()
+    tracks = _colour_tracks()
+    del tracks.tracks_[2]  # an ended track does not count
+    assert tracks._colour_own(1, px).all()
+    tracks = _colour_tracks()
+    tracks.image_ = tracks.image_[:, :, 0].copy()  # grey: no colours
+    assert tracks._colour_own(1, px).all()
+    # more than colour_share_max_barred of the particles barred (2 of 7): none is
+    assert _colour_tracks(colour_share_max_barred=0.25)._colour_own(1, px).all()
+    assert not _colour_tracks(colour_share_max_barred=0.3)._colour_own(1, px).all()
+
+
+def test_colour_share_ratio_and_floor_are_the_bar():
+    """A pixel is barred when ``tpl_other[bin] + floor > ratio * (tpl_own[bin] + floor)``:
+    with a mixed template (half the neighbour's colour) a ratio of 1.25 bars the neighbour's
+    colour and a ratio of 3 does not."""
+    img, red, blue = _two_colours()
+    px = np.array([[160.0, 50.0]])  # blue
+    for ratio, barred in ((1.25, True), (3.0, False)):
+        tracks = _colour_tracks(colour_share_ratio=ratio, colour_share_distance=0.1,
+                                colour_share_max_barred=1.0)
+        tracks.templates_[1] = (0.5 * red + 0.5 * blue, 9)
+        assert tracks._colour_own(1, px).tolist() == [not barred]
+        b = blue.argmax()
+        assert (blue[b] + 0.01 > ratio * (0.5 * blue[b] + 0.01)) == barred
+
+
+@pytest.mark.parametrize("params, name", [
+    (dict(colour_share=True, appearance=False), "colour_share needs appearance"),
+    (dict(colour_share_ratio=0.9), "colour_share_ratio"),
+    (dict(colour_share_floor=0.0), "colour_share_floor"),
+    (dict(colour_share_distance=1.0), "colour_share_distance"),
+    (dict(colour_share_max_barred=0.0), "colour_share_max_barred"),
+])
+def test_colour_share_parameters_are_checked(params, name):
+    with pytest.raises(ValueError, match=name):
+        VolumeTracks(volumes=["near"], **params)._check()
+
+
+def test_colour_share_in_both_region_paths(monkeypatch):
+    """The compiled and the numpy region of a track bar the same pixels with colour_share."""
+    from pftrack_coast import volumes as volumes_module
+
+    engine, tracks, rows, gt, vol, _ = _run(seed=2, n_frames=40)
+    tid = next(iter(tracks.tracks_))
+    t = tracks.targets_[tid]
+    pts = t.particles[:, :3].copy()
+    t.particle_boxes_xywh_px = None  # projected again: the pixels of these points
+    px = tracks.camera_.project(pts)
+    left = px[:, 0] < np.median(px[:, 0])
+    # the frame: the track's left pixels red, the rest blue; a blue neighbour on its gate
+    img, red, blue = _two_colours()
+    image = np.zeros((480, 640, 3), np.uint8)
+    image[:] = img[0, 200]
+    cols = np.clip(np.floor(px[left]).astype(int), 0, [639, 479])
+    image[cols[:, 1], cols[:, 0]] = img[0, 0]
+    tracks.appearance, tracks.colour_share = True, True
+    tracks.image_, tracks.frame_ = image, 10 ** 6
+    tracks.templates_ = {tid: (red, 9), 999: (blue, 9)}
+    tracks.tracks_[999] = tracks.tracks_[tid]
+    tracks.gates_[999] = tracks.gates_[tid].copy()
+    fast = tracks._in_region(tid, vol, "gate", pts)
+    own = tracks._colour_own(tid, px)
+    # barred: exactly the pixels on blue inside the box of the gates
+    g = np.array(list(tracks.gates_.values()))
+    u, v = np.floor(px[:, 0]).astype(int), np.floor(px[:, 1]).astype(int)
+    inside = (u >= max(g[:, 0].min(), 0)) & (v >= max(g[:, 1].min(), 0)) & (u < 640) & (v < 480)
+    on_red = np.zeros(len(px), bool)
+    on_red[inside] = image[v[inside], u[inside], 2] == img[0, 0, 2]
+    assert left.any() and (inside & ~on_red).any()
+    assert np.array_equal(~own, inside & ~on_red)
+    tracks.colour_share = False
+    plain = tracks._in_region(tid, vol, "gate", pts)
+    assert np.array_equal(fast, plain & own)
+    tracks.colour_share = True
+    monkeypatch.setattr(volumes_module, "_kernel", lambda name: None)
+    assert np.array_equal(tracks._in_region(tid, vol, "gate", pts), fast)
+
+
+def _pass(n_frames: int) -> dict[int, np.ndarray]:
+    """A red and a blue person passing 0.4 m apart (A along +x, B along -x, 0.25 m/frame):
+    the one nearer the camera hides the other for a few frames."""
+    return {f: np.array([[-10.0 + 0.25 * (f - 1), 0.0, 0.875],
+                         [10.0 - 0.25 * (f - 1), 0.4, 0.875]]) for f in range(1, n_frames + 1)}
+
+
+def test_colour_share_keeps_a_hidden_intruders_track():
+    """Two people of different colours pass, one hiding the other: with colour_share barring
+    every particle of the hidden one's track on its neighbour's colour (max_barred 1), that
+    track dies and the person comes back under a new id; with colour_share_max_barred (0.7,
+    the default) the hidden one's track keeps its particles: two ids, no switch, as without
+    colour_share."""
+    red, blue = (20, 20, 220), (220, 30, 20)
+    runs = {}
+    for name, kw in (("off", {}), ("all", dict(colour_share=True, colour_share_max_barred=1.0)),
+                     ("capped", dict(colour_share=True))):
+        _, tracks, rows, gt, _, _ = _run(seed=0, walk=_pass, colours=(red, blue),
+                                         appearance=True, **kw)
+        runs[name] = (len(np.unique(rows[:, 1])), evaluate(gt, rows, metric="world",
+                                                             threshold=1.0))
+    assert runs["off"][0] == 2 and runs["off"][1]["IDSW"] == 0, runs
+    assert runs["all"][0] == 3 and runs["all"][1]["IDF1"] < 0.8, runs
+    assert runs["capped"][0] == 2 and runs["capped"][1]["IDSW"] == 0, runs
+    assert runs["capped"][1]["IDF1"] > 0.9, runs
