@@ -119,6 +119,7 @@ class EigenspaceLikelihood(Likelihood):
         """The frame's grey levels; no block scored yet."""
         m = self._get_model()
         self.excess_ = np.full(m.grid_shape_[0] * m.grid_shape_[1], np.nan)  # r_D - v_D
+        self.log_sigmoid_ = np.full(len(self.excess_), np.nan)  # each scored block's log-lik.
         img = frame.image
         if m.frame_offset != "median" and img.ndim == 3 and img.shape[2] == 3 and \
                 img.dtype in (np.uint8, np.uint16):
@@ -164,11 +165,17 @@ class EigenspaceLikelihood(Likelihood):
             return out
         # the blocks touched and not yet scored, in order (np.unique's, by a mask of the grid)
         self._score_blocks(m, blocks)
-        z = self.excess_[blocks]
+        out[ok] = self.log_sigmoid_[blocks]
+        return out
+
+    def _log_sigmoid(self, excess: np.ndarray) -> np.ndarray:
+        """Eq. 12's log-likelihood of blocks from their r_D - v_D: log sigmoid(alpha z),
+        stable; -inf for untrained blocks (computed once per block and frame, then looked up
+        per particle: the same numbers)."""
+        z = excess
         if float(self.alpha) != 1.0:  # (x * 1.0 is x, bit for bit: no pass for it)
             z = float(self.alpha) * z
-        out[ok] = -np.logaddexp(0.0, -z)  # log sigmoid(z), stable; -inf for untrained blocks
-        return out
+        return -np.logaddexp(0.0, -z)
 
     def _score_blocks(self, m: BlockEigenspaceModel, blocks: np.ndarray) -> None:
         """Score the blocks of ``blocks`` (indices, one particle each) not yet scored this
@@ -180,10 +187,12 @@ class EigenspaceLikelihood(Likelihood):
             # most of the frame: every block at once (grouped by D) is cheaper than gathering
             rd = m.relative_variation_of_grey(self._grey())
             self.excess_ = np.where(m.trained_, rd - m.v_, -np.inf)
+            self.log_sigmoid_ = self._log_sigmoid(self.excess_)
         elif len(need):
             raw = self.__dict__.get("grey_raw_")
             rd = m.relative_variation_at(self._grey() if raw is None else raw, need)
             self.excess_[need] = np.where(m.trained_[need], rd - m.v_[need], -np.inf)
+            self.log_sigmoid_[need] = self._log_sigmoid(self.excess_[need])
 
     def log_likelihood_rows(self, boxes_xywh_px: np.ndarray,
                             targets: Sequence[Target]) -> np.ndarray:
@@ -219,18 +228,16 @@ class EigenspaceLikelihood(Likelihood):
         if not len(blocks):
             return out.reshape(n_t, n)
         ends = np.cumsum(ok.reshape(n_t, n).sum(axis=1))  # each row's share of ``blocks``
-        z = np.empty(len(blocks))
+        ll = np.empty(len(blocks))
         start = 0
         for end in ends.tolist():
             if end > start:
                 # this row's blocks scored and looked up before the next row's (a later row
                 # may rescore the whole frame, as successive calls would)
                 self._score_blocks(m, blocks[start:end])
-                np.take(self.excess_, blocks[start:end], out=z[start:end])
+                np.take(self.log_sigmoid_, blocks[start:end], out=ll[start:end])
             start = end
-        if float(self.alpha) != 1.0:
-            z = float(self.alpha) * z
-        out[ok] = -np.logaddexp(0.0, -z)
+        out[ok] = ll
         return out.reshape(n_t, n)
 
     @classmethod

@@ -86,16 +86,17 @@ def test_tsai_negative_kappa_beyond_the_fold_is_nan():
 
 
 def _tsai_distort_masked(k: float, xy: np.ndarray) -> np.ndarray:
-    """The Newton loop as it was before its stopping test lost the masked copies."""
+    """The Newton loop as it was before its stopping test lost the masked copies (with the
+    cube as two products, as the lens computes it since stop 28)."""
     ru = np.hypot(xy[:, 0], xy[:, 1])
     rd = ru.copy()
     for _ in range(60):
-        f = k * rd**3 + rd - ru
+        f = k * (rd * rd * rd) + rd - ru
         step = f / (3 * k * rd * rd + 1)
         rd = rd - step
         if np.all(np.abs(step[np.isfinite(step)]) <= 1e-15 * (1 + ru[np.isfinite(step)])):
             break
-    bad = ~np.isfinite(rd) | (np.abs(k * rd**3 + rd - ru) > 1e-9 * (1 + ru))
+    bad = ~np.isfinite(rd) | (np.abs(k * (rd * rd * rd) + rd - ru) > 1e-9 * (1 + ru))
     if k < 0:
         bad |= 3 * k * rd * rd + 1 <= 0
     scale = np.where(ru > 0, rd / np.where(ru > 0, ru, 1.0), 1.0)

@@ -12,7 +12,7 @@ from pftrack.geometry import camera as camera_module
 from pftrack_coast import likelihood as likelihood_module
 from pftrack_coast import volumes as volumes_module
 from pftrack_coast._kernels import blocks_of_pixels
-from pftrack_coast.bench_seed003 import speed_3x5000
+from pftrack_coast.bench_seed003 import speed_3x5000, speed_runs
 from pftrack_coast.volumes import _quantiles
 
 from tests.plugins.coast.test_coast_volumes import _run
@@ -100,6 +100,28 @@ def test_speed_3x5000_counts_only_frames_with_three_groups_of_5000():
     assert out["frames_3x5000"] == 4
     assert out["frames_per_second_3x5000"] == pytest.approx(4 / 0.05)
     assert speed_3x5000(runs[2:]) == {"frames_per_second_3x5000": None, "frames_3x5000": 0}
+
+
+def test_speed_runs_takes_the_best_of_identical_runs_and_refuses_different_tracks():
+    """``speed_runs``: the best of n runs' figure, each listed; a repeat whose rows differ
+    (tracking not deterministic for its seed) raises."""
+    rows = np.arange(20.0).reshape(2, 10)
+
+    def run(cpu: float, r: np.ndarray = rows) -> dict:
+        return {"n_particles": 5000, "frame_cpu_s": np.array([cpu, cpu]),
+                "frame_targets": np.array([3, 3]), "rows": r}
+
+    again = iter([[run(0.01)], [run(0.04)]])
+    out = speed_runs([run(0.02)], lambda: next(again), 3)
+    assert out["frames_per_second_3x5000_runs"] == pytest.approx([50.0, 100.0, 25.0])
+    assert out["frames_per_second_3x5000"] == pytest.approx(100.0)
+    assert out["frames_3x5000"] == 2
+    assert speed_runs([run(0.02)], lambda: 1 / 0, 1)["frames_per_second_3x5000"] == \
+        pytest.approx(50.0)  # one run: none made again
+    moved = rows.copy()
+    moved[1, 3] += 1e-9
+    with pytest.raises(RuntimeError, match="not deterministic"):
+        speed_runs([run(0.02)], lambda: [run(0.01, moved)], 2)
 
 
 def _small_scene(rng: np.random.Generator) -> tuple[Any, np.ndarray]:

@@ -5,8 +5,9 @@ imports it on first use of :meth:`~pftrack.geometry.camera.Camera.project_rows`)
 perspective division, Tsai's lens by Newton's method or OpenCV's polynomial one, the pixel
 mapping) for T independent calls
 at once, one pass per call: each row gives the numbers ``project`` gives for it alone, bit for
-bit. The same operations in the same order (no fast-math: no fused multiply-add), ``rd ** 3``
-as libm's ``pow(rd, 3.0)`` (numpy's ``power`` loop on this machine; checked at first use, see
+bit. The same operations in the same order (no fast-math: no fused multiply-add; the cube
+``rd * rd * rd`` as two products in both, not ``pow``, whose libm and numpy SIMD loops may
+differ and which cost most of the kernel's time; checked at first use, see
 :func:`pftrack.geometry.camera._rows_kernel`), and Newton's stopping rule per row: a row
 iterates until no finite step of any of its points exceeds its tolerance (numpy's vectorised
 loop over the whole call). A point whose step is exactly 0 (or NaN) is at a fixed point: it
@@ -53,7 +54,7 @@ def camera_to_pixels_rows(pc, kappa, opencv, k00, k01, k02, k11, k12, out, rd, r
                     if not live[i]:
                         continue
                     r = rd[i]
-                    f = k * math.pow(r, 3.0) + r - ru[i]
+                    f = k * (r * r * r) + r - ru[i]
                     step = f / (k3 * r * r + 1)
                     r = r - step
                     rd[i] = r
@@ -67,7 +68,7 @@ def camera_to_pixels_rows(pc, kappa, opencv, k00, k01, k02, k11, k12, out, rd, r
                     break
             for i in range(n):
                 r, u = rd[i], ru[i]
-                res = k * math.pow(r, 3.0) + r - u if live[i] else fr[i]
+                res = k * (r * r * r) + r - u if live[i] else fr[i]
                 bad = not np.isfinite(r) or abs(res) > 1e-9 * (1 + u)
                 if k < 0:
                     bad = bad or k3 * r * r + 1 <= 0

@@ -289,14 +289,14 @@ class TsaiDistortion(LensDistortion):
         # when every finite step is within tol (NaN / inf steps are ignored): one pass over the
         # steps instead of masked copies (the same iterations, the same numbers)
         for _ in range(60):
-            f = k * rd**3 + rd - ru
+            f = k * (rd * rd * rd) + rd - ru
             step = f / (3 * k * rd * rd + 1)
             rd = rd - step
             a = np.abs(step)
             with np.errstate(invalid="ignore"):
                 if not ((a > tol) & (a < np.inf)).any():
                     break
-        bad = ~np.isfinite(rd) | (np.abs(k * rd**3 + rd - ru) > 1e-9 * (1 + ru))
+        bad = ~np.isfinite(rd) | (np.abs(k * (rd * rd * rd) + rd - ru) > 1e-9 * (1 + ru))
         if k < 0:
             bad |= 3 * k * rd * rd + 1 <= 0  # beyond the fold: not the physical root
         scale = np.where(ru > 0, rd / np.where(ru > 0, ru, 1.0), 1.0)
@@ -745,11 +745,11 @@ def _rows_kernel() -> Any:
     """The compiled :meth:`Camera.project_rows` kernel, or None (``PFTRACK_NO_JIT``, numba
     missing, or its numbers differ from :meth:`Camera.project`'s on a check set).
 
-    Decided once per process: the kernel computes ``rd ** 3`` as libm's ``pow``; numpy's
-    ``power`` loop may use another implementation on other processors (SIMD), so on first use
-    both paths project a fixed set of points (both signs of kappa, points behind the camera,
-    far outside the image, on the optical axis) and the kernel is used only if every bit
-    agrees."""
+    Decided once per process: both paths do the same float64 operations in the same order
+    (the cube as two products), but a build of numba or numpy could contract or vectorise
+    them differently, so on first use both project a fixed set of points (both signs of
+    kappa, points behind the camera, far outside the image, on the optical axis) and the
+    kernel is used only if every bit agrees."""
     if _ROWS_KERNEL:
         return _ROWS_KERNEL[0]
     kernel = None
