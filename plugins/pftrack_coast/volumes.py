@@ -177,6 +177,12 @@ def footprint_size(across_m: float, aspect: float, heading_deg: float | None) ->
     return float(across_m), w * (a * s + c)
 
 
+def _finite_rows(px: np.ndarray) -> np.ndarray:
+    """``np.isfinite(px).all(axis=1)`` of pixels (N, 2), by columns (a reduction over a
+    2-wide axis is numpy's slow path)."""
+    return np.isfinite(px[:, 0]) & np.isfinite(px[:, 1])
+
+
 def _axes(camera: Camera, ground_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit vectors (3,) across and along the view on the horizontal plane at ``ground_xy``."""
     c = camera.center_m
@@ -1032,14 +1038,16 @@ class VolumeTracks(TrackManager):
         pos_dims = list(engine.motion.position_dims)
         pos = t.particles[:, pos_dims]
         px = self._current_pixels(t, pos)
-        fine = np.isfinite(px).all(axis=1)
+        fine = _finite_rows(px)
         raw_centre = t.state[pos_dims].copy()
         across, along = _axes(cam, raw_centre[:2])
         est = None
         extra: dict[str, Any] = {}
-        if fine.sum() >= 2:
+        n_fine = int(np.count_nonzero(fine))
+        if n_fine >= 2:
             # (support_plane_estimate, its shape-free part computed once)
-            base = _support_base(cam, px[fine], float(self.support_z_m), 0.02, finite=True)
+            base = _support_base(cam, px if n_fine == len(px) else px[fine],
+                                 float(self.support_z_m), 0.02, finite=True)
             if base is not None:
                 across, along = base["across"], base["along"]
                 if self.heading_from == "top":
@@ -1054,10 +1062,14 @@ class VolumeTracks(TrackManager):
                                           heading_deg=heading)
                 else:
                     est = _support_finish(cam, base)
-        cov = np.cov(pos.T, bias=True) if len(pos) > 1 else np.zeros((3, 3))
-        up = np.array([0.0, 0.0, 1.0])
-        size_raw = np.array([2.0 * math.sqrt(max(float(a @ cov @ a), 0.0))
-                             for a in (across, up, along)])
+        # eq. 10 along the view's axes: the particles' (biased) variance along each axis
+        axes = np.array([across, (0.0, 0.0, 1.0), along])
+        var = np.zeros(3)
+        if len(pos) > 1:
+            proj = axes @ pos.T  # (3, N): rows, for fast reductions
+            dev = proj - proj.mean(axis=1, keepdims=True)
+            var = np.einsum("ij,ij->i", dev, dev) / len(pos)
+        size_raw = 2.0 * np.sqrt(np.maximum(var, 0.0))
         entry = {"frame": frame.index, "id": self.alias_.get(t.id, t.id),
                  "volume": self.tracks_[t.id],
                  "centre_raw_m": raw_centre, "size_raw_m": size_raw, "n_above": int(n_above),
@@ -1475,14 +1487,18 @@ class VolumeTracks(TrackManager):
         support plane); None: a new intruder. ``px``: the particles' pixels when known."""
         if px is None:
             px = self.camera_.project(particles[:, list(engine.motion.position_dims)])
-        px = px[np.isfinite(px).all(axis=1)]
+        fine = _finite_rows(px)
+        if not fine.all():
+            px = px[fine]
         if not len(px):
             return "none"
         est = None
         if self.object_size_m is not None or self.merge_distance_m is not None:
-            est = support_plane_estimate(self.camera_, px, support_z_m=float(self.support_z_m))
-            if est is None:
+            # (support_plane_estimate of the finite pixels)
+            base = _support_base(self.camera_, px, float(self.support_z_m), 0.02, finite=True)
+            if base is None:
                 return "none"
+            est = _support_finish(self.camera_, base)
             if self.merge_distance_m is not None and self.paths_:
                 xy = np.array([p[-1] for p in self.paths_.values() if p])
                 if len(xy) and np.hypot(*(xy - est["footprint_m"][:2]).T).min() \
