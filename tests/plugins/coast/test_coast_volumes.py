@@ -421,27 +421,40 @@ def test_partition_gives_each_pixel_to_the_nearest_predicted_box_among_overlappi
 def test_partition_in_both_region_paths_and_in_a_run(monkeypatch):
     """With ``partition`` the compiled and the numpy region of a track give the same mask, a
     neighbour's share is taken out of it, and the two walkers are still tracked."""
-    from pftrack_coast import volumes as volumes_module
-
     engine, tracks, rows, gt, vol, _ = _run(seed=2, n_frames=60, partition=True)
     assert len(np.unique(rows[:, 1])) >= 2 and len(tracks.ahead_) >= 1
+    tid, pts, px = _with_a_neighbour(tracks)
+    # the neighbour predicted on the middle of the track's cloud
+    box = tracks.ahead_[tid]
+    tracks.ahead_[999] = np.concatenate([np.median(px, axis=0) - 0.5 * box[2:], box[2:]])
+    own = tracks._own_share(tid, px)
+    assert not own.all() and own.any()
+    _same_in_both_region_paths(monkeypatch, tracks, tid, vol, pts, own, "partition")
+
+
+def _with_a_neighbour(tracks: VolumeTracks) -> tuple[int, np.ndarray, np.ndarray]:
+    """A live track's id, its particles' positions and their pixels (projected again), with a
+    neighbour (id 999) whose gate is the track's."""
     tid = next(iter(tracks.tracks_))
     t = tracks.targets_[tid]
     pts = t.particles[:, :3].copy()
     t.particle_boxes_xywh_px = None  # projected again: the pixels of these points
-    px = tracks.camera_.project(pts)
-    # a neighbour predicted on the middle of the track's cloud, its gate the track's
-    box = tracks.ahead_[tid]
     tracks.tracks_[999] = tracks.tracks_[tid]
-    tracks.ahead_[999] = np.concatenate([np.median(px, axis=0) - 0.5 * box[2:], box[2:]])
     tracks.gates_[999] = tracks.gates_[tid].copy()
+    return tid, pts, tracks.camera_.project(pts)
+
+
+def _same_in_both_region_paths(monkeypatch, tracks: VolumeTracks, tid: int, vol, pts, own,
+                               option: str) -> None:
+    """The track's region with ``option`` on is the region without it and ``own``, in the
+    compiled and in the numpy path."""
+    from pftrack_coast import volumes as volumes_module
+
     fast = tracks._in_region(tid, vol, "gate", pts)
-    own = tracks._own_share(tid, px)
-    assert not own.all() and own.any()
-    tracks.partition = False
+    setattr(tracks, option, False)
     plain = tracks._in_region(tid, vol, "gate", pts)
     assert np.array_equal(fast, plain & own)
-    tracks.partition = True
+    setattr(tracks, option, True)
     monkeypatch.setattr(volumes_module, "_kernel", lambda name: None)
     assert np.array_equal(tracks._in_region(tid, vol, "gate", pts), fast)
 
@@ -697,16 +710,10 @@ def test_colour_share_parameters_are_checked(params, name):
 
 def test_colour_share_in_both_region_paths(monkeypatch):
     """The compiled and the numpy region of a track bar the same pixels with colour_share."""
-    from pftrack_coast import volumes as volumes_module
-
     engine, tracks, rows, gt, vol, _ = _run(seed=2, n_frames=40)
-    tid = next(iter(tracks.tracks_))
-    t = tracks.targets_[tid]
-    pts = t.particles[:, :3].copy()
-    t.particle_boxes_xywh_px = None  # projected again: the pixels of these points
-    px = tracks.camera_.project(pts)
+    tid, pts, px = _with_a_neighbour(tracks)
     left = px[:, 0] < np.median(px[:, 0])
-    # the frame: the track's left pixels red, the rest blue; a blue neighbour on its gate
+    # the frame: the track's left pixels red, the rest blue; the neighbour blue
     img, red, blue = _two_colours()
     image = np.zeros((480, 640, 3), np.uint8)
     image[:] = img[0, 200]
@@ -715,9 +722,6 @@ def test_colour_share_in_both_region_paths(monkeypatch):
     tracks.appearance, tracks.colour_share = True, True
     tracks.image_, tracks.frame_ = image, 10 ** 6
     tracks.templates_ = {tid: (red, 9), 999: (blue, 9)}
-    tracks.tracks_[999] = tracks.tracks_[tid]
-    tracks.gates_[999] = tracks.gates_[tid].copy()
-    fast = tracks._in_region(tid, vol, "gate", pts)
     own = tracks._colour_own(tid, px)
     # barred: exactly the pixels on blue inside the box of the gates
     g = np.array(list(tracks.gates_.values()))
@@ -727,12 +731,7 @@ def test_colour_share_in_both_region_paths(monkeypatch):
     on_red[inside] = image[v[inside], u[inside], 2] == img[0, 0, 2]
     assert left.any() and (inside & ~on_red).any()
     assert np.array_equal(~own, inside & ~on_red)
-    tracks.colour_share = False
-    plain = tracks._in_region(tid, vol, "gate", pts)
-    assert np.array_equal(fast, plain & own)
-    tracks.colour_share = True
-    monkeypatch.setattr(volumes_module, "_kernel", lambda name: None)
-    assert np.array_equal(tracks._in_region(tid, vol, "gate", pts), fast)
+    _same_in_both_region_paths(monkeypatch, tracks, tid, vol, pts, own, "colour_share")
 
 
 def _pass(n_frames: int) -> dict[int, np.ndarray]:
