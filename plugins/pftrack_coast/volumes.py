@@ -25,7 +25,9 @@ where an output track ended at most ``reid_frames`` frames before takes up its i
 ``appearance`` each track keeps an HSV colour histogram of its cuboid's image region (updated while
 no other track is within ``appearance_near_m``), two tracks that were together and separate swap
 their output ids when the swapped histograms match their templates better, and a re-identified
-track takes up the ended id whose template it matches best.
+track takes up the ended id whose template it matches best; with ``colour_share`` two tracks
+whose gates overlap share the image by colour: a track's particle on a pixel whose colour the
+neighbour's template explains ``colour_share_ratio`` times better than its own gets likelihood 0.
 
 Estimates per frame (each output :class:`~pftrack.components.TrackRecord`):
 
@@ -1273,6 +1275,7 @@ class VolumeTracks(TrackManager):
                 del self.boxes_[tid]
         if self.appearance:
             self._appearance(frame, out)
+        self.image_ = None  # (colour_share reads the frame while it is weighted, not after)
         return self._reidentified(self._confirmed([r for r in out if self._shown(r)]))
 
     def _reidentified(self, out: list[TrackRecord]) -> list[TrackRecord]:
