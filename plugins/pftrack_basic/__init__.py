@@ -62,6 +62,9 @@ def pftrack_register_associators(register):
 
     register("hungarian-iou", HungarianIoUAssociator)
     register("greedy-iou", GreedyIoUAssociator)
+    from pftrack_basic.cloud_association import CloudAssociator
+
+    register("cloud", CloudAssociator)
 
 
 @hookimpl

@@ -1,0 +1,198 @@
+"""Association by each track's predicted likelihood of each detection, solved globally.
+
+A particle filter carries, for every track, a cloud of hypotheses about where its object is in
+this frame. The ``cloud`` associator scores a detection against a track by how likely the
+cloud makes it: the mean over the track's predicted particles of a Gaussian of the distance
+between the detection's box centre and the particle's box centre (in units of the detection's
+height), times a Gaussian of the log ratio of the detection's height to the track's. A track
+whose cloud has spread (it went unseen for a while) claims detections over a wider area, and
+two tracks side by side each claim the detection their own particles predict, which a distance
+between two box estimates cannot tell apart. The cost is the negative log of that likelihood
+(plus an appearance term when the track management supplies ``Target.appearance_scores``), and
+all tracks and detections are matched at once by the Hungarian method, not greedily.
+
+Detections are matched in two passes by score, after ByteTrack (Zhang et al., ECCV 2022):
+confident detections first, against every track; then the less confident ones, only against
+the tracks left unmatched that were seen in the last frames. A weak detection continues a
+track that is being followed through an occlusion, but does not re-find a track lost long ago,
+nor start one (track management starts tracks from unmatched confident detections only).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from pftrack.components import Assignment, Associator, Detections, Param, Target
+
+__all__ = ["CloudAssociator", "cloud_cost"]
+
+_INFEASIBLE = 1e9
+
+
+def _particle_boxes(t: Target) -> np.ndarray:
+    pb = t.particle_boxes_xywh_px
+    if pb is None or len(pb) == 0:
+        pb = np.asarray(t.box_xywh_px, dtype=np.float64)[None]
+    return np.asarray(pb, dtype=np.float64)
+
+
+def cloud_cost(targets: Sequence[Target], detections: Detections, *, sigma: float = 0.1,
+               sigma_size: float = 0.2) -> np.ndarray:
+    """Negative log predicted likelihood of each detection under each track's particles.
+
+    Parameters
+    ----------
+    targets : sequence of Target
+        Each with ``particle_boxes_xywh_px`` (N, 4), the predicted particles as image boxes
+        (falls back to ``box_xywh_px``).
+    detections : Detections
+    sigma : float
+        Standard deviation of a detection's box centre about a particle's box centre, in
+        detection heights.
+    sigma_size : float
+        Standard deviation of the log ratio of the detection's height to the track's mean
+        particle box height.
+
+    Returns
+    -------
+    ndarray, shape (T, K)
+        ``-log(mean_i N(d_i; sigma) * N(log(h_det / h_track); sigma_size))`` (Gaussians
+        without their normalising constants: 0 for a detection exactly where every particle
+        is); ``inf`` for a track with no finite particle box.
+    """
+    T, K = len(targets), len(detections)
+    cost = np.full((T, K), np.inf)
+    if T == 0 or K == 0:
+        return cost
+    db = detections.boxes_xywh_px
+    dc = db[:, :2] + 0.5 * db[:, 2:]  # (K, 2)
+    dh = np.maximum(db[:, 3], 1e-6)  # (K,)
+    boxes = [_particle_boxes(t) for t in targets]
+    if len({len(b) for b in boxes}) == 1:
+        groups = [(list(range(T)), np.stack(boxes))]
+    else:
+        groups = [([j], b[None]) for j, b in enumerate(boxes)]
+    inv2 = 0.5 / float(sigma) ** 2
+    for rows, pb in groups:  # pb (R, N, 4)
+        ok = np.isfinite(pb).all(axis=2)  # (R, N)
+        pc = pb[..., :2] + 0.5 * pb[..., 2:]  # (R, N, 2)
+        # squared centre distance in detection heights (R, K, N)
+        dx = (dc[None, :, None, 0] - pc[:, None, :, 0]) / dh[None, :, None]
+        dy = (dc[None, :, None, 1] - pc[:, None, :, 1]) / dh[None, :, None]
+        e = -(dx * dx + dy * dy) * inv2
+        e = np.where(ok[:, None, :], e, -np.inf)
+        m = e.max(axis=2, keepdims=True)
+        finite = np.isfinite(m)
+        m = np.where(finite, m, 0.0)
+        n_ok = ok.sum(axis=1)  # (R,)
+        with np.errstate(divide="ignore"):
+            lse = (m[..., 0] + np.log(np.exp(e - m).sum(axis=2))
+                   - np.log(np.maximum(n_ok, 1))[:, None])  # (R, K)
+        h = np.where(ok, pb[..., 3], np.nan)
+        with np.errstate(invalid="ignore"):
+            th = np.nanmean(h, axis=1) if ok.any() else np.full(len(pb), np.nan)  # (R,)
+        r = np.log(dh[None, :] / np.maximum(th[:, None], 1e-6)) / float(sigma_size)
+        c = -(lse - 0.5 * r * r)
+        c = np.where(finite[..., 0] & (n_ok[:, None] > 0) & np.isfinite(c), c, np.inf)
+        cost[rows] = c
+    return cost
+
+
+def _solve(cost: np.ndarray, max_cost: float) -> list[tuple[int, int]]:
+    """Minimum-total-cost matching of the rows and columns of ``cost``; pairs over
+    ``max_cost`` are never matched (and cost nothing to leave unmatched)."""
+    from scipy.optimize import linear_sum_assignment
+
+    if cost.size == 0:
+        return []
+    feasible = cost <= max_cost
+    if not feasible.any():
+        return []
+    c = np.where(feasible, cost - max_cost, 0.0)  # a pair below the gate gains; others nothing
+    rows, cols = linear_sum_assignment(c)
+    return [(int(i), int(j)) for i, j in zip(rows, cols) if feasible[i, j]]
+
+
+class CloudAssociator(Associator):
+    """Global association on each track's predicted likelihood of each detection, confident
+    detections first (see the module docstring).
+
+    Attributes
+    ----------
+    cost_ : ndarray (T, K)
+        The last frame's cost matrix (tracks x detections), appearance included.
+    """
+
+    sigma: float = Param(0.1, "Standard deviation of a detection's box centre about a "
+                         "predicted particle's box centre, in detection heights: the "
+                         "detector's own scatter; the cloud's spread adds to it.", unit="1")
+    sigma_size: float = Param(0.2, "Standard deviation of the log ratio of a detection's "
+                              "height to the track's mean particle box height.", unit="1")
+    max_cost: float = Param(8.0, "Gate: a pair whose cost (negative log predicted "
+                            "likelihood, appearance included) exceeds this is never matched. "
+                            "8 admits a detection about 4 sigma from a tight cloud.",
+                            unit="1")
+    high_score: float = Param(0.6, "Detections at least this confident are matched first, "
+                              "against every track; the others only in a second pass, to "
+                              "tracks seen recently (recent_misses). Unit: detector score.",
+                              unit="1")
+    recent_misses: int = Param(2, "A track may take a less confident detection in the second "
+                               "pass only if it went at most this many frames without a "
+                               "match.", unit="frames")
+    appearance_weight: float = Param(1.0, "Weight of the appearance cost "
+                                     "-log(Target.appearance_scores), when the track "
+                                     "management sets them (0: motion only). NaN scores bar "
+                                     "the pair.", unit="1")
+
+    def setup(self, context: object) -> None:
+        """Check the parameters, naming the one at fault."""
+        for name in ("sigma", "sigma_size", "max_cost"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
+                raise ValueError(f"associator 'cloud': {name} must be a number > 0, got {v!r}")
+        for name in ("high_score", "appearance_weight"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
+                raise ValueError(f"associator 'cloud': {name} must be a number >= 0, got "
+                                 f"{v!r}")
+        r = self.recent_misses
+        if isinstance(r, bool) or not isinstance(r, int) or r < 0:
+            raise ValueError(f"associator 'cloud': recent_misses must be an integer >= 0, got "
+                             f"{r!r}")
+
+    def costs(self, targets: Sequence[Target], detections: Detections) -> np.ndarray:
+        """The (T, K) cost matrix: :func:`cloud_cost` plus the appearance cost."""
+        cost = cloud_cost(targets, detections, sigma=float(self.sigma),
+                          sigma_size=float(self.sigma_size))
+        w = float(self.appearance_weight)
+        K = len(detections)
+        for j, t in enumerate(targets):
+            a = t.appearance_scores
+            if a is None or len(a) != K:
+                continue
+            a = np.asarray(a, dtype=np.float64)
+            barred = np.isnan(a)
+            if w > 0:
+                with np.errstate(divide="ignore"):
+                    cost[j] += w * -np.log(np.where(barred, 1.0, np.clip(a, 0.0, 1.0)))
+            cost[j, barred] = np.inf
+        return cost
+
+    def associate(self, targets: Sequence[Target], detections: Detections) -> Assignment:
+        """Match targets to detections; ``Assignment.matches`` rows are (target, detection)."""
+        T, K = len(targets), len(detections)
+        cost = self.costs(targets, detections)
+        self.cost_ = cost
+        gate = float(self.max_cost)
+        high = np.flatnonzero(detections.scores >= float(self.high_score))
+        low = np.flatnonzero(detections.scores < float(self.high_score))
+        matches = [(i, int(high[j])) for i, j in _solve(cost[:, high], gate)]
+        if len(low):
+            taken = {i for i, _ in matches}
+            recent = np.array([i for i in range(T) if i not in taken
+                               and targets[i].misses <= int(self.recent_misses)], dtype=np.intp)
+            if len(recent):
+                sub = cost[np.ix_(recent, low)]
+                matches += [(int(recent[i]), int(low[j])) for i, j in _solve(sub, gate)]
+        return Assignment.from_matches(matches, T, K)

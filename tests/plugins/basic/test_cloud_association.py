@@ -1,0 +1,142 @@
+"""The ``cloud`` associator: each track's predicted likelihood of each detection, matched
+globally, confident detections first."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pftrack.components import Detections, Target
+from pftrack.host import get_host
+from pftrack_basic.cloud_association import CloudAssociator, cloud_cost
+
+
+def _target(tid: int, centre: tuple[float, float], spread_px: float, *, h: float = 100.0,
+            n: int = 400, seed: int = 0, misses: int = 0) -> Target:
+    rng = np.random.default_rng(seed)
+    c = np.asarray(centre, dtype=np.float64) + rng.normal(0.0, spread_px, (n, 2))
+    w = 0.4 * h
+    boxes = np.c_[c[:, 0] - w / 2, c[:, 1] - h / 2, np.full(n, w), np.full(n, h)]
+    est = np.array([centre[0] - w / 2, centre[1] - h / 2, w, h])
+    return Target(id=tid, state=np.r_[centre, 0.0, 0.0], box_xywh_px=est,
+                  particle_boxes_xywh_px=boxes, misses=misses)
+
+
+def _dets(centres, scores, h: float = 100.0) -> Detections:
+    c = np.asarray(centres, dtype=np.float64).reshape(-1, 2)
+    w = 0.4 * h
+    boxes = np.c_[c[:, 0] - w / 2, c[:, 1] - h / 2, np.full(len(c), w), np.full(len(c), h)]
+    return Detections(boxes, np.asarray(scores, dtype=np.float64))
+
+
+def _assoc(**kw) -> CloudAssociator:
+    a = CloudAssociator(**kw)
+    a.setup(None)
+    return a
+
+
+def test_cost_is_the_negative_log_of_the_clouds_predicted_likelihood():
+    # every particle exactly at the detection, same height: likelihood 1, cost 0
+    t = _target(1, (200.0, 300.0), 0.0)
+    d = _dets([(200.0, 300.0), (210.0, 300.0)], [0.9, 0.9])
+    c = cloud_cost([t], d, sigma=0.1, sigma_size=0.2)
+    assert c[0, 0] == pytest.approx(0.0, abs=1e-12)
+    # 10 px = 0.1 heights = one sigma away: 0.5
+    assert c[0, 1] == pytest.approx(0.5, abs=1e-12)
+    # a detection twice the track's height: (log 2 / 0.2)^2 / 2 added
+    d2 = _dets([(200.0, 300.0)], [0.9], h=200.0)
+    assert cloud_cost([t], d2, sigma=0.1, sigma_size=0.2)[0, 0] == pytest.approx(
+        0.5 * (np.log(2.0) / 0.2) ** 2, rel=1e-9)
+
+
+def test_a_spread_cloud_claims_a_detection_a_tight_one_does_not():
+    # a track unseen for a while (its cloud spread 40 px) still claims a detection 50 px from
+    # its mean; the same detection is outside a freshly matched track's gate
+    d = _dets([(250.0, 300.0)], [0.9])
+    tight = _target(1, (200.0, 300.0), 2.0)
+    wide = _target(2, (200.0, 300.0), 40.0, misses=5)
+    a = _assoc()
+    assert len(a.associate([tight], d).matches) == 0
+    m = a.associate([wide], d).matches
+    assert m.tolist() == [[0, 0]]
+    assert a.cost_[0, 0] < a.max_cost
+
+
+def test_global_assignment_keeps_side_by_side_tracks_apart():
+    # two people 30 px apart walking right, both detections 16 px ahead of their tracks: the
+    # cheapest single pair is track 1 with the left person's detection (14 px), so a greedy
+    # matching takes it and leaves track 0 nothing in its gate; the global matching gives
+    # each track its own person's detection
+    t0 = _target(1, (200.0, 300.0), 3.0, seed=1)
+    t1 = _target(2, (230.0, 300.0), 3.0, seed=2)
+    d = _dets([(216.0, 300.0), (246.0, 300.0)], [0.9, 0.9])
+    a = _assoc(appearance_weight=0.0)
+    m = {int(ti): int(di) for ti, di in a.associate([t0, t1], d).matches}
+    assert m == {0: 0, 1: 1}
+    c = a.cost_
+    assert np.unravel_index(np.argmin(c), c.shape) == (1, 0)  # greedy's first pick
+    assert c[0, 1] > a.max_cost  # ... after which track 0 has nothing left in its gate
+
+
+def test_weak_detections_only_continue_recently_seen_tracks():
+    d = _dets([(200.0, 300.0)], [0.4])  # below high_score 0.6
+    recent = _target(1, (200.0, 300.0), 3.0, misses=1)
+    lost = _target(2, (200.0, 300.0), 3.0, misses=3)
+    a = _assoc(recent_misses=2)
+    assert a.associate([recent], d).matches.tolist() == [[0, 0]]
+    assert len(a.associate([lost], d).matches) == 0
+    # confident: the lost track takes it
+    d_hi = _dets([(200.0, 300.0)], [0.9])
+    assert a.associate([lost], d_hi).matches.tolist() == [[0, 0]]
+
+
+def test_confident_detections_are_matched_before_weak_ones():
+    # one track, a weak detection on its mean and a confident one 5 px away: the confident
+    # one wins, though the weak one is cheaper
+    t = _target(1, (200.0, 300.0), 3.0)
+    d = _dets([(200.0, 300.0), (205.0, 300.0)], [0.3, 0.9])
+    a = _assoc()
+    assert a.associate([t], d).matches.tolist() == [[0, 1]]
+
+
+def test_appearance_adds_its_cost_and_nan_bars_the_pair():
+    t0 = _target(1, (200.0, 300.0), 3.0, seed=1)
+    d = _dets([(200.0, 300.0)], [0.9])
+    a = _assoc(appearance_weight=1.0)
+    base = a.costs([t0], d)[0, 0]
+    t0.appearance_scores = np.array([0.5])
+    assert a.costs([t0], d)[0, 0] == pytest.approx(base - np.log(0.5), rel=1e-12)
+    t0.appearance_scores = np.array([np.nan])
+    assert len(a.associate([t0], d).matches) == 0
+
+
+def test_tracks_with_different_particle_counts_and_no_particles():
+    t0 = _target(1, (200.0, 300.0), 3.0, n=50)
+    t1 = _target(2, (400.0, 300.0), 3.0, n=80)
+    t2 = Target(id=3, state=np.zeros(4), box_xywh_px=np.array([580.0, 250.0, 40.0, 100.0]))
+    d = _dets([(400.0, 300.0), (200.0, 300.0), (600.0, 300.0)], [0.9, 0.9, 0.9])
+    m = _assoc().associate([t0, t1, t2], d).matches.tolist()
+    assert sorted(m) == [[0, 1], [1, 0], [2, 2]]
+
+
+def test_non_finite_particle_boxes_are_ignored_and_all_nan_is_never_matched():
+    t = _target(1, (200.0, 300.0), 3.0)
+    t.particle_boxes_xywh_px[:100] = np.nan
+    d = _dets([(200.0, 300.0)], [0.9])
+    c = cloud_cost([t], d)
+    assert np.isfinite(c).all()
+    t.particle_boxes_xywh_px[:] = np.nan
+    assert np.isinf(cloud_cost([t], d)).all()
+    assert len(_assoc().associate([t], d).matches) == 0
+
+
+@pytest.mark.parametrize("name,value", [("sigma", 0.0), ("sigma_size", -1.0), ("max_cost", 0),
+                                        ("high_score", -0.1), ("appearance_weight", "x"),
+                                        ("recent_misses", -1), ("recent_misses", 1.5)])
+def test_bad_parameters_name_the_parameter(name, value):
+    with pytest.raises(ValueError, match=name):
+        CloudAssociator(**{name: value}).setup(None)
+
+
+def test_registered_as_cloud():
+    a = get_host().build("associator", {"type": "cloud", "params": {"sigma": 0.2}})
+    assert isinstance(a, CloudAssociator) and a.sigma == 0.2
