@@ -38,3 +38,13 @@ def positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {value}")
     return value
+
+
+def name_seed_options(parser: argparse.ArgumentParser) -> None:
+    """Give every integer seed option a plugin added to ``parser`` (``--seed``,
+    ``--scene-seed``, ...: ``type=int``) the :func:`seed` type, so that a negative seed is
+    refused by the option's name before the plugin runs."""
+    for action in parser._actions:
+        if action.type is int and any(
+                s == "--seed" or s.endswith("-seed") for s in action.option_strings):
+            action.type = seed

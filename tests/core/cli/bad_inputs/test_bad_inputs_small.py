@@ -253,3 +253,29 @@ def test_scale_plan_errors_name_the_camera_file_and_the_image_sizes(tmp_path):
     with pytest.raises(ValueError, match=r"^scale_plan on 768x576 frames: empty height range "
                                          r"\[50, 20\] px \(min_height_px > max_height_px\)"):
         scale_plan(80, 96, 88, (768, 576), min_height_px=50, max_height_px=20)
+
+
+def _seed_options(parser, path=()):
+    """``(command path, option, type)`` of every seed option under ``parser``."""
+    import argparse
+
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield from _seed_options(sub, (*path, name))
+        elif any(s == "--seed" or s.endswith("-seed") for s in action.option_strings):
+            yield " ".join(path), action.option_strings[0], action.type
+
+
+def test_every_seed_option_of_every_command_refuses_a_negative_seed(cli):
+    from pftrack.cli import _args, build_parser
+
+    found = list(_seed_options(build_parser()))
+    commands = {c for c, _, _ in found}
+    # the core's commands and the built-in plugins' benchmarks and demos
+    assert {"run", "track", "detector train", "calib people", "bench seed000",
+            "demo"} <= commands, commands
+    assert [f for f in found if f[2] is not _args.seed] == []
+    r = cli("bench", "seed000", "--scene-seed", "-1")
+    assert r.rc == 2 and ("argument --scene-seed: expected a random seed, an integer >= 0, got "
+                          "-1") in r.err
