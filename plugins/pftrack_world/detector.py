@@ -300,6 +300,16 @@ def heights_from_boxes(boxes_xywh_px: np.ndarray, image_size_wh: tuple[int, int]
     return px, heights
 
 
+def _camera_words(camera: Camera) -> str:
+    """``camera FILE (for WxH images)`` (or ``the camera NAME``) for a message."""
+    src = camera.metadata.get("source") if isinstance(camera.metadata, dict) else None
+    path = src.get("path") if isinstance(src, dict) else None
+    label = getattr(camera, "name", "") or ""
+    name = f"camera {path}" if path else (f"the camera {label!r}" if label else "the camera")
+    cw, ch = camera.image_size
+    return f"{name} (calibrated for {cw}x{ch} images)"
+
+
 def scale_plan(box_height_win: float, window_h: int, foot_offset_win: float,
                image_size_wh: tuple[int, int], *, scale_step: float = 1.15,
                min_height_px: float = 40.0, max_height_px: float = 400.0,
@@ -339,18 +349,30 @@ def scale_plan(box_height_win: float, window_h: int, foot_offset_win: float,
     h = image_size_wh[1]
     lo, hi = float(min_height_px), float(max_height_px)
     feet = heights = None
+    where = f"{image_size_wh[0]}x{image_size_wh[1]} frames"
     if camera is not None or expected is not None:
         if camera is not None:
             feet, heights = expected_heights_px(camera, height_m, image_size_wh)
+            where = f"{_camera_words(camera)} on {where}"
         else:
             feet, heights = (np.asarray(a, dtype=np.float64) for a in expected)
+            where = f"the person heights expected from the training boxes on {where}"
         ok = np.isfinite(heights)
         if not np.any(ok):
-            raise ValueError("scale_plan: no image row sees the ground through this camera")
+            raise ValueError(f"scale_plan: {where}: no image row sees the ground (check that "
+                             "the camera belongs to this video)")
         lo = max(lo, float(np.nanmin(heights)) / tolerance)
         hi = min(hi, float(np.nanmax(heights)) * tolerance)
+        if hi < lo:
+            raise ValueError(
+                f"scale_plan: {where}: people {height_m:g} m tall would be "
+                f"{np.nanmin(heights):.0f}-{np.nanmax(heights):.0f} px tall, outside the "
+                f"searched {min_height_px:g}-{max_height_px:g} px (min_height_px, "
+                f"max_height_px; tolerance {tolerance:g}): empty height range [{lo:.0f}, "
+                f"{hi:.0f}] px (check that the camera belongs to this video)")
     if hi < lo:
-        raise ValueError(f"scale_plan: empty height range [{lo:.0f}, {hi:.0f}] px")
+        raise ValueError(f"scale_plan on {where}: empty height range [{lo:.0f}, {hi:.0f}] px "
+                         "(min_height_px > max_height_px)")
     n = int(np.floor(np.log(hi / lo) / np.log(scale_step))) + 1
     bands = []
     slack = tolerance * np.sqrt(scale_step)

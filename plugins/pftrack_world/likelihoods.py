@@ -523,6 +523,29 @@ class DetectionLikelihood(Likelihood):
 # Composite (eq. 5, 9)
 # --------------------------------------------------------------------------------------------
 
+
+def _checked_term(term: Likelihood, logl: Any, n: int) -> np.ndarray:
+    """A term's log-likelihoods as float64 (n,), held to the contract the engine holds a
+    likelihood to (floating point, one per box, no NaN or +inf): the mix would otherwise turn
+    a term's NaN into an impossible particle and hide the term at fault."""
+    from pftrack.tracker import ComponentOutputError, component_label
+
+    arr = np.asarray(logl)
+    if arr.dtype.kind != "f":
+        raise ComponentOutputError(f"composite term {component_label(term)} returned "
+                                   f"log-likelihoods of dtype {arr.dtype}, expected floating "
+                                   "point")
+    if arr.shape != (n,):
+        raise ComponentOutputError(f"composite term {component_label(term)} returned "
+                                   f"log-likelihoods of shape {arr.shape}, expected ({n},) (one "
+                                   "per box)")
+    arr = arr.astype(np.float64, copy=False)
+    if not (arr < np.inf).all():
+        bad = int(np.count_nonzero(~(arr < np.inf)))
+        raise ComponentOutputError(f"composite term {component_label(term)} returned {bad} NaN "
+                                   f"or +inf log-likelihood(s) of {n}")
+    return arr
+
 _MIXES = ("sum", "product")
 _SYMBOLIC = ("beta", "1-beta")
 
@@ -684,7 +707,7 @@ class CompositeLikelihood(Likelihood):
         for term, w in zip(terms, self._weights(target)):
             if w <= 0:
                 continue  # a zero weight never needs its likelihood computed
-            parts.append(np.asarray(term.log_likelihood(boxes_xywh_px, target), dtype=np.float64))
+            parts.append(_checked_term(term, term.log_likelihood(boxes_xywh_px, target), n))
             logw.append(np.log(w))
         if not parts:
             return np.zeros(n)

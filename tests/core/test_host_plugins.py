@@ -133,9 +133,10 @@ def test_a_paper_arrives_as_a_plugin_without_editing_pftrack(sample_site, tmp_pa
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["MOTA"] > 0.9 and metrics["IDSW"] == 0, proc.stdout
     assert metrics["num_tracker_ids"] == 2
-    # its report writer drew the report (the frames kept: the first, and the 51st, beyond
-    # these 40)
-    assert sorted(p.name for p in (out / "report").iterdir()) == ["boxes_000001.png"]
+    # its report writer drew the report (the frames kept: the first, the middle and the last;
+    # the 51st lies beyond these 40)
+    assert sorted(p.name for p in (out / "report").iterdir()) == [
+        "boxes_000001.png", "boxes_000020.png", "boxes_000040.png"]
     ev = json.loads(_run(sample_site, ["-m", "pftrack", "eval", str(data / "gt.txt"),
                                        str(out / "tracks.txt"), "--json"]).stdout)
     sample = ev["plugin_metrics"]["sample-count"]

@@ -611,6 +611,9 @@ class Detector(Component):
     """Finds objects in a frame."""
 
     kind: ClassVar[str] = "detector"
+    #: The file name ending of the models :meth:`save` writes (checked before training);
+    #: None: any name.
+    model_suffix: ClassVar[str | None] = ".npz"
 
     def fit(self, frames: Sequence[Frame] | Iterator[Frame], boxes_by_frame: dict[int, np.ndarray],
             rng: np.random.Generator | None = None,

@@ -137,7 +137,7 @@ def explain_no_tracks(cfg: dict[str, Any], rows: np.ndarray,
 
 
 def detect_video(video: str | os.PathLike[str], cfg: dict[str, Any], frames: Any = None,
-                 camera: CameraSpec | None = None, progress: bool = False
+                 camera: CameraSpec | None = None, progress: bool | str = False
                  ) -> tuple[dict[int, Detections], tuple[int, int], dict[str, float]]:
     """Run the configuration's detector over the frames once.
 
@@ -234,7 +234,10 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
         return None, f"the camera could not be estimated from {len(b)} person boxes: {exc}"
     if not (np.isfinite(fit.camera_height_m) and fit.camera_height_m > 0):
         return None, f"the estimated camera height {fit.camera_height_m} is not usable"
-    lean = ", focal length from their lean" if getattr(fit, "slants_used", 0) else ""
+    lean = ""
+    if getattr(fit, "slants_used", 0):
+        lean = (", focal length from their lean" if fit.focal_identified else
+                ", focal length fitted to their lean but not identified (see camera_fit)")
     return fit, (f"estimated from {int(np.sum(fit.inliers))} of {len(b)} person boxes in "
                  f"frames {use[0]}-{use[-1]}{f' every {every}' if every > 1 else ''} (mean "
                  f"height {person_height_m} m{lean})")
@@ -271,7 +274,7 @@ TRACK_OUTPUTS = ("tracks.txt", "metrics.json", "summary.json", "camera.yaml")
 def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] | None, *,
                 camera: CameraSpec | None = None, detections: Any = None, preset: Any = None,
                 frames: Any = None, seed: int = 0, person_height_m: float = 1.7,
-                calib_min_score: float = 0.5, gt: Any = None, progress: bool = False,
+                calib_min_score: float = 0.5, gt: Any = None, progress: bool | str = False,
                 report: bool = True) -> FreshResult:
     """Track the people of ``video`` with no training: see the module docstring.
 
@@ -298,9 +301,10 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
     """
     from pftrack.io.detections import read_detections
     from pftrack.io.outputs import check_input_file, check_output_tree
-    from pftrack.pipeline import _load_camera, load_config, run_pipeline
+    from pftrack.pipeline import _load_camera, load_config, parse_frames, run_pipeline
 
     # everything that can be checked is checked before the detector's pass over the video
+    parse_frames(frames)
     video = check_input_file(video, "video")
     for option, path in (("--gt", gt), ("--camera", camera), ("--detections", detections)):
         if isinstance(path, (str, os.PathLike)):

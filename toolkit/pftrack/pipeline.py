@@ -134,26 +134,54 @@ def load_config(spec: str | os.PathLike[str] | dict[str, Any]) -> dict[str, Any]
     return cfg
 
 
-def parse_frames(text: str | tuple[int, int | None] | Sequence[int] | None
-                 ) -> tuple[int, int | None]:
-    """``"A:B"`` (inclusive, ground-truth numbering, 1-based) -> (A, B); ``"A:"`` -> (A, None)."""
+def parse_frames(text: str | tuple[int, int | None] | Sequence[int] | None,
+                 option: str = "--frames") -> tuple[int, int | None]:
+    """Frames to process, inclusive, in ground-truth numbering (1-based).
+
+    ``"A:B"`` -> (A, B); ``"A:"`` -> (A, None) (to the end); ``":B"`` -> (1, B); ``"A"`` ->
+    (A, A); ``None`` -> (1, None) (all frames); a pair ``(A, B)`` of integers (``B`` may be
+    None) as it is. Anything else (an empty string, a number that is not an integer, ``A < 1``,
+    ``B < A``) is a :class:`ValueError` naming ``option``.
+    """
+    import operator
+
+    form = "A:B (1-based, inclusive; A: to the end; leave it out for all frames)"
     if text is None:
         return 1, None
-    if not isinstance(text, str):
-        lo, hi = text
-        return int(lo), None if hi is None else int(hi)
-    a, sep, b = text.partition(":")
-    try:
-        first = int(a) if a.strip() else 1
-        last = int(b) if b.strip() else None
-    except ValueError:
-        raise ValueError(
-            f"--frames must look like A:B (1-based, inclusive), got {text!r}") from None
-    if not sep:
-        last = first
+    if isinstance(text, str):
+        if not text.strip():
+            raise ValueError(f"{option} is empty: give {form}")
+        a, sep, b = text.partition(":")
+        try:
+            first = int(a) if a.strip() else 1
+            last = int(b) if b.strip() else None
+        except ValueError:
+            raise ValueError(f"{option} must look like {form}, got {text!r}") from None
+        if not sep:
+            last = first
+    else:
+        try:
+            lo, hi = text
+            # operator.index: integers only (1.7 or "3" is not a frame number)
+            first = operator.index(lo)
+            last = None if hi is None else operator.index(hi)
+        except (TypeError, ValueError):
+            raise ValueError(f"{option} must be {form} or a pair of integers (A, B), got "
+                             f"{text!r}") from None
     if first < 1 or (last is not None and last < first):
-        raise ValueError(f"--frames {text!r}: need 1 <= A <= B")
-    return first, last
+        raise ValueError(f"{option} {text!r}: need 1 <= A <= B (1-based, inclusive), got "
+                         f"A = {first}, B = {'(end)' if last is None else last}")
+    return int(first), None if last is None else int(last)
+
+
+def seeded_rng(seed: Any, option: str = "seed") -> np.random.Generator:
+    """``numpy.random.default_rng(seed)``; a seed it refuses (a negative integer, a float) is a
+    :class:`ValueError` naming ``option``."""
+    try:
+        return np.random.default_rng(seed)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{option} {seed!r}: not a random seed (an integer >= 0): "
+                         f"{exc}") from None
 
 
 # --------------------------------------------------------------------------------------------
@@ -188,7 +216,7 @@ def read_ground_truth(path: str | os.PathLike[str] | np.ndarray, first: int = 1,
     if isinstance(path, np.ndarray):
         rows = np.asarray(path, dtype=np.float64).reshape(-1, 10)
     else:
-        rows = read_mot(path)
+        rows = read_mot(path, allow_empty=False, what="ground truth")
     keep = rows[:, 0] >= first
     if last is not None:
         keep &= rows[:, 0] <= last
@@ -257,6 +285,13 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
     det_cfg = {"type": det_cfg.get("type", "svm"), "params": merged}
     det = build_detector({"detector": det_cfg}, RunContext(camera=_load_camera(camera)))
     first, last = parse_frames(frames)
+    if out is not None:
+        if not det.learns:
+            raise ValueError(f"detector {det_cfg['type']!r} learns nothing to save")
+        suffix = getattr(det, "model_suffix", None)
+        if suffix and Path(out).suffix != suffix:
+            raise ValueError(f"--out {out}: detector {det_cfg['type']!r} writes {suffix} "
+                             f"models; give a file name ending in {suffix}")
     rows = read_ground_truth(gt, first, last)
     pos: dict[int, np.ndarray] = {}
     ign: dict[int, np.ndarray] = {}
@@ -264,7 +299,7 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
         r = rows[rows[:, 0] == f]
         pos[int(f)] = r[r[:, 6] != 0, 2:6]
         ign[int(f)] = r[r[:, 6] == 0, 2:6]
-    rng = np.random.default_rng(seed)
+    rng = seeded_rng(seed)
     frames_it = iter_frames(video, first, last)
     if progress:
         from tqdm.auto import tqdm
@@ -278,8 +313,6 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
         raise ValueError(f"detector {det_cfg['type']!r} trained on --video {video} frames "
                          f"{first}:{'' if last is None else last}: {exc}") from None
     if out is not None:
-        if not det.learns:
-            raise ValueError(f"detector {det_cfg['type']!r} learns nothing to save")
         det.save(out)
     return det
 
@@ -362,7 +395,7 @@ def build_engine(cfg: dict[str, Any], *, camera: Camera | None = None, fps: floa
         parts["motion"], parts["likelihood"], parts["observation"], tracks=parts["tracks"],
         associator=parts["associator"], detection_driven=parts["associator"] is not None,
         dt=dt, valid_region=_valid_region(cfg.get("valid_region_m")),
-        rng=np.random.default_rng(seed), **topts)
+        rng=seeded_rng(seed), **topts)
 
 
 # --------------------------------------------------------------------------------------------
@@ -460,13 +493,16 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
                  gt: str | os.PathLike[str] | np.ndarray | None = None,
                  frames: str | tuple[int, int | None] | None = None,
                  detector_model: str | os.PathLike[str] | None = None, seed: int = 0,
-                 detections: dict[int, Detections] | None = None, progress: bool = True,
-                 report: bool = True) -> RunResult:
+                 detections: dict[int, Detections] | None = None,
+                 progress: bool | str = True, report: bool = True) -> RunResult:
     """Track ``video`` with ``config`` and write ``out_dir/tracks.txt`` (and ``metrics.json``
     with ground truth, ``report/*.png``).
 
     Parameters
     ----------
+    progress : bool or str
+        Show a progress bar on stderr; a string is its label (the command the user ran, e.g.
+        ``"pftrack track"``), followed by the configuration's name. True: ``"tracking"``.
     gt : path or ndarray (M, 10), optional
         MOTChallenge ground truth (a file, or its rows): scored into ``metrics.json`` and drawn
         in the report.
@@ -499,6 +535,14 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     first, last = parse_frames(frames)
     gt_all = None if gt is None else read_ground_truth(gt, first, last if last is not None
                                                          else 10**9)
+    if gt_all is not None and not len(gt_all):
+        import warnings
+
+        # a stretch with nobody in it is a legitimate test (of false positives)
+        warnings.warn(f"--gt {gt if isinstance(gt, (str, os.PathLike)) else '(rows)'}: no "
+                      f"ground-truth row in frames {first}..{'' if last is None else last}: "
+                      "the metrics count only the tracks' false positives", FrameWarning,
+                      stacklevel=2)
     if gt_all is not None and cam is not None and "people_fit" in cam.metadata:
         import warnings
 
@@ -532,14 +576,21 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     if progress:
         from tqdm.auto import tqdm
 
-        frame_iter = tqdm(frame_iter, total=n_total, desc=f"pftrack run {cfg.get('name', '')}",
-                          unit="frame", leave=False)
+        label = progress if isinstance(progress, str) else "tracking"
+        name = cfg.get("name")
+        frame_iter = tqdm(frame_iter, total=n_total, unit="frame", leave=False,
+                          desc=f"{label} ({name})" if name else label)
     records: list[TrackRecord] = []
     dets_out: dict[int, Detections] = {}
     t_det = t_trk = c_det = c_trk = 0.0
     n = 0
     keep_frames: dict[int, np.ndarray] = {}
-    want = _report_frames(first, last) if (report and out_dir is not None) else set()
+    drawing = report and out_dir is not None
+    # the middle from the frames announced when the run goes to the end; the last frame is the
+    # last one decoded, whatever the container announced
+    want = _report_frames(first, last if last is not None else (n_announced or None)) \
+        if drawing else set()
+    last_seen: tuple[int, np.ndarray] | None = None
     t_start, c_start = time.perf_counter(), time.process_time()
     for frame in frame_iter:
         t0, c0 = time.perf_counter(), time.process_time()
@@ -561,8 +612,12 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
             dets_out[frame.index] = d
         if frame.index in want:
             keep_frames[frame.index] = frame.image.copy()
+        elif drawing:
+            last_seen = (frame.index, frame.image)
     t_loop = time.perf_counter() - t_start
     c_loop = time.process_time() - c_start
+    if last_seen is not None and last_seen[0] > max(keep_frames, default=0):
+        keep_frames[last_seen[0]] = last_seen[1].copy()
     if n == 0:
         raise ValueError(f"video {video}: no frame decoded in frames {first}.."
                          f"{'' if last is None else last}")
@@ -622,11 +677,12 @@ def _warn_frames(report: Any) -> None:
 
 
 def _report_frames(first: int, last: int | None) -> set[int]:
-    """Frames kept for the report: the first, about 5 s (50 frames) later, and the last."""
-    out = {first, first + 50}
-    if last is not None:
-        out |= {last, (first + last) // 2}
-    return out
+    """Frames kept for the report: the first, about 5 s (50 frames) later, the middle and the
+    last of ``first..last`` (``last`` None, not known: the first two; the run adds the last
+    frame it decodes)."""
+    if last is None:
+        return {first, first + 50}
+    return {f for f in (first, first + 50, (first + last) // 2, last) if f <= last}
 
 
 def write_outputs(out_dir: str | os.PathLike[str], cfg: dict[str, Any], result: RunResult,

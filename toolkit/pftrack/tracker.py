@@ -200,6 +200,23 @@ class ComponentOutputError(RuntimeError):
     dtype); the message names the component and the module it comes from."""
 
 
+def component_label(component: Any) -> str:
+    """``likelihood 'name' of plugin 'p' (Class from module)``: a component named for a
+    message (its plugin when the process's host registered this class under that name)."""
+    cls = type(component)
+    kind = getattr(component, "kind", "component")
+    name = getattr(component, "name", None) or cls.__name__
+    plugin = ""
+    try:
+        from pftrack.host import get_host
+
+        entry = get_host().registry.get(kind, name)
+        plugin = f" of plugin {entry.plugin!r}" if entry.obj is cls else ""
+    except Exception:  # noqa: BLE001 - naming the plugin must not hide the fault itself
+        pass
+    return f"{kind} {name!r}{plugin} ({cls.__name__} from {cls.__module__})"
+
+
 class MultiTargetTracker:
     """The tracking engine: one particle filter per target; track management, observation
     model, motion, likelihood, detector and associator are its replaceable parts.
@@ -333,11 +350,8 @@ class MultiTargetTracker:
 
     @staticmethod
     def _who(component: Any) -> str:
-        """``likelihood 'name' (Class from module)``: the component at fault, for messages."""
-        cls = type(component)
-        name = getattr(component, "name", None) or cls.__name__
-        return f"{getattr(component, 'kind', 'component')} {name!r} ({cls.__name__} from " \
-               f"{cls.__module__})"
+        """The component at fault, for messages: :func:`component_label`."""
+        return component_label(component)
 
     def _checked_dtype(self, logl: Any) -> np.ndarray:
         arr = np.asarray(logl)

@@ -41,6 +41,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _plugin_commands(sub: argparse._SubParsersAction) -> None:
     import warnings
 
+    from pftrack.cli import _args
     from pftrack.host import PluginLoadWarning, get_host
 
     for entry in sorted(get_host().registry.entries("command"), key=lambda e: e.name):
@@ -52,6 +53,7 @@ def _plugin_commands(sub: argparse._SubParsersAction) -> None:
         p = sub.add_parser(entry.name, help=f"{cmd.summary} [{entry.plugin}]",
                            description=cmd.description or cmd.summary)
         cmd.add_arguments(p)
+        _args.name_seed_options(p)
         p.set_defaults(func=cmd.run)
 
 

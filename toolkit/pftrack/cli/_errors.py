@@ -5,8 +5,9 @@ Every exception that reaches :func:`pftrack.cli.main` becomes one line on stderr
 
 * ``0``: done;
 * ``1``: internal error (a bug in pftrack or a plugin; the line says so and names the
-  exception); ``--debug`` (anywhere on the command line, or ``PFTRACK_DEBUG=1``) prints the
-  traceback instead;
+  exception), or plugin error (a plugin's component returned what its contract forbids: NaN,
+  a wrong shape or dtype; the line names the component and its plugin); ``--debug`` (anywhere
+  on the command line, or ``PFTRACK_DEBUG=1``) prints the traceback instead;
 * ``2``: bad input: a missing or malformed file, a bad parameter or configuration, an output
   path that cannot be written (read-only, under a regular file, a full disk); the message names
   the file or parameter;
@@ -88,9 +89,22 @@ def handle(command: str | None, exc: BaseException, debug: bool, inputs: str = "
         _print(f"{prog}: error: {describe(exc)}")
         return EXIT_BAD_INPUT
     where = f" ({inputs})" if inputs else ""
+    if _is_component_fault(exc):
+        _print(f"{prog}: plugin error{where}: {describe(exc)} (the component's fault, not the "
+               "input's: tell its plugin's authors)")
+        return EXIT_INTERNAL
     _print(f"{prog}: internal error{where}: {type(exc).__name__}: {describe(exc)}"
            + ("" if debug else f" (run again with {DEBUG_FLAG} for the traceback)"))
     return EXIT_INTERNAL
+
+
+def _is_component_fault(exc: BaseException) -> bool:
+    """A component broke its contract (:class:`pftrack.tracker.ComponentOutputError`)."""
+    try:
+        from pftrack.tracker import ComponentOutputError
+    except Exception:  # noqa: BLE001 - an engine that does not import: an internal error
+        return False
+    return isinstance(exc, ComponentOutputError)
 
 
 def precheck_out(args: Any) -> None:

@@ -15,6 +15,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from pftrack.cli import _args
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -26,12 +28,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     where.add_argument("--scheduler", metavar="ADDRESS",
                        help="a running Dask scheduler (tcp://HOST:8786): the jobs go to its "
                             "workers; DIR must be on a file system they share")
-    where.add_argument("--workers", type=int, default=None, metavar="N",
+    where.add_argument("--workers", type=_args.positive_int, default=None, metavar="N",
                        help="worker processes of the local cluster (default: the cores); 1 runs "
                             "the jobs one after another without Dask")
     p.add_argument("--resume", action="store_true",
                    help="skip the jobs whose folder holds their complete result")
-    p.add_argument("--retries", type=int, default=2,
+    p.add_argument("--retries", type=_args.non_negative_int, default=2,
                    help="Dask retries of a job whose worker failed (default 2)")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
     p.set_defaults(func=handler)

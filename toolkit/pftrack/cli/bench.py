@@ -12,6 +12,7 @@ import argparse
 import json
 import sys
 
+from pftrack.cli import _args
 from pftrack.extensions import Benchmark
 
 
@@ -27,6 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         bp.add_argument("--json", action="store_true", help="print the result as JSON")
         bp.add_argument("--out", help="also write the JSON result to this file (atomically)")
         bench.add_arguments(bp)
+        _args.name_seed_options(bp)
         bp.set_defaults(func=_make_handler(bench))
     p.set_defaults(func=lambda a: (p.print_help(), 2)[1])
 

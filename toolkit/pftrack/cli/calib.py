@@ -23,6 +23,8 @@ import json
 import sys
 from typing import TYPE_CHECKING, Any
 
+from pftrack.cli import _args
+
 if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera
 
@@ -129,7 +131,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     src.add_argument("--detections", help="MOTChallenge det.txt (frame,id,x,y,w,h,score,...)")
     e.add_argument("--frames", default=None, metavar="A:B",
                    help="frames A..B inclusive (1-based) to use or detect in; default all")
-    e.add_argument("--stride", type=int, default=4,
+    e.add_argument("--stride", type=_args.positive_int, default=4,
                    help="detect in every Nth frame (default 4)")
     e.add_argument("--min-score", type=float, default=None,
                    help="drop detections scoring below this (default: keep all)")
@@ -151,9 +153,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="fit from the people's silhouettes in the moving pixels (their top and "
                         "bottom rows, their lean) rather than the boxes' rows (default: on when "
                         "people are detected here, off for --boxes / --detections)")
-    e.add_argument("--bootstrap", type=int, default=100,
+    e.add_argument("--bootstrap", type=_args.non_negative_int, default=100,
                    help="bootstrap refits for the uncertainty (0: from the Jacobian)")
-    e.add_argument("--seed", type=int, default=0, help="seed of the RANSAC and bootstrap")
+    e.add_argument("--seed", type=_args.seed, default=0, help="seed of the RANSAC and bootstrap")
     e.add_argument("--out", help="write the camera here (pftrack YAML unless --format)")
     e.add_argument("--format", help="output format: pftrack, tsai, opencv, open3d")
     e.add_argument("--save-boxes", help="write the boxes used (x,y,w,h,frame,score,inlier) here")
@@ -388,8 +390,7 @@ def _people(args: argparse.Namespace) -> int:
              f"  tilt          {fit.tilt_deg:9.2f} +- {u['tilt_deg']:.2f} deg",
              f"  roll          {fit.roll_deg:9.2f} +- {u['roll_deg']:.2f} deg",
              f"  focal length  {fit.focal_px:9.1f} +- {u['focal_px']:.1f} px"
-             + ("" if fit.focal_identified else " (prior)")
-             + (f" (from {fit.slants_used} people's lean)" if fit.slants_used else ""),
+             + _focal_source(fit),
              (f"  distortion k  {fit.distortion_k:9.4f} +- {u['distortion_k']:.4f} "
              "(radial, relative displacement at the image corner; 0: pinhole)"),
              (f"  box height spread (1-sigma, relative) {fit.residual_sd:.3f}; "
@@ -404,3 +405,11 @@ def _people(args: argparse.Namespace) -> int:
     if args.out:
         lines.append(f"  written to {args.out}")
     return _emit(out, args.json, "\n".join(lines))
+
+
+def _focal_source(fit) -> str:
+    """Where the focal length printed comes from, in the words of ``fit.notes``."""
+    if fit.slants_used:
+        return (f" (from {fit.slants_used} leans)" if fit.focal_identified else
+                f" (fitted to {fit.slants_used} leans, not identified)")
+    return "" if fit.focal_identified else " (prior)"

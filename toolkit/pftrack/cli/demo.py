@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 
+from pftrack.cli import _args
 from pftrack.extensions import Demo
 
 
@@ -33,11 +34,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         dp = dsub.add_parser(name, help=demo.summary + (" (default)" if name == default else ""))
         dp.add_argument("--out", required=True, help="output folder (created)")
         demo.add_arguments(dp)
+        _args.name_seed_options(dp)
         dp.set_defaults(func=demo.run)
     if default is not None:
         # ``pftrack demo --out DIR [its options]`` runs the default demo
         p.add_argument("--out", help="output folder (created)")
         demos[default].add_arguments(p)
+        _args.name_seed_options(p)
     p.set_defaults(func=_make_default_handler(demos, default))
 
 

@@ -13,6 +13,8 @@ import argparse
 import json
 import sys
 
+from pftrack.cli import _args
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("detector", help="train or inspect an SVM detector model")
@@ -33,7 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="camera file: hard-negative mining scans the camera's scales")
     t.add_argument("--feature", choices=("hog", "grey"), default=None,
                    help="window feature (default: the config's; grey = the paper's grey levels)")
-    t.add_argument("--seed", type=int, default=None, help="seed of the negative sampling")
+    t.add_argument("--seed", type=_args.seed, default=None, help="seed of the negative sampling")
     t.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
     t.set_defaults(func=train_handler)
     i = dsub.add_parser("info", help="print a model's parameters and training record")

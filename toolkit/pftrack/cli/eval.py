@@ -40,8 +40,8 @@ def handler(args: argparse.Namespace) -> int:
     from pftrack.io.mot import read_mot
     from pftrack.metrics.mot import evaluate, format_table
 
-    gt = read_mot(args.gt)
-    tracks = read_mot(args.tracks)
+    gt = read_mot(args.gt, allow_empty=False, what="ground truth")
+    tracks = read_mot(args.tracks, what="tracks")
     try:
         result = evaluate(gt, tracks, metric=args.metric, threshold=args.threshold,
                           zero_marked=args.zero_marked)

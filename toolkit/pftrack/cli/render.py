@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import argparse
 
+from pftrack.cli import _args
+
 MAX_SIDE_PX = 8192
 
 
@@ -51,7 +53,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     t.set_defaults(func=topview_handler)
     o = rs.add_parser("overlay", help="boxes, ids and projected ground dots on a video frame")
     o.add_argument("--video", required=True, help="video file")
-    o.add_argument("--frame", type=int, required=True, help="MOT frame number (1-based)")
+    o.add_argument("--frame", type=_args.positive_int, required=True,
+                   help="MOT frame number (1-based)")
     o.add_argument("--tracks", required=True, help="MOTChallenge CSV")
     o.add_argument("--camera", help="camera file (pftrack YAML, Tsai XML, OpenCV, Open3D)")
     o.add_argument("--out", required=True, help="output PNG")

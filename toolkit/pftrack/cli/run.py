@@ -14,6 +14,8 @@ import argparse
 import json
 import sys
 
+from pftrack.cli import _args
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -34,7 +36,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--detections", default=None, metavar="FILE",
                    help="MOTChallenge det.txt (frame,id,left,top,width,height,conf): track these "
                         "detections instead of running the configuration's detector")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=_args.seed, default=0, help="random seed (default 0)")
     p.add_argument("--no-report", action="store_true", help="do not draw report images")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
     p.set_defaults(func=handler)
@@ -45,7 +47,8 @@ def handler(args: argparse.Namespace) -> int:
 
     result = run_pipeline(args.config, video=args.video, camera=args.camera, out_dir=args.out,
                           gt=args.gt, frames=args.frames, detector_model=args.detector_model,
-                          seed=args.seed, progress=not args.quiet, report=not args.no_report,
+                          seed=args.seed, progress=False if args.quiet else "pftrack run",
+                          report=not args.no_report,
                           detections=args.detections)
     _say_why(args, result)
     if not args.quiet:

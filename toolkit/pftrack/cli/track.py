@@ -13,6 +13,8 @@ import argparse
 import json
 import sys
 
+from pftrack.cli import _args
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -33,7 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--person-height", type=float, default=1.7, metavar="M",
                    help="mean person height for the camera estimate, metres (default 1.7)")
     p.add_argument("--gt", default=None, help="MOTChallenge ground truth: also score the run")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=_args.seed, default=0, help="random seed (default 0)")
     p.add_argument("--no-report", action="store_true", help="do not draw report images")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
     p.set_defaults(func=handler)
@@ -45,7 +47,8 @@ def handler(args: argparse.Namespace) -> int:
     res = track_video(args.video, args.out, camera=args.camera, detections=args.detections,
                       preset=args.preset, frames=args.frames, seed=args.seed,
                       person_height_m=args.person_height, gt=args.gt,
-                      progress=not args.quiet, report=not args.no_report)
+                      progress=False if args.quiet else "pftrack track",
+                      report=not args.no_report)
     for m in res.messages:
         print(f"pftrack track: {m}", file=sys.stderr)
     if not args.quiet:

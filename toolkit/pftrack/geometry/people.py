@@ -773,10 +773,13 @@ def estimate_camera_from_people(boxes_xywh: Any, image_size: tuple[int, int],
         post_log_sd = unc["focal_px"] / figs[4]
         focal_identified = bool(post_log_sd < 0.5 * PRIOR_LOG_FOCAL_SD)
         if not focal_identified:
-            notes.append(f"focal length not identified by the boxes: it follows the prior "
-                         f"(horizontal field of view {PRIOR_HFOV_DEG:g} deg, log-sd "
-                         f"{PRIOR_LOG_FOCAL_SD:g}); the horizon row and camera height are "
-                         "still fitted")
+            fitted_from = (f"the {n_slants} leans and the heights" if sl_in is not None
+                           else "the boxes")
+            notes.append(f"focal length not identified: fitted from {fitted_from} to "
+                         f"{figs[4]:.0f} +- {unc['focal_px']:.0f} px (log-sd {post_log_sd:.2f}, "
+                         f"not under half the prior's {PRIOR_LOG_FOCAL_SD:g}; the prior: "
+                         f"{f0:.0f} px, a horizontal field of view of {PRIOR_HFOV_DEG:g} deg); "
+                         "the horizon row and camera height are still fitted")
     cam = camera_from_parameters(figs[4], figs[2], figs[3], figs[1], (w, h),
                                  distortion_k=float(figs[5]))
     cam.metadata["source"] = (f"pftrack.geometry.people: {int(inl.sum())} of {n_all} boxes, "

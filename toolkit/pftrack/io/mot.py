@@ -91,7 +91,8 @@ def _parse_line(text: str, where: str) -> list[float]:
     return values + [UNKNOWN] * (10 - len(values))
 
 
-def read_mot(path: str | os.PathLike[str], *, check_unique: bool = True) -> np.ndarray:
+def read_mot(path: str | os.PathLike[str], *, check_unique: bool = True,
+             allow_empty: bool = True, what: str = "MOT file") -> np.ndarray:
     """Read a MOTChallenge CSV file.
 
     Parameters
@@ -102,6 +103,12 @@ def read_mot(path: str | os.PathLike[str], *, check_unique: bool = True) -> np.n
     check_unique
         Raise if an id appears twice in the same frame (MOTChallenge forbids it and every metric
         would be ill-defined).
+    allow_empty
+        False: a file with no row (empty, or only blank and comment lines) is a ``ValueError``
+        (a ground truth to score against). True: it reads as no rows (a run that tracked
+        nothing writes such a ``tracks.txt``).
+    what
+        What the file is, for the messages (``"MOT file"``, ``"--gt"``, ...).
 
     Returns
     -------
@@ -111,15 +118,17 @@ def read_mot(path: str | os.PathLike[str], *, check_unique: bool = True) -> np.n
 
     Raises
     ------
-    FileNotFoundError
-        When ``path`` does not exist.
+    FileNotFoundError, IsADirectoryError
+        When ``path`` does not exist, or is a folder.
     ValueError
         On a malformed line (wrong column count, non-numeric value, non-integer frame/id, negative
         size, NaN) or a duplicated (frame, id), naming the file and line number.
     """
     path = Path(path)
+    if path.is_dir():
+        raise IsADirectoryError(f"{what} {path}: is a folder, expected a MOTChallenge file")
     if not path.is_file():
-        raise FileNotFoundError(f"MOT file not found: {path}")
+        raise FileNotFoundError(f"{what} not found: {path}")
     rows: list[list[float]] = []
     lines: list[int] = []
     with path.open("r", encoding="utf-8-sig") as fh:
@@ -130,6 +139,9 @@ def read_mot(path: str | os.PathLike[str], *, check_unique: bool = True) -> np.n
             rows.append(_parse_line(text, f"{path}, line {lineno}"))
             lines.append(lineno)
     out = np.asarray(rows, dtype=np.float64).reshape(-1, 10)
+    if not allow_empty and not len(out):
+        raise ValueError(f"{what} {path}: no rows (the file is empty, or only blank and comment "
+                         "lines): nothing to score against")
     if check_unique and len(out):
         dup = _first_duplicate(out)
         if dup is not None:

@@ -1,8 +1,8 @@
 """Catalogue: hostile and broken plugins. A likelihood that raises or returns NaN, +inf, the
-wrong shape or the wrong dtype stops the run with exit 1 and a one-line message naming the
-component and its module, leaving the previous outputs; a plugin that takes a built-in's name
-is refused (the built-in wins) unless it overrides on purpose, and the warning names it; an
-unknown name in PFTRACK_DISABLE_PLUGINS and a misspelt hook name are warned."""
+wrong shape or the wrong dtype stops the run with exit 1 and a one-line "plugin error" naming
+the component, its plugin and its module, leaving the previous outputs; a plugin that takes a
+built-in's name is refused (the built-in wins) unless it overrides on purpose, and the warning
+names it; an unknown name in PFTRACK_DISABLE_PLUGINS and a misspelt hook name are warned."""
 
 from __future__ import annotations
 
@@ -97,8 +97,8 @@ def test_bad_likelihood_output_stops_the_run(work, cli, plugin_host, name):
     r = cli("run", cfg, "--video", work.video, "--out", work.out, "--quiet")
     assert r.rc == 1
     line = one_line(r.err)
-    assert line.startswith("pftrack run: internal error")
-    assert f"likelihood 'evil-{name}' (Evil from evil_plugin.likelihoods)" in line
+    assert line.startswith("pftrack run: plugin error")
+    assert f"likelihood 'evil-{name}' of plugin 'evil' (Evil from evil_plugin.likelihoods)" in line
     assert EXPECT[name] in line
     assert_untouched(before, work.dir)
 
