@@ -6,8 +6,9 @@ configuration behind one call per frame::
     import pftrack
 
     tracker = pftrack.Tracker("people-image", seed=0)
-    for image, boxes in zip(frames, detections):       # boxes: (N, 4|5|6) x1, y1, x2, y2[, score[, class_id]]
-        out = tracker.update(boxes, frame=image)       # this frame's tracks
+    # boxes: (N, 4|5|6) arrays x1, y1, x2, y2[, score[, class_id]], pixels
+    for image, boxes in zip(frames, detections):
+        out = tracker.update(boxes, frame=image)   # this frame's tracks
         out.tracker_id, out.xyxy, out.confidence, out.class_id, out.xyxy_sd
 
 Inputs and outputs use supervision's names (``xyxy``, ``confidence``, ``class_id``,
@@ -125,6 +126,9 @@ class Tracks:
         when the cloud is Gaussian.
     frame : ndarray (M,), int64
         The frame each row describes (MOTChallenge numbering, from 1).
+    xywh : ndarray (M, 4), float64
+        The same box as ``left, top, width, height`` in pixels, exactly as the engine output
+        it (``tracks.txt``'s columns; ``xyxy`` is computed from it).
     confirmed_earlier : Tracks or None
         Rows of *earlier* frames that became known in this frame: a track manager that waits
         for a new track to be confirmed (the ``confirmed`` track manager: ``confirm_hits``
@@ -142,6 +146,7 @@ class Tracks:
     frame: np.ndarray
     world_m: np.ndarray | None = None
     world_cov: np.ndarray | None = None
+    xywh: np.ndarray | None = field(default=None, repr=False)
     confirmed_earlier: Tracks | None = field(default=None, repr=False)
 
     def __len__(self) -> int:
@@ -156,7 +161,13 @@ class Tracks:
     def empty(cls, world: bool = False) -> Tracks:
         return cls(np.zeros(0, np.int64), np.zeros((0, 4)), np.zeros(0), np.zeros(0, np.int64),
                    np.zeros((0, 4)), np.zeros(0, np.int64),
-                   np.zeros((0, 3)) if world else None, np.zeros((0, 2, 2)) if world else None)
+                   np.zeros((0, 3)) if world else None, np.zeros((0, 2, 2)) if world else None,
+                   np.zeros((0, 4)))
+
+    def __post_init__(self) -> None:
+        if self.xywh is None:
+            self.xywh = np.concatenate([self.xyxy[:, :2], self.xyxy[:, 2:] - self.xyxy[:, :2]],
+                                       axis=1)
 
     @classmethod
     def concat(cls, parts: Sequence[Tracks]) -> Tracks:
@@ -166,7 +177,7 @@ class Tracks:
         if not parts:
             return cls.empty()
         world = parts[0].world_m is not None
-        out = {}
+        out: dict[str, Any] = {}
         for f in fields(cls):
             if f.name == "confirmed_earlier":
                 continue
@@ -183,8 +194,7 @@ class Tracks:
         rows = np.full((len(self), 10), -1.0)
         rows[:, 0] = self.frame
         rows[:, 1] = self.tracker_id
-        rows[:, 2:4] = self.xyxy[:, :2]
-        rows[:, 4:6] = self.xyxy[:, 2:] - self.xyxy[:, :2]
+        rows[:, 2:6] = self.xywh
         rows[:, 6] = self.confidence
         if self.world_m is not None:
             rows[:, 7:10] = self.world_m
@@ -263,7 +273,7 @@ def _class_column(values: Any, n: int, arg: str) -> np.ndarray:
         bad = ~np.isfinite(cf) | (cf != np.round(cf))
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            raise ValueError(f"update({arg}): row {i}: class_id {c[i]!r} is not an integer")
+            raise ValueError(f"update({arg}): row {i}: class_id {c[i]} is not an integer")
         c = cf
     c = c.astype(np.int64)
     if (c < 0).any():
@@ -409,9 +419,11 @@ def _cloud(engine: MultiTargetTracker, world: bool) -> _Cloud:
     if not targets:
         return out
     filters = getattr(engine, "_filters", {})
-    boxes, weights, parts = [], [], []
+    boxes: list[np.ndarray] = []
+    weights: list[np.ndarray | None] = []
+    parts: list[np.ndarray] = []
     for t in targets:
-        p = t.particles
+        p = np.asarray(t.particles)
         ri = t.resample_index
         b = t.particle_boxes_xywh_px
         if ri is not None and b is not None and len(ri) == len(p):
@@ -506,7 +518,7 @@ def host_with(plugins: Iterable[Any], name: str = "notebook") -> Any:
                                  "(Likelihood, MotionModel, TrackManager, ...)")
             classes.append(p)
         elif isinstance(p, type):
-            raise ValueError(f"plugins[{i}]: {p.__name__} is not a pftrack component class "
+            raise TypeError(f"plugins[{i}]: {p.__name__} is not a pftrack component class "
                              "(subclass pftrack.components.Likelihood, MotionModel, ...)")
         else:
             objects.append((getattr(p, "__name__", f"{name}-{i}"), p))
@@ -566,7 +578,7 @@ class Tracker:
                 and np.isfinite(fps)):
             raise ValueError(f"Tracker(fps={fps!r}): must be a positive number (frames/s)")
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
-            raise ValueError(f"Tracker(seed={seed!r}): must be an integer")
+            raise TypeError(f"Tracker(seed={seed!r}): must be an integer")
         self.host = host_with(plugins) if plugins else get_host()
         self.config = load_config(config)
         self.fps = float(fps)
@@ -575,7 +587,7 @@ class Tracker:
             from pftrack.geometry.formats import load_camera
 
             camera = load_camera(camera)
-        self.camera = camera
+        self.camera: Camera | None = camera  # type: ignore[assignment]
         self.keep_history = bool(keep_history)
         self._image_size = None if image_size is None else self._size_arg(image_size)
         self._build = build_engine
@@ -736,7 +748,7 @@ class Tracker:
         if frame_index is None:
             return self._last_index + 1
         if isinstance(frame_index, bool) or not isinstance(frame_index, (int, np.integer)):
-            raise ValueError(f"update(frame_index={frame_index!r}): must be an integer")
+            raise TypeError(f"update(frame_index={frame_index!r}): must be an integer")
         if frame_index <= self._last_index:
             raise ValueError(f"update(frame_index={frame_index}): frames must come in order; "
                              f"the last was {self._last_index} (reset() starts a new video)")
@@ -755,7 +767,7 @@ class Tracker:
                                  "frame=image or Tracker(..., image_size=(width, height))")
             return size
         if not isinstance(image, np.ndarray):
-            raise ValueError(f"update(frame=...): expected an (H, W, 3) uint8 numpy image "
+            raise TypeError(f"update(frame=...): expected an (H, W, 3) uint8 numpy image "
                              f"or a pftrack.Frame, got {type(image).__name__}")
         if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
             raise ValueError(f"update(frame=...): expected an (H, W, 3) uint8 BGR image, got "
@@ -826,7 +838,7 @@ class Tracker:
             xyxy=xyxy, confidence=np.array([r.confidence for r in records], dtype=np.float64),
             class_id=np.full(n, c, dtype=np.int64), xyxy_sd=np.array([x[0] for x in s]),
             frame=np.array([r.frame for r in records], dtype=np.int64), world_m=wm,
-            world_cov=cov)
+            world_cov=cov, xywh=box)
 
     # -- results ------------------------------------------------------------------------------
 
@@ -837,7 +849,7 @@ class Tracker:
             return Tracks.empty(self._world)
         allt = Tracks.concat(self.history)
         order = np.lexsort((allt.tracker_id, allt.frame))
-        return Tracks(**{f.name: (None if getattr(allt, f.name) is None
+        return Tracks(**{f.name: (None if getattr(allt, f.name) is None  # type: ignore[arg-type]
                                   else getattr(allt, f.name)[order])
                          for f in fields(Tracks) if f.name != "confirmed_earlier"})
 
