@@ -10,7 +10,7 @@ import copy
 import numpy as np
 import pftrack
 import pytest
-from pftrack.api import Tracker, image_readers
+from pftrack.api import Tracker, Tracks, image_readers
 from pftrack.components import Detections, Likelihood
 from pftrack.data import data_dir
 from pftrack.host import UnknownComponentError
@@ -82,9 +82,9 @@ def test_numpy_tracks_and_late_rows_apart():
 
 
 def test_xyxy_sd_is_the_particle_spread():
-    """Birth: particles spread init_spread (1 px) about the box centre; later the spread of the
-    cloud, equal for x1 and x2 (a box of fixed size moves with its centre), and close to the
-    engine's own extent (2 sd of the weighted particles before resampling)."""
+    """Image boxes of a fixed size centred on the state: each edge's sd is the centre's, half
+    the engine's extent (2 sd of the weighted particles); at birth the particles' spread,
+    init_spread (1 px)."""
     tr = Tracker(DET_ONLY, seed=0, image_size=SIZE)
     frames = _walkers(20)
     for d in frames[:3]:
@@ -93,13 +93,15 @@ def test_xyxy_sd_is_the_particle_spread():
     assert np.all((birth > 0.8) & (birth < 1.2))
     for d in frames[3:]:
         out = tr.update(d)
-    np.testing.assert_allclose(out.xyxy_sd[:, 0], out.xyxy_sd[:, 2])
-    np.testing.assert_allclose(out.xyxy_sd[:, 1], out.xyxy_sd[:, 3])
     engine = tr.engines[0]
     ext = {t.id: t.extent for t in engine.targets}
     for tid, sd in zip(out.tracker_id, out.xyxy_sd):
-        np.testing.assert_allclose(sd[:2], ext[int(tid)][:2] / 2, rtol=0.25)
+        np.testing.assert_array_equal(sd, ext[int(tid)][[0, 1, 0, 1]] / 2)
         assert sd[0] > 0.3
+    # the same from the particles themselves (equal weights after resampling)
+    for t in engine.targets:
+        p = t.particles
+        np.testing.assert_allclose(p[:, :2].std(axis=0), t.extent[:2] / 2, rtol=0.3)
 
 
 def test_every_input_kind_gives_the_same_tracks():
@@ -346,3 +348,35 @@ def test_same_tracks_as_the_cli(pets_slice, tmp_path):
     np.testing.assert_allclose(got, res.rows, rtol=0, atol=1e-6)
     # the reader of the same file gives the same per-frame detections
     assert read_detections(path).keys() == dets.keys()
+
+
+def test_camera_tracks_carry_ground_position_and_covariance(pets_slice):
+    """people-ground with the PETS camera: ground positions near the ground truth's, each
+    covariance symmetric positive definite with the variances of the engine's extent (the
+    resampled cloud against the weighted one: within a factor), box sds from the particles'
+    boxes; rows of frames before a confirmation get their own frame's spread."""
+    frames, gt = pets_slice
+    tr = Tracker("people-ground", seed=0, fps=7, camera=PETS / "View_001.xml")
+    late = []
+    for fr in frames[:25]:
+        g = gt[gt[:, 0] == fr.index]
+        out = tr.update(np.c_[g[:, 2:4], g[:, 2:4] + g[:, 4:6], np.full(len(g), 0.9)], frame=fr)
+        late.append(out.confirmed_earlier)
+    assert out.world_xy is not None and out.world_cov is not None and len(out) >= 4
+    cov = out.world_cov
+    np.testing.assert_allclose(cov, cov.transpose(0, 2, 1))
+    assert np.all(np.linalg.eigvalsh(cov) > 0)
+    ext = {t.id: t.extent for t in tr.engines[0].targets}
+    for tid, c in zip(out.tracker_id, cov):
+        var = (ext[int(tid)][:2] / 2) ** 2
+        assert np.all((np.diag(c) > var / 3) & (np.diag(c) < var * 3))
+    assert np.all(np.isfinite(out.xyxy_sd)) and np.all(out.xyxy_sd > 0)
+    # ground positions: each track within 1 m of a ground-truth person of its frame
+    g = gt[gt[:, 0] == out.frame[0]]
+    d = np.linalg.norm(out.world_xy[:, None] - g[None, :, 7:9], axis=2).min(axis=1)
+    assert np.all(d < 1.0), d
+    early = Tracks.concat([t for t in late if len(t)])
+    assert len(early) > 0 and np.all(np.isfinite(early.xyxy_sd))
+    assert np.all(np.isfinite(early.world_cov))
+    df = tr.to_dataframe()
+    assert {"world_x", "world_y", "world_var_x", "world_cov_xy", "world_var_y"} <= set(df)

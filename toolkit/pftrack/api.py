@@ -393,12 +393,11 @@ class _Cloud:
 def _weighted_cov(x: np.ndarray, w: np.ndarray | None) -> np.ndarray:
     """(T, N, K) values with weights (T, N) (None: equal) -> (T, K, K) covariances."""
     if w is None:
-        mean = x.mean(axis=1, keepdims=True)
-        d = x - mean
-        return np.einsum("tnk,tnl->tkl", d, d) / x.shape[1]
-    mean = np.einsum("tn,tnk->tk", w, x)[:, None, :]
+        d = x - x.mean(axis=1, keepdims=True)
+        return np.matmul(d.transpose(0, 2, 1), d) / x.shape[1]
+    mean = np.matmul(w[:, None, :], x)  # (T, 1, K)
     d = x - mean
-    return np.einsum("tn,tnk,tnl->tkl", w, d, d)
+    return np.matmul((d * w[:, :, None]).transpose(0, 2, 1), d)
 
 
 def _ground_points(observation: Any, particles: np.ndarray) -> np.ndarray | None:
@@ -412,45 +411,50 @@ def _ground_points(observation: Any, particles: np.ndarray) -> np.ndarray | None
 
 
 def _cloud(engine: MultiTargetTracker, world: bool) -> _Cloud:
-    """The spread of every live target's particle cloud, all targets with as many particles
-    in one pass."""
+    """The spread of every live target's particle cloud as the filter carries it into the next
+    frame; the targets resampled this frame with as many particles, in one pass."""
     targets = engine.targets
     out = _Cloud({}, {})
     if not targets:
         return out
+    n = engine.n_particles
+    resampled = [i for i, t in enumerate(targets)
+                 if t.resample_index is not None and t.particle_boxes_xywh_px is not None
+                 and len(t.resample_index) == n == len(t.particles)
+                 and len(t.particle_boxes_xywh_px) == n]
+    groups: list[tuple[list[int], np.ndarray, np.ndarray, np.ndarray | None]] = []
+    if resampled:
+        # the current particles' boxes: rows of the weighted particles' boxes they copy
+        T = len(resampled)
+        B = np.array([targets[i].particle_boxes_xywh_px for i in resampled])
+        ri = np.array([targets[i].resample_index for i in resampled])
+        ri += (np.arange(T) * n)[:, None]
+        B = B.reshape(-1, 4).take(ri.ravel(), axis=0).reshape(T, n, 4)
+        P = np.array([targets[i].particles for i in resampled]) if world else B
+        groups.append((resampled, B, P, None))  # equal weights after resampling
     filters = getattr(engine, "_filters", {})
-    boxes: list[np.ndarray] = []
-    weights: list[np.ndarray | None] = []
-    parts: list[np.ndarray] = []
-    for t in targets:
-        p = np.asarray(t.particles)
-        ri = t.resample_index
-        b = t.particle_boxes_xywh_px
-        if ri is not None and b is not None and len(ri) == len(p):
-            boxes.append(b[ri])  # the current particles' boxes (copies of the weighted ones)
-            weights.append(None)  # resampled: equal weights
-        else:
-            boxes.append(engine.observation.to_boxes(p, t))
-            f = filters.get(t.id)
-            w = None if f is None else np.asarray(f.weights)
-            weights.append(None if w is None or len(w) != len(p) else w)
-        parts.append(p)
-    groups: dict[tuple[int, bool], list[int]] = {}
-    for i, (b, w) in enumerate(zip(boxes, weights)):
-        groups.setdefault((len(b), w is None), []).append(i)
-    for (_, equal), idx in groups.items():
-        B = np.array([boxes[i] for i in idx])  # (T, N, 4) xywh
-        X = np.concatenate([B[..., :2], B[..., :2] + B[..., 2:]], axis=2)
-        W = None if equal else np.array([weights[i] for i in idx])
+    done = set(resampled)
+    for i, t in enumerate(targets):  # born this frame, or not resampled: one by one
+        if i in done:
+            continue
+        p = np.asarray(t.particles, dtype=np.float64)
+        f = filters.get(t.id)
+        w = None if f is None else np.asarray(f.weights, dtype=np.float64)
+        if w is not None and (len(w) != len(p) or np.all(w == w[0])):
+            w = None
+        groups.append(([i], np.array(engine.observation.to_boxes(p, t))[None], p[None],
+                       None if w is None else w[None]))
+    for idx, B, P, W in groups:
+        X = B  # (T, N, 4) -> xyxy in place (B is this function's own array)
+        X[..., 2:] += X[..., :2]
         if W is None:
             sd = X.std(axis=1)
         else:
-            m = np.einsum("tn,tnk->tk", W, X)
-            sd = np.sqrt(np.einsum("tn,tnk->tk", W, (X - m[:, None, :]) ** 2))
+            m = np.matmul(W[:, None, :], X)
+            sd = np.sqrt(np.matmul(W[:, None, :], (X - m) ** 2))[:, 0]
         for k, i in enumerate(idx):
             out.xyxy_sd[targets[i].id] = sd[k]
         if world:
-            P = np.array([parts[i] for i in idx])  # (T, N, D)
             g = _ground_points(engine.observation, P.reshape(-1, P.shape[2]))
             if g is not None:
                 cov = _weighted_cov(g.reshape(P.shape[0], P.shape[1], 2), W)
@@ -460,6 +464,7 @@ def _cloud(engine: MultiTargetTracker, world: bool) -> _Cloud:
 
 
 _NAN4 = np.full(4, np.nan)
+_NO_LIMIT = 2**62
 _NAN22 = np.full((2, 2), np.nan)
 
 
@@ -596,8 +601,13 @@ class Tracker:
         from pftrack.components import ObservationModel
 
         # ground positions: an observation model with a world frame (a camera)
-        self._world = (type(self._first.observation).world_position
-                       is not ObservationModel.world_position)
+        from pftrack.tracker import ImageBoxObservation
+
+        obs = type(self._first.observation)
+        self._world = obs.world_position is not ObservationModel.world_position
+        # image boxes of a fixed size centred on the state: the sd of each edge is the
+        # engine's extent, no particle pass; otherwise (a camera) one pass over the clouds
+        self._need_cloud = self._world or obs.to_boxes is not ImageBoxObservation.to_boxes
         self._clear()
 
     @staticmethod
@@ -625,6 +635,9 @@ class Tracker:
         self._engines: dict[int, MultiTargetTracker] = {}
         self._ids: dict[tuple[int, int], int] = {}
         self._next_id = 1
+        self._first_class = -1
+        self._first_limit = _NO_LIMIT  # engine ids of the first class kept as tracker ids
+        self._max_first_id = 0
         self._pending: dict[int, dict[int, dict[int, tuple[np.ndarray, np.ndarray]]]] = {}
         self._last_index = 0
         self._last_size: tuple[int, int] | None = None
@@ -707,23 +720,31 @@ class Tracker:
                 if self._first is not None:
                     self._engines[c] = self._first
                     self._first = None
+                    self._first_class = c
                 else:
+                    if self._first_limit == _NO_LIMIT:
+                        # a second class: the first engine's ids given so far stay, every
+                        # later id is numbered on from them
+                        first = self._engines[self._first_class]
+                        given = max([t.id for t in first.targets] + [self._max_first_id])
+                        self._first_limit = given
+                        self._next_id = given + 1
                     self._engines[c] = self._new_engine()
         world = self._world
-        cam = self.camera if world else None
         now_parts: list[Tracks] = []
         late_parts: list[Tracks] = []
         for c in sorted(self._engines):
             engine = self._engines[c]
             keep = inp.classes == c if len(classes) > 1 else slice(None)
+            # the detections' ground points (points_world_m) are those given: no built-in
+            # component reads them, and back-projecting every frame's boxes would cost more
+            # than the rest of update() (pftrack.io.detections.read_detections adds them)
             d = Detections(inp.xywh[keep], inp.scores[keep],
                            None if inp.points is None else inp.points[keep])
-            if d.points_world_m is None and cam is not None and len(d):
-                b = d.boxes_xywh_px
-                feet = np.stack([b[:, 0] + 0.5 * b[:, 2], b[:, 1] + b[:, 3]], axis=1)
-                d.points_world_m = cam.image_to_ground(feet)
             records = engine.step(fr, d)
-            cloud = _cloud(engine, world)
+            if c == self._first_class and self._first_limit == _NO_LIMIT and records:
+                self._max_first_id = max(self._max_first_id, max(r.id for r in records))
+            cloud = _cloud(engine, world) if self._need_cloud else None
             now, late = self._rows(c, engine, records, cloud, index, world)
             now_parts.append(now)
             if late is not None:
@@ -779,31 +800,50 @@ class Tracker:
                              "reset() or another Tracker")
         return size
 
-    def _gid(self, c: int, eid: int) -> int:
-        key = (c, eid)
-        g = self._ids.get(key)
-        if g is None:
-            # one class: the engine's own ids (those of `pftrack run`); several: a new number
-            g = eid if len(self._engines) == 1 and self._next_id <= eid else self._next_id
-            self._ids[key] = g
-            self._next_id = max(self._next_id, g + 1)
-        return g
+    def _ids_of(self, c: int, eids: list[int]) -> np.ndarray:
+        """Tracker ids of engine ids ``eids`` of class ``c``: while one class has been seen,
+        the engine's own ids (those ``pftrack run`` writes); ids a later class's engine, or
+        the first engine after a second class appeared, gives get new numbers, so that ids
+        are unique across classes."""
+        if c == self._first_class and all(e <= self._first_limit for e in eids):
+            return np.array(eids, dtype=np.int64)
+        out = []
+        for e in eids:
+            if c == self._first_class and e <= self._first_limit:
+                out.append(e)
+                continue
+            g = self._ids.get((c, e))
+            if g is None:
+                g = self._ids[(c, e)] = self._next_id
+                self._next_id += 1
+            out.append(g)
+        return np.array(out, dtype=np.int64)
 
     def _rows(self, c: int, engine: MultiTargetTracker, records: list[TrackRecord],
-              cloud: _Cloud, index: int, world: bool) -> tuple[Tracks, Tracks | None]:
-        """This frame's records and earlier ones as :class:`Tracks`; the spread of targets
-        whose record of this frame was not output is kept until it is (or they end)."""
-        for t in engine.targets:  # ids in birth order, before any record needs one
-            self._gid(c, t.id)
-        pending = self._pending.setdefault(c, {})
+              cloud: _Cloud | None, index: int, world: bool) -> tuple[Tracks, Tracks | None]:
+        """This frame's records and earlier ones as :class:`Tracks`. Without a particle pass
+        (``cloud`` None: image boxes centred on the state) the spread is the record's own
+        extent; else the cloud's, kept for targets whose record of this frame was not output
+        until it is (or they end)."""
+        eids = [t.id for t in engine.targets]
+        if self._first_limit == _NO_LIMIT:
+            pass  # one class so far: engine ids are tracker ids
+        else:
+            self._ids_of(c, eids)  # ids in birth order, before any record needs one
         now_r = [r for r in records if r.frame == index]
         late_r = [r for r in records if r.frame != index] if len(now_r) != len(records) else []
-        now = self._tracks(c, now_r, world, lambda r: (cloud.xyxy_sd.get(r.id, _NAN4),
-                                                      cloud.world_cov.get(r.id, _NAN22)))
+        if cloud is None:
+            now = self._tracks(c, now_r, world, None)
+            return now, (self._tracks(c, late_r, world, None) if late_r else None)
+        pending = self._pending.setdefault(c, {})
+        now = self._tracks(c, now_r, world, [(cloud.xyxy_sd.get(r.id, _NAN4),
+                                              cloud.world_cov.get(r.id, _NAN22))
+                                             for r in now_r])
         late = None
         if late_r:
             late = self._tracks(c, late_r, world,
-                                lambda r: pending.get(r.id, {}).get(r.frame, (_NAN4, _NAN22)))
+                                [pending.get(r.id, {}).get(r.frame, (_NAN4, _NAN22))
+                                 for r in late_r])
         # keep the spread of live targets not output in this frame; forget what was output
         out_last: dict[int, int] = {}
         for r in records:
@@ -821,22 +861,30 @@ class Tracker:
                 pending.setdefault(eid, {})[index] = (sd, cloud.world_cov.get(eid, _NAN22))
         return now, late
 
-    def _tracks(self, c: int, records: list[TrackRecord], world: bool, spread: Any) -> Tracks:
+    def _tracks(self, c: int, records: list[TrackRecord], world: bool,
+                spread: list[tuple[np.ndarray, np.ndarray]] | None) -> Tracks:
         n = len(records)
         if n == 0:
             return Tracks.empty(world)
         box = np.array([r.box_xywh_px for r in records], dtype=np.float64)
         xyxy = np.concatenate([box[:, :2], box[:, :2] + box[:, 2:]], axis=1)
-        s = [spread(r) for r in records]
         wm = cov = None
+        if spread is None:
+            # a box of fixed size centred on state axes 0, 1: each edge moves with the centre,
+            # whose sd is half the engine's extent (2 sd of the weighted particles)
+            half = 0.5 * np.array([r.extent[:2] for r in records], dtype=np.float64)
+            sd = half[:, [0, 1, 0, 1]]
+        else:
+            sd = np.array([x[0] for x in spread])
         if world:
             wm = np.array([r.world_m if r.world_m is not None else (np.nan,) * 3
                            for r in records], dtype=np.float64)
-            cov = np.array([x[1] for x in s])
+            cov = (np.array([x[1] for x in spread]) if spread is not None
+                   else np.full((n, 2, 2), np.nan))
         return Tracks(
-            tracker_id=np.array([self._gid(c, r.id) for r in records], dtype=np.int64),
+            tracker_id=self._ids_of(c, [r.id for r in records]),
             xyxy=xyxy, confidence=np.array([r.confidence for r in records], dtype=np.float64),
-            class_id=np.full(n, c, dtype=np.int64), xyxy_sd=np.array([x[0] for x in s]),
+            class_id=np.full(n, c, dtype=np.int64), xyxy_sd=sd,
             frame=np.array([r.frame for r in records], dtype=np.int64), world_m=wm,
             world_cov=cov, xywh=box)
 
