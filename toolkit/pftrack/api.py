@@ -420,7 +420,7 @@ def _cloud(engine: MultiTargetTracker, world: bool) -> _Cloud:
     n = engine.n_particles
     resampled = [i for i, t in enumerate(targets)
                  if t.resample_index is not None and t.particle_boxes_xywh_px is not None
-                 and len(t.resample_index) == n == len(t.particles)
+                 and len(t.resample_index) == n == len(t.particles)  # type: ignore[arg-type]
                  and len(t.particle_boxes_xywh_px) == n]
     groups: list[tuple[list[int], np.ndarray, np.ndarray, np.ndarray | None]] = []
     if resampled:
