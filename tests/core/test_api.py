@@ -341,6 +341,14 @@ def test_same_tracks_as_the_cli(pets_slice, tmp_path):
         xyxy = np.c_[rows[:, 2:4], rows[:, 2:4] + rows[:, 4:6], rows[:, 6]]
         tx.update(xyxy, frame=fr)
     np.testing.assert_array_equal(tr.to_mot(), res.rows)
+    # the run's side file: one row per tracks.txt row, the Tracker's spread
+    from pftrack.io.outputs import read_track_uncertainty
+
+    side = read_track_uncertainty(tmp_path / "run" / "tracks_uncertainty.csv")
+    np.testing.assert_array_equal(side[:, :2], cli[:, :2])
+    allt = tr.tracks()
+    np.testing.assert_allclose(side[:, 2:6], allt.xyxy_sd, rtol=1e-5)
+    assert np.all(side[:, 2:6] > 0) and np.all(np.isnan(side[:, 6:]))
     # xyxy -> (left, width) in floating point: the same tracks to rounding
     got = tx.to_mot()
     assert got.shape == res.rows.shape

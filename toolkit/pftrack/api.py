@@ -41,7 +41,7 @@ if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera
     from pftrack.tracker import MultiTargetTracker
 
-__all__ = ["Tracker", "Tracks", "image_readers"]
+__all__ = ["RecordSpread", "Tracker", "Tracks", "image_readers"]
 
 # Built-in components that never read a frame's pixels (module.class). A likelihood or track
 # manager not listed, and without a ``reads_image`` attribute of its own, is taken to read them.
@@ -463,6 +463,69 @@ def _cloud(engine: MultiTargetTracker, world: bool) -> _Cloud:
     return out
 
 
+class RecordSpread:
+    """Fills each :class:`~pftrack.components.TrackRecord`'s ``xyxy_sd`` and ``world_cov`` from
+    an engine's particle clouds, frame by frame: call :meth:`fill` with each
+    :meth:`~pftrack.tracker.MultiTargetTracker.step`'s records, right after the step.
+
+    Image boxes of a fixed size centred on state axes 0 and 1 (``image-box``,
+    ``image-box-sized``): each edge's sd is the centre's, half the record's ``extent`` (2 sd of
+    the weighted particles); no particle pass. Otherwise (a camera) the spread of the cloud the
+    filter carries into the next frame (after resampling): the sd of its particles' box
+    coordinates and the covariance of their ground positions (through the observation model's
+    ``ground_points`` or ``points``). A record output in a later frame than its own (a track's
+    frames before its confirmation) gets the spread its target had in its own frame.
+
+    Parameters
+    ----------
+    engine : MultiTargetTracker
+    """
+
+    def __init__(self, engine: MultiTargetTracker) -> None:
+        from pftrack.components import ObservationModel
+        from pftrack.tracker import ImageBoxObservation
+
+        obs = type(engine.observation)
+        self.world = obs.world_position is not ObservationModel.world_position
+        self.cloud = self.world or obs.to_boxes is not ImageBoxObservation.to_boxes
+        self._pending: dict[int, dict[int, tuple[np.ndarray, np.ndarray]]] = {}
+
+    def fill(self, engine: MultiTargetTracker, records: list[TrackRecord], index: int) -> None:
+        """Set ``xyxy_sd`` (and with a world frame ``world_cov``) of ``records``, the records
+        ``engine.step`` returned for frame ``index``."""
+        if not self.cloud:
+            if records:
+                half = 0.5 * np.array([r.extent[:2] for r in records], dtype=np.float64)
+                for r, sd in zip(records, half[:, [0, 1, 0, 1]]):
+                    r.xyxy_sd = sd
+            return
+        cloud = _cloud(engine, self.world)
+        pending = self._pending
+        for r in records:
+            if r.frame == index:
+                r.xyxy_sd = cloud.xyxy_sd.get(r.id, _NAN4)
+                cov = cloud.world_cov.get(r.id)
+            else:
+                r.xyxy_sd, cov = pending.get(r.id, {}).get(r.frame, (_NAN4, None))
+            if self.world:
+                r.world_cov = _NAN22 if cov is None else cov
+        # keep the spread of live targets not output in this frame; forget what was output
+        out_last: dict[int, int] = {}
+        for r in records:
+            out_last[r.id] = max(out_last.get(r.id, 0), r.frame)
+        for eid in list(pending):
+            if eid not in cloud.xyxy_sd:
+                del pending[eid]
+        for eid, last in out_last.items():
+            p = pending.get(eid)
+            if p:
+                for f in [f for f in p if f <= last]:
+                    del p[f]
+        for eid, sd in cloud.xyxy_sd.items():
+            if out_last.get(eid) != index:
+                pending.setdefault(eid, {})[index] = (sd, cloud.world_cov.get(eid, _NAN22))
+
+
 _NAN4 = np.full(4, np.nan)
 _NO_LIMIT = 2**62
 _NAN22 = np.full((2, 2), np.nan)
@@ -601,13 +664,8 @@ class Tracker:
         from pftrack.components import ObservationModel
 
         # ground positions: an observation model with a world frame (a camera)
-        from pftrack.tracker import ImageBoxObservation
-
         obs = type(self._first.observation)
         self._world = obs.world_position is not ObservationModel.world_position
-        # image boxes of a fixed size centred on the state: the sd of each edge is the
-        # engine's extent, no particle pass; otherwise (a camera) one pass over the clouds
-        self._need_cloud = self._world or obs.to_boxes is not ImageBoxObservation.to_boxes
         self._clear()
 
     @staticmethod
@@ -638,7 +696,7 @@ class Tracker:
         self._first_class = -1
         self._first_limit = _NO_LIMIT  # engine ids of the first class kept as tracker ids
         self._max_first_id = 0
-        self._pending: dict[int, dict[int, dict[int, tuple[np.ndarray, np.ndarray]]]] = {}
+        self._spread: dict[int, RecordSpread] = {}
         self._last_index = 0
         self._last_size: tuple[int, int] | None = None
         self._blank: np.ndarray | None = None
@@ -721,6 +779,7 @@ class Tracker:
                     self._engines[c] = self._first
                     self._first = None
                     self._first_class = c
+                    self._spread[c] = RecordSpread(self._engines[c])
                 else:
                     if self._first_limit == _NO_LIMIT:
                         # a second class: the first engine's ids given so far stay, every
@@ -730,6 +789,7 @@ class Tracker:
                         self._first_limit = given
                         self._next_id = given + 1
                     self._engines[c] = self._new_engine()
+                    self._spread[c] = RecordSpread(self._engines[c])
         world = self._world
         now_parts: list[Tracks] = []
         late_parts: list[Tracks] = []
@@ -744,8 +804,7 @@ class Tracker:
             records = engine.step(fr, d)
             if c == self._first_class and self._first_limit == _NO_LIMIT and records:
                 self._max_first_id = max(self._max_first_id, max(r.id for r in records))
-            cloud = _cloud(engine, world) if self._need_cloud else None
-            now, late = self._rows(c, engine, records, cloud, index, world)
+            now, late = self._rows(c, engine, records, index, world)
             now_parts.append(now)
             if late is not None:
                 late_parts.append(late)
@@ -820,67 +879,28 @@ class Tracker:
         return np.array(out, dtype=np.int64)
 
     def _rows(self, c: int, engine: MultiTargetTracker, records: list[TrackRecord],
-              cloud: _Cloud | None, index: int, world: bool) -> tuple[Tracks, Tracks | None]:
-        """This frame's records and earlier ones as :class:`Tracks`. Without a particle pass
-        (``cloud`` None: image boxes centred on the state) the spread is the record's own
-        extent; else the cloud's, kept for targets whose record of this frame was not output
-        until it is (or they end)."""
-        eids = [t.id for t in engine.targets]
-        if self._first_limit == _NO_LIMIT:
-            pass  # one class so far: engine ids are tracker ids
-        else:
-            self._ids_of(c, eids)  # ids in birth order, before any record needs one
+              index: int, world: bool) -> tuple[Tracks, Tracks | None]:
+        """This frame's records and earlier ones as :class:`Tracks`, their spread filled."""
+        if self._first_limit != _NO_LIMIT:
+            self._ids_of(c, [t.id for t in engine.targets])  # ids in birth order
+        self._spread[c].fill(engine, records, index)
         now_r = [r for r in records if r.frame == index]
         late_r = [r for r in records if r.frame != index] if len(now_r) != len(records) else []
-        if cloud is None:
-            now = self._tracks(c, now_r, world, None)
-            return now, (self._tracks(c, late_r, world, None) if late_r else None)
-        pending = self._pending.setdefault(c, {})
-        now = self._tracks(c, now_r, world, [(cloud.xyxy_sd.get(r.id, _NAN4),
-                                              cloud.world_cov.get(r.id, _NAN22))
-                                             for r in now_r])
-        late = None
-        if late_r:
-            late = self._tracks(c, late_r, world,
-                                [pending.get(r.id, {}).get(r.frame, (_NAN4, _NAN22))
-                                 for r in late_r])
-        # keep the spread of live targets not output in this frame; forget what was output
-        out_last: dict[int, int] = {}
-        for r in records:
-            out_last[r.id] = max(out_last.get(r.id, 0), r.frame)
-        for eid in list(pending):
-            if eid not in cloud.xyxy_sd:
-                del pending[eid]
-        for eid, last in out_last.items():
-            p = pending.get(eid)
-            if p:
-                for f in [f for f in p if f <= last]:
-                    del p[f]
-        for eid, sd in cloud.xyxy_sd.items():
-            if out_last.get(eid) != index:
-                pending.setdefault(eid, {})[index] = (sd, cloud.world_cov.get(eid, _NAN22))
-        return now, late
+        now = self._tracks(c, now_r, world)
+        return now, (self._tracks(c, late_r, world) if late_r else None)
 
-    def _tracks(self, c: int, records: list[TrackRecord], world: bool,
-                spread: list[tuple[np.ndarray, np.ndarray]] | None) -> Tracks:
+    def _tracks(self, c: int, records: list[TrackRecord], world: bool) -> Tracks:
         n = len(records)
         if n == 0:
             return Tracks.empty(world)
         box = np.array([r.box_xywh_px for r in records], dtype=np.float64)
         xyxy = np.concatenate([box[:, :2], box[:, :2] + box[:, 2:]], axis=1)
         wm = cov = None
-        if spread is None:
-            # a box of fixed size centred on state axes 0, 1: each edge moves with the centre,
-            # whose sd is half the engine's extent (2 sd of the weighted particles)
-            half = 0.5 * np.array([r.extent[:2] for r in records], dtype=np.float64)
-            sd = half[:, [0, 1, 0, 1]]
-        else:
-            sd = np.array([x[0] for x in spread])
+        sd = np.array([_NAN4 if r.xyxy_sd is None else r.xyxy_sd for r in records])
         if world:
             wm = np.array([r.world_m if r.world_m is not None else (np.nan,) * 3
                            for r in records], dtype=np.float64)
-            cov = (np.array([x[1] for x in spread]) if spread is not None
-                   else np.full((n, 2, 2), np.nan))
+            cov = np.array([_NAN22 if r.world_cov is None else r.world_cov for r in records])
         return Tracks(
             tracker_id=self._ids_of(c, [r.id for r in records]),
             xyxy=xyxy, confidence=np.array([r.confidence for r in records], dtype=np.float64),
