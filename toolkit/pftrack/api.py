@@ -205,6 +205,14 @@ class Tracks:
         :meth:`Tracker.to_dataframe`). Needs pandas."""
         return _dataframe(self)
 
+    def draw(self, image_bgr: np.ndarray, k: float = 2.0) -> np.ndarray:
+        """A copy of ``image_bgr`` (H, W, 3 uint8, BGR) with the boxes, their ids and each box
+        centre's ``k``-sd ellipse (:func:`pftrack.render.overlay.draw_uncertainty`)."""
+        from pftrack.render.overlay import draw_boxes, draw_uncertainty
+
+        img = draw_boxes(image_bgr, self.xywh, self.tracker_id)
+        return draw_uncertainty(img, self.xyxy, self.xyxy_sd, self.tracker_id, k=k)
+
     def to_supervision(self) -> Any:
         """The rows as a supervision ``sv.Detections`` with ``tracker_id`` set; ``data`` holds
         ``xyxy_sd``, ``frame`` and, with a camera, ``world_xy`` and ``world_cov``."""
