@@ -210,7 +210,7 @@ class Tracks:
         centre's ``k``-sd ellipse (:func:`pftrack.render.overlay.draw_uncertainty`)."""
         from pftrack.render.overlay import draw_boxes, draw_uncertainty
 
-        img = draw_boxes(image_bgr, self.xywh, self.tracker_id)
+        img = draw_boxes(image_bgr, np.asarray(self.xywh), self.tracker_id)
         return draw_uncertainty(img, self.xyxy, self.xyxy_sd, self.tracker_id, k=k)
 
     def to_supervision(self) -> Any:
