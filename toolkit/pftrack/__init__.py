@@ -14,6 +14,7 @@ The names a notebook needs are here::
 * :func:`read_mot`, :func:`write_mot`: MOTChallenge files; :func:`read_detections`: a
   ``det.txt`` as per-frame :class:`Detections`;
 * :func:`evaluate`: MOTA, IDF1, HOTA of tracks against ground truth;
+* :func:`iter_frames`: a video's frames as :class:`Frame` (numbered from 1);
 * :func:`load_config`, :func:`run_pipeline`: what ``pftrack run`` does;
 * :func:`list_plugins`: the installed plugins and their components.
 
@@ -36,7 +37,7 @@ if TYPE_CHECKING:
     from pftrack.io.detections import read_detections
     from pftrack.io.mot import read_mot, write_mot
     from pftrack.metrics.mot import evaluate
-    from pftrack.pipeline import load_config, run_pipeline
+    from pftrack.pipeline import iter_frames, load_config, run_pipeline
 
 __version__ = "0.1.0"
 
@@ -51,12 +52,13 @@ _LAZY = {
     "evaluate": "pftrack.metrics.mot",
     "load_config": "pftrack.pipeline",
     "run_pipeline": "pftrack.pipeline",
+    "iter_frames": "pftrack.pipeline",
     "list_plugins": "pftrack.host",
 }
 
-__all__ = ["Detections", "Frame", "Tracker", "Tracks", "evaluate", "hookimpl", "list_plugins",
-           "load_config", "read_detections", "read_mot", "run_pipeline", "write_mot",
-           "__version__"]
+__all__ = ["Detections", "Frame", "Tracker", "Tracks", "evaluate", "hookimpl", "iter_frames",
+           "list_plugins", "load_config", "read_detections", "read_mot", "run_pipeline",
+           "write_mot", "__version__"]
 
 
 def __getattr__(name: str) -> Any:
