@@ -62,7 +62,7 @@ def _detector(as_supervision: bool):
 
 def _run(code: str, clip: Path, **names):
     ns = dict(names)
-    exec(compile(code.replace("my_video.mp4", str(clip)), str(PAGE), "exec"), ns)  # noqa: S102
+    exec(compile(code.replace("my_video.mp4", str(clip)), str(PAGE), "exec"), ns)
     return ns
 
 
