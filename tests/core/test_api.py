@@ -311,6 +311,7 @@ def pets_slice():
     return frames, gt
 
 
+@pytest.mark.slow
 def test_same_tracks_as_the_cli(pets_slice, tmp_path):
     """``pftrack run people-image --detections FILE --seed 0`` on PETS frames 1-40 (detections:
     the ground truth's boxes, score 0.9) and the Tracker fed the same rows frame by frame, as
