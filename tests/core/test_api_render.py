@@ -53,3 +53,19 @@ def test_topview_draws_the_ellipses(tmp_path):
     ys, xs = np.nonzero(changed)
     # wider (2 x 2 x 0.5 m) than tall (2 x 2 x 0.2 m), in the same pixels per metre
     assert 2.0 < (xs.max() - xs.min()) / (ys.max() - ys.min()) < 3.2
+
+
+def test_report_overlay_draws_the_side_files_ellipses():
+    from pftrack.render.report import draw_overlay
+
+    img = np.zeros((200, 300, 3), np.uint8)
+    rows = np.array([[5, 1, 100, 50, 40, 100, 0.9, -1, -1, -1],
+                     [4, 1, 90, 50, 40, 100, 0.9, -1, -1, -1]], dtype=np.float64)
+    unc = np.array([[5, 1, 6, 12, 6, 12, np.nan, np.nan, np.nan],
+                    [4, 1, 6, 12, 6, 12, np.nan, np.nan, np.nan]])
+    plain = draw_overlay(img, rows, 5)
+    with_sd = draw_overlay(img, rows, 5, uncertainty=unc)
+    ys, xs = np.nonzero(np.any(plain != with_sd, axis=2))
+    # frame 5's box centre (120, 100), half-axes 12 and 24 px
+    assert 106 <= xs.min() <= 110 and 130 <= xs.max() <= 134
+    assert 74 <= ys.min() <= 78 and 122 <= ys.max() <= 126

@@ -666,9 +666,15 @@ def write_outputs(out_dir: str | os.PathLike[str], cfg: dict[str, Any], result: 
             atomic_write_text(out.path("metrics.json"),
                               json.dumps(result.metrics, indent=2, default=float) + "\n")
         if frames:
+            import inspect
+
             writer = report_writer(cfg)
+            extra = {}
+            params = inspect.signature(writer.write).parameters
+            if "uncertainty" in params or any(p.kind is p.VAR_KEYWORD for p in params.values()):
+                extra["uncertainty"] = result.uncertainty  # a writer that draws the ellipses
             writer.write(out.path("report"), result.rows, frames,
-                         gt_rows=gt_rows, title=str(cfg.get("name", "")))
+                         gt_rows=gt_rows, title=str(cfg.get("name", "")), **extra)
     return Path(out_dir)
 
 
