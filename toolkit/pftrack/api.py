@@ -114,9 +114,10 @@ class Tracks:
     class_id : ndarray (M,), int64
         The class of the detections the track follows (0 when none was given).
     xyxy_sd : ndarray (M, 4), float64
-        Standard deviation of each box coordinate over the target's particle cloud as the
-        filter carries it into the next frame (after resampling), pixels: how sure the filter
-        is of the box. It is the filter's own spread; an output box moved towards its matched
+        Standard deviation of each box coordinate over the target's particle cloud, pixels:
+        how sure the filter is of the box (:class:`RecordSpread` says how it is computed:
+        from the engine's extent for image boxes, from the resampled particles' boxes with a
+        camera). It is the filter's own spread; an output box moved towards its matched
         detection (``tracks.box_from_detection``) keeps the cloud's. NaN where it is not known.
     world_m : ndarray (M, 3), float64, or None
         Ground position ``x, y, z`` in metres (configurations with a camera), else None.
@@ -848,7 +849,9 @@ class Tracker:
                 raise ValueError(f"update(frame=None): configuration "
                                  f"{self.config.get('name') or self.config.get('_source')!r} "
                                  f"reads the image ({', '.join(self._readers)}); pass "
-                                 "frame=image, the (H, W, 3) uint8 BGR picture")
+                                 "frame=image, the (H, W, 3) uint8 BGR picture (a component "
+                                 "of your own that reads no pixels says so with a class "
+                                 "attribute reads_image = False)")
             size = self._last_size or self._image_size
             if size is None:
                 raise ValueError("update(frame=None): the image size is unknown; pass "
