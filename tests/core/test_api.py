@@ -290,6 +290,14 @@ def test_own_component_from_python():
     assert "plugins=[MyClass]" in text and "entry point" in text
 
 
+def test_component_names():
+    from pftrack.api import component_name
+
+    assert component_name(CentreLikelihood) == "centre-likelihood"
+    assert component_name(type("HOGLikelihood", (CentreLikelihood,), {})) == "hog-likelihood"
+    assert component_name(type("Mine", (CentreLikelihood,), {"name": "my-own"})) == "my-own"
+
+
 def test_plugins_refuses_what_is_no_component():
     with pytest.raises(TypeError, match=r"plugins\[0\]: int is not a pftrack component"):
         Tracker(DET_ONLY, plugins=[int])

@@ -577,7 +577,10 @@ def component_name(cls: type[Component]) -> str:
         return own
     import re
 
-    return re.sub(r"(?<!^)(?=[A-Z])", "-", cls.__name__).lower()
+    # a word starts at a capital after a lower-case letter or digit, or at the last capital of
+    # an acronym followed by a lower-case letter: HOGLikelihood -> hog-likelihood
+    return re.sub(r"(?<=[a-z0-9])(?=[A-Z])|(?<=[A-Z])(?=[A-Z][a-z])", "-",
+                  cls.__name__).lower()
 
 
 def host_with(plugins: Iterable[Any], name: str = "notebook") -> Any:
