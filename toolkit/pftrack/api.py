@@ -444,7 +444,7 @@ def _cloud(engine: MultiTargetTracker, world: bool) -> _Cloud:
     filters = getattr(engine, "_filters", {})
     done = set(resampled)
     for i, t in enumerate(targets):  # born this frame, or not resampled: one by one
-        if i in done:
+        if i in done or t.particles is None or len(t.particles) == 0:
             continue
         p = np.asarray(t.particles, dtype=np.float64)
         f = filters.get(t.id)
