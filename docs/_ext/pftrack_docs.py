@@ -47,6 +47,7 @@ NOTEBOOKS: dict[str, tuple[dict[str, str], str]] = {
     "04_block_eigenspace.ipynb": ({}, "root"),
     "05_coastal_volumes.ipynb": ({}, "root"),
     "06_camera_network.ipynb": ({}, "root"),
+    "07_own_detector.ipynb": ({"PFTRACK_NB_FRAMES": "1:40"}, "tmp"),
 }
 
 #: Component kinds of a run configuration, in the order of the reference page: kind -> the

@@ -134,6 +134,7 @@ class Registry:
 
     def __init__(self) -> None:
         self._entries: dict[str, dict[str, Entry]] = {k: {} for k in ALL_KINDS}
+        self.hint = ""  # appended to an unknown name's error: the plugins and how to add one
 
     def bind(self, kind: str, plugin: str) -> Callable[..., None]:
         """A ``register(name, obj, *, override=False)`` callable for ``plugin`` and ``kind``."""
@@ -194,7 +195,7 @@ class Registry:
         except KeyError:
             known = ", ".join(sorted(self._entries.get(kind, {}))) or "none"
             raise UnknownComponentError(
-                f"no {kind} named {name!r} is registered (known: {known})"
+                f"no {kind} named {name!r} is registered (known: {known}){self.hint}"
             ) from None
 
     def names(self, kind: str) -> list[str]:
@@ -263,6 +264,24 @@ class Host:
             mod = getattr(obj, "__name__", type(obj).__name__)
             self._add_plugin(name, obj, PluginInfo(name, getattr(obj, "__version__", "?"), False,
                                                    f"module {mod}"), strict=True)
+        self.registry.hint = self._missing_hint(disabled, no_autoload)
+
+    def _missing_hint(self, disabled: set[str], no_autoload: bool) -> str:
+        """What an unknown component name's error adds: the plugins loaded, those that failed
+        or were left out, and the ways to add a component."""
+        ok = sorted(n for n, p in self.plugins.items() if not p.error)
+        failed = sorted(f"{n} ({p.error})" for n, p in self.plugins.items() if p.error)
+        text = f"; plugins loaded: {', '.join(ok) or 'none'}"
+        if failed:
+            text += f"; failed to load: {'; '.join(failed)}"
+        if disabled:
+            text += f"; disabled by {ENV_DISABLE}: {', '.join(sorted(disabled))}"
+        if no_autoload:
+            text += f"; third-party plugins not loaded ({ENV_NO_AUTOLOAD} is set)"
+        return (text + ". To add one: from Python, pftrack.Tracker(..., plugins=[MyClass]) "
+                "registers a component class under its name attribute (or its class name in "
+                "kebab case); for every run, install a package that declares a 'pftrack' entry "
+                "point (docs: plugins.md), and check `pftrack plugins`")
 
     def _add_plugin(self, name: str, obj: Any, info: PluginInfo, strict: bool) -> None:
         """Register ``obj``'s components. A registration error is raised for plugins handed in

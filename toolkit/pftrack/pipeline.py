@@ -64,7 +64,8 @@ __all__ = [
 CONFIG_KEYS = {"name", "description", "state", "observation", "motion", "likelihood", "detector",
                "associator", "tracker", "tracks", "births", "valid_region_m", "report",
                "detections"}
-RUN_OUTPUTS = ("tracks.txt", "metrics.json", "report")  # what a run owns in its --out folder
+# what a run owns in its --out folder
+RUN_OUTPUTS = ("tracks.txt", "tracks_uncertainty.csv", "metrics.json", "report")
 TRACKER_KEYS = {"n_particles", "resampling", "ess_threshold", "dt", "init_spread",
                 "recover_spread", "max_misses", "min_log_likelihood", "kill_out_of_view",
                 "detection_proposal", "target_size"}
@@ -469,7 +470,9 @@ class RunResult:
 
     ``rows``: MOT rows (M, 10) sorted by frame and id; ``detections``: per frame (reusable by
     another run on the same frames); ``timing``: seconds per frame for detection and tracking;
-    ``metrics``: :func:`evaluate_tracks` when ground truth was given.
+    ``metrics``: :func:`evaluate_tracks` when ground truth was given; ``uncertainty``: the
+    spread of each row's estimate (M, 9), rows in ``rows``' order
+    (:func:`pftrack.tracker.records_uncertainty`).
     """
 
     rows: np.ndarray
@@ -478,6 +481,7 @@ class RunResult:
     metrics: dict[str, Any] | None = None
     out_dir: Path | None = None
     n_frames: int = 0
+    uncertainty: np.ndarray | None = None
 
 
 def _load_camera(camera: CameraSpec | None) -> Camera | None:
@@ -518,8 +522,8 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
         detections = cfg["detections"]
     # everything that can be checked is checked before the first frame
     if out_dir is not None:
-        check_output_tree(out_dir, {"tracks.txt": "file", "metrics.json": "file",
-                                    "report": "dir"})
+        check_output_tree(out_dir, {"tracks.txt": "file", "tracks_uncertainty.csv": "file",
+                                    "metrics.json": "file", "report": "dir"})
     if report and out_dir is not None:
         report_writer(cfg)  # an unknown writer stops the run before it tracks, not after
     for option, path in (("video", video),
@@ -580,9 +584,13 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
         name = cfg.get("name")
         frame_iter = tqdm(frame_iter, total=n_total, unit="frame", leave=False,
                           desc=f"{label} ({name})" if name else label)
+    from pftrack.api import RecordSpread
+
+    spread = RecordSpread(engine)  # each record's spread, from its particle cloud
     records: list[TrackRecord] = []
     dets_out: dict[int, Detections] = {}
     t_det = t_trk = c_det = c_trk = 0.0
+    t_out = c_out = 0.0  # the uncertainty output, which (as the report) is not timed
     n = 0
     keep_frames: dict[int, np.ndarray] = {}
     drawing = report and out_dir is not None
@@ -601,8 +609,12 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
         else:
             d = None
         t1, c1 = time.perf_counter(), time.process_time()
-        records.extend(engine.step(frame, d))
+        recs = engine.step(frame, d)
         t2, c2 = time.perf_counter(), time.process_time()
+        spread.fill(engine, recs, frame.index)
+        t_out += time.perf_counter() - t2
+        c_out += time.process_time() - c2
+        records.extend(recs)
         t_det += t1 - t0
         t_trk += t2 - t1
         c_det += c1 - c0
@@ -614,25 +626,31 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
             keep_frames[frame.index] = frame.image.copy()
         elif drawing:
             last_seen = (frame.index, frame.image)
-    t_loop = time.perf_counter() - t_start
-    c_loop = time.process_time() - c_start
+    t_loop = time.perf_counter() - t_start - t_out
+    c_loop = time.process_time() - c_start - c_out
     if last_seen is not None and last_seen[0] > max(keep_frames, default=0):
         keep_frames[last_seen[0]] = last_seen[1].copy()
     if n == 0:
         raise ValueError(f"video {video}: no frame decoded in frames {first}.."
                          f"{'' if last is None else last}")
+    from pftrack.tracker import records_uncertainty
+
     rows = records_to_mot(records)
+    spread_rows = records_uncertainty(records)
     _warn_frames(source.report)
     if len(rows):
-        rows = rows[np.lexsort((rows[:, 1], rows[:, 0]))]
+        order = np.lexsort((rows[:, 1], rows[:, 0]))
+        rows, spread_rows = rows[order], spread_rows[order]
     n = max(n, 1)
-    # frames per second of the whole loop: decoding, detection and tracking (not the report).
+    # frames per second of the whole loop: decoding, detection and tracking (not the report
+    # nor the uncertainty of tracks_uncertainty.csv, timed on its own).
     # Wall time, and the process's CPU time (the same on an idle core; on a shared, loaded
     # machine the CPU time is the one-core cost and the wall time includes waiting for a core).
     timing = {"detection_s_per_frame": t_det / n, "tracking_s_per_frame": t_trk / n,
               "frames_per_second": n / max(t_loop, 1e-12),
               "detection_cpu_s_per_frame": c_det / n, "tracking_cpu_s_per_frame": c_trk / n,
-              "frames_per_second_cpu": n / max(c_loop, 1e-12)}
+              "frames_per_second_cpu": n / max(c_loop, 1e-12),
+              "uncertainty_cpu_s_per_frame": c_out / n}
     metrics = None
     gt_rows = None
     if gt_all is not None:
@@ -654,7 +672,7 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
                         "frame_problems": source.report.problems(),
                         # frames lost somewhere in the file: later numbers may be off
                         "frame_numbers_verified": source.report.numbers_trusted})
-    result = RunResult(rows, dets_out, timing, metrics, None, n)
+    result = RunResult(rows, dets_out, timing, metrics, None, n, spread_rows)
     if out_dir is not None:
         result.out_dir = write_outputs(out_dir, cfg, result, keep_frames, gt_rows)
     return result
@@ -687,7 +705,9 @@ def _report_frames(first: int, last: int | None) -> set[int]:
 
 def write_outputs(out_dir: str | os.PathLike[str], cfg: dict[str, Any], result: RunResult,
                   frames: dict[int, np.ndarray], gt_rows: np.ndarray | None) -> Path:
-    """``tracks.txt``, ``metrics.json`` (with ground truth) and ``report/*.png``, as one unit
+    """``tracks.txt``, ``tracks_uncertainty.csv`` (each row's spread,
+    :func:`pftrack.io.outputs.write_track_uncertainty`), ``metrics.json`` (with ground truth)
+    and ``report/*.png``, as one unit
     (:class:`pftrack.io.outputs.OutputSet`): all replaced or none."""
     import json
 
@@ -699,13 +719,23 @@ def write_outputs(out_dir: str | os.PathLike[str], cfg: dict[str, Any], result: 
     # report/ that this run does not produce is removed, a failure leaves the earlier outputs
     with OutputSet(out_dir, RUN_OUTPUTS) as out:
         write_mot(out.path("tracks.txt"), result.rows)  # no tracks: an empty file, a result
+        if result.uncertainty is not None:
+            from pftrack.io.outputs import write_track_uncertainty
+
+            write_track_uncertainty(out.path("tracks_uncertainty.csv"), result.uncertainty)
         if result.metrics is not None:
             atomic_write_text(out.path("metrics.json"),
                               json.dumps(result.metrics, indent=2, default=float) + "\n")
         if frames:
+            import inspect
+
             writer = report_writer(cfg)
+            extra = {}
+            params = inspect.signature(writer.write).parameters
+            if "uncertainty" in params or any(p.kind is p.VAR_KEYWORD for p in params.values()):
+                extra["uncertainty"] = result.uncertainty  # a writer that draws the ellipses
             writer.write(out.path("report"), result.rows, frames,
-                         gt_rows=gt_rows, title=str(cfg.get("name", "")))
+                         gt_rows=gt_rows, title=str(cfg.get("name", "")), **extra)
     return Path(out_dir)
 
 

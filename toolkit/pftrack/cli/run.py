@@ -3,6 +3,8 @@
 CONFIG is a YAML file or the name of a registered preset (``pftrack presets`` lists them). Writes,
 atomically, ``OUT/tracks.txt`` (MOTChallenge CSV; frame numbers as in the ground truth, 1-based,
 MOT frame N = video frame N-1; world columns x, y, z in metres for ground-plane state),
+``OUT/tracks_uncertainty.csv`` (per row of tracks.txt: the box coordinates' standard deviations
+in pixels and the ground position's covariance in m^2, from each track's particle cloud),
 ``OUT/metrics.json`` when ``--gt`` is given (MOTA, IDF1, HOTA on image boxes, ground-plane error,
 seed 001's 5 px accuracy, seconds per frame) and ``OUT/report/*.png`` (overlays, and image
 trajectories beside the top view). A progress bar shows on stderr unless ``--quiet``.
@@ -21,7 +23,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "run", help="track a video with a configuration (YAML file or preset name)",
         description="Track a video with a configuration and write OUT/tracks.txt (MOTChallenge), "
-                    "OUT/metrics.json (with --gt) and OUT/report/*.png.")
+                    "OUT/tracks_uncertainty.csv (each row's box sd in px and ground covariance "
+                    "in m^2), OUT/metrics.json (with --gt) and OUT/report/*.png.")
     p.add_argument("config", metavar="CONFIG", help="YAML file or preset name (pftrack presets)")
     p.add_argument("--video", required=True, help="video file (anything OpenCV decodes)")
     p.add_argument("--camera", default=None,

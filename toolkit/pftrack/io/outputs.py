@@ -24,6 +24,7 @@ import threading
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 __all__ = [
     "OutputSet",
@@ -32,6 +33,8 @@ __all__ = [
     "check_output_file",
     "check_output_tree",
     "clean_stale",
+    "read_track_uncertainty",
+    "write_track_uncertainty",
 ]
 
 STAGING_PREFIX = ".pftrack-staging-"
@@ -237,3 +240,43 @@ class OutputSet:
         if isinstance(exc, OSError) and exc.filename is None and exc.errno is not None:
             # a write that failed without naming its file (a full disk): name the folder
             raise OSError(exc.errno, exc.strerror or str(exc), str(self.out)) from exc
+
+
+UNCERTAINTY_HEADER = ("frame,id,x1_sd,y1_sd,x2_sd,y2_sd,world_var_x,world_cov_xy,world_var_y")
+
+
+def write_track_uncertainty(path: str | os.PathLike[str], rows: Any) -> Path:
+    """Write the tracks' uncertainty beside ``tracks.txt`` (``tracks_uncertainty.csv``),
+    atomically: a header line, then one line per row of ``tracks.txt`` in the same order
+    (frame, id: the join key), the standard deviations of the box's x1, y1, x2, y2 in pixels
+    and the ground position's covariance var_x, cov_xy, var_y in m^2 (``nan`` without a
+    camera). A side file keeps ``tracks.txt`` the 10 columns MOTChallenge readers expect."""
+    import io
+
+    import numpy as np
+
+    from pftrack.io.atomic import atomic_write_text
+
+    arr = np.asarray(rows, dtype=np.float64).reshape(-1, 9)
+    buf = io.StringIO()
+    buf.write(UNCERTAINTY_HEADER + "\n")
+    np.savetxt(buf, arr, fmt=["%d", "%d"] + ["%.6g"] * 7, delimiter=",")
+    return atomic_write_text(path, buf.getvalue())
+
+
+def read_track_uncertainty(path: str | os.PathLike[str]) -> Any:
+    """The rows (M, 9) :func:`write_track_uncertainty` wrote. Raises ValueError naming the
+    file when its header is not that file's."""
+    import numpy as np
+
+    p = Path(path)
+    text = p.read_text()
+    head, _, body = text.partition("\n")
+    if head.strip() != UNCERTAINTY_HEADER:
+        raise ValueError(f"{p}: not a tracks_uncertainty.csv (header {head.strip()!r}, "
+                         f"expected {UNCERTAINTY_HEADER!r})")
+    if not body.strip():
+        return np.zeros((0, 9))
+    import io
+
+    return np.loadtxt(io.StringIO(body), delimiter=",", ndmin=2)

@@ -25,6 +25,7 @@ from pftrack.geometry.volumes import Volume, sample_polyline
 from pftrack.render.colours import track_colours_rgb
 
 __all__ = [
+    "draw_uncertainty",
     "GROUND_DOT_BGR",
     "MARKING_BGR",
     "VOLUME_BGR",
@@ -314,3 +315,53 @@ def read_video_frame(path: str | os.PathLike[str], index: int) -> np.ndarray:
     if not ok or frame is None:
         raise ValueError(f"{path}: could not read frame index {index}")
     return np.ascontiguousarray(frame)
+
+
+def draw_uncertainty(image_bgr: np.ndarray, xyxy: np.ndarray, xyxy_sd: np.ndarray,
+                     ids: np.ndarray, k: float = 2.0, thickness: int = 1) -> np.ndarray:
+    """Each track's box centre with its ``k``-sd ellipse, in its id's colour.
+
+    Parameters
+    ----------
+    image_bgr : ndarray, shape (H, W, 3), uint8
+    xyxy : ndarray, shape (N, 4)
+        Boxes x1, y1, x2, y2 in pixels (:attr:`pftrack.Tracks.xyxy`).
+    xyxy_sd : ndarray, shape (N, 4)
+        Standard deviations of x1, y1, x2, y2 in pixels (:attr:`pftrack.Tracks.xyxy_sd`).
+        The ellipse's half-axes are ``k`` times the means of the two x and the two y sds: the
+        centre's sd when a box's edges move together (a box of fixed size), more than it
+        otherwise.
+    ids : ndarray, shape (N,), int
+        Track ids (colours as :func:`draw_boxes`).
+    k : float
+        Standard deviations drawn (2: 86 % of a Gaussian's mass). Unit: 1.
+
+    Returns
+    -------
+    ndarray, shape (H, W, 3), uint8
+    """
+    import cv2
+
+    from pftrack.render.ellipses import covariance_ellipses
+
+    img = _check_image(image_bgr)
+    b = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
+    sd = np.asarray(xyxy_sd, dtype=np.float64).reshape(-1, 4)
+    ids = np.asarray(ids).astype(np.int64).reshape(-1)
+    if not len(b) == len(sd) == len(ids):
+        raise ValueError(f"draw_uncertainty: {len(b)} boxes, {len(sd)} sds and {len(ids)} ids")
+    centres = 0.5 * (b[:, :2] + b[:, 2:])
+    s = 0.5 * (sd[:, :2] + sd[:, 2:])
+    cov = np.zeros((len(b), 2, 2))
+    cov[:, 0, 0], cov[:, 1, 1] = s[:, 0] ** 2, s[:, 1] ** 2
+    outlines = covariance_ellipses(centres, cov, k=k)
+    colours = track_colours_rgb(ids)[:, ::-1]
+    ok = np.isfinite(outlines).all(axis=(1, 2))
+    pts = np.round(outlines * (1 << _SHIFT)).astype(np.int32)
+    for c in np.unique(colours[ok], axis=0):
+        sel = ok & np.all(colours == c, axis=1)
+        col = tuple(int(v) for v in c)
+        cv2.polylines(img, list(pts[sel]), True, col, thickness, cv2.LINE_AA, _SHIFT)
+        for u, v in centres[sel]:
+            cv2.circle(img, (round(u), round(v)), 2, col, -1, cv2.LINE_AA)
+    return img

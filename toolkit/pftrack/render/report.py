@@ -29,7 +29,8 @@ TOP_W = 760  # top-view width for a 576 px tall frame (room for the legend)
 
 
 def draw_overlay(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
-                 gt_rows: np.ndarray | None = None, trail: int = 30) -> np.ndarray:
+                 gt_rows: np.ndarray | None = None, trail: int = 30,
+                 uncertainty: np.ndarray | None = None) -> np.ndarray:
     """The frame with tracks (boxes, ids, foot trails of ``trail`` frames) and ground truth.
 
     Parameters
@@ -39,6 +40,9 @@ def draw_overlay(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
         Track rows (MOTChallenge), any frames.
     frame : int
         The frame ``image_bgr`` shows (ground-truth numbering).
+    uncertainty : ndarray, shape (M, 9), optional
+        ``tracks_uncertainty.csv``'s rows, one per row of ``rows``
+        (:func:`pftrack.tracker.records_uncertainty`): each box centre's 2-sd ellipse is drawn.
 
     Returns
     -------
@@ -47,6 +51,13 @@ def draw_overlay(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
     import cv2
 
     img = image_bgr.copy()
+    if uncertainty is not None:
+        from pftrack.render.overlay import draw_uncertainty
+
+        sel = rows[:, 0] == frame
+        b = rows[sel, 2:6]
+        img = draw_uncertainty(img, np.c_[b[:, :2], b[:, :2] + b[:, 2:]],
+                               np.asarray(uncertainty)[sel, 2:6], rows[sel, 1])
     if gt_rows is not None:
         for r in gt_rows[gt_rows[:, 0] == frame]:
             x, y, w, h = r[2:6]
@@ -85,11 +96,14 @@ def _world_tracks(rows: np.ndarray, frame: int) -> dict[int, np.ndarray]:
 
 
 def draw_trajectories(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
-                      gt_rows: np.ndarray | None = None, title: str = "") -> np.ndarray:
+                      gt_rows: np.ndarray | None = None, title: str = "",
+                      uncertainty: np.ndarray | None = None) -> np.ndarray:
     """Seed 001 figures 9-12: image trajectories beside the top view, as one BGR image.
 
     The top view shows every track's ground positions (world metres) up to ``frame``, and the
-    ground truth's (dashed) when given; its height matches the frame's.
+    ground truth's (dashed) when given; its height matches the frame's. With ``uncertainty``
+    (``tracks_uncertainty.csv``'s rows, one per row of ``rows``) each track's ground position
+    in ``frame`` gets its 2-sd covariance ellipse.
     """
     import cv2
 
@@ -121,8 +135,15 @@ def draw_trajectories(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
         lo, hi = allp.min(axis=0), allp.max(axis=0)
         size = (TOP_W * H // 576, H)
         label = f"{title} top view, frame {frame}".strip()
+        ellipses = {}
+        if uncertainty is not None:
+            u = np.asarray(uncertainty)
+            for r, c in zip(rows[rows[:, 0] == frame], u[rows[:, 0] == frame]):
+                cov = np.array([[c[6], c[7]], [c[7], c[8]]])
+                if np.all(np.isfinite(cov)) and not np.all(r[7:10] == -1):
+                    ellipses[int(r[1])] = (r[7:9], cov)
         rgb = render_topview(tracks=tracks, ground_truth=gt_tracks, size_wh=size, title=label,
-                             bounds_m=np.array([lo, hi]), legend=False)
+                             bounds_m=np.array([lo, hi]), legend=False, ellipses=ellipses)
         top = cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)
         # the ground truth's line only when there is one (a run without --gt draws none)
         note = "solid: tracks (track ids)" + ("   dashed: ground truth (gt ids)"
@@ -136,8 +157,11 @@ def draw_trajectories(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
 
 def write_report(out_dir: str | os.PathLike[str], rows: np.ndarray,
                  frames: Mapping[int, np.ndarray], *,
-                 gt_rows: np.ndarray | None = None, title: str = "") -> list[Path]:
-    """Write ``overlay_FRAME.png`` and ``trajectories_FRAME.png`` for each kept frame.
+                 gt_rows: np.ndarray | None = None, title: str = "",
+                 uncertainty: np.ndarray | None = None) -> list[Path]:
+    """Write ``overlay_FRAME.png`` and ``trajectories_FRAME.png`` for each kept frame;
+    with ``uncertainty`` (``tracks_uncertainty.csv``'s rows, one per row of ``rows``) the
+    tracks' 2-sd ellipses too (box centres; ground positions in the top view).
 
     Returns the paths written.
     """
@@ -148,9 +172,10 @@ def write_report(out_dir: str | os.PathLike[str], rows: np.ndarray,
     for f in sorted(frames):
         img = frames[f]
         p = out / f"overlay_{f:06d}.png"
-        write_png(p, draw_overlay(img, rows, f, gt_rows=gt_rows))
+        write_png(p, draw_overlay(img, rows, f, gt_rows=gt_rows, uncertainty=uncertainty))
         written.append(p)
         p = out / f"trajectories_{f:06d}.png"
-        write_png(p, draw_trajectories(img, rows, f, gt_rows=gt_rows, title=title))
+        write_png(p, draw_trajectories(img, rows, f, gt_rows=gt_rows, title=title,
+                                       uncertainty=uncertainty))
         written.append(p)
     return written

@@ -103,6 +103,8 @@ def render_topview(
     label_ids: bool = True,
     legend: bool = True,
     track_label: str = "estimate",
+    ellipses: dict[int, tuple[np.ndarray, np.ndarray]] | None = None,
+    ellipse_sd: float = 2.0,
 ) -> np.ndarray:
     """Render the ground plane seen from above.
 
@@ -127,6 +129,12 @@ def render_topview(
         Write the id at each track's end; show the legend (estimate / ground truth / particles).
     track_label : str
         What the legend calls ``tracks`` (e.g. "ground truth" when only the truth is drawn).
+    ellipses : dict of int to (ndarray (2,), ndarray (2, 2)), optional
+        Per track id, a ground position (m) and its covariance (m^2)
+        (:attr:`pftrack.Tracks.world_xy`, :attr:`pftrack.Tracks.world_cov`): drawn as
+        ``ellipse_sd``-standard-deviation ellipses in the id's colour.
+    ellipse_sd : float
+        Standard deviations of the ellipses (2: 86 % of a Gaussian's mass). Unit: 1.
 
     Returns
     -------
@@ -135,11 +143,23 @@ def render_topview(
     """
     tracks = tracks or {}
     ground_truth = ground_truth or {}
+    ellipses = ellipses or {}
+    outlines: dict[int, np.ndarray] = {}
+    if ellipses:
+        from pftrack.render.ellipses import covariance_ellipses
+
+        eids = sorted(ellipses)
+        ring = covariance_ellipses(np.array([ellipses[i][0] for i in eids]).reshape(-1, 2),
+                                   np.array([ellipses[i][1] for i in eids]).reshape(-1, 2, 2),
+                                   k=float(ellipse_sd))
+        outlines = {i: np.column_stack([r, np.zeros(len(r))]) for i, r in zip(eids, ring)
+                    if np.isfinite(r).all()}
     w_px, h_px = int(size_wh[0]), int(size_wh[1])
     scale = min(w_px, h_px) / 600.0  # line widths and fonts relative to a 600 px picture
     if bounds_m is None:
         b = _layers.gather_bounds(volume, list(tracks.values()) + list(ground_truth.values())
-                                  + [c.points_world_m for c in clouds])
+                                  + [c.points_world_m for c in clouds]
+                                  + list(outlines.values()))
     else:
         b = np.asarray(bounds_m, dtype=np.float64)[:, :2]
         b = np.column_stack([b, [0.0, 0.0]])
@@ -150,7 +170,7 @@ def render_topview(
     # lay out in pixels: the framed data box, with fixed room (scaled with the picture) on the
     # left for the y labels, below for the x labels and the legend rows, above for the title
     n_legend = (bool(tracks) + bool(ground_truth) + bool(len(clouds)) + (volume is not None)
-                if legend else 0)
+                + bool(outlines) if legend else 0)
     ls = max(scale, 0.7)  # fonts have a minimum size, so the label room does too
     left_px, right_px = 72 * ls, 12 * ls
     top_px = (32 if title else 12) * ls
@@ -214,6 +234,7 @@ def render_topview(
         _layers.add_tracks(p, ground_truth, width=max(1.0, 2.0 * scale), z=0.02,
                            dashed=0.012 * float(max(span)))
         _layers.add_tracks(p, tracks, width=max(1.5, 2.5 * scale), z=0.03)
+        _layers.add_tracks(p, outlines, width=max(1.0, 1.5 * scale), z=0.04)
         if label_ids:
             _layers.add_track_ends(p, tracks if tracks else ground_truth, z=0.05,
                                    font_size=max(7, round(10 * scale)),
@@ -240,6 +261,9 @@ def render_topview(
             entries.append(("particles (viridis = weight)", (33, 145, 140), "dot"))
         if volume is not None:
             entries.append((str(volume.name), _layers.MARKING_RGB, "line"))
+        if outlines:
+            entries.append((f"{ellipse_sd:g} sd of the position (colour = id)", (0, 0, 0),
+                            "line"))
         img = draw_legend(img, entries, scale)
     if out is not None:
         write_png(Path(out), img[:, :, ::-1])

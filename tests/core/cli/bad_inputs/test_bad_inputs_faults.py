@@ -145,7 +145,8 @@ def test_kill_keeps_the_previous_outputs_and_the_next_run_cleans(work, slow_run,
     r = cli("run", work.config, "--video", work.video, "--gt", work.gt, "--out", work.out,
             "--quiet", "--no-report")
     assert r.rc == 0
-    assert sorted(p.name for p in work.out.iterdir()) == ["metrics.json", "tracks.txt"]
+    assert sorted(p.name for p in work.out.iterdir()) == ["metrics.json", "tracks.txt",
+                                                          "tracks_uncertainty.csv"]
 
 
 def test_closed_stdout_pipe_is_quiet(tmp_path):

@@ -73,14 +73,16 @@ def test_rerun_without_gt_removes_the_old_metrics(work, cli):
     names = sorted(p.name for p in (work.out / "report").iterdir())
     assert "overlay_000001.png" in names
     assert (work.out / "report" / "overlay_000001.png").read_bytes() != b"old picture"
-    assert sorted(p.name for p in work.out.iterdir()) == ["report", "tracks.txt"]
+    assert sorted(p.name for p in work.out.iterdir()) == ["report", "tracks.txt",
+                                                          "tracks_uncertainty.csv"]
 
 
 def test_rerun_without_report_removes_the_old_report(work, cli):
     r = cli("run", work.config, "--video", work.video, "--out", work.out, "--gt", work.gt,
             "--quiet", "--no-report")
     assert r.rc == 0
-    assert sorted(p.name for p in work.out.iterdir()) == ["metrics.json", "tracks.txt"]
+    assert sorted(p.name for p in work.out.iterdir()) == ["metrics.json", "tracks.txt",
+                                                          "tracks_uncertainty.csv"]
     assert json.loads((work.out / "metrics.json").read_text())["frames_tracked"] == 24
 
 
