@@ -106,6 +106,7 @@ def pftrack_register_benchmarks(register):
         bench_batch,
         bench_fresh_video,
         bench_mog2_people,
+        bench_own_detections,
         bench_pets09_ground,
         bench_soccer,
     )
@@ -113,5 +114,6 @@ def pftrack_register_benchmarks(register):
     register("batch", Benchmark.from_module(bench_batch))
     register("fresh-video", Benchmark.from_module(bench_fresh_video))
     register("mog2-people", Benchmark.from_module(bench_mog2_people))
+    register("own-detections", Benchmark.from_module(bench_own_detections))
     register("pets09-ground", Benchmark.from_module(bench_pets09_ground))
     register("soccer", Benchmark.from_module(bench_soccer))
