@@ -80,6 +80,7 @@ __all__ = [
     "default_trackers",
     "detectable_mask",
     "hog_detections",
+    "merge_results",
     "mot17_scoring_rows",
     "pftrack_config_entry",
     "run_benchmark",
@@ -1034,6 +1035,35 @@ def run_benchmark(*, videos: Sequence[str] = tuple(VIDEOS),
     result["speed"] = _speed(cells)
     result["goals"] = judge_goals(result)
     return result
+
+
+def merge_results(results: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """One result from runs of the same commit, part, levels, seeds and trackers on different
+    videos (e.g. one process per video on a machine with cores to spare): cells joined,
+    summary, speed and goals recomputed. Each video's ratios to ByteTrack stay those of its
+    own run; the whole-run speed sums every run's CPU time."""
+    if not results:
+        raise ValueError("merge_results: no result to merge")
+    first = results[0]
+    same = ("commit", "part", "levels", "seeds", "trackers")
+    for r in results[1:]:
+        for k in same:
+            if r[k] != first[k]:
+                raise ValueError(f"merge_results: the runs differ in {k!r} ({first[k]!r} and "
+                                 f"{r[k]!r})")
+    videos = [v for r in results for v in r["videos"]]
+    if len(set(videos)) != len(videos):
+        raise ValueError(f"merge_results: a video appears in two runs ({videos})")
+    out = {**first, "videos": videos, "dirty": any(r["dirty"] for r in results),
+           "date_utc": max(r["date_utc"] for r in results),
+           "frames": {k: v for r in results for k, v in r["frames"].items()},
+           "hog_detection_timing": {k: v for r in results
+                                    for k, v in r["hog_detection_timing"].items()},
+           "cells": [c for r in results for c in r["cells"]], "merged_runs": len(results)}
+    out["summary"] = _summarise(out["cells"])
+    out["speed"] = _speed(out["cells"])
+    out["goals"] = judge_goals(out)
+    return out
 
 
 # --------------------------------------------------------------------------------------------

@@ -173,3 +173,65 @@ def test_bench_on_60_pets_frames():
     assert g["applies"] is False and set(g["trackers"]) == {"people-image"}
     text = bod.format_table(r)
     assert "report part" in text and "people-image" in text and "not one the goals" in text
+
+
+def _cell(video, level, seed, tracker, kind, hota, idf1, idsw, cpu_s, status="ok"):
+    c = {"video": video, "level": level, "seed": seed, "tracker": tracker, "kind": kind,
+         "status": status, "message": "" if status == "ok" else "no camera", "n_frames": 100,
+         "cpu_s": cpu_s, "wall_s": cpu_s, "n_detections": 10}
+    if status != "failed":
+        c.update(HOTA=hota, IDF1=idf1, MOTA=0.5, IDSW=idsw, Frag=3)
+    return c
+
+
+def _result(video, cells):
+    r = {"commit": "a" * 40, "dirty": False, "date_utc": "2026-01-01T00:00:00Z",
+         "part": "report", "levels": ["clean"], "seeds": [0, 1], "videos": [video],
+         "trackers": {"pf": {"kind": "pftrack"}, "bytetrack": {"kind": "peer"},
+                      "norfair": {"kind": "peer"}},
+         "frames": {video: [1, 100]}, "hog_detection_timing": {}, "cells": cells}
+    r["summary"] = bod._summarise(cells)
+    r["speed"] = bod._speed(cells)
+    r["goals"] = bod.judge_goals(r)
+    return r
+
+
+def test_goals_against_the_best_peer_per_figure_and_merged_runs():
+    a = _result("pets09", [
+        _cell("pets09", "clean", s, *t) for s in (0, 1) for t in (
+            ("pf", "pftrack", 0.60 + 0.02 * s, 0.70, 3, 0.05),
+            ("bytetrack", "peer", 0.50, 0.72, 5, 0.10),   # the best peer's IDF1
+            ("norfair", "peer", 0.58, 0.60, 3, 0.20))])   # the best peer's HOTA and IDSW
+    s = {x["tracker"]: x for x in a["summary"]}
+    assert s["pf"]["HOTA_mean"] == pytest.approx(0.61)
+    assert (s["pf"]["HOTA_min"], s["pf"]["HOTA_max"]) == (0.60, 0.62)
+    assert s["pf"]["cpu_ms_per_frame"] == pytest.approx(0.5)
+    assert s["pf"]["cpu_ratio_to_bytetrack"] == pytest.approx(0.5)
+    c = a["goals"]["trackers"]["pf"]["cells"][0]
+    assert c["best_peer"] == {"HOTA": 0.58, "IDF1": 0.72, "IDSW": 3}
+    assert (c["HOTA_met"], c["IDF1_met"], c["IDSW_met"]) == (True, False, True)
+    assert a["goals"]["trackers"]["pf"]["identity_met"] is False
+    assert a["goals"]["trackers"]["pf"]["speed"]["met"] is True
+    assert a["goals"]["applies"] is False  # 2 seeds, one video, one level
+    # a run that failed on one seed: its mean is over the seed that gave tracks, the goal unmet
+    b = _result("mot17-09", [
+        _cell("mot17-09", "clean", 0, "pf", "pftrack", 0.9, 0.9, 0, 0.05),
+        _cell("mot17-09", "clean", 1, "pf", "pftrack", None, None, None, 0.0, "failed"),
+        *[_cell("mot17-09", "clean", k, "bytetrack", "peer", 0.5, 0.5, 5, 0.10) for k in (0, 1)],
+        *[_cell("mot17-09", "clean", k, "norfair", "peer", 0.5, 0.5, 5, 0.10) for k in (0, 1)]])
+    sb = {x["tracker"]: x for x in b["summary"]}
+    assert sb["pf"]["failed"] == 1 and sb["pf"]["HOTA_mean"] == 0.9
+    assert b["goals"]["trackers"]["pf"]["cells"][0]["met"] is False
+    m = bod.merge_results([a, b])
+    assert m["videos"] == ["pets09", "mot17-09"] and len(m["cells"]) == 12
+    assert {(x["video"], x["tracker"]) for x in m["summary"]} == {
+        (v, t) for v in ("pets09", "mot17-09") for t in ("pf", "bytetrack", "norfair")}
+    # the whole-run speed sums both runs' runs that gave tracks: pf 0.15 s over 300 frames,
+    # ByteTrack 0.4 s over 400
+    assert m["speed"]["pf"]["cpu_ms_per_frame"] == pytest.approx(0.5)
+    assert m["speed"]["pf"]["ratio_to_bytetrack"] == pytest.approx(0.5)
+    with pytest.raises(ValueError, match="a video appears in two runs"):
+        bod.merge_results([a, a])
+    with pytest.raises(ValueError, match="differ in 'seeds'"):
+        bod.merge_results([a, {**b, "seeds": [0]}])
+    assert "pf: identity NOT met" in bod.format_table(m)
