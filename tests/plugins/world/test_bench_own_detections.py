@@ -186,6 +186,7 @@ def _cell(video, level, seed, tracker, kind, hota, idf1, idsw, cpu_s, status="ok
 
 def _result(video, cells):
     r = {"commit": "a" * 40, "dirty": False, "date_utc": "2026-01-01T00:00:00Z",
+         "machine": {"cpu_count": 2},
          "part": "report", "levels": ["clean"], "seeds": [0, 1], "videos": [video],
          "trackers": {"pf": {"kind": "pftrack"}, "bytetrack": {"kind": "peer"},
                       "norfair": {"kind": "peer"}},
