@@ -20,7 +20,9 @@ Components (registered name -> class):
 * volumes: ``world`` (package data ``pftrack_world/data/volumes.yaml``: ``pitch_seed001`` and
   seed 003's ``near`` / ``far``); the soccer camera ``pftrack_world/data/soccer_seed001.yaml``;
 * benchmark: ``fresh-video`` (:mod:`pftrack_world.bench_fresh_video`: PETS with nothing learnt
-  from its labels or camera, against norfair), ``pets09-ground``
+  from its labels or camera, against norfair), ``own-detections``
+  (:mod:`pftrack_world.bench_own_detections`: pftrack against norfair and roboflow's trackers on
+  identical detections, PETS and MOT17-09), ``pets09-ground``
   (:mod:`pftrack_world.bench_pets09_ground`) and ``soccer``
   (:mod:`pftrack_world.bench_soccer`).
 
