@@ -52,6 +52,21 @@ own update calls (pftrack: its engine steps, :attr:`pftrack.pipeline.RunResult.t
 the detections given and the video's decoding excluded, and its ratio to ByteTrack's in the same
 run. Each tracker first runs once on the first cell's first :data:`WARM_UP_FRAMES` frames,
 untimed and discarded (imports, compiled kernels).
+
+From Python, e.g. a modified preset against the peers on the tune part::
+
+    from pftrack.pipeline import load_config
+    from pftrack_world import bench_own_detections as bod
+
+    cfg = load_config("people-image")
+    cfg["tracker"]["max_misses"] = 40
+    r = bod.run_benchmark(part="tune", levels=["clean", "noisy"], seeds=[0, 1, 2],
+                          trackers=["bytetrack", "norfair"],
+                          extra=[bod.pftrack_config_entry("people-image-40", cfg)])
+    print(bod.format_table(r))
+
+:func:`simulate_detections`, :func:`hog_detections`, :func:`run_pftrack_config` and
+:func:`score_tracks` are the pieces, usable alone.
 """
 
 from __future__ import annotations
