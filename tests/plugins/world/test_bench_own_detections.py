@@ -236,3 +236,29 @@ def test_goals_against_the_best_peer_per_figure_and_merged_runs():
     with pytest.raises(ValueError, match="differ in 'seeds'"):
         bod.merge_results([a, {**b, "seeds": [0]}])
     assert "pf: identity NOT met" in bod.format_table(m)
+
+
+@needs_pets
+def test_hog_detections_are_computed_once_and_keyed_by_the_detector(tmp_path, monkeypatch):
+    import pftrack.fresh
+    from pftrack.pipeline import load_config
+
+    video = PETS / "vtest.avi"
+    a = bod.hog_detections(video, "1:3", tmp_path)
+    assert a.shape[1] == 7 and set(np.unique(a[:, 0])) <= {1, 2, 3} and len(a) > 0
+    assert np.all(a[:, 6] >= 0.5)  # people-image's detector threshold
+    t = bod.hog_timing(video, "1:3", tmp_path)
+    assert t["frames"] == 3 and t["cpu_s"] > 0
+    files = sorted(p.name for p in tmp_path.iterdir())
+    assert len(files) == 2  # the det file and its key and timing
+
+    def no_detector(*args, **kwargs):
+        raise AssertionError("the detector ran again")
+
+    monkeypatch.setattr(pftrack.fresh, "detect_video", no_detector)
+    assert np.array_equal(bod.hog_detections(video, "1:3", tmp_path), a)
+    # other detector parameters: another file, computed
+    cfg = load_config("people-image")
+    cfg["detector"]["params"]["threshold"] = 0.7
+    with pytest.raises(AssertionError, match="ran again"):
+        bod.hog_detections(video, "1:3", tmp_path, config=cfg)
