@@ -397,26 +397,17 @@ def hog_detections(video: str | os.PathLike[str], frames: str | tuple[int, int |
     from pftrack.io.atomic import atomic_write_text
     from pftrack.io.detections import write_detections
     from pftrack.io.mot import read_mot
-    from pftrack.pipeline import load_config, parse_frames
 
     video = Path(video)
     if not video.is_file():
         raise FileNotFoundError(f"hog_detections: video {video} not found")
-    cfg = load_config(config)
-    if not cfg.get("detector"):
-        raise ValueError(f"hog_detections: config {cfg.get('_source', config)} has no detector")
-    first, last = parse_frames(frames)
-    key = _hog_key(video, cfg["detector"], (first, last))
-    digest = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]
-    root = Path(cache_dir) if cache_dir is not None else default_cache_dir()
-    path = root / f"hog-{video.stem}-{digest}.txt"
-    meta = path.with_suffix(".json")
+    cfg, key, path, meta = _hog_cache(video, frames, cache_dir, config)
     if not (path.is_file() and meta.is_file()):
-        root.mkdir(parents=True, exist_ok=True)
+        path.parent.mkdir(parents=True, exist_ok=True)
         threads = cv2.getNumThreads()
         cv2.setNumThreads(1)
         try:
-            dets, _, timing = detect_video(video, cfg, (first, last), progress=progress)
+            dets, _, timing = detect_video(video, cfg, key["frames"], progress=progress)
         finally:
             cv2.setNumThreads(threads)
         write_detections(path, dets)
@@ -430,15 +421,23 @@ def hog_timing(video: str | os.PathLike[str], frames: Any = None,
                config: str | dict[str, Any] = HOG_PRESET) -> dict[str, Any] | None:
     """The detection time stored beside a cached :func:`hog_detections` result (None when not
     cached)."""
+    meta = _hog_cache(Path(video), frames, cache_dir, config)[3]
+    return json.loads(meta.read_text())["timing"] if meta.is_file() else None
+
+
+def _hog_cache(video: Path, frames: Any, cache_dir: str | os.PathLike[str] | None,
+               config: str | dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any], Path, Path]:
+    """(configuration, cache key, det file, its key-and-timing file) of a hog run."""
     from pftrack.pipeline import load_config, parse_frames
 
-    video = Path(video)
     cfg = load_config(config)
+    if not cfg.get("detector"):
+        raise ValueError(f"hog_detections: config {cfg.get('_source', config)} has no detector")
     key = _hog_key(video, cfg["detector"], parse_frames(frames))
     digest = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]
     root = Path(cache_dir) if cache_dir is not None else default_cache_dir()
-    meta = root / f"hog-{video.stem}-{digest}.json"
-    return json.loads(meta.read_text())["timing"] if meta.is_file() else None
+    path = root / f"hog-{video.stem}-{digest}.txt"
+    return cfg, key, path, path.with_suffix(".json")
 
 
 def write_det_file(path: str | os.PathLike[str], det_rows: np.ndarray) -> Path:
