@@ -1177,7 +1177,7 @@ def format_table(result: dict[str, Any]) -> str:
     lines.append(f"own-detections, {part} part (settings chosen on the {TUNE_PART} part), "
                  f"seeds {','.join(map(str, result['seeds']))}; commit {commit}, "
                  f"{result['date_utc']}, {result['machine']['cpu_count']} CPUs")
-    head = (f"  {'tracker':<14}{'HOTA':>22}{'IDF1':>22}{'MOTA':>22}{'IDSW':>18}{'Frag':>18}"
+    head = (f"  {'tracker':<14}{'HOTA':>22}{'IDF1':>22}{'MOTA':>22}{'IDSW':>20}{'Frag':>23}"
             f"{'ms/frame':>10}{'xByteTrack':>11}")
     for v in result["videos"]:
         a, b = result["frames"][v]
@@ -1197,8 +1197,8 @@ def format_table(result: dict[str, Any]) -> str:
                     note = f"  {s['fallback']} fell back: {'; '.join(s['messages'])[:160]}"
                 lines.append(
                     f"  {s['tracker']:<14}{_spread(s, 'HOTA', 3):>22}{_spread(s, 'IDF1', 3):>22}"
-                    f"{_spread(s, 'MOTA', 3):>22}{_spread(s, 'IDSW', 1):>18}"
-                    f"{_spread(s, 'Frag', 1):>18}{_f(s['cpu_ms_per_frame'], 2):>10}"
+                    f"{_spread(s, 'MOTA', 3):>22}{_spread(s, 'IDSW', 1):>20}"
+                    f"{_spread(s, 'Frag', 1):>23}{_f(s['cpu_ms_per_frame'], 2):>10}"
                     f"{_f(s['cpu_ratio_to_bytetrack'], 2):>11}{note}")
     lines.append("CPU time per frame over the whole run (tracker's own calls, detections given, "
                  "decoding excluded):")
