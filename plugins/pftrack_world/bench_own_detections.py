@@ -980,6 +980,7 @@ def run_benchmark(*, videos: Sequence[str] = tuple(VIDEOS),
     from pftrack.pipeline import video_fps
 
     say = log or (lambda s: None)
+    commit = _git_commit()  # the code that runs: read before, not after, a long run
     entries = _select_trackers(trackers, extra)
     for lv in levels:
         if lv != HOG_LEVEL:
@@ -1035,7 +1036,7 @@ def run_benchmark(*, videos: Sequence[str] = tuple(VIDEOS),
                                                            "num_tracker_ids", "num_gt_ids")})
                         cells.append(cell)
     result: dict[str, Any] = {
-        "bench": "own-detections", **_git_commit(),
+        "bench": "own-detections", **commit,
         "date_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
         "machine": _machine(), "protocol": protocol(),
         "part": part, "settings_chosen_on": TUNE_PART,
