@@ -20,7 +20,9 @@ Components (registered name -> class):
 * volumes: ``world`` (package data ``pftrack_world/data/volumes.yaml``: ``pitch_seed001`` and
   seed 003's ``near`` / ``far``); the soccer camera ``pftrack_world/data/soccer_seed001.yaml``;
 * benchmark: ``fresh-video`` (:mod:`pftrack_world.bench_fresh_video`: PETS with nothing learnt
-  from its labels or camera, against norfair), ``pets09-ground``
+  from its labels or camera, against norfair), ``own-detections``
+  (:mod:`pftrack_world.bench_own_detections`: pftrack against norfair and roboflow's trackers on
+  identical detections, PETS and MOT17-09), ``pets09-ground``
   (:mod:`pftrack_world.bench_pets09_ground`) and ``soccer``
   (:mod:`pftrack_world.bench_soccer`).
 
@@ -106,6 +108,7 @@ def pftrack_register_benchmarks(register):
         bench_batch,
         bench_fresh_video,
         bench_mog2_people,
+        bench_own_detections,
         bench_pets09_ground,
         bench_soccer,
     )
@@ -113,5 +116,6 @@ def pftrack_register_benchmarks(register):
     register("batch", Benchmark.from_module(bench_batch))
     register("fresh-video", Benchmark.from_module(bench_fresh_video))
     register("mog2-people", Benchmark.from_module(bench_mog2_people))
+    register("own-detections", Benchmark.from_module(bench_own_detections))
     register("pets09-ground", Benchmark.from_module(bench_pets09_ground))
     register("soccer", Benchmark.from_module(bench_soccer))

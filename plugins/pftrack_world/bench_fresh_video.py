@@ -117,14 +117,20 @@ def detector_recall_precision(gt_rows: np.ndarray, detections: dict, min_score: 
             "detector_tp": tp, "detector_fp": fp, "gt_boxes": n_gt}
 
 
-def norfair_tracks(detections: dict, frames: range, min_score: float) -> np.ndarray:
-    """MOT rows of norfair (IoU distance) on the same detections."""
+def norfair_tracks(detections: dict, frames: range, min_score: float, *,
+                   distance_threshold: float = PEER_DISTANCE_THRESHOLD,
+                   hit_counter_max: int = PEER_HIT_COUNTER_MAX,
+                   initialization_delay: int = PEER_INITIALIZATION_DELAY,
+                   timing: dict | None = None) -> np.ndarray:
+    """MOT rows of norfair (IoU distance) on the same detections. ``timing``, when given,
+    receives ``wall_s`` and ``cpu_s``: seconds spent in norfair's update calls alone."""
     from norfair import Detection, Tracker
 
-    tracker = Tracker(distance_function="iou", distance_threshold=PEER_DISTANCE_THRESHOLD,
-                      hit_counter_max=PEER_HIT_COUNTER_MAX,
-                      initialization_delay=PEER_INITIALIZATION_DELAY)
+    tracker = Tracker(distance_function="iou", distance_threshold=distance_threshold,
+                      hit_counter_max=hit_counter_max,
+                      initialization_delay=initialization_delay)
     rows = []
+    wall = cpu = 0.0
     for f in frames:
         d = detections.get(f)
         dets = []
@@ -133,10 +139,16 @@ def norfair_tracks(detections: dict, frames: range, min_score: float) -> np.ndar
                 if s >= min_score:
                     dets.append(Detection(np.array([[x, y], [x + w, y + h]]),
                                           scores=np.array([s, s])))
-        for obj in tracker.update(detections=dets):
+        t0, c0 = time.perf_counter(), time.process_time()
+        objects = tracker.update(detections=dets)
+        wall += time.perf_counter() - t0
+        cpu += time.process_time() - c0
+        for obj in objects:
             # its Kalman filter moves the two corners independently: they can cross
             (x0, y0), (x1, y1) = np.sort(np.asarray(obj.estimate, dtype=np.float64), axis=0)
             rows.append([f, obj.id, x0, y0, x1 - x0, y1 - y0, 1.0, -1, -1, -1])
+    if timing is not None:
+        timing.update(wall_s=wall, cpu_s=cpu)
     return np.asarray(rows, dtype=np.float64).reshape(-1, 10)
 
 
