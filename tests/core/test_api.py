@@ -245,10 +245,9 @@ def test_bad_frames_and_calls():
 def test_a_configuration_that_reads_pixels_needs_frames():
     tr = Tracker("people-image", seed=0)
     readers = image_readers(tr._first)
-    assert readers == ["likelihood 'ncc'",
-                       "tracks 'confirmed' (its colour model, tracks.appearance)"]
+    assert readers == ["tracks 'confirmed' (its colour model, tracks.appearance)"]
     with pytest.raises(ValueError, match=r"frame=None\): configuration 'people-image' reads "
-                                         r"the image \(likelihood 'ncc', tracks 'confirmed'"):
+                                         r"the image \(tracks 'confirmed'"):
         tr.update(np.array([[10, 10, 50, 90.0]]))
     assert image_readers(Tracker(DET_ONLY)._first) == []
 
