@@ -20,8 +20,9 @@ re-baselines the model on them: each trained block's mean moves by the per-pixel
 those frames, of the frame minus the model's mean, so both the level step and the new
 per-pixel pattern are absorbed while the block's eigenspace (its noise) is kept. Blocks that
 held an intruder in the last sound frame before the event (and their 4-neighbours) would learn
-the intruder as background that way: they move by the median shift of the other blocks
-instead (the level step, without their own pattern change). Every event and recovery is a
+the intruder as background that way: in them a pixel keeps its own shift only when it is within
+three robust standard deviations of the nearest other trained block's median shift, and takes
+that median otherwise (the intruder's pixels moved much further). Every event and recovery is a
 message in :attr:`RecalibrationGuard.messages` and a ``RecalibrationWarning``.
 """
 
@@ -195,14 +196,27 @@ class RecalibrationGuard:
         kept_flat = kept.ravel()
         others = ~kept_flat & m.trained_
         if kept_flat.any() and others.any():
-            delta[kept_flat] = float(np.median(delta[others]))
+            from scipy import ndimage
+
+            # in such a block a pixel keeps its own shift when it moved like the background
+            # did (within 3 robust standard deviations of the nearest other trained block's
+            # median shift); a pixel that moved further (the intruder) takes that median
+            level = np.median(delta, axis=1)  # (B,)
+            _, (ri, ci) = ndimage.distance_transform_edt(~others.reshape(rows, cols),
+                                                         return_indices=True)
+            src = (ri * cols + ci).ravel()
+            spread = delta[others] - level[others][:, None]
+            tol = 3.0 * 1.4826 * float(np.median(np.abs(spread - np.median(spread))))
+            near = level[src[kept_flat]][:, None]
+            own = delta[kept_flat]
+            delta[kept_flat] = np.where(np.abs(own - near) <= tol, own, near)
         m.rebaseline(delta)
         ev = self.events[-1]
         ev.rebaselined_on = list(self._held_at)
         self._say(f"frames {self._held_at[0]}-{self._held_at[-1]}: background model "
                   f"re-baselined (median shift {float(np.median(delta)):+.1f}; "
-                  f"{int(kept_flat.sum())} block(s) that held an intruder shifted by the "
-                  "level only); detections resume with the next frame")
+                  f"{int(kept_flat.sum())} block(s) that held an intruder re-baselined "
+                  "without its pixels); detections resume with the next frame")
         self._held, self._held_at = [], []
 
     def describe(self) -> dict[str, Any]:

@@ -131,7 +131,8 @@ def test_masked_training_excludes_foreground_blocks_and_reports_starved_ones():
         frames[k][40:48, 48:56] = 255.0
         masks[k][40:48, 48:56] = True
     masks[19][0, 0] = True  # one foreground pixel in block (0, 0) of the last frame
-    with pytest.warns(UserWarning, match=r"1 of 64 blocks have fewer.*left untrained"):
+    with pytest.warns(UserWarning, match=r"1 of 64 blocks have fewer.*are never intruders"
+                      r".*\(5, 6\)"):
         m = BlockEigenspaceModel(min_samples=5, untrained="ignore").fit(frames, masks)
     n = m.n_samples_.reshape(8, 8)
     assert n[1, 1] == 8 and n[5, 6] == 3 and n[0, 0] == 19 and n[0, 1] == 20
@@ -146,10 +147,12 @@ def test_masked_training_excludes_foreground_blocks_and_reports_starved_ones():
     test[40:48, 48:56] = 0.0
     res = m.score(test)
     assert not res.intruder_mask.any() and res.r_map[5, 6] == 0.0
-    # by default an untrained block borrows its nearest trained neighbour's eigenspace (one
-    # at grid distance 1), so the dark square, which that neighbour never saw, is found
+    # the default is the same: an untrained block is never an intruder
+    assert fit_quiet(BlockEigenspaceModel(min_samples=5), frames, masks).untrained == "ignore"
+    # untrained="nearest": it borrows its nearest trained neighbour's eigenspace (one at grid
+    # distance 1), so the dark square, which that neighbour never saw, is found
     with pytest.warns(UserWarning, match=r"1 of 64 blocks.*nearest trained block"):
-        mb = BlockEigenspaceModel(min_samples=5).fit(frames, masks)
+        mb = BlockEigenspaceModel(min_samples=5, untrained="nearest").fit(frames, masks)
     assert mb.trained_.all() and mb.untrained_blocks_.tolist() == [[5, 6]]
     src = int(mb.source_[5 * 8 + 6])
     assert src != 5 * 8 + 6 and max(abs(src // 8 - 5), abs(src % 8 - 6)) == 1
@@ -323,8 +326,8 @@ def block_prf(model: BlockEigenspaceModel, frames, gt, min_fraction: float = 0.2
 
 def test_zodiac_block_f_measure():
     frames, gt = _water("zodiac", 50)
-    # the paper's parameters; untrained blocks borrow their neighbour's eigenspace (default)
-    m = fit_quiet(BlockEigenspaceModel(), frames[:25], gt[:25])
+    # the paper's parameters; untrained blocks borrow their neighbour's eigenspace
+    m = fit_quiet(BlockEigenspaceModel(untrained="nearest"), frames[:25], gt[:25])
     p, r, f = block_prf(m, frames[25:], gt[25:])
     # measured: P 0.702, R 0.465, F 0.559 over frames 26-50 (ground-truth blocks at least a
     # quarter foreground; the boat covers about 3 such blocks per frame); with
@@ -339,7 +342,7 @@ def test_ocean_people_standing_in_the_training_frames_are_found_with_borrowed_ei
     those blocks have no background sample of their own. Judged by the nearest trained block's
     eigenspace they are found; left untrained they never can be."""
     frames, gt = _water("ocean", 30)
-    near = fit_quiet(BlockEigenspaceModel(), frames[:15], gt[:15])
+    near = fit_quiet(BlockEigenspaceModel(untrained="nearest"), frames[:15], gt[:15])
     ignore = fit_quiet(BlockEigenspaceModel(untrained="ignore"), frames[:15], gt[:15])
     p, r, f = block_prf(near, frames[15:], gt[15:])
     # measured (frames 16-30): P 0.335, R 0.908, F 0.490 (MOG2: F 0.415 in the same protocol,
