@@ -1,6 +1,7 @@
 """Seed 003's block eigenspace background model against OpenCV's background subtractors on real
 water, campus and thermal video: precision, recall, F-measure and PWC at pixel and block level,
-frames per second, and the thermal clip's first detection.
+frames per second, and on a thermal clip with annotated boxes the entry, false alarms on empty
+frames, recall and block precision, with and without a simulated camera recalibration.
 
 Sequences (``../shared/data``, or ``--data``):
 
@@ -11,10 +12,26 @@ Sequences (``../shared/data``, or ``--data``):
   ``--pets-margin`` px on each side; train on frames 1-400, test on 401-795, every
   ``--pets-step``-th frame of each range (the OpenCV models see every frame of the training
   range, so their running models stay continuous);
-* ``thermal`` (``thermal/animal_entry.cptv``, 16-bit LWIR): the model trained on frames 1-35;
-  the first later frame with an intruder block and the frames with one before it (the animal
-  enters at frame 42). The eigenspace model runs with ``frame_offset="median"`` there (not in
-  the paper: the camera's level drifts; without it nearly every block is flagged).
+* ``thermal`` (``--thermal-clip``, default ``thermal/animal_entry.cptv``, 16-bit LWIR counts)
+  against the animal's boxes of ``--thermal-annotation`` (a MOT file; for the default clip the
+  reference boxes shipped in ``pftrack_coast/data/animal_entry_gt.txt``, made by thresholding
+  against the camera's stored empty background frame and checked by eye). The eigenspace model
+  (``frame_offset="median"``: the camera's level drifts) trains on ``--thermal-train`` frames
+  with the annotated boxes masked out of its background (or refuses such frames); MOG2 and KNN
+  see those frames first, then the test frames (all the others, in order), as float counts
+  less each frame's median. Per method: the first frame from the entry with a flagged block on the
+  animal, false alarms on the frames known to be empty (any flagged block), recall (frames
+  with the animal where a flagged block touches its box) and block precision (flagged blocks
+  touching a box / all flagged blocks, over the frames with the animal), and which of the
+  goals (:data:`THERMAL_GOALS`) are met. With ``--thermal-recalibration simulated`` or
+  ``both`` the test frames from the middle one on carry a simulated flat-field correction
+  (:func:`pftrack_coast.thermal.simulate_recalibration`; training frames are always taken as
+  recorded: the model was trained before the event), and the eigenspace model runs through a
+  :class:`~pftrack_coast.recalibration.RecalibrationGuard` (``--thermal-guard``; a pause of
+  more than 5 frame intervals, a level step of ``--thermal-level-step`` counts, a quarter of
+  the blocks flagged, or the camera's own FFC time changing) whose messages are printed. The
+  camera's stored background frames are scored by the model alone, not as part of the live
+  stream.
 
 Pixel level: a method's foreground mask (the eigenspace model's: the pixels of its intruder
 blocks) against the ground truth, summed over the test frames (the CDnet measures; PWC = 100
@@ -489,12 +506,14 @@ def _thermal_figures(method: str, setup: dict[str, Any], flagged: dict[int, np.n
     with_animal = [k for k in setup["test"] if k in boxes]
     empty = [k for k in setup["test"] if k in set(setup["empty"])]
     found, correct, total = [], 0, 0
+    per_frame = []  # [frame, flagged blocks, of them touching a box] per frame with the animal
     for k in with_animal:
         touch = _touched(boxes[k], grid, bs)
         hit = flagged[k] & touch
         found.append(bool(hit.any()))
         correct += int(hit.sum())
         total += int(flagged[k].sum())
+        per_frame.append([int(k), int(flagged[k].sum()), int(hit.sum())])
     first_test = next((k for k in setup["test"] if k >= entry), None)
     first = next((k for k, f in zip(with_animal, found) if f and k >= entry), None)
     delay = None if first is None or first_test is None else first - first_test
@@ -514,7 +533,7 @@ def _thermal_figures(method: str, setup: dict[str, Any], flagged: dict[int, np.n
             "flagged_blocks": total, "missed_frames": [k for k, f in zip(with_animal, found)
                                                        if not f],
             "frames_per_second": n / seconds if seconds > 0 else float("inf"),
-            "goals": goals, "messages": messages}
+            "per_frame_flagged_on_animal": per_frame, "goals": goals, "messages": messages}
 
 
 def _thermal(args: argparse.Namespace, root: Path, methods: list[str], bs: int,
@@ -599,6 +618,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     finally:
         cv2.setNumThreads(threads)
     out["setup"] = {"block": args.block, "gt_block_fraction": GT_BLOCK_FRACTION,
+                    "untrained": args.untrained,
                     "pets_margin_px": args.pets_margin, "pets_step": args.pets_step,
                     "protocol": "water: train first half, test second half; pets09: train "
                                 "1-400, test 401-795 (every pets_step-th frame); fps over "
