@@ -80,11 +80,12 @@ class EigenspaceDetector(Detector):
                   "training but flags it in every frame where its background differs from "
                   "the borrowed one.")
     recalibration: str = Param(
-        "off", "'rebaseline': watch for a camera recalibration or sudden global change (a "
-               "time gap, a level step, too many intruder blocks), hold detections for "
-               "recal_settle_frames frames and re-baseline the model's per-pixel means on "
-               "them, with a RecalibrationWarning for each (see "
-               "pftrack_coast.recalibration); 'off': the model as trained.")
+        "rebaseline", "'rebaseline' (default): watch for a camera recalibration or sudden "
+                      "global change (a time gap, a level step, too many intruder blocks), "
+                      "hold detections for recal_settle_frames frames and re-baseline the "
+                      "model's per-pixel means on them, with a RecalibrationWarning for each "
+                      "(see pftrack_coast.recalibration); 'off': the model as trained, every "
+                      "frame.")
     recal_block_fraction: float = Param(
         0.25, "recalibration: an event when more than this fraction of the trained blocks "
               "are intruders in one frame.", unit="1")
