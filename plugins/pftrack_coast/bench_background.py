@@ -117,6 +117,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--thermal-level-step", type=float, default=15.0,
                         help="median-level step between frames, counts, taken as a "
                              "recalibration (default 15)")
+    parser.add_argument("--thermal-adapt-rate", type=float, default=0.02,
+                        help="the eigenspace model's block means away from the animal follow "
+                             "each sound frame by this fraction (default 0.02; 0: never)")
     parser.add_argument("--seed", type=int, default=0,
                         help="seed of the simulated recalibration's pattern (default 0)")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
@@ -461,7 +464,7 @@ def _thermal_method(method: str, setup: dict[str, Any], clip: Any, model: Any, b
             dt = np.diff(clip.times_s[live])
             gap = 5.0 * float(np.median(dt)) if len(dt) and np.isfinite(dt).all() else None
             guard = RecalibrationGuard(model, level_step=args.thermal_level_step, gap_s=gap,
-                                       warn=False)
+                                       adapt_rate=args.thermal_adapt_rate, warn=False)
     else:
         sub = _opencv(method)()
         for k in setup["train"]:

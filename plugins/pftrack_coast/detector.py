@@ -97,6 +97,10 @@ class EigenspaceDetector(Detector):
         None, "recalibration: an event when a frame comes more than this long after the "
               "previous one (a thermal camera's flat-field correction pauses the recording "
               "for about 1-2 s); null: not watched.", unit="s")
+    recal_adapt_rate: float = Param(
+        0.02, "recalibration: after each sound frame the means of the blocks away from any "
+              "intruder move this fraction of the way towards it (the drift after a "
+              "recalibration); 0: never.", unit="1")
     recal_settle_frames: int = Param(
         3, "recalibration: frames held after an event and re-baselined on.", unit="frames")
     box_margin_px: int = Param(0, "Training with boxes: each box is grown by this many pixels "
@@ -208,7 +212,8 @@ class EigenspaceDetector(Detector):
                 level_step=None if self.recal_level_step is None else float(
                     self.recal_level_step),
                 gap_s=None if self.recal_gap_s is None else float(self.recal_gap_s),
-                settle_frames=int(self.recal_settle_frames))
+                settle_frames=int(self.recal_settle_frames),
+                adapt_rate=float(self.recal_adapt_rate))
             self.guard_ = guard
         return guard
 

@@ -15,6 +15,10 @@ global change of another camera (exposure, gain).
   intruder fills a quarter of the picture in one frame; a changed background does);
 * a hint from the caller (a camera's own record of its last FFC changing).
 
+Between events the means of the blocks away from any intruder follow each frame slowly
+(``adapt_rate``), so the per-pixel drift that goes on after a recalibration (and in any
+thermal camera) does not build up into false intruders.
+
 After an event it holds detections (empty results) for ``settle_frames`` frames and
 re-baselines the model on them: each trained block's mean moves by the per-pixel median, over
 those frames, of the frame minus the model's mean, so both the level step and the new
@@ -78,13 +82,20 @@ class RecalibrationGuard:
     settle_frames : int
         Frames after an event whose detections are held (empty) and that the model is
         re-baselined on (>= 1); the event's own frame is the first of them.
+    adapt_rate : float
+        After each sound frame, the means of the blocks away from any intruder (neither
+        flagged nor next to a flagged block) move this fraction of the way towards the frame
+        (0: never): the slow per-pixel drift after a recalibration, or of any thermal camera,
+        is followed between events, over about ``1 / adapt_rate`` frames. The eigenspaces are
+        kept.
     warn : bool
         Also emit each message as a :class:`RecalibrationWarning`.
     """
 
     def __init__(self, model: BlockEigenspaceModel, block_fraction: float = 0.25,
                  level_step: float | None = 15.0, gap_s: float | None = None,
-                 settle_frames: int = 3, warn: bool = True) -> None:
+                 settle_frames: int = 3, adapt_rate: float = 0.02, warn: bool = True,
+                 ) -> None:
         model._fitted()
         if not 0.0 < float(block_fraction) <= 1.0:
             raise ValueError(f"RecalibrationGuard: block_fraction must be in (0, 1], got "
@@ -102,6 +113,10 @@ class RecalibrationGuard:
         self.level_step = None if level_step is None else float(level_step)
         self.gap_s = None if gap_s is None else float(gap_s)
         self.settle_frames = int(settle_frames)
+        if not 0.0 <= float(adapt_rate) < 1.0:
+            raise ValueError(f"RecalibrationGuard: adapt_rate must be in [0, 1), got "
+                             f"{adapt_rate!r}")
+        self.adapt_rate = float(adapt_rate)
         self.warn = bool(warn)
         self.messages: list[str] = []
         self.events: list[RecalibrationEvent] = []
@@ -163,12 +178,26 @@ class RecalibrationGuard:
             causes.append(f"{100 * frac:.0f} % of the trained blocks flagged")
         if not causes:
             self._last_mask = res.intruder_mask
+            if self.adapt_rate > 0:
+                self._adapt(grey, res.intruder_mask)
             return res
         self.events.append(RecalibrationEvent(k, causes, []))
         self._say(f"frame {k}: recalibration or sudden global change ({'; '.join(causes)}); "
                   f"detections held for {self.settle_frames} frame(s) while the background "
                   "model is re-baselined")
         return self._hold(k, grey, [])
+
+    def _adapt(self, grey: np.ndarray, intruders: np.ndarray) -> None:
+        """Move the means of the blocks away from any intruder (not flagged, nor 4-neighbour of
+        a flagged block) ``adapt_rate`` of the way towards this frame."""
+        from scipy import ndimage
+
+        m = self.model
+        busy = ndimage.binary_dilation(intruders) if intruders.any() else intruders
+        quiet = ~busy.ravel() & m.trained_
+        x = blocks_of(grey, int(m.block_size))
+        delta = np.where(quiet[:, None], self.adapt_rate * (x - m.mean_), 0.0)
+        m.rebaseline(delta)
 
     def _hold(self, k: int, grey: np.ndarray, causes: list[str]) -> EigenspaceResult:
         if causes:  # a new event while settling: start settling again from this frame
