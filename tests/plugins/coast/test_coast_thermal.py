@@ -254,18 +254,18 @@ def test_guard_follows_slow_drift_away_from_intruders_only():
         stream[k] = stream[k] + field * k / 59
         if k >= 5:
             stream[k][8:16, 8:16] += 120.0
-    follow = RecalibrationGuard(fit_quiet(BlockEigenspaceModel(), train), warn=False)
+    # a mean lags a steady drift by (drift per frame) / adapt_rate: up to 1 level a frame here,
+    # so 0.1 (10 levels behind); the default 0.02 is for a camera drifting far more slowly
+    follow = RecalibrationGuard(fit_quiet(BlockEigenspaceModel(), train), adapt_rate=0.1,
+                                warn=False)
     still = RecalibrationGuard(fit_quiet(BlockEigenspaceModel(), train), adapt_rate=0.0,
                                warn=False)
     a = [follow.score(f).intruder_mask for f in stream]
     b = [still.score(f).intruder_mask for f in stream]
     assert follow.events == [] and all(m[1, 1] for m in a[5:])
-    # the object's 4-neighbours are kept from following (they might hold part of it): the
-    # drift builds up there (measured: 1 or 2 of them flagged by frames 35-59); nowhere else
-    away = np.ones((8, 8), bool)
-    away[0:3, 0:3] = False
-    assert max(int(m[away].sum()) for m in a) == 0
-    assert max(int(m.sum()) for m in a) <= 3
-    assert int(b[-1].sum()) > 8  # as trained: the drifted blocks flagged (measured 11)
+    # measured: only the object's block, in every frame from 5 (its 4-neighbours, kept from
+    # following because they might hold part of it, stay below the threshold here)
+    assert all(int(m.sum()) == 1 for m in a[5:])
+    assert int(b[-1].sum()) > 8  # as trained: the drifted blocks flagged (measured 13)
     with pytest.raises(ValueError, match="adapt_rate must be in"):
         RecalibrationGuard(fit_quiet(BlockEigenspaceModel(), train), adapt_rate=1.0)
