@@ -55,6 +55,9 @@ class EigenspaceDetector(Detector):
     last_ : EigenspaceResult
         The r_D map, intruder mask, boxes and scores of the last frame given to
         :meth:`detect` (for likelihoods and pictures).
+    guard_ : RecalibrationGuard
+        With ``recalibration="rebaseline"``, after the first :meth:`detect`: the guard, its
+        events and messages; ``guard_.model`` is the copy of ``model_`` that it re-baselines.
     """
 
     block_size: int = Param(8, "Side of a block, pixels.", unit="px")
@@ -201,14 +204,19 @@ class EigenspaceDetector(Detector):
         return self._model().score(img)
 
     def _guard(self) -> Any:
-        """The recalibration guard around the model (``recalibration="rebaseline"``)."""
+        """The recalibration guard (``recalibration="rebaseline"``) around a copy of the model:
+        its re-baselines and drift-following change ``guard_.model``, never ``model_`` (what
+        :meth:`score` and :meth:`save` use)."""
         model = self._model()
         guard = self.__dict__.get("guard_")
-        if guard is None or guard.model is not model:
+        if guard is None or self.__dict__.get("guard_source_") is not model:
+            import copy
+
             from pftrack_coast.recalibration import RecalibrationGuard
 
+            self.guard_source_ = model
             guard = RecalibrationGuard(
-                model, block_fraction=float(self.recal_block_fraction),
+                copy.deepcopy(model), block_fraction=float(self.recal_block_fraction),
                 level_step=None if self.recal_level_step is None else float(
                     self.recal_level_step),
                 gap_s=None if self.recal_gap_s is None else float(self.recal_gap_s),

@@ -441,6 +441,20 @@ class BlockEigenspaceModel:
                 f"(row, col): {_block_list(self.untrained_blocks_)}; untrained_picture() "
                 "draws them", stacklevel=3)
 
+    def follow(self, x: np.ndarray, projections: np.ndarray, blocks: np.ndarray,
+               rate: float) -> None:
+        """Move the means of ``blocks`` (B,) bool ``rate`` of the way towards a frame's block
+        vectors ``x`` (B, P), given their whitened projections (``projections`` of
+        :meth:`score_grey`): ``W^T mean`` follows linearly, so no product over the pixels is
+        needed. The eigenspaces stay."""
+        self._fitted()
+        b = np.asarray(blocks, bool) & self.trained_
+        r = float(rate)
+        self.mean_[b] += r * (x[b] - self.mean_[b])
+        self.offset_[b] += r * (projections[b] - self.offset_[b])
+        self.groups_ = [(idx, w, np.ascontiguousarray(self.offset_[idx, :w.shape[2]]))
+                        for idx, w, _ in self.groups_]
+
     def rebaseline(self, delta: np.ndarray) -> None:
         """Shift every block's mean by ``delta`` (B, P) grey levels (or (B, 1): one level per
         block), keeping its eigenspace: after a camera recalibration the background's noise is
@@ -453,7 +467,10 @@ class BlockEigenspaceModel:
                              f"({self.mean_.shape[0]}, {self.mean_.shape[1]}) or "
                              f"({self.mean_.shape[0]}, 1)")
         self.mean_ = np.where(self.trained_[:, None], self.mean_ + d, self.mean_)
-        self._prepare()
+        # the whitened components stay: only W^T mean changes
+        self.offset_ = np.einsum("bpd,bp->bd", self.whiten_, self.mean_)
+        self.groups_ = [(idx, w, np.ascontiguousarray(self.offset_[idx, :w.shape[2]]))
+                        for idx, w, _ in self.groups_]
 
     def _prepare(self) -> None:
         """Scoring operators: whitened components W = E / sqrt(lambda) / sqrt(D), so that
@@ -491,13 +508,18 @@ class BlockEigenspaceModel:
                              f"trained on {self.image_shape_[1]}x{self.image_shape_[0]} px")
         return self.relative_variation_of_grey(grey).reshape(self.grid_shape_)
 
-    def relative_variation_of_grey(self, grey: np.ndarray) -> np.ndarray:
+    def relative_variation_of_grey(self, grey: np.ndarray,
+                                   projections: np.ndarray | None = None) -> np.ndarray:
         """r_D of every block of a grey frame (:meth:`grey`), flat (rows * cols,): one batched
-        product per group of blocks of equal D."""
+        product per group of blocks of equal D. ``projections``, a (B, Dmax) array, receives
+        each block's whitened projection ``W^T x`` (zero beyond its D) when given."""
         x = blocks_of(grey, int(self.block_size))
         out = np.empty(len(x))
         for idx, w, o in self.groups_:
-            s = np.matmul(x[idx][:, None, :], w)[:, 0, :] - o  # (B_d, D)
+            p = np.matmul(x[idx][:, None, :], w)[:, 0, :]  # (B_d, D)
+            if projections is not None:
+                projections[idx, : p.shape[1]] = p
+            s = p - o
             out[idx] = np.einsum("bd,bd->b", s, s)
         return out
 
@@ -539,7 +561,13 @@ class BlockEigenspaceModel:
 
     def score(self, image: np.ndarray) -> EigenspaceResult:
         """r_D map, intruder blocks and their boxes in one frame (see :class:`EigenspaceResult`)."""
-        r = self.relative_variation(image)
+        return self.score_grey(self.grey(image))
+
+    def score_grey(self, grey: np.ndarray,
+                   projections: np.ndarray | None = None) -> EigenspaceResult:
+        """:meth:`score` of a grey frame already converted by :meth:`grey`; ``projections``
+        as in :meth:`relative_variation_of_grey`."""
+        r = self.relative_variation_of_grey(grey, projections).reshape(self.grid_shape_)
         trained = self.trained_.reshape(self.grid_shape_)
         excess = np.where(trained, r - self.v_.reshape(self.grid_shape_), -np.inf)
         mask = excess > 0

@@ -171,15 +171,16 @@ class RecalibrationGuard:
         grey = m.grey(image)
         if self.holding:
             return self._hold(k, grey, causes)
-        res = m.score(image)
+        proj = np.zeros(m.offset_.shape) if self.adapt_rate > 0 else None
+        res = m.score_grey(grey, proj)
         trained = m.trained_.reshape(m.grid_shape_)
         frac = float(res.intruder_mask[trained].mean()) if trained.any() else 0.0
         if frac > self.block_fraction:
             causes.append(f"{100 * frac:.0f} % of the trained blocks flagged")
         if not causes:
             self._last_mask = res.intruder_mask
-            if self.adapt_rate > 0:
-                self._adapt(grey, res.intruder_mask)
+            if proj is not None:
+                self._adapt(grey, proj, res.intruder_mask)
             return res
         self.events.append(RecalibrationEvent(k, causes, []))
         self._say(f"frame {k}: recalibration or sudden global change ({'; '.join(causes)}); "
@@ -187,17 +188,16 @@ class RecalibrationGuard:
                   "model is re-baselined")
         return self._hold(k, grey, [])
 
-    def _adapt(self, grey: np.ndarray, intruders: np.ndarray) -> None:
+    def _adapt(self, grey: np.ndarray, proj: np.ndarray, intruders: np.ndarray) -> None:
         """Move the means of the blocks away from any intruder (not flagged, nor 4-neighbour of
         a flagged block) ``adapt_rate`` of the way towards this frame."""
-        from scipy import ndimage
+        busy = intruders
+        if intruders.any():
+            from scipy import ndimage
 
+            busy = ndimage.binary_dilation(intruders)
         m = self.model
-        busy = ndimage.binary_dilation(intruders) if intruders.any() else intruders
-        quiet = ~busy.ravel() & m.trained_
-        x = blocks_of(grey, int(m.block_size))
-        delta = np.where(quiet[:, None], self.adapt_rate * (x - m.mean_), 0.0)
-        m.rebaseline(delta)
+        m.follow(blocks_of(grey, int(m.block_size)), proj, ~busy.ravel(), self.adapt_rate)
 
     def _hold(self, k: int, grey: np.ndarray, causes: list[str]) -> EigenspaceResult:
         if causes:  # a new event while settling: start settling again from this frame

@@ -269,3 +269,24 @@ def test_guard_follows_slow_drift_away_from_intruders_only():
     assert int(b[-1].sum()) > 8  # as trained: the drifted blocks flagged (measured 13)
     with pytest.raises(ValueError, match="adapt_rate must be in"):
         RecalibrationGuard(fit_quiet(BlockEigenspaceModel(), train), adapt_rate=1.0)
+
+
+def test_follow_moves_means_and_offsets_as_a_rebaseline_does():
+    train = textured(30)
+    a = fit_quiet(BlockEigenspaceModel(), train)
+    b = fit_quiet(BlockEigenspaceModel(), train)
+    frame = textured(1, seed=8)[0] + 7.0
+    proj = np.zeros(a.offset_.shape)
+    r_a = a.score_grey(a.grey(frame), proj).r_map
+    np.testing.assert_array_equal(r_a, b.score(frame).r_map)
+    quiet = np.zeros(64, bool)
+    quiet[::3] = True
+    from pftrack_coast.eigenspace import blocks_of
+
+    x = blocks_of(b.grey(frame), 8)
+    a.follow(x, proj, quiet, 0.25)
+    b.rebaseline(np.where(quiet[:, None], 0.25 * (x - b.mean_), 0.0))
+    np.testing.assert_allclose(a.mean_, b.mean_, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(a.offset_, b.offset_, rtol=0, atol=1e-9)
+    later = textured(1, seed=9)[0]
+    np.testing.assert_allclose(a.score(later).r_map, b.score(later).r_map, rtol=1e-9, atol=1e-9)
