@@ -55,6 +55,9 @@ class EigenspaceDetector(Detector):
     last_ : EigenspaceResult
         The r_D map, intruder mask, boxes and scores of the last frame given to
         :meth:`detect` (for likelihoods and pictures).
+    guard_ : RecalibrationGuard
+        With ``recalibration="rebaseline"``, after the first :meth:`detect`: the guard, its
+        events and messages; ``guard_.model`` is the copy of ``model_`` that it re-baselines.
     """
 
     block_size: int = Param(8, "Side of a block, pixels.", unit="px")
@@ -68,14 +71,41 @@ class EigenspaceDetector(Detector):
              "fraction of its pixels is background.", unit="1")
     min_samples: int = Param(
         10, "A block needs max(min_samples, D + 2) background samples; blocks with fewer are "
-            "left untrained (never intruders) and reported.", unit="count")
+            "untrained (see untrained) and named in a warning; training where no block has "
+            "enough is an error.", unit="count")
     frame_offset: str = Param(
         "none", "'median' subtracts each frame's median grey level first (a thermal camera's "
                 "automatic gain or drift); 'none' is the paper's model.")
     untrained: str = Param(
-        "nearest", "'nearest' (not in the paper): a block without enough background samples "
-                   "uses the nearest trained block's eigenspace; 'ignore': it is never an "
-                   "intruder.")
+        "ignore", "A block without enough background samples: 'ignore' (default) is never an "
+                  "intruder; 'nearest' (not in the paper) uses the nearest trained block's "
+                  "mean and eigenspace, which finds objects that stood in the block through "
+                  "training but flags it in every frame where its background differs from "
+                  "the borrowed one.")
+    recalibration: str = Param(
+        "rebaseline", "'rebaseline' (default): watch for a camera recalibration or sudden "
+                      "global change (a time gap, a level step, too many intruder blocks), "
+                      "hold detections for recal_settle_frames frames and re-baseline the "
+                      "model's per-pixel means on them, with a RecalibrationWarning for each "
+                      "(see pftrack_coast.recalibration); 'off': the model as trained, every "
+                      "frame.")
+    recal_block_fraction: float = Param(
+        0.25, "recalibration: an event when more than this fraction of the trained blocks "
+              "are intruders in one frame.", unit="1")
+    recal_level_step: float | None = Param(
+        15.0, "recalibration: an event when the frame's median grey level moves by more than "
+              "this from the previous frame's (grey levels: counts for a thermal camera); "
+              "null: not watched.", unit="grey levels")
+    recal_gap_s: float | None = Param(
+        None, "recalibration: an event when a frame comes more than this long after the "
+              "previous one (a thermal camera's flat-field correction pauses the recording "
+              "for about 1-2 s); null: not watched.", unit="s")
+    recal_adapt_rate: float = Param(
+        0.02, "recalibration: after each sound frame the means of the blocks away from any "
+              "intruder move this fraction of the way towards it (the drift after a "
+              "recalibration); 0: never.", unit="1")
+    recal_settle_frames: int = Param(
+        3, "recalibration: frames held after an event and re-baselined on.", unit="frames")
     box_margin_px: int = Param(0, "Training with boxes: each box is grown by this many pixels "
                                   "per side (people's outlines are not background).", unit="px")
     model: str | None = Param(None, "A model file written by save() (.npz), loaded on first "
@@ -173,10 +203,39 @@ class EigenspaceDetector(Detector):
         img = frame.image if isinstance(frame, Frame) else frame
         return self._model().score(img)
 
+    def _guard(self) -> Any:
+        """The recalibration guard (``recalibration="rebaseline"``) around a copy of the model:
+        its re-baselines and drift-following change ``guard_.model``, never ``model_`` (what
+        :meth:`score` and :meth:`save` use)."""
+        model = self._model()
+        guard = self.__dict__.get("guard_")
+        if guard is None or self.__dict__.get("guard_source_") is not model:
+            import copy
+
+            from pftrack_coast.recalibration import RecalibrationGuard
+
+            self.guard_source_ = model
+            guard = RecalibrationGuard(
+                copy.deepcopy(model), block_fraction=float(self.recal_block_fraction),
+                level_step=None if self.recal_level_step is None else float(
+                    self.recal_level_step),
+                gap_s=None if self.recal_gap_s is None else float(self.recal_gap_s),
+                settle_frames=int(self.recal_settle_frames),
+                adapt_rate=float(self.recal_adapt_rate))
+            self.guard_ = guard
+        return guard
+
     def detect(self, frame: Frame) -> Detections:
         """Boxes (xywh px) of the 4-connected groups of intruder blocks, scored by their
-        largest ``r_D - v_D``."""
-        res = self.score(frame)
+        largest ``r_D - v_D``. With ``recalibration="rebaseline"`` no boxes while the model
+        settles after a recalibration (each event is a ``RecalibrationWarning``)."""
+        if self.recalibration not in ("off", "rebaseline"):
+            raise ValueError(f"EigenspaceDetector: recalibration must be 'off' or "
+                             f"'rebaseline', got {self.recalibration!r}")
+        if self.recalibration == "rebaseline":
+            res = self._guard().score(frame.image, time_s=frame.time_s, frame=frame.index)
+        else:
+            res = self.score(frame)
         self.last_ = res
         return Detections(res.boxes_xywh_px, res.scores)
 

@@ -50,13 +50,14 @@ __all__ = [
     "components_to_boxes",
     "fit_model",
     "to_grey",
+    "untrained_picture",
 ]
 
 MODEL_FORMAT = "pftrack-block-eigenspace"
 MODEL_VERSION = 1
 _END = object()
 FRAME_OFFSETS = ("none", "median")
-UNTRAINED = ("nearest", "ignore")
+UNTRAINED = ("ignore", "nearest")
 
 
 # --------------------------------------------------------------------------------------------
@@ -195,14 +196,18 @@ class BlockEigenspaceModel:
     min_samples : int
         A block needs at least ``max(min_samples, D + 2)`` background samples to be trained
         (a covariance from fewer vectors than its dimension is degenerate). Blocks with fewer
-        are *untrained*: listed in ``untrained_blocks_`` and a warning gives their count; what
-        they are judged by is ``untrained``.
-    untrained : {"nearest", "ignore"}
-        ``"nearest"`` (default; not in the paper): an untrained block uses the eigenspace of
-        the nearest trained block (grid distance), the water or ground next to it; for an
-        object that stands in the same blocks through every training frame (the beach
-        sequence's people) this is the difference between finding it and never finding it.
-        ``"ignore"``: an untrained block's r_D is 0 and it is never an intruder.
+        are *untrained*: listed in ``untrained_blocks_``, a warning names them (row, col) and
+        :func:`untrained_picture` draws where they are; what they are judged by is
+        ``untrained``. When no block has enough samples :meth:`fit` raises a ``ValueError``
+        (a model that could never detect anything).
+    untrained : {"ignore", "nearest"}
+        ``"ignore"`` (default): an untrained block's r_D is 0 and it is never an intruder, so
+        a block the model knows nothing about cannot invent one. ``"nearest"`` (not in the
+        paper): an untrained block uses the mean and eigenspace of the nearest trained block
+        (grid distance), the water or ground next to it; for an object that stands in the same
+        blocks through every training frame (the beach sequence's people) this is the
+        difference between finding it and never finding it, but wherever the borrowed mean
+        differs from the block's own background the block is flagged in every frame.
     min_eigenvalue : float
         Floor on the eigenvalues used in eq. 3 (squared grey levels): only guards against a
         division by zero for a block that never varied during training.
@@ -250,7 +255,7 @@ class BlockEigenspaceModel:
     def __init__(self, block_size: int = 8, threshold_q: float = 0.8, v_low: float = 15.0,
                  v_high: float = 9.0, d_split: int = 20, min_background_fraction: float = 1.0,
                  min_samples: int = 10, min_eigenvalue: float = 1e-6,
-                 frame_offset: str = "none", untrained: str = "nearest") -> None:
+                 frame_offset: str = "none", untrained: str = "ignore") -> None:
         self.block_size = block_size
         self.threshold_q = threshold_q
         self.v_low = v_low
@@ -390,6 +395,14 @@ class BlockEigenspaceModel:
         dims = 1 + np.argmax(cum >= float(self.threshold_q) - 1e-12, axis=1)
         dims = np.where(total > 0, dims, 1)
         trained = (n >= int(self.min_samples)) & (n >= dims + 2)
+        if not trained.any():
+            raise ValueError(
+                f"block eigenspace: none of the {len(trained)} blocks ({rows}x{cols} of "
+                f"{bs}x{bs} px) has enough background samples: {int(n_frames)} training "
+                f"frame(s) gave at most {int(n.max())} per block, and a block needs "
+                f"max(min_samples={int(self.min_samples)}, D + 2) (D = its eigenspace "
+                f"dimension, up to {int(dims.max())} here); give more background frames or "
+                "lower min_samples")
         dims = np.where(trained, dims, 0)
         dmax = max(int(dims.max()), 1)
         keep = np.arange(dmax)[None, :] < dims[:, None]  # (B, Dmax)
@@ -419,12 +432,45 @@ class BlockEigenspaceModel:
         untrained = np.flatnonzero(~trained)
         self.untrained_blocks_ = np.stack(np.divmod(untrained, cols), axis=1).astype(np.int64)
         if len(untrained):
-            fate = ("use the nearest trained block's eigenspace" if self.trained_.all()
-                    else "are left untrained (never intruders)")
+            fate = ("use the nearest trained block's mean and eigenspace"
+                    if self.untrained == "nearest" else "are never intruders")
             warnings.warn(
                 f"block eigenspace: {len(untrained)} of {len(trained)} blocks have fewer than "
-                f"max(min_samples={int(self.min_samples)}, D + 2) background samples and "
-                f"{fate}; see untrained_blocks_", stacklevel=3)
+                f"max(min_samples={int(self.min_samples)}, D + 2) background samples in "
+                f"{int(n_frames)} training frames and {fate} (untrained={self.untrained!r}); "
+                f"(row, col): {_block_list(self.untrained_blocks_)}; untrained_picture() "
+                "draws them", stacklevel=3)
+
+    def follow(self, x: np.ndarray, projections: np.ndarray, blocks: np.ndarray,
+               rate: float) -> None:
+        """Move the means of ``blocks`` (B,) bool ``rate`` of the way towards a frame's block
+        vectors ``x`` (B, P), given their whitened projections (``projections`` of
+        :meth:`score_grey`): ``W^T mean`` follows linearly, so no product over the pixels is
+        needed. The eigenspaces stay."""
+        self._fitted()
+        b = np.asarray(blocks, bool) & self.trained_
+        r = float(rate)
+        self.mean_[b] += r * (x[b] - self.mean_[b])
+        self.offset_[b] += r * (projections[b] - self.offset_[b])
+        self.groups_ = [(idx, w, np.ascontiguousarray(self.offset_[idx, :w.shape[2]]))
+                        for idx, w, _ in self.groups_]
+
+    def rebaseline(self, delta: np.ndarray) -> None:
+        """Shift every block's mean by ``delta`` (B, P) grey levels (or (B, 1): one level per
+        block), keeping its eigenspace: after a camera recalibration the background's noise is
+        the same, only its per-pixel offsets moved. The scoring operators follow."""
+        self._fitted()
+        d = np.asarray(delta, dtype=np.float64)
+        if d.ndim != 2 or d.shape[0] != self.mean_.shape[0] or \
+                d.shape[1] not in (1, self.mean_.shape[1]):
+            raise ValueError(f"rebaseline: delta of shape {d.shape}, expected "
+                             f"({self.mean_.shape[0]}, {self.mean_.shape[1]}) or "
+                             f"({self.mean_.shape[0]}, 1)")
+        self.mean_ = np.where(self.trained_[:, None], self.mean_ + d, self.mean_)
+        # the whitened components stay: only W^T mean changes
+        self.offset_ = np.einsum("bpd,bp->bd", self.whiten_, self.mean_)
+        self.groups_ = [(idx, w, np.ascontiguousarray(self.offset_[idx, :w.shape[2]]))
+                        for idx, w, _ in self.groups_]
 
     def _prepare(self) -> None:
         """Scoring operators: whitened components W = E / sqrt(lambda) / sqrt(D), so that
@@ -462,13 +508,18 @@ class BlockEigenspaceModel:
                              f"trained on {self.image_shape_[1]}x{self.image_shape_[0]} px")
         return self.relative_variation_of_grey(grey).reshape(self.grid_shape_)
 
-    def relative_variation_of_grey(self, grey: np.ndarray) -> np.ndarray:
+    def relative_variation_of_grey(self, grey: np.ndarray,
+                                   projections: np.ndarray | None = None) -> np.ndarray:
         """r_D of every block of a grey frame (:meth:`grey`), flat (rows * cols,): one batched
-        product per group of blocks of equal D."""
+        product per group of blocks of equal D. ``projections``, a (B, Dmax) array, receives
+        each block's whitened projection ``W^T x`` (zero beyond its D) when given."""
         x = blocks_of(grey, int(self.block_size))
         out = np.empty(len(x))
         for idx, w, o in self.groups_:
-            s = np.matmul(x[idx][:, None, :], w)[:, 0, :] - o  # (B_d, D)
+            p = np.matmul(x[idx][:, None, :], w)[:, 0, :]  # (B_d, D)
+            if projections is not None:
+                projections[idx, : p.shape[1]] = p
+            s = p - o
             out[idx] = np.einsum("bd,bd->b", s, s)
         return out
 
@@ -510,7 +561,13 @@ class BlockEigenspaceModel:
 
     def score(self, image: np.ndarray) -> EigenspaceResult:
         """r_D map, intruder blocks and their boxes in one frame (see :class:`EigenspaceResult`)."""
-        r = self.relative_variation(image)
+        return self.score_grey(self.grey(image))
+
+    def score_grey(self, grey: np.ndarray,
+                   projections: np.ndarray | None = None) -> EigenspaceResult:
+        """:meth:`score` of a grey frame already converted by :meth:`grey`; ``projections``
+        as in :meth:`relative_variation_of_grey`."""
+        r = self.relative_variation_of_grey(grey, projections).reshape(self.grid_shape_)
         trained = self.trained_.reshape(self.grid_shape_)
         excess = np.where(trained, r - self.v_.reshape(self.grid_shape_), -np.inf)
         mask = excess > 0
@@ -638,6 +695,63 @@ class BlockEigenspaceModel:
         model.untrained_blocks_ = np.stack(np.divmod(untrained, cols), axis=1).astype(np.int64)
         model._prepare()
         return model
+
+
+def _block_list(blocks: np.ndarray, most: int = 12) -> str:
+    """'(r, c), (r, c), ...' of up to ``most`` (row, col) pairs, '... and N more' after."""
+    pairs = [f"({int(r)}, {int(c)})" for r, c in np.asarray(blocks).reshape(-1, 2)[:most]]
+    more = len(blocks) - most
+    return ", ".join(pairs) + (f" and {more} more" if more > 0 else "")
+
+
+def untrained_picture(model: BlockEigenspaceModel, path: str | os.PathLike[str],
+                      image: np.ndarray | None = None, scale: int = 4) -> Path:
+    """Draw where a fitted model's untrained blocks are, as a PNG written atomically.
+
+    The picture is ``image`` (any frame of the training size; grey levels stretched between
+    their 1st and 99th percentiles) or mid-grey, enlarged ``scale`` times; blocks without
+    enough background samples of their own are filled red (half transparent) and outlined,
+    and a caption gives their count and the rule they are judged by (``untrained``).
+    """
+    import cv2
+    from pftrack.io.atomic import atomic_path
+
+    model._fitted()
+    path = Path(path)
+    if path.suffix.lower() != ".png":
+        raise ValueError(f"untrained_picture {path}: the file name must end in .png")
+    h, w = model.image_shape_
+    if image is None:
+        grey = np.full((h, w), 128, np.uint8)
+    else:
+        g = to_grey(image)
+        if g.shape != (h, w):
+            raise ValueError(f"untrained_picture: image of {g.shape[1]}x{g.shape[0]} px, the "
+                             f"model was trained on {w}x{h} px")
+        lo, hi = np.percentile(g, [1, 99])
+        grey = np.clip((g - lo) / max(hi - lo, 1e-9) * 255.0, 0, 255).astype(np.uint8)
+    k = max(int(scale), 1)
+    bs = int(model.block_size) * k
+    img = cv2.cvtColor(cv2.resize(grey, (w * k, h * k), interpolation=cv2.INTER_NEAREST),
+                       cv2.COLOR_GRAY2BGR)
+    over = img.copy()
+    for r, c in model.untrained_blocks_:  # drawing a handful of rectangles, not a hot path
+        cv2.rectangle(over, (int(c) * bs, int(r) * bs), ((int(c) + 1) * bs - 1,
+                      (int(r) + 1) * bs - 1), (0, 0, 255), -1)
+    img = cv2.addWeighted(over, 0.45, img, 0.55, 0.0)
+    for r, c in model.untrained_blocks_:
+        cv2.rectangle(img, (int(c) * bs, int(r) * bs), ((int(c) + 1) * bs - 1,
+                      (int(r) + 1) * bs - 1), (0, 0, 255), 1)
+    caption = (f"{len(model.untrained_blocks_)} of {len(model.dims_)} blocks untrained "
+               f"({model.untrained})")
+    bar = np.zeros((18, img.shape[1], 3), np.uint8)
+    cv2.putText(bar, caption, (3, 13), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (255, 255, 255), 1)
+    with atomic_path(path) as tmp:
+        ok, buf = cv2.imencode(".png", np.vstack([img, bar]))
+        if not ok:
+            raise ValueError(f"untrained_picture {path}: PNG encoding failed")
+        Path(tmp).write_bytes(buf.tobytes())
+    return path
 
 
 def fit_model(frames: Sequence[np.ndarray], masks: Sequence[np.ndarray | None] | None = None,
