@@ -20,7 +20,7 @@ the pftrack and Stone Soup steps are timed alternately so that both meet the sam
 Large N gets fewer repeats (200 / 20 / 5 by default), Stone Soup at most 30 s worth, and it is
 timed once when one step takes longer than ``--slow-s``. The two libraries do not draw the same
 noise (Stone Soup samples the correlated constant-acceleration covariance; pftrack the per-axis
-noise of seed 001), so the comparison is of cost, not of numbers.
+noise of the soccer paper), so the comparison is of cost, not of numbers.
 """
 
 from __future__ import annotations

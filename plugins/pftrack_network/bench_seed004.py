@@ -1,6 +1,6 @@
-"""Seed 004's experiment (sec. 4.1) on real CAVIAR4REID person images: Table 1 (greedy,
-min-cost flow and Trajectory Ensemble, mean ARI and its variance over datasets), Table 2 (the
-ensemble's mean and variance over runs, per dataset), Table 3 (the ensemble's mean ARI for C_d
+"""The camera-network paper's experiment (sec. 4.1) on real CAVIAR4REID person images: Table 1
+(greedy, min-cost flow and Trajectory Ensemble, mean ARI and its variance over datasets), Table 2
+(the ensemble's mean and variance over runs, per dataset), Table 3 (the ensemble's mean ARI for C_d
 cameras dropped x S sub-networks) and the seconds each took.
 
 Protocol: ``--datasets`` virtual datasets (:func:`pftrack_network.virtual.make_dataset`,

@@ -1,4 +1,4 @@
-"""Seed 004's virtual camera-network data (sec. 4.1) with real person images.
+"""The camera-network paper's virtual camera-network data (sec. 4.1) with real person images.
 
 A dataset: 16 cameras on a plane, a random connected network over them (a random spanning tree
 of the Delaunay triangulation plus a random share of its other edges), gamma transit parameters

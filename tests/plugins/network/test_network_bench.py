@@ -1,5 +1,5 @@
-"""Seed 004's virtual experiment on real CAVIAR4REID images, the ``seed004`` benchmark on a
-small case and the plugin's registration (pftrack_network)."""
+"""The camera-network paper's virtual experiment on real CAVIAR4REID images, the ``seed004``
+benchmark on a small case and the plugin's registration (pftrack_network)."""
 
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ def test_plugin_registers_the_benchmark_through_a_host():
     host = Host(load_entry_points=False, plugins=[("network", pftrack_network)])
     bench = host.get("benchmark", "seed004")
     assert isinstance(bench, Benchmark)
-    assert bench.summary.startswith("Seed 004's experiment")
+    assert bench.summary.startswith("The camera-network paper's experiment")
     assert host.listing()["plugins"][0]["components"] == {"benchmark": ["seed004"]}
 
 

@@ -1,4 +1,5 @@
-"""Seed 004's exchange types, similarity, linkers, dropout and ensemble (pftrack_network)."""
+"""The camera-network paper's exchange types, similarity, linkers, dropout and ensemble
+(pftrack_network)."""
 
 from __future__ import annotations
 

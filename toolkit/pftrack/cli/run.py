@@ -4,7 +4,7 @@ CONFIG is a YAML file or the name of a registered preset (``pftrack presets`` li
 atomically, ``OUT/tracks.txt`` (MOTChallenge CSV; frame numbers as in the ground truth, 1-based,
 MOT frame N = video frame N-1; world columns x, y, z in metres for ground-plane state),
 ``OUT/metrics.json`` when ``--gt`` is given (MOTA, IDF1, HOTA on image boxes, ground-plane error,
-seed 001's 5 px accuracy, seconds per frame) and ``OUT/report/*.png`` (overlays, and image
+the soccer paper's 5 px accuracy, seconds per frame) and ``OUT/report/*.png`` (overlays, and image
 trajectories beside the top view). A progress bar shows on stderr unless ``--quiet``.
 """
 
