@@ -606,7 +606,8 @@ def test_pftrack_track_camera_on_pets_frames_1_200_is_within_half_a_metre():
     # what `pftrack track` does on a new video: hog-people over frames 1-200 (no labels), the
     # camera from every 2nd frame's confident people (silhouettes at half size, their lean);
     # scored against the real Tsai camera on the ground truth's feet of all 795 frames.
-    # Measured: f 1202 px, 0.10-0.16 m, horizon 1-2 px (every frame); see docs/decisions/camera-from-people.md
+    # Measured: f 1202 px, 0.10-0.16 m, horizon 1-2 px (every frame); see
+    # docs/decisions/camera-from-people.md
     import cv2
     from pftrack.fresh import detect_video, estimate_camera
     from pftrack.pipeline import load_config
