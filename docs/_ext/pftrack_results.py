@@ -58,13 +58,36 @@ PROTOCOLS: dict[str, dict[str, str]] = {
     },
 }
 
-#: The figures shown per benchmark on the results page (keys of its JSON result), with a label.
+#: The figures shown per benchmark on the results page (keys of its JSON result, dotted for a
+#: nested one), with a label.
 HEADLINE: dict[str, list[tuple[str, str]]] = {
     "pets09-ground": [("MOTA", "MOTA (IoU 0.5)"), ("IDF1", "IDF1"), ("HOTA", "HOTA"),
                       ("median_error_m", "median ground error (m)"),
                       ("accuracy_5px", "within 5 px (the paper's accuracy)"),
                       ("frames_per_second_cpu", "frames per second of CPU time")],
+    "fresh-video": [("MOTA", "MOTA (IoU 0.5), seed 0"), ("IDF1", "IDF1, seed 0"),
+                    ("HOTA", "HOTA, seed 0"), ("seeds.MOTA_mean", "MOTA, mean over the seeds"),
+                    ("seeds.IDF1_mean", "IDF1, mean over the seeds"),
+                    ("seeds.HOTA_mean", "HOTA, mean over the seeds"),
+                    ("peer.MOTA", "norfair on the same detections: MOTA"),
+                    ("peer.IDF1", "norfair: IDF1"), ("peer.HOTA", "norfair: HOTA"),
+                    ("camera_median_error_m", "estimated camera: median ground error (m)"),
+                    ("frames_per_second_cpu", "frames per second of CPU time")],
+    "soccer": [("MOTA", "MOTA (IoU 0.5)"), ("IDF1", "IDF1"), ("HOTA", "HOTA"),
+               ("MOTA_world", "MOTA on the ground"), ("IDF1_world", "IDF1 on the ground"),
+               ("accuracy_5px", "within 5 px (the paper's accuracy)"),
+               ("frames_per_second_cpu", "frames per second of CPU time")],
 }
+
+
+def value_at(result: dict[str, Any], key: str) -> Any:
+    """``result[key]``, a dotted key walking into nested mappings; None when absent."""
+    value: Any = result
+    for part in key.split("."):
+        if not isinstance(value, dict) or part not in value:
+            return None
+        value = value[part]
+    return value
 
 
 def _git(*args: str) -> str:
@@ -161,7 +184,8 @@ def results_page(folder: Path = RESULTS) -> str:
         m = doc["machine"]
         lines += [f"(results-{name})=", f"## `{name}`", "",
                   "| figure | value |", "|---|---|"]
-        lines += [f"| {label} | {_fmt(res[k])} |" for k, label in keys if k in res]
+        lines += [f"| {label} | {_fmt(value_at(res, k))} |" for k, label in keys
+                  if value_at(res, k) is not None]
         lines += ["", f"Measured by `{cmd}` on {doc['date']} at commit "
                   f"`{doc['commit']['sha'][:10]}`"
                   + (" (with uncommitted changes)" if doc["commit"].get("dirty") else "")
