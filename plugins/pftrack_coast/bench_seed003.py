@@ -584,7 +584,7 @@ def _goals(out: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def format_table(result: dict[str, Any]) -> str:
-    lines = ["the coastal paper: intruders in 3-D volumes (no detector)"]
+    lines = ["The coastal paper: intruders in 3-D volumes (no detector)"]
     p = result.get("pets09")
     if p:
         def row(name: str, r: dict[str, Any]) -> str:
