@@ -3,14 +3,18 @@
 A small Sphinx extension (``docs/conf.py`` loads it). On ``builder-inited`` it writes, under
 ``docs/_generated/`` (git-ignored):
 
-* ``config_reference.md``: every key of a run configuration with its type, default, unit and
-  range (from the schema :data:`pftrack.config.CONFIG_SCHEMA`), every parameter of every
-  component the plugin host registers (its signature's default, its ``Parameters`` docstring
-  entry or :class:`pftrack.components.Param` declaration; the unit as the declaration's
+* ``config_keys.md``, ``config_components.md``, ``config_presets.md``: the configuration
+  reference in three pages (:func:`split_config_reference`): every key of a run configuration
+  with its type, default, unit and range (from the schema :data:`pftrack.config.CONFIG_SCHEMA`),
+  every parameter of every component the plugin host registers (its signature's default, its
+  ``Parameters`` docstring entry or :class:`pftrack.components.Param` declaration; the unit as
+  the declaration's
   ``unit=`` or the description's closing ``Unit: X.`` states it, else read off the name's
   suffix or the description), and every preset, key by key with the component's default beside
   it;
 * ``cli_reference.md``: every command's ``--help``;
+* ``results.md``: the latest result file of each benchmark in ``results/``
+  (``pftrack_results.results_page``);
 * ``api/*.md``: one autodoc page per public module of the core and of the built-in plugins;
 
 and executes the notebooks (``notebooks/*.ipynb``, stored without outputs) into
@@ -342,7 +346,6 @@ def config_reference() -> str:
         component's parameters by kind, and every preset key by key.
     """
     import yaml
-
     from pftrack.host import get_host
 
     host = get_host()
@@ -436,6 +439,24 @@ def config_reference() -> str:
         lines += ["", "```yaml",
                   path.read_text().rstrip(), "```", ""]
     return "\n".join(lines) + "\n"
+
+
+def split_config_reference(page: str) -> dict[str, str]:
+    """The configuration reference in three pages that each stay short enough to read:
+    ``keys`` (the schema's keys), ``components`` (every registered component's parameters) and
+    ``presets`` (every preset, key by key), split at the ``## Components`` and ``## Presets``
+    headings of :func:`config_reference`'s page (the headings themselves become the pages'
+    titles). Each keeps the generated-page marker."""
+    marker = page.splitlines()[0]
+    head, rest = page.split("\n## Components\n", 1)
+    components, presets = rest.split("\n## Presets\n", 1)
+
+    def up(text: str) -> str:  # one heading level up: the section's title is the page's
+        return re.sub(r"^#(#{2,}) ", r"\1 ", text.strip(), flags=re.M)
+
+    return {"keys": head.rstrip() + "\n",
+            "components": marker + "\n\n" + up(components) + "\n",
+            "presets": marker + "\n\n" + up(presets) + "\n"}
 
 
 def _subparsers(parser: Any) -> dict[str, Any]:
@@ -670,7 +691,11 @@ def _generate(app: Any) -> None:
 
     logger = logging.getLogger(__name__)
     gen = DOCS / "_generated"
-    _write_if_changed(gen / "config_reference.md", config_reference())
+    for part, text in split_config_reference(config_reference()).items():
+        _write_if_changed(gen / f"config_{part}.md", text)
+    from pftrack_results import results_page
+
+    _write_if_changed(gen / "results.md", results_page())
     _write_if_changed(gen / "cli_reference.md", cli_reference())
     _write_if_changed(gen / "volumes_doc.md",
                       docstring_markdown("pftrack.geometry.volumes", "World frame conventions"))

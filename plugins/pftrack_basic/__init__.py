@@ -15,7 +15,8 @@ Components (registered name -> class):
 * observation: ``image-box`` :class:`pftrack.tracker.ImageBoxObservation` (image-plane box
   centre), ``camera-box`` :class:`pftrack.observation_world.CameraBoxObservation` (ground-plane
   position through the run's camera), ``camera-volume``
-  :class:`pftrack.observation_world.CameraVolumeObservation` (3-D points in a volume, seed 003);
+  :class:`pftrack.observation_world.CameraVolumeObservation` (3-D points in a volume, the coastal
+  paper);
 * tracks: ``manual`` :class:`pftrack.tracker.ManualTracks` (targets added by the caller),
   ``births`` :class:`~pftrack_basic.tracks.DetectionBirthTracks`, ``confirmed``
   :class:`~pftrack_basic.tracks.ConfirmedTracks` (tentative -> confirmed, merging, appearance);

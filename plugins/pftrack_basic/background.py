@@ -1,7 +1,7 @@
 """Background-subtraction detector: OpenCV's MOG2 foreground mask, cleaned, split into connected
 blobs, each blob's bounding box a detection.
 
-A cheap, learning-free detector for a fixed camera (PETS09, the seed 003 coast). It keeps the
+A cheap, learning-free detector for a fixed camera (PETS09, the coastal paper's coast). It keeps the
 background model of the stream it is watching, so one instance serves one video; call
 :meth:`BackgroundSubtractionDetector.reset` (or :meth:`~pftrack.components.Component.clone`)
 before another.

@@ -10,14 +10,15 @@ Noise is given per unit of ``dt`` and scaled by ``sqrt(dt)`` (a Wiener process),
 Models
 ------
 :class:`RandomWalkMotion` (``random-walk``)
-    Seed 000: the box centre ``(x, y)`` in pixels moves by Gaussian noise only.
+    The colour paper: the box centre ``(x, y)`` in pixels moves by Gaussian noise only.
 :class:`ConstantVelocity2DMotion`, :class:`ConstantVelocity3DMotion` (``constant-velocity-2d/3d``)
-    Seed 003 eq. 5-7: ``x_t = F x_{t-1} + W`` with the velocity taken as the displacement just made
-    (eq. 7), state ``(x, y[, z], vx, vy[, vz])``.
+    The coastal paper's eq. 5-7: ``x_t = F x_{t-1} + W`` with the velocity taken as the displacement
+    just made (eq. 7), state ``(x, y[, z], vx, vy[, vz])``.
 :class:`ConstantAccelerationMotion` (``constant-acceleration``)
-    Seed 001 eq. 1-2: state ``[p_x, p_y, v_x, v_y, a_x, a_y]``, ``x_t = C x_{t-dt} + noise`` with
-    adaptive noise: the position noise grows with the target's size, the velocity and acceleration
-    noise *variances* are inversely proportional to the number of consecutive tracked frames.
+    The soccer paper's eq. 1-2: state ``[p_x, p_y, v_x, v_y, a_x, a_y]``, ``x_t = C x_{t-dt} +
+    noise`` with adaptive noise: the position noise grows with the target's size, the velocity and
+    acceleration noise *variances* are inversely proportional to the number of consecutive tracked
+    frames.
 """
 
 from __future__ import annotations
@@ -152,7 +153,7 @@ def _init_states(model: MotionModel, position: np.ndarray, n: int, rng: np.rando
 
 
 class RandomWalkMotion(MotionModel):
-    """Gaussian random walk of the box centre in the image plane (seed 000).
+    """Gaussian random walk of the box centre in the image plane (the colour paper).
 
     State ``(x, y)``: box centre in pixels. Each step adds independent ``N(0, sigma_px^2 dt)``
     noise to each coordinate; ``dt`` is in frames.
@@ -218,7 +219,7 @@ class RandomWalkMotion(MotionModel):
 
 
 class _ConstantVelocityMotion(MotionModel):
-    """Constant velocity in ``_ndim`` dimensions (seed 003 eq. 5-7).
+    """Constant velocity in ``_ndim`` dimensions (the coastal paper's eq. 5-7).
 
     State ``(x, y[, z], vx, vy[, vz])``: positions, then velocities in position units per unit of
     ``dt``. Per step::
@@ -239,7 +240,7 @@ class _ConstantVelocityMotion(MotionModel):
         Extra velocity noise standard deviation per unit of ``dt``; 0 follows the paper exactly.
         Unit: state units/dt per √dt.
     velocity_from_displacement : bool
-        Seed 003 eq. 7: the new velocity is the displacement just made.
+        The coastal paper's eq. 7: the new velocity is the displacement just made.
     """
 
     _ndim: int = 2
@@ -331,11 +332,11 @@ class ConstantVelocity3DMotion(_ConstantVelocityMotion):
 
 
 class ConstantAccelerationMotion(MotionModel):
-    """Constant acceleration with adaptive noise (seed 001 eq. 1-2).
+    """Constant acceleration with adaptive noise (the soccer paper's eq. 1-2).
 
     State ``x = [p_x, p_y, v_x, v_y, a_x, a_y]`` (eq. 1): position, velocity and acceleration on
-    the ground plane (world metres and seconds for seed 001, or pixels and frames in the image).
-    Transition over ``dt`` (the paper's alpha), eq. 2::
+    the ground plane (world metres and seconds for the soccer paper, or pixels and frames in the
+    image). Transition over ``dt`` (the paper's alpha), eq. 2::
 
         x_t = C x_{t-dt} + Upsilon,
         C = [[I, dt I, dt^2/2 I], [0, I, dt I], [0, 0, I]]

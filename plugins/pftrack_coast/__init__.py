@@ -1,5 +1,5 @@
-"""Built-in plugin ``coast``: seed 003, coastal surveillance with a thermal camera (Okamura and
-Fujimoto, eigenspace method and particle filter).
+"""Built-in plugin ``coast``: the coastal paper, coastal surveillance with a thermal camera (Okamura
+and Fujimoto, eigenspace method and particle filter).
 
 Components (registered name -> class):
 

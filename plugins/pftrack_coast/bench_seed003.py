@@ -1,4 +1,5 @@
-"""Seed 003 through the one engine: intruders found and tracked in 3-D volumes with no detector.
+"""The coastal paper through the one engine: intruders found and tracked in 3-D volumes with no
+detector.
 
 ``pftrack bench seed003 --json`` runs, on real video:
 
@@ -349,8 +350,8 @@ def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
 
 
 def pets_images(folder: Path, engine: Any, frame: Any, camera: Camera, volume: Any) -> None:
-    """The frame with particles and corrected cuboids (seed 003 figs. 2-3), and the particle
-    clouds in the volume in 3-D (off-screen)."""
+    """The frame with particles and corrected cuboids (the coastal paper's figs. 2-3), and the
+    particle clouds in the volume in 3-D (off-screen)."""
     from pftrack.geometry.clouds import ParticleCloud
     from pftrack.io.images import write_png
     from pftrack.render.view3d import render_view3d
@@ -583,7 +584,7 @@ def _goals(out: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def format_table(result: dict[str, Any]) -> str:
-    lines = ["seed 003: intruders in 3-D volumes (no detector)"]
+    lines = ["The coastal paper: intruders in 3-D volumes (no detector)"]
     p = result.get("pets09")
     if p:
         def row(name: str, r: dict[str, Any]) -> str:

@@ -1,5 +1,5 @@
-"""Eigenspace likelihood (seed 003 eq. 12-13, sec. 4.1 steps 1-5): a particle is likely where
-the block it projects into leaves its background eigenspace.
+"""Eigenspace likelihood (the coastal paper's eq. 12-13, sec. 4.1 steps 1-5): a particle is likely
+where the block it projects into leaves its background eigenspace.
 
 For each particle: project its position through the run's camera (world metres, the state's
 ``position_dims``; or take the pixel the observation model projected, when its boxes are points
@@ -62,7 +62,7 @@ def _same_rows(a: np.ndarray | None, b: np.ndarray) -> bool:
 
 
 class EigenspaceLikelihood(Likelihood):
-    """Sigmoid of the block eigenspace's relative variation (seed 003 eq. 12-13).
+    """Sigmoid of the block eigenspace's relative variation (the coastal paper's eq. 12-13).
 
     {params}
 
@@ -258,7 +258,7 @@ class EigenspaceLikelihood(Likelihood):
 
 class ForegroundFractionLikelihood(Likelihood):
     """The fraction of foreground pixels (OpenCV's MOG2 background subtractor) in the block each
-    particle projects into: ``f = eps + (1 - eps) * fraction`` (seed 003's comparison: the
+    particle projects into: ``f = eps + (1 - eps) * fraction`` (the coastal paper's comparison: the
     block eigenspace model against a per-pixel mixture model, through the same particles).
 
     The subtractor learns online from every frame it weights (OpenCV's default learning rate);

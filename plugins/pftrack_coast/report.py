@@ -68,8 +68,8 @@ def dims_png(model: BlockEigenspaceModel, title: str = "") -> bytes:
 
 def intruders_image(image_bgr: np.ndarray, camera, volumes, engine, estimates,
                     frame_index: int, *, groups: bool = True) -> np.ndarray:
-    """Seed 003's figures 2-3 on a frame: the volumes (yellow), each track's particles (white),
-    the detection groups' particles (red, ``groups``), each estimate's corrected cuboid
+    """The coastal paper's figures 2-3 on a frame: the volumes (yellow), each track's particles
+    (white), the detection groups' particles (red, ``groups``), each estimate's corrected cuboid
     projected (green) with its id. ``estimates`` is :attr:`VolumeTracks.estimates_`;
     ``engine`` the engine right after ``frame_index`` was tracked. Returns a BGR copy."""
     import cv2

@@ -1,7 +1,8 @@
-"""The ``coast`` scene: seed 003's coastal thermal set-up, synthetic, through the shipped camera.
+"""The ``coast`` scene: the coastal paper's thermal set-up, synthetic, through the shipped
+camera.
 
 Okamura and Fujimoto watch a coast with a 384 x 288 thermal camera upscaled 2x to 768 x 576
-(seed 003). Their video is not public; this scene renders the same set-up through
+(the coastal paper). Their video is not public; this scene renders the same set-up through
 ``calib/coast_seed003.yaml`` (20 m up on a mast at the origin, looking out to sea 7.6 deg down;
 coast frame: x along the shore, y out to sea, z up, metres, origin at the mast foot on the sea
 level) so that the detection volumes of :func:`pftrack.geometry.volumes.seed003_volumes` have
@@ -213,7 +214,7 @@ _FACES = (
 
 
 class CoastScene(Scene):
-    """Seed 003's coast through ``calib/coast_seed003.yaml``: sea, shore, land, intruders.
+    """The coastal paper's coast through ``calib/coast_seed003.yaml``: sea, shore, land, intruders.
 
     Parameters
     ----------

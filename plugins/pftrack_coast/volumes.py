@@ -1,7 +1,8 @@
-"""Intruders in 3-D volumes (seed 003 sec. 3 and 4.2, and its future work: several at once).
+"""Intruders in 3-D volumes (the coastal paper's sec. 3 and 4.2, and its future work: several at
+once).
 
-:class:`VolumeTracks` (track manager ``volumes``) runs seed 003's detection scheme inside the one
-engine (:class:`pftrack.tracker.MultiTargetTracker`):
+:class:`VolumeTracks` (track manager ``volumes``) runs the coastal paper's detection scheme inside
+the one engine (:class:`pftrack.tracker.MultiTargetTracker`):
 
 * one **detection group** per volume: particles spread uniformly through the cuboid (velocity
   0); a particle outside its volume gets likelihood 0 (``Target.valid_region``); the group is
@@ -36,15 +37,15 @@ Estimates per frame (each output :class:`~pftrack.components.TrackRecord`):
   the variance taken along the view's axes (width across the view, height, depth along it);
 * the **support-plane correction** (``TrackRecord.world_m``, ``size_m``, ``box_xywh_px``): one
   view cannot place a point along its ray, so the particle cloud of an intruder stretches along
-  the rays through it (seed 003 Table 1: a 2.3 m deep boat estimated 63 m deep). Intruders rest
-  on a support plane (sea level, the ground: ``support_z_m``), so the lowest image row of the
-  cloud is the front of the footprint on that plane: back-projected, it fixes the distance. The
-  cloud's image box then gives the width across the view (its bottom corners on the plane) and
-  the height (the top row on the vertical over the back of the footprint). The depth along the
-  view cannot be seen from one view at a grazing angle (a 2.3 m deep boat at 300 m from 20 m up
-  moves its top edge by a third of a pixel); it comes from a footprint prior: a rectangle whose
-  long side (``footprint_aspect`` times the short one) points along the track's direction of
-  travel on the plane (across the view when it has not moved ``min_travel_m``).
+  the rays through it (the coastal paper's Table 1: a 2.3 m deep boat estimated 63 m deep).
+  Intruders rest on a support plane (sea level, the ground: ``support_z_m``), so the lowest image
+  row of the cloud is the front of the footprint on that plane: back-projected, it fixes the
+  distance. The cloud's image box then gives the width across the view (its bottom corners on the
+  plane) and the height (the top row on the vertical over the back of the footprint). The depth
+  along the view cannot be seen from one view at a grazing angle (a 2.3 m deep boat at 300 m
+  from 20 m up moves its top edge by a third of a pixel); it comes from a footprint prior: a
+  rectangle whose long side (``footprint_aspect`` times the short one) points along the track's
+  direction of travel on the plane (across the view when it has not moved ``min_travel_m``).
 
 The image box of the cloud spans its 2 % to 98 % quantiles per image axis, widened to the ends
 of a uniform spread with those quantiles.
@@ -411,7 +412,7 @@ class InsideBoxesLikelihood(Likelihood):
 
 
 class VolumeTracks(TrackManager):
-    """Seed 003's entry / exit detection in cuboid volumes, for several intruders at once.
+    """The coastal paper's entry / exit detection in cuboid volumes, for several intruders at once.
 
     {params}
 

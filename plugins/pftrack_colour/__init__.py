@@ -1,6 +1,6 @@
-"""Built-in plugin ``colour`` (seed 000): colour-histogram likelihoods (Bhattacharyya and cross
-entropy, with and without a background histogram), the synthetic ``walkers`` scene and a generic
-``video`` scene (a video file with optional MOTChallenge ground truth); the benchmarks
+"""Built-in plugin ``colour`` (the colour paper): colour-histogram likelihoods (Bhattacharyya and
+cross entropy, with and without a background histogram), the synthetic ``walkers`` scene and a
+generic ``video`` scene (a video file with optional MOTChallenge ground truth); the benchmarks
 ``seed000`` (the paper's Tables 1-4) and ``pets09-colour`` (every person of PETS 2009 S2.L1,
 against OpenCV's MIL and CSRT), the default demo ``walkers`` (``pftrack demo``), the
 ``image-box-sized`` observation model (box size following the matched detections) and the
@@ -65,7 +65,8 @@ def pftrack_register_demos(register):
 
     from pftrack_colour import demo
 
-    register("walkers", Demo(summary="track the synthetic walkers (seed 000) and write a report",
+    register("walkers", Demo(summary="track the colour paper's synthetic walkers and write a "
+                             "report",
                              run=demo.run_cli, add_arguments=demo.add_arguments, default=True))
 
 

@@ -1,5 +1,5 @@
-"""Seed 000's Tables 1-4 on the ``walkers`` scene: time per frame and cumulative error for the
-four colour likelihoods (Bhattacharyya and cross entropy, with and without background).
+"""The colour paper's Tables 1-4 on the ``walkers`` scene: time per frame and cumulative error for
+the four colour likelihoods (Bhattacharyya and cross entropy, with and without background).
 
 ``pftrack bench seed000 --json`` runs N in {100, 500, 5000} samples and T in {1, 2, 3} targets
 for all four likelihoods in one run. Frames are rendered into a list before any timing; drawing

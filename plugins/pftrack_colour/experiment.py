@@ -1,4 +1,4 @@
-"""Seed 000's experiments as library calls: track a scene from given boxes, score, tabulate.
+"""The colour paper's experiments as library calls: track a scene from given boxes, score, tabulate.
 
 Used by ``pftrack bench seed000`` (the paper's Tables 1-4 on the ``walkers`` scene),
 ``pftrack bench pets09-colour`` (every person of PETS 2009 S2.L1), ``pftrack demo`` and the
@@ -40,7 +40,7 @@ __all__ = [
     "walkers_tables",
 ]
 
-#: The four likelihoods of seed 000, baseline first.
+#: The four likelihoods of the colour paper, baseline first.
 LIKELIHOODS = ("bhattacharyya", "bhattacharyya-bg", "cross-entropy", "cross-entropy-bg")
 
 #: The paper's Tables 1-4 (seconds for 180 frames and cumulative error in px; Bh = eq. 23,
@@ -163,7 +163,7 @@ def build_tracker(likelihood: Likelihood | str | dict[str, Any], *, n_particles:
                   motion: str | dict[str, Any] | None = None,
                   tracks: TrackManager | None = None,
                   host: Host | None = None) -> MultiTargetTracker:
-    """Seed 000's tracker: random walk of the box centre, fixed-size boxes, resampling every
+    """The colour paper's tracker: random walk of the box centre, fixed-size boxes, resampling every
     frame (systematic), initial spread N(0, 1) px (eq. 6), estimate = weighted mean (eq. 12).
 
     Parameters
@@ -307,8 +307,8 @@ def _track_loop(tracker: MultiTargetTracker, timed: _TimedLikelihood, frames: It
 
 
 class GivenBoxTracks(TrackManager):
-    """Targets started from given boxes at given frames and stopped at given frames (seed 000's
-    protocol: each person from its first ground-truth box to its last), optionally resized
+    """Targets started from given boxes at given frames and stopped at given frames (the colour
+    paper's protocol: each person from its first ground-truth box to its last), optionally resized
     every frame; every live target's estimate is output.
 
     Parameters
@@ -371,7 +371,7 @@ class GivenBoxTracks(TrackManager):
         if self.perspective and self.fit_ is not None:
             _perspective_size(engine, records, self.fit_, self.start_boxes_)
         ends = self.ends
-        if ends:  # none given (seed 000's walkers): no target to look at
+        if ends:  # none given (the colour paper's walkers): no target to look at
             for t in list(engine.targets):
                 if ends.get(t.id, np.inf) <= frame.index:
                     engine.remove_target(t.id)
@@ -504,7 +504,7 @@ def centre_errors(track_rows: np.ndarray, gt_rows: np.ndarray,
 def cumulative_errors(track_rows: np.ndarray, gt_rows: np.ndarray,
                       names: dict[int, str], frames: Iterable[int] | None = None,
                       ) -> dict[str, float]:
-    """Seed 000's accuracy: per target, the sum over frames of the centre distance (px).
+    """The colour paper's accuracy: per target, the sum over frames of the centre distance (px).
 
     ``names`` maps ids to the names to report (``{1: "blue", ...}``); only ids with a track are
     reported. A target whose track ended early keeps its last estimate for the remaining frames.

@@ -2,8 +2,8 @@
 
 Everything here works on BGR ``uint8`` frames (OpenCV's order) and integer pixel boxes:
 
-* :class:`ColourBins` maps pixels to histogram bins (seed 000: RGB, 8 x 8 x 8 = 512 bins) with one
-  look-up table per channel; no Python loop per pixel.
+* :class:`ColourBins` maps pixels to histogram bins (the colour paper: RGB, 8 x 8 x 8 = 512 bins)
+  with one look-up table per channel; no Python loop per pixel.
 * :func:`integer_boxes` turns particle boxes ``(left, top, width, height)`` in float pixels into
   the integer pixel rectangles the likelihoods read (clipping them to the image:
   :func:`pftrack.geometry.boxes.clip_boxes`).
@@ -54,7 +54,7 @@ class ColourBins:
     Parameters
     ----------
     bins : int or (int, int, int)
-        Bins per channel (seed 000: 8, i.e. 8 x 8 x 8 = 512 bins). Each between 1 and 256.
+        Bins per channel (the colour paper: 8, i.e. 8 x 8 x 8 = 512 bins). Each between 1 and 256.
     colour_space : {"rgb", "bgr", "hsv", "lab", "ycrcb"}
         Space the histogram is taken in; frames are BGR and converted with OpenCV.
 

@@ -1,5 +1,5 @@
-"""Colour-histogram likelihoods of seed 000 (Kamijo et al., cross entropy for fast multi-object
-particle-filter tracking).
+"""Colour-histogram likelihoods of the colour paper (Kamijo et al., cross entropy for fast
+multi-object particle-filter tracking).
 
 Four likelihoods, all built on a per-target template colour histogram ``q`` taken from the
 target's initial box (eq. 5; RGB 8 x 8 x 8 by default), registered under these names:

@@ -1,4 +1,4 @@
-"""The ``walkers`` scene: a synthetic sequence like seed 000's test video (its Fig. 4).
+"""The ``walkers`` scene: a synthetic sequence like the colour paper's test video (its Fig. 4).
 
 360 x 240 px, 180 frames, three people with blue, red and purple torsos walking freely over a
 static textured plaza, crossing and occluding each other (the nearer person, lower in the image,
@@ -39,7 +39,7 @@ WALK_FRAMES = 180  # the walk's length; shorter scenes show its start
 
 
 class WalkersScene(Scene):
-    """Three walkers with blue, red and purple torsos (seed 000's experiment).
+    """Three walkers with blue, red and purple torsos (the colour paper's experiment).
 
     Parameters
     ----------

@@ -1,5 +1,5 @@
-"""Built-in plugin ``network``: seed 004, people across non-overlapping cameras (Kawanishi,
-Deguchi, Ide and Murase: Camera Dropout and Trajectory Ensemble).
+"""Built-in plugin ``network``: the camera-network paper, people across non-overlapping cameras
+(Kawanishi, Deguchi, Ide and Murase: Camera Dropout and Trajectory Ensemble).
 
 Python API (imported on use; nothing heavy at plugin load):
 

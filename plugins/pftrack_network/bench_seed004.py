@@ -1,6 +1,6 @@
-"""Seed 004's experiment (sec. 4.1) on real CAVIAR4REID person images: Table 1 (greedy,
-min-cost flow and Trajectory Ensemble, mean ARI and its variance over datasets), Table 2 (the
-ensemble's mean and variance over runs, per dataset), Table 3 (the ensemble's mean ARI for C_d
+"""The camera-network paper's experiment (sec. 4.1) on real CAVIAR4REID person images: Table 1
+(greedy, min-cost flow and Trajectory Ensemble, mean ARI and its variance over datasets), Table 2
+(the ensemble's mean and variance over runs, per dataset), Table 3 (the ensemble's mean ARI for C_d
 cameras dropped x S sub-networks) and the seconds each took.
 
 Protocol: ``--datasets`` virtual datasets (:func:`pftrack_network.virtual.make_dataset`,
@@ -30,17 +30,15 @@ import numpy as np
 
 DROPPED = (5, 7, 9, 11, 13)
 #: C_d of Table 1's tuned row of the appearance-gated ensemble (``trajectory-ensemble-gated``),
-#: chosen on the tuning seeds 1000-1002 (README: "Seed 004: re-tuned without image reuse"):
-#: the linker's own default, :data:`pftrack_network.linkers.GATED_DROPPED` (5; 9 on the old
-#: protocol; the same number here so that ``--help`` needs no import of the linkers)
+#: chosen on the tuning datasets (seeds 1000-1002): the linker's own default,
+#: :data:`pftrack_network.linkers.GATED_DROPPED` (the same number here so that ``--help`` needs
+#: no import of the linkers). Why: docs/decisions/network-parameters.md
 GATED_DROPPED = 5
-#: C_d of Table 1's tuned row of the paper's ensemble, chosen on the tuning seeds 1000-1002
-#: (stop 24, protocol without image reuse, S = 50, 3 seeds x 4 runs, each C_d at its best break
-#: cost: 0.383 / 0.347 / 0.290 at C_d = 5 / 7 / 9; 7 on the old protocol)
+#: C_d of Table 1's tuned row of the paper's ensemble, chosen on the tuning datasets (seeds
+#: 1000-1002; docs/decisions/network-parameters.md)
 TUNED_DROPPED = 5
-#: the break cost of that row's sub-networks, chosen with it (C_d = 5, S = 100: 0.361 / 0.398 /
-#: 0.388 at 5.5 / 5.75 / 6.0); the paper's row keeps ``ENSEMBLE_PATH_COST`` (5.5, still the
-#: best at C_d = 9 on the new protocol: 0.188 / 0.293 / 0.194 at 5.0 / 5.5 / 6.0, S = 50)
+#: the break cost of that row's sub-networks (-log of a similarity in 1/s), chosen with it; the
+#: paper's row keeps ``ENSEMBLE_PATH_COST``
 TUNED_PATH_COST = 5.75
 SUBNETWORKS = (50, 100, 150)
 
@@ -101,7 +99,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
                         help="Table 3's cells on the Dask scheduler at ADDRESS instead")
     parser.add_argument("--image-reuse", action="store_true",
-                        help="the old, flawed protocol (before stop 24): each tracklet draws its "
+                        help="the earlier, flawed protocol: each tracklet draws its "
                              "images independently, so a person's tracklets through the same "
                              "real camera share identical images, which inflates appearance; "
                              "default: each person's images are partitioned among their "

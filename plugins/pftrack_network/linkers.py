@@ -1,5 +1,6 @@
-"""Linking tracklets into people over a camera network (seed 004): greedy in time order, global
-data association as min-cost flow, and Trajectory Ensemble over Camera Dropout sub-networks.
+"""Linking tracklets into people over a camera network (the camera-network paper): greedy in
+time order, global data association as min-cost flow, and Trajectory Ensemble over Camera
+Dropout sub-networks.
 
 Every linker maps tracklets and a network to one integer label per tracklet (a person /
 trajectory), ``NA = -1`` for tracklets of cameras the network does not hold. A linker's whole
@@ -34,26 +35,18 @@ __all__ = ["ENSEMBLE_PATH_COST", "GATED_DROPPED", "GATED_PATH_COST", "JOIN_MIN_A
 
 NA = -1
 #: default trajectory break cost ``C_en + C_ex`` (-log of a similarity in 1/s) of the
-#: min-cost-flow linker (alone and inside the ensemble), chosen on the tuning datasets (seeds
-#: 1000-1002, not the benchmark's 0-4) of ``pftrack bench seed004``: mean ARI 0.391, 0.411,
-#: 0.426, 0.403, 0.353 at 5.5, 6, 6.5, 7, 7.5 (old protocol, with image reuse; re-chosen at
-#: stop 24 on the protocol without it, the same seeds: 0.197, 0.346, 0.419, 0.459, 0.460,
-#: 0.430, 0.415, 0.396, 0.371 at 5, 5.5, 6, 6.25, 6.5, 6.75, 7, 7.5, 8; the candidate limit of
-#: sec. 3.3 at 1, 2, 3 tracklets: at most 0.329, 0.427, 0.440, so none, as before)
+#: min-cost-flow linker (alone and inside the ensemble): a link is taken only when cheaper than
+#: a break. Chosen on the tuning datasets (seeds 1000-1002, not the benchmark's 0-4) of
+#: ``pftrack bench seed004``, with no candidate limit per camera (the paper's sec. 3.3); the
+#: figures: docs/decisions/network-parameters.md
 DEFAULT_PATH_COST = 6.5
-#: the greedy linker's, chosen the same way: 0.345, 0.342, 0.313, 0.282 at 5.5, 6, 6.5, 7
-#: (old protocol; 6.0 there); without image reuse 0.189, 0.290, 0.304, 0.311, 0.317, 0.307,
-#: 0.291 at 5, 5.5, 5.75, 6, 6.25, 6.5, 7
+#: the greedy linker's break cost (-log of a similarity in 1/s), chosen the same way
 GREEDY_PATH_COST = 6.25
-#: the break cost of the min-cost-flow linker run on each Camera Dropout sub-network of
-#: :class:`TrajectoryEnsemble` (its default linker and ``pftrack bench seed004``'s), chosen on
-#: the tuning seeds 1000-1002 with S = 100, 2 runs each, mean ARI of the ensemble (transit
-#: sum by moments): C_d = 5: 0.390 / 0.414 / 0.408 at 5.25 / 5.5 / 5.75; C_d = 7: 0.402 /
-#: 0.438 / 0.432; C_d = 9: 0.413 / 0.422 / 0.332 (0.203 at 6.5, the full network's cost);
-#: C_d = 11: 0.333 / 0.357 / 0.311. A sub-network's joined edges offer many more candidate
-#: links than the full network's edges (measured at C_d = 9, seeds 1000 and 1002: 35 % of the
-#: links made over joined edges are true, against 79-87 % over the full network's edges), so
-#: its weak tracker must link more sparingly than the full network's.
+#: the break cost (-log of a similarity in 1/s) of the min-cost-flow linker run on each Camera
+#: Dropout sub-network of :class:`TrajectoryEnsemble` (its default linker and ``pftrack bench
+#: seed004``'s), chosen on the tuning datasets at C_d = 9. Lower than the full network's: a
+#: sub-network's joined edges offer many more candidate links than the full network's edges,
+#: and most of them are wrong, so its tracker must link more sparingly.
 ENSEMBLE_PATH_COST = 5.5
 
 
@@ -339,19 +332,15 @@ class TrajectoryEnsemble(TrackletLinker):
     grows with how often both were tracked; average linkage (UPGMA, as in Fred and Jain's
     evidence-accumulation clustering) judges two groups by their mean disagreement, which
     neither lets one stray run chain two people together (single linkage) nor lets one run's
-    break split a person apart (complete linkage). Measured on the tuning seeds 1000 / 1001 /
-    1002 (C_d = 9, S = 100, one run, k by the paper's rule): average 0.435 / 0.365 / 0.547,
-    weighted 0.402 / 0.355 / 0.467, complete 0.304 / 0.253 / 0.359, single 0.087 / 0.110 /
-    0.149. Dividing eq. 4's count by the number of runs where both tracklets were tracked (Fred
-    and Jain's co-association) changes little at C_d = 5-9 (0.420 against 0.422 at C_d = 9,
-    mean of the three seeds, 2 runs each) and helps only at C_d = 11 (0.413 against 0.357):
-    the paper's count is kept.
+    break split a person apart (complete linkage). It scored best of the four linkages on the
+    tuning datasets, and the paper's count of disagreements is kept (dividing it by the runs in
+    which both tracklets were tracked changes little at C_d = 5-9); the figures:
+    docs/decisions/network-parameters.md.
 
     As the paper: the S members are sub-networks only (the full network is not one of them);
     tracklets of dropped cameras are NA in that run; dropout joins distinct neighbours only
     (k != l), so a person who returns to a camera over a dropped one is not linked there
-    (joining a neighbour to itself as well was measured worse on the tuning seeds: 0.402
-    against 0.438 at C_d = 7, 0.305 against 0.422 at C_d = 9).
+    (joining a neighbour to itself as well was measured worse on the tuning datasets).
 
     Parameters
     ----------
@@ -371,10 +360,8 @@ class TrajectoryEnsemble(TrackletLinker):
         parameters", ``"parameters"``): adding both shape and scale makes a joined edge's mean
         ``(k1 + k2)(theta1 + theta2)``, about twice the route's real time, so the true
         successor over a dropped camera falls in the far tail and the links the joined edge
-        does make are mostly wrong (measured at C_d = 9, seeds 1000 and 1002: 10-13 % of them
-        true, against 35 % by moments). On the tuning seeds 1000-1002 (S = 100, each rule at
-        its best break cost): "parameters" 0.408 / 0.407 / 0.358 / 0.317 mean ARI at C_d = 5 /
-        7 / 9 / 11, "moments" 0.414 / 0.438 / 0.422 / 0.357.
+        does make are mostly wrong. "moments" scored better at every C_d on the tuning
+        datasets (docs/decisions/network-parameters.md).
     max_parallel : int or None
         Cap on the edges per camera pair in a sub-network (ditto).
     join_min_appearance : float or None
@@ -488,20 +475,15 @@ class TrajectoryEnsemble(TrackletLinker):
                                   "call link(tracklets, network, rng=...)")
 
 
-#: :class:`GatedTrajectoryEnsemble`'s smallest appearance (eq. 7) for a link over a joined
-#: edge; see there for how it was chosen (re-chosen at stop 24 on the protocol without image
-#: reuse: 0.7 before)
+#: :class:`GatedTrajectoryEnsemble`'s smallest appearance (eq. 7, in [0, 1]) for a link over a
+#: joined edge; chosen on the tuning datasets (docs/decisions/gated-ensemble.md)
 JOIN_MIN_APPEARANCE = 0.65
-#: :class:`GatedTrajectoryEnsemble`'s sub-network break cost (see there): the full network's
-#: 6.5 up to stop 23; re-chosen at stop 24 on the protocol without image reuse (tuning seeds,
-#: C_d = 5, S = 100, gate 0.65, 3 seeds x 4 runs): 0.470 / 0.478 / 0.484 / 0.478 at 6.25 /
-#: 6.5 / 6.75 / 7 (C_d = 9, S = 50, 2 runs: 0.343 / 0.375 / 0.398 / 0.394 / 0.382 at 5.5 / 6 /
-#: 6.5 / 7 / 7.5)
+#: :class:`GatedTrajectoryEnsemble`'s sub-network break cost (-log of a similarity in 1/s):
+#: near the full network's, which the gate allows; chosen on the tuning datasets
 GATED_PATH_COST = 6.75
-#: :class:`GatedTrajectoryEnsemble`'s cameras dropped per sub-network (C_d), chosen at stop 24
-#: on the tuning seeds without image reuse (S = 100, gate 0.65, 3 seeds x 4 runs: 0.484 at 5,
-#: 0.456 at 7 with the break cost 6.75; S = 50 at 6.5: 0.480 / 0.463 / 0.403 at 5 / 7 / 9);
-#: 9 (the paper's) before; ``pftrack bench seed004``'s tuned gated row uses the same C_d
+#: :class:`GatedTrajectoryEnsemble`'s cameras dropped per sub-network (C_d), chosen on the
+#: tuning datasets (the paper's 9 tracked worse there); ``pftrack bench seed004``'s tuned gated
+#: row uses the same C_d
 GATED_DROPPED = 5
 
 
@@ -516,16 +498,12 @@ class GatedTrajectoryEnsemble(TrajectoryEnsemble):
       two tracklets over an edge that dropout joined only when they look alike (appearance
       >= 0.65); over the network's own edges it links as before. Why: a joined edge spans a
       dropped camera and its transit is loose, so at the full network's break cost the
-      paper's sub-networks link over joined edges often and mostly wrongly (tuning dataset
-      1000 of the old protocol with image reuse, C_d = 9: 28 % of those links true, ARI 0.15
-      on the kept tracklets), which is why :class:`TrajectoryEnsemble` needs its lower
-      :data:`ENSEMBLE_PATH_COST`. Gated (0.7 there), they keep the full network's break cost
-      (6.5; :data:`GATED_PATH_COST` is 6.75 since stop 24): 47 % true joined links, ARI 0.34
-      (ungated at 5.5: 44 %, 0.32); without image reuse, gated at 0.65: 23 % -> 32 % true
-      joined links, ARI 0.13 -> 0.26 (ungated at 5.5: 37 %, 0.26). One sub-network is thus
-      hardly better than before, but the ensemble of them is (see the README): the members
-      link more of the real edges' pairs, which are mostly right, and disagree where they are
-      wrong.
+      paper's sub-networks link over joined edges often and mostly wrongly, which is why
+      :class:`TrajectoryEnsemble` needs its lower :data:`ENSEMBLE_PATH_COST`. Gated, they keep
+      a break cost near the full network's (:data:`GATED_PATH_COST`) and their links over
+      joined edges are right more often. One sub-network is thus hardly better, but the
+      ensemble of them is: the members link more of the real edges' pairs, which are mostly
+      right, and disagree where they are wrong.
     * ``distance="share"``: eq. 4's count of disagreeing runs divided by the runs in which
       both tracklets were tracked, so pairs of often-dropped cameras are not pulled together
       by a small count.
@@ -533,20 +511,11 @@ class GatedTrajectoryEnsemble(TrajectoryEnsemble):
     Everything else (dropout by moments, the edge cap, average linkage, k the mean number of
     trajectories, sub-networks only) is :class:`TrajectoryEnsemble`'s.
 
-    How it was chosen: tuning seeds 1000-1002 of ``pftrack bench seed004`` (never the
-    benchmark's 0-4), S = 50 and 100, 2 runs each; the figures are in the README ("Seed 004: the
-    appearance-gated ensemble"). Everything but the gate was chosen on the old virtual protocol,
-    in which a person's tracklets through the same real CAVIAR camera drew from the same 10
-    images and 68-73 % of such same-person pairs shared an identical image (appearance 1). On
-    the protocol without image reuse (stop 24) only the gate was chosen again, on the same
-    tuning seeds (C_d = 9, S = 100, mean ARI over 3 seeds x 6 runs; 4 runs at 0.625, 0.675 and
-    with no joined link, 2 at 0.75 and 0.8): 0.365 / 0.396 / 0.410 / 0.407 / 0.386 / 0.328 /
-    0.306 at 0.6 / 0.625 / 0.65 / 0.675 / 0.7 / 0.75 / 0.8, 0.306 with no joined link at all;
-    min-cost flow scores 0.460 there, so on this protocol the gated ensemble no longer beats it
-    at C_d = 9. Then the rest was re-chosen on the same seeds and protocol, one parameter at a
-    time and a small joint check (README: "Seed 004: re-tuned without image reuse"): C_d 9 -> 5
-    (the default ``n_dropped``; :data:`GATED_DROPPED`), the break cost 6.5 -> 6.75 (the gate
-    0.65, S = 100 and the share distance stayed): mean ARI 0.484 there, min-cost flow 0.460.
+    How it was chosen: on the tuning datasets (seeds 1000-1002) of ``pftrack bench seed004``,
+    never the benchmark's 0-4, on the protocol in which no image is shared between a person's
+    tracklets: the gate, C_d (:data:`GATED_DROPPED`) and the break cost, one at a time, then a
+    small joint check; S = 100 and the share distance stayed. The figures and what was not
+    taken: docs/decisions/gated-ensemble.md and docs/decisions/network-parameters.md.
     """
 
     def __init__(self, n_dropped: int = GATED_DROPPED, n_subnetworks: int = 100,
@@ -563,8 +532,8 @@ class GatedTrajectoryEnsemble(TrajectoryEnsemble):
 
 #: the linkers' parameters for the stripes appearance (``appearance_feature="stripes"``;
 #: ``pftrack bench seed004 --appearance stripes`` takes every one it is not given): its values
-#: are ``-log`` of another scale than eq. 7's, so each was chosen again, on the tuning seeds
-#: 1000-1002 only (README: "Seed 004: a stripes appearance"). Keys: the bench's options
+#: are ``-log`` of another scale than eq. 7's, so each was chosen again, on the tuning datasets
+#: (seeds 1000-1002) only (docs/decisions/stripes-appearance.md). Keys: the bench's options
 #: (break costs of min-cost flow, greedy, the paper's ensemble's sub-networks at C_d 9, its
 #: tuned row's and the gated ensemble's; the gated ensemble's gate).
 STRIPES_PARAMETERS: dict[str, float] = {

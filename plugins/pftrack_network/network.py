@@ -1,5 +1,5 @@
-"""Seed 004's exchange types: a :class:`Tracklet` (one person seen by one camera) and a
-:class:`CameraNetwork` (cameras joined by edges that carry a gamma-distributed transit time),
+"""The camera-network paper's exchange types: a :class:`Tracklet` (one person seen by one camera)
+and a :class:`CameraNetwork` (cameras joined by edges that carry a gamma-distributed transit time),
 with the network's file format, its picture and Camera Dropout (sec. 3.2).
 
 File format (``.json``, or ``.yaml``/``.yml``; the same keys in both)::

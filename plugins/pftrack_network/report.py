@@ -1,5 +1,5 @@
-"""Seed 004's pictures (matplotlib, Agg): a network beside its dropout sub-networks, one
-person's tracklet images across cameras, and one person's trajectory as two linkers built it
+"""The camera-network paper's pictures (matplotlib, Agg): a network beside its dropout sub-networks,
+one person's tracklet images across cameras, and one person's trajectory as two linkers built it
 (the paper's figure 5). Each function returns a figure; :func:`save_figure` writes it
 atomically and closes it."""
 

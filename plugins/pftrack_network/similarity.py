@@ -1,4 +1,4 @@
-"""Tracklet similarity of seed 004 (eq. 6-9): appearance times transit likelihood.
+"""Tracklet similarity of the camera-network paper (eq. 6-9): appearance times transit likelihood.
 
 * Appearance (eq. 7): the maximum, over every pair of images of the two tracklets, of the
   intersection of their HSV histograms. Each image's histogram is taken once, on its central
@@ -11,11 +11,12 @@
   in blocks of one broadcast ``minimum(...).sum(-1)``; the per-tracklet maximum is one
   ``maximum.reduceat`` per axis. No Python loop over image pairs.
 * Appearance ``"stripes"`` (a change of method, not the paper's; chosen on CAVIAR4REID's
-  even-numbered people only, reported on the odd ones, see the README "Seed 004: a stripes
-  appearance"): the image without 15 % of its width on each side, resized to 128 x 48, CLAHE
-  per B, G, R channel, in HSV; 12 horizontal stripes, each with its own hue, saturation and
-  value histograms (16 bins each, each normalised to sum 1; the 128 x 48 pixels are split
-  into 12 runs of 512, row after row, so a stripe is 10 2/3 rows); the similarity of two images is
+  even-numbered people only, reported on the odd ones, see
+  docs/decisions/stripes-appearance.md): the image without 15 % of its width on each side,
+  resized to 128 x 48, CLAHE per B, G, R channel, in HSV; 12 horizontal stripes, each with its
+  own hue, saturation and value histograms (16 bins each, each normalised to sum 1; the 128 x 48
+  pixels are split into 12 runs of 512, row after row, so a stripe is 10 2/3 rows); the
+  similarity of two images is
   the mean over stripes of the stripes' histogram intersections (each in [0, 1]), and that of
   two tracklets the **mean** over all their image pairs (not the maximum), to the power
   :data:`STRIPE_POWER` (8; a monotone calibration chosen with min-cost flow on the bench's

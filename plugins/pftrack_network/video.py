@@ -1,6 +1,6 @@
-"""From one camera's video and pftrack's ``tracks.txt`` to seed 004's tracklets: each track id
-becomes a :class:`~pftrack_network.network.Tracklet` holding person images cut out of the
-frames, so that the tracklets of several cameras can be linked over a camera network.
+"""From one camera's video and pftrack's ``tracks.txt`` to the camera-network paper's tracklets:
+each track id becomes a :class:`~pftrack_network.network.Tracklet` holding person images cut out of
+the frames, so that the tracklets of several cameras can be linked over a camera network.
 
 Frame numbers follow pftrack's files (MOTChallenge, 1-based): MOT frame N is video frame N - 1.
 """

@@ -1,4 +1,4 @@
-"""Seed 004's virtual camera-network data (sec. 4.1) with real person images.
+"""The camera-network paper's virtual camera-network data (sec. 4.1) with real person images.
 
 A dataset: 16 cameras on a plane, a random connected network over them (a random spanning tree
 of the Delaunay triangulation plus a random share of its other edges), gamma transit parameters
@@ -23,7 +23,7 @@ than ``min_cameras`` cameras (on the benchmark's seeds 0-4, 3 of 120 people; on 
 seeds 1000-1002, 3 of 72). Across the two real cameras images never repeat either (the
 viewpoint and light differ, which is the appearance change the paper's method is about).
 
-``image_reuse=True`` is the protocol before (stop 23), kept to reproduce its figures and known
+``image_reuse=True`` is the earlier protocol, kept to reproduce its figures and known
 to be flawed: each tracklet draws its images from the person's 10 independently, so 68-73 % of
 same-person pairs through the same real camera share an identical image (appearance 1), which
 inflates every method that compares appearance. The walks, times and cameras of both protocols

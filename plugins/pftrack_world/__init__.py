@@ -1,6 +1,6 @@
-"""Built-in plugin ``world`` (seed 001): ground-plane tracking with an SVM detector, score-based
-association and detection/EMD/NCC likelihoods; the ``soccer`` scene and the ``pets09-ground``
-preset.
+"""Built-in plugin ``world`` (the soccer paper): ground-plane tracking with an SVM detector,
+score-based association and detection/EMD/NCC likelihoods; the ``soccer`` scene and the
+``pets09-ground`` preset.
 
 Components (registered name -> class):
 
@@ -18,7 +18,8 @@ Components (registered name -> class):
 * preset: ``pets09-ground``, ``soccer-ground``, ``people-ground`` and ``people-image`` (package
   data, ``pftrack_world/presets``);
 * volumes: ``world`` (package data ``pftrack_world/data/volumes.yaml``: ``pitch_seed001`` and
-  seed 003's ``near`` / ``far``); the soccer camera ``pftrack_world/data/soccer_seed001.yaml``;
+  the coastal paper's ``near`` / ``far``); the soccer camera
+  ``pftrack_world/data/soccer_seed001.yaml``;
 * benchmark: ``fresh-video`` (:mod:`pftrack_world.bench_fresh_video`: PETS with nothing learnt
   from its labels or camera, against norfair), ``own-detections``
   (:mod:`pftrack_world.bench_own_detections`: pftrack against norfair and roboflow's trackers on

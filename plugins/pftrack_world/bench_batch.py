@@ -12,7 +12,7 @@ numbering) to a jobs file and runs them, in each round:
 * ``speedup``: ``serial_s / parallel_s``: what a user gains by giving the command two workers;
   both sides pay the same start-up costs once per process they start;
 * ``in_process_serial_s``, ``in_process_parallel_s``, ``in_process_speedup``: the figures as
-  measured before (stop 22): :func:`pftrack.batch.run_batch` called in this process, serially
+  in-process variant: :func:`pftrack.batch.run_batch` called in this process, serially
   after one untimed 5-frame job (so imports and compilation are *not* counted on the serial
   side), and on a ``LocalCluster`` started for the batch (where the workers' imports and
   compilation *are* counted). The asymmetry holds this speed-up 1-3 % below the command's;

@@ -1,4 +1,5 @@
-"""Seed 001 on real pedestrians (PETS 2009 S2.L1): train the SVM, track on the ground plane, score.
+"""The soccer paper on real pedestrians (PETS 2009 S2.L1): train the SVM, track on the ground plane,
+score.
 
 ``pftrack bench pets09-ground --json`` does in one command what a user does in two::
 
@@ -12,9 +13,9 @@ and reports, on the test frames (default 401-795, ground-truth numbering):
   them;
 * ``median_error_m``, ``p90_error_m``: ground-plane distance (m) between each tracked box's world
   position and the ground truth's, over the box pairs matched at IoU >= 0.5 frame by frame;
-* ``accuracy_5px``: seed 001 sec. 4.1, per person the fraction of visible frames whose projected
-  foot point lies within 5 px of the ground-truth foot point (tracks mapped to people by the
-  IDF1-optimal id map), averaged over people;
+* ``accuracy_5px``: the soccer paper's sec. 4.1, per person the fraction of visible frames whose
+  projected foot point lies within 5 px of the ground-truth foot point (tracks mapped to people by
+  the IDF1-optimal id map), averaged over people;
 * ``detection_s_per_frame``, ``tracking_s_per_frame``: wall time per frame of the detector and of
   the tracker; ``frames_per_second``: frames over the wall time of the whole loop (decoding
   included). OpenCV runs on one thread (``cv2.setNumThreads(1)``), as the goal is one core.
@@ -49,7 +50,7 @@ GOALS = {"MOTA": (">=", 0.80), "IDF1": (">=", 0.75), "median_error_m": ("<=", 0.
          "frames_per_second": (">=", 7.0), "tracking_fps": (">=", 30.0),
          "frames_per_second_cpu": (">=", 7.0), "tracking_fps_cpu": (">=", 30.0)}
 
-#: seed 001's numbers for each ablation variant (tracking accuracy, %), for the report
+#: the soccer paper's numbers for each ablation variant (tracking accuracy, %), for the report
 PAPER = {"2d-ncc": 63.1, "3d-ncc": 70.30, "3d-ncc+bhattacharyya": 72.41, "3d-ncc+emd": 73.64,
          "3d-detection+bhattacharyya+ncc": 75.22, "3d-detection+emd+ncc": None}
 
@@ -103,7 +104,7 @@ def _variants(cfg: dict[str, Any]) -> dict[str, dict[str, Any]]:
     }
     # image-plane particles: box centre (px) with the same constant-acceleration model in pixels
     # (noise scaled by ~40 px per metre, PETS's mid-field scale), boxes the size of the birth
-    # detection and fixed, as seed 001's 2D baseline
+    # detection and fixed, as the soccer paper's 2D baseline
     c2 = with_lik(composite((ncc, 1.0), scale=40.0))
     c2["state"] = "image"
     c2["observation"] = {"type": "image-box", "params": {"size_from_box": True}}

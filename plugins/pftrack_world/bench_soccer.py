@@ -1,8 +1,9 @@
-"""Seed 001 on the soccer scene: 22 real player trajectories, MOTA, IDF1, HOTA, error, fps.
+"""The soccer paper on the soccer scene: 22 real player trajectories, MOTA, IDF1, HOTA, error, fps.
 
 ``pftrack bench soccer --json`` renders the ``soccer`` scene (Hawk-Eye trajectories from kloppy's
-sample files, the seed-001 camera, 1280 x 720), tracks every player for ``--duration-s`` seconds
-with the ``soccer-ground`` preset (seed 001's ground-plane particle filter) and reports:
+sample files, the soccer paper's camera, 1280 x 720), tracks every player for ``--duration-s``
+seconds with the ``soccer-ground`` preset (the soccer paper's ground-plane particle filter) and
+reports:
 
 * ``MOTA``, ``IDF1``, ``HOTA``, ``median_error_m``, ``p90_error_m``: exactly as
   ``pets09-ground`` reports them (:func:`pftrack.pipeline.evaluate_tracks`): image boxes matched
@@ -13,8 +14,8 @@ with the ``soccer-ground`` preset (seed 001's ground-plane particle filter) and 
   camera one pixel of foot height is 0.5-1.8 m of depth, so 1 m is strict at the far side);
   ``median_error_m_by_id`` / ``p90_error_m_by_id``: distance of every track row to the player
   its track follows (IDF1-optimal id map), lost tracks included;
-* ``accuracy_5px``: seed 001 sec. 4.1, per player the fraction of frames whose estimated foot
-  point lies within 5 px of the true one, averaged over players;
+* ``accuracy_5px``: the soccer paper's sec. 4.1, per player the fraction of frames whose estimated
+  foot point lies within 5 px of the true one, averaged over players;
 * ``detection_s_per_frame``, ``tracking_s_per_frame``, ``frames_per_second``: wall time of the
   detector and of the tracker per frame, and ``1 / (their sum)``. Rendering is excluded: each
   frame is drawn first, untimed, then detected and tracked under ``time.perf_counter``. OpenCV
@@ -352,7 +353,7 @@ def scores_markdown(result: dict[str, Any]) -> str:
          f"{result['HOTA_world']:.3f}")),
         ("position error, median / p90 (m)",
          f"{result['median_error_m']:.2f} / {result['p90_error_m']:.2f}"),
-        ("seed 001 accuracy (foot within 5 px)", f"{result['accuracy_5px']:.3f}"),
+        ("the soccer paper's accuracy (foot within 5 px)", f"{result['accuracy_5px']:.3f}"),
         ("id switches / FP / FN (IoU)", f"{result['IDSW']} / {result['FP']} / {result['FN']}"),
         ("detection / tracking (ms per frame)",
          (f"{1000 * result['detection_s_per_frame']:.1f} / "

@@ -1,4 +1,5 @@
-"""Sliding-window linear-SVM person detector (seed 001 sec. 2), multi-scale, scored by c(det).
+"""Sliding-window linear-SVM person detector (the soccer paper's sec. 2), multi-scale, scored by
+c(det).
 
 Pipeline per frame (grey image)::
 
@@ -602,7 +603,7 @@ def _dense_windows(model: SVMModel, grey: np.ndarray, bands: Sequence[ScaleBand]
 
 
 class SVMDetector(Detector):
-    """Linear SVM sliding-window person detector (seed 001 sec. 2), multi-scale, with NMS.
+    """Linear SVM sliding-window person detector (the soccer paper's sec. 2), multi-scale, with NMS.
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Seed 001's likelihoods (eq. 5-9): detection, histogram distance (EMD), normalised
+"""The soccer paper's likelihoods (eq. 5-9): detection, histogram distance (EMD), normalised
 cross-correlation, and their combination.
 
 ======================  =======================  ===========================================
@@ -40,8 +40,8 @@ How each is computed (all vectorised over particles):
   the log-likelihoods are added with the weights as exponents. ``beta = exp(-d^2 / (2
   beta_sigma^2))`` with ``d`` the distance from the target's position (state dims 0, 1; metres for
   ground-plane state) to the nearest other live target (beta = 0 when alone).
-* **Exclusion** (composite option ``exclusion_m``, not in seed 001): two people cannot stand on
-  the same spot. A target with no matched detection this frame is followed by its appearance
+* **Exclusion** (composite option ``exclusion_m``, not in the soccer paper): two people cannot stand
+  on the same spot. A target with no matched detection this frame is followed by its appearance
   terms alone, and those can pull its particles onto a similar-looking neighbour, which then
   ends up tracked twice while the hidden person is lost (the identity switches of PETS 2009).
   Such a target's weights are multiplied by ``prod_j (1 - exp(-d_j^2 / (2 r^2)))``, ``d_j`` the
@@ -154,7 +154,7 @@ class _TemplateLikelihood(Likelihood):
 
 
 class NCCLikelihood(_TemplateLikelihood):
-    """Normalised cross-correlation with the target's grey template (seed 001 eq. 8).
+    """Normalised cross-correlation with the target's grey template (the soccer paper's eq. 8).
 
     Parameters
     ----------
@@ -315,7 +315,7 @@ _COLOUR_SPACES = ("bgr", "hsv", "lab")
 
 
 class EMDLikelihood(_TemplateLikelihood):
-    """Histogram likelihood by the Earth Mover's Distance (seed 001 eq. 7).
+    """Histogram likelihood by the Earth Mover's Distance (the soccer paper's eq. 7).
 
     ``p_H = exp(-d^2 / (2 sigma^2))`` with ``d`` the exact 1-D EMD between the template's and the
     window's per-channel histograms, divided by ``bins - 1`` and averaged over channels (module
@@ -450,7 +450,8 @@ class EMDLikelihood(_TemplateLikelihood):
 
 
 class DetectionLikelihood(Likelihood):
-    """Detection likelihood (seed 001 eq. 6): ``p_D = I(tr*) (phi c(p) + psi p_N(p - det*))``.
+    """Detection likelihood (the soccer paper's eq. 6): ``p_D = I(tr*) (phi c(p) + psi p_N(p -
+    det*))``.
 
     Parameters
     ----------
@@ -551,7 +552,7 @@ _SYMBOLIC = ("beta", "1-beta")
 
 
 class CompositeLikelihood(Likelihood):
-    """Weighted combination of likelihood plugins (seed 001 eq. 5 with eq. 9).
+    """Weighted combination of likelihood plugins (the soccer paper's eq. 5 with eq. 9).
 
     Parameters
     ----------
@@ -568,7 +569,7 @@ class CompositeLikelihood(Likelihood):
         Unit: state units (m or px).
     exclusion_m : float, optional
         Radius ``r`` of the exclusion prior (module docstring) in state units (metres for
-        ground-plane state: about a person's radius, 0.3 m); None: none (seed 001).
+        ground-plane state: about a person's radius, 0.3 m); None: none (the soccer paper).
         Unit: state units (m or px).
 
     Attributes

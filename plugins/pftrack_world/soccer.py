@@ -1,10 +1,10 @@
 """The ``soccer`` scene: a fixed camera filming real player trajectories on a synthetic pitch.
 
-Seed 001 tracks soccer players from one fixed, calibrated camera. Its video is not public, so this
-scene re-creates the set-up from public data: the player trajectories are REAL, taken from the
-tracking samples that the ``kloppy`` package ships in its wheel (``kloppy/tests/files``) and read
-with kloppy's own loaders; the picture is synthetic, rendered through a calibrated camera with its
-lens distortion (by default the project's seed-001-like soccer camera in ``calib/``).
+The soccer paper tracks soccer players from one fixed, calibrated camera. Its video is not public,
+so this scene re-creates the set-up from public data: the player trajectories are REAL, taken from
+the tracking samples that the ``kloppy`` package ships in its wheel (``kloppy/tests/files``) and
+read with kloppy's own loaders; the picture is synthetic, rendered through a calibrated camera with
+its lens distortion (by default a camera like the soccer paper's, in ``calib/``).
 
 Data flow::
 
@@ -111,7 +111,7 @@ _BOX_HALF_M = 0.30  # ground-truth cuboid: 0.6 x 0.6 m footprint
 
 def default_soccer_camera_path() -> Path:
     """The plugin's soccer camera, package data ``pftrack_world/data/soccer_seed001.yaml``
-    (seed 001's Table 1 camera; ``calib/soccer_seed001.yaml`` in a checkout points to it).
+    (the soccer paper's Table 1 camera; ``calib/soccer_seed001.yaml`` in a checkout points to it).
 
     Raises
     ------
@@ -412,7 +412,7 @@ def _pose(positions_m: np.ndarray, fps: float, phase0: np.ndarray,
 
 
 _TEAM_KITS: dict[str, dict[str, tuple[int, int, int]]] = {
-    # BGR. Home in red with black shorts, away in white with navy shorts (seed 001's video
+    # BGR. Home in red with black shorts, away in white with navy shorts (the soccer paper's video
     # has a white and a red team); goalkeepers in yellow and in green-grey.
     "home": {"shirt": (40, 30, 200), "shorts": (30, 30, 30), "socks": (40, 30, 190)},
     "away": {"shirt": (235, 235, 240), "shorts": (90, 40, 25), "socks": (230, 230, 230)},
@@ -1005,7 +1005,7 @@ class PitchBlobDetector(Detector):
     foot_depth_m : float
         Ground distance from a blob's lowest point (the nearest foot, plus the anti-aliased
         fringe) to the player's centre, away from the camera, added to ``points_world_m``.
-        0.7 m removes the mean depth bias on the soccer scene with the seed-001 camera
+        0.7 m removes the mean depth bias on the soccer scene with the soccer paper's camera
         (measured: mean error along the viewing direction -0.57 m at 0.3, ~0 at 0.7). Unit: m.
     boxes : {"model", "blob"}
         ``"model"``: each detection's box is the box of a ``height_m`` player standing at its

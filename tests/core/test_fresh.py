@@ -148,7 +148,7 @@ def test_track_checks_its_outputs_before_detecting(tmp_path, monkeypatch):
 
 @needs_pets
 def test_pitch_blob_takes_the_run_camera_file(tmp_path):
-    """Issue 16 item 7: ``pftrack run soccer-ground --camera calib/soccer_seed001.yaml`` stopped
+    """``pftrack run soccer-ground --camera calib/soccer_seed001.yaml`` stopped
     with ``TypeError: expected str ... not Camera`` in pitch-blob; the run's camera object is
     used as is (on any video: the camera is resized to its frames)."""
     from pathlib import Path

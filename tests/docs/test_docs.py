@@ -364,3 +364,65 @@ def test_param_unit_reaches_the_docstring_and_the_reference():
     assert pftrack_docs.is_numeric("", (0.1, 0.2)) and not pftrack_docs.is_numeric("bool", True)
     assert not pftrack_docs.is_numeric('{"cuboid", "point"}', "point")
     assert pftrack_docs.is_numeric("(fx0, fy0, fx1, fy1) floats or None", None)
+
+
+def test_config_reference_split_keeps_every_section_once(page):
+    """The reference's three pages hold every section of the whole page exactly once, each
+    page's headings start at level 2 (under its title) and never skip a level."""
+    parts = pftrack_docs.split_config_reference(page)
+    assert set(parts) == {"keys", "components", "presets"}
+    labels = re.findall(r"^\(([\w-]+)\)=$", page, re.M)
+    assert len(labels) > 50
+    for label in labels:
+        assert sum(f"({label})=\n" in text for text in parts.values()) == 1, label
+    assert "(config-tracker)=" in parts["keys"]
+    assert "(config-kind-likelihood)=" in parts["components"]
+    assert "(preset-pets09-ground)=" in parts["presets"]
+    for name, text in parts.items():
+        outside = re.sub(r"^```.*?^```", "", text, flags=re.S | re.M)  # YAML comments aside
+        levels = [len(h) for h in re.findall(r"^(#+) ", outside, re.M)]
+        assert levels and levels[0] == 2 and min(levels) == 2, name
+        assert all(b - a <= 1 for a, b in zip(levels, levels[1:])), name
+    # the rows are the whole page's: a component's table moved, unchanged
+    assert _rows(page, "#### `volumes`") == _rows(parts["components"], "### `volumes`")
+
+
+def test_results_page_renders_the_latest_file_of_each_benchmark(tmp_path):
+    import json
+
+    import pftrack_results
+
+    def write(name, date, mota):
+        doc = {"benchmark": "pets09-ground", "args": ["--no-ablation"],
+               "commit": {"sha": "a" * 40, "dirty": False}, "date": date,
+               "machine": {"logical_cores": 2, "processor": "x86_64",
+                           "load_1min_before": 0.5, "load_1min_after": 1.0},
+               "protocol": {"chosen_on": "frames 1-400", "reported_on": "frames 401-795"},
+               "result": {"MOTA": mota, "IDF1": 0.8, "goals": {"MOTA": True}}}
+        (tmp_path / name).write_text(json.dumps(doc))
+
+    write("pets09-ground-1.json", "2026-01-01T00:00:00Z", 0.25)
+    write("pets09-ground-2.json", "2026-02-01T00:00:00Z", 0.75)
+    text = pftrack_results.results_page(tmp_path)
+    assert "| MOTA (IoU 0.5) | 0.75 |" in text and "0.25" not in text
+    assert "`pftrack bench pets09-ground --json --no-ablation`" in text
+    assert "**chosen on**: frames 1-400" in text and "pets09-ground-2.json" in text
+    (tmp_path / "bad.json").write_text(json.dumps({"benchmark": "x"}))
+    with pytest.raises(ValueError, match="bad.json has no 'commit'"):
+        pftrack_results.load_results(tmp_path)
+
+
+def test_committed_results_come_from_a_recorded_run():
+    """Every committed result file was written by the recorder: a known benchmark, a commit,
+    a date, a machine and the protocol of its benchmark."""
+    import pftrack_results
+
+    docs = pftrack_results.load_results()
+    assert docs, "results/ holds no result file"
+    for name, doc in docs.items():
+        assert re.fullmatch(r"[0-9a-f]{40}", doc["commit"]["sha"]), name
+        assert doc["protocol"] == pftrack_results.PROTOCOLS[name], name
+        assert doc["machine"]["logical_cores"] >= 1 and doc["wall_s"] > 0
+        for key, _ in pftrack_results.HEADLINE.get(name, []):
+            value = pftrack_results.value_at(doc["result"], key)
+            assert isinstance(value, (int, float)) and not isinstance(value, bool), (name, key)

@@ -1,4 +1,4 @@
-"""Execute ``notebooks/06_camera_network.ipynb`` (seed 004 on a small case, about a minute); it
+"""Execute ``notebooks/06_camera_network.ipynb`` (the camera-network paper on a small case, about a minute); it
 must show its three pictures and the tables, the gated ensemble in both figure 5 and Table 1."""
 
 from __future__ import annotations

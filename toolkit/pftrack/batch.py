@@ -647,8 +647,8 @@ def local_cluster(n_workers: int) -> Any:
     """A ``dask.distributed.LocalCluster`` of ``n_workers`` single-threaded worker processes, as
     :func:`run_batch` starts one (no dashboard).
 
-    The cluster runs with :data:`WORKER_CONFIG` (the README shows the same settings for workers
-    started with ``dask worker``):
+    The cluster runs with :data:`WORKER_CONFIG` (the documentation's "Run a batch on Dask" page
+    shows the same settings for workers started with ``dask worker``):
 
     * its workers keep glibc's own malloc thresholds: Dask's default sets
       ``MALLOC_TRIM_THRESHOLD_=65536`` in its workers' environment, which also fixes glibc's mmap

@@ -152,13 +152,13 @@ class Target:
     particle_boxes_xywh_px : ndarray, shape (N, 4)
         The particles as image boxes, same order.
     extent : ndarray, shape (D,)
-        2 * sqrt(weighted variance) per state axis (seed 003 eq. 10).
+        2 * sqrt(weighted variance) per state axis (the coastal paper's eq. 10).
     frames_tracked : int
-        Consecutive frames with support (detection or likelihood above threshold); seed 001 scales
-        its velocity and acceleration noise by its inverse.
+        Consecutive frames with support (detection or likelihood above threshold); the soccer paper
+        scales its velocity and acceleration noise by its inverse.
     size_m : float
         Typical physical size of the target (metres) or image size (pixels) for image-plane state;
-        seed 001 scales its position noise by it.
+        the soccer paper scales its position noise by it.
     age : int
         Frames since birth.
     misses : int
@@ -180,11 +180,12 @@ class Target:
     log_likelihoods : ndarray, shape (N,), or None
         This frame's log-likelihood of each particle, in the order of the particles the frame
         weighted (before resampling), region masks applied; set by the engine after weighting.
-        Track managers count particles above a likelihood with it (seed 003's entry and exit).
+        Track managers count particles above a likelihood with it (the coastal paper's entry and
+        exit).
     valid_region : callable or None
         The target's own region, ``f(positions (N, P)) -> bool (N,)``: particles outside get
-        likelihood zero, as with the engine's ``valid_region`` (seed 003: each particle group
-        in its volume, a detection group kept off the intruders already tracked); unlike the
+        likelihood zero, as with the engine's ``valid_region`` (the coastal paper: each particle
+        group in its volume, a detection group kept off the intruders already tracked); unlike the
         engine's, leaving it does not end the target (its track manager decides).
     resample_index : ndarray, shape (N,), or None
         Which of the weighted particles (the rows of ``particle_boxes_xywh_px`` and
@@ -529,7 +530,8 @@ class Likelihood(Component):
 
     Life cycle, driven by the tracker:
 
-    1. :meth:`init_target` once when a target is born (build its template, seed 000 eq. 5);
+    1. :meth:`init_target` once when a target is born (build its template, the colour paper's eq.
+       5);
     2. :meth:`begin_frame` once per frame with every live target (per-frame, per-target passes:
        background histogram, integral images, detections);
     3. :meth:`log_likelihood` once per target per frame, vectorised over that target's particles;
@@ -697,7 +699,7 @@ class TrackRecord:
     position (x, y, z) in metres when the observation model knows one, else None;
     ``confidence`` the logistic of the best particle's log-likelihood (0.5 at a birth);
     ``size_m`` the object's size in metres (width across the view, height, depth along the
-    view) when the track manager estimates one (seed 003), else None. ``extent`` is 2 standard
+    view) when the track manager estimates one (the coastal paper), else None. ``extent`` is 2 standard
     deviations of the weighted particles per state axis (the motion model's axis order).
 
     ``xyxy_sd`` (x1, y1, x2, y2 standard deviations, pixels) and ``world_cov`` (2 x 2 ground

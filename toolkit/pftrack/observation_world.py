@@ -1,4 +1,4 @@
-"""Ground-plane particles seen through a calibrated camera (seed 001 sec. 3.1, 3.4).
+"""Ground-plane particles seen through a calibrated camera (the soccer paper's sec. 3.1, 3.4).
 
 :class:`CameraBoxObservation` is the tracker's observation model for world state: a particle's
 image window comes from the camera, not from the state. For each particle the foot point
@@ -52,7 +52,7 @@ class CameraBoxObservation(ObservationModel):
         Box width as a fraction of its height (PETS 2009 ground truth: median 0.355). Unit: 1.
     position_dims : (int, int)
         Entries of the state vector that hold (p_x, p_y) in metres (default the first two, the
-        layout of seed 001 eq. 1). Unit: none.
+        layout of the soccer paper's eq. 1). Unit: none.
     min_visible : float
         :meth:`in_view` is true while at least this fraction of the box's area is inside the
         image (a person stepping out of the picture dies once mostly out). Unit: 1.
@@ -235,7 +235,7 @@ class CameraBoxObservation(ObservationModel):
 
 
 class CameraVolumeObservation(ObservationModel):
-    """Points in a 3-D volume seen through a camera (seed 003: intruders in cuboids over a
+    """Points in a 3-D volume seen through a camera (the coastal paper: intruders in cuboids over a
     coast, particles spread through the volume in world metres).
 
     A state's entries ``position_dims`` are the centre (x, y, z) of an object of size ``size_m``
@@ -260,7 +260,7 @@ class CameraVolumeObservation(ObservationModel):
         Unit: 1.
     particle_box : {"cuboid", "point"}
         ``"point"``: a state's box is its projected point (width and height 0), one projection
-        per particle instead of eight. For seed 003, where each particle is a point on the
+        per particle instead of eight. For the coastal paper, where each particle is a point on the
         intruder and its size comes from the particles' spread (eq. 10), not from a box per
         particle; likelihoods of points read the box's corner as the pixel.
     """

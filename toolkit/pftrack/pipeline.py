@@ -13,7 +13,7 @@ a run is replaceable by a third-party plugin::
     detector: {type, params, train: {frames, params, seed}, detect: true}
                                   ``detect: false``: trained (``pftrack detector train``) and its
                                   model handed to the components (``--detector-model``), not run
-                                  per frame (seed 003: the eigenspace likelihood's model)
+                                  per frame (the coastal paper: the eigenspace likelihood's model)
     associator: {type, params}    a registered associator (detections to targets; none: no detector)
     tracks: {type, params}        a registered track manager (default ``confirmed``)
     births: {...}                 legacy: the ``confirmed`` track manager's parameters
@@ -430,8 +430,8 @@ def _matched_world_errors(gt: np.ndarray, tracks: np.ndarray, iou_threshold: flo
 
 def evaluate_tracks(gt_rows: np.ndarray, track_rows: np.ndarray) -> dict[str, Any]:
     """MOTA, IDF1, HOTA on image boxes (IoU 0.5), ground-plane error of matched boxes (median,
-    p90, metres; when the tracks carry world columns) and seed 001's accuracy (projected foot
-    point within 5 px of the ground-truth foot point, averaged over people)."""
+    p90, metres; when the tracks carry world columns) and the soccer paper's accuracy (projected
+    foot point within 5 px of the ground-truth foot point, averaged over people)."""
     from pftrack.io.mot import has_world
     from pftrack.metrics import accuracy_within, evaluate, points_by_target
 

@@ -1,5 +1,5 @@
-"""``pftrack run``, ``pftrack presets`` and ``pftrack detector``: the user path of seed 001 on
-PETS 2009 (train the detector, then track on the ground plane)."""
+"""``pftrack run``, ``pftrack presets`` and ``pftrack detector``: the user path of the soccer paper
+on PETS 2009 (train the detector, then track on the ground plane)."""
 
 from __future__ import annotations
 

@@ -150,7 +150,7 @@ def test_weighted_mean_variance_extent_numbers():
     w = np.array([0.25, 0.75])
     assert np.allclose(weighted_mean(states, w), [1.5, 3.0, 5.0])
     assert np.allclose(weighted_variance(states, w), [0.75, 3.0, 0.0])
-    # seed 003 eq. 10: l = 2 sqrt(sum g_i (x_i - x_0)^2)
+    # the coastal paper's eq. 10: l = 2 sqrt(sum g_i (x_i - x_0)^2)
     assert np.allclose(weighted_extent(states, w), [2 * np.sqrt(0.75), 2 * np.sqrt(3.0), 0.0])
     # uniform weights over a big Gaussian cloud: extent -> 2 sigma
     rng = np.random.default_rng(5)

@@ -87,7 +87,7 @@ def test_tsai_negative_kappa_beyond_the_fold_is_nan():
 
 def _tsai_distort_masked(k: float, xy: np.ndarray) -> np.ndarray:
     """The Newton loop as it was before its stopping test lost the masked copies (with the
-    cube as two products, as the lens computes it since stop 28)."""
+    cube as two products, as the lens computes it)."""
     ru = np.hypot(xy[:, 0], xy[:, 1])
     rd = ru.copy()
     for _ in range(60):

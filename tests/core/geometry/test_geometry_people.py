@@ -281,7 +281,7 @@ def _pets_gt(a, b):
 
 def test_pets_ground_truth_boxes_against_the_tsai_camera():
     # frames 1-100 of PETS 2009 S2.L1, boxes from the ground truth (an upper bound of quality);
-    # measured: see README "A camera from the people in the video"
+    # measured: see docs/decisions/camera-from-people.md
     ref = load_camera(data_path("pets09", "View_001.xml"))
     gt = _pets_gt(1, 100)
     fit = estimate_camera_from_people(gt[:, 2:6], SIZE, 1.7, n_bootstrap=20)
@@ -606,7 +606,8 @@ def test_pftrack_track_camera_on_pets_frames_1_200_is_within_half_a_metre():
     # what `pftrack track` does on a new video: hog-people over frames 1-200 (no labels), the
     # camera from every 2nd frame's confident people (silhouettes at half size, their lean);
     # scored against the real Tsai camera on the ground truth's feet of all 795 frames.
-    # Measured: f 1202 px, 0.10-0.16 m, horizon 1-2 px (every frame); see the README
+    # Measured: f 1202 px, 0.10-0.16 m, horizon 1-2 px (every frame); see
+    # docs/decisions/camera-from-people.md
     import cv2
     from pftrack.fresh import detect_video, estimate_camera
     from pftrack.pipeline import load_config

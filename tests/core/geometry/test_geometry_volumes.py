@@ -184,7 +184,7 @@ def test_plugins_ship_volume_files_found_by_name(tmp_path):
     from pftrack import hookimpl
     from pftrack.host import Host, RegistrationError
 
-    # the built-ins' package data: seed 001's pitch and the PETS walkway cuboid
+    # the built-ins' package data: the soccer paper's pitch and the PETS walkway cuboid
     pitch = resolve_volume("pitch_seed001")
     assert isinstance(pitch, SoccerPitchVolume) and pitch.frame == "corner"
     walkway = resolve_volume("walkway")

@@ -1,5 +1,6 @@
-"""Motion models of the ``basic`` plugin: exact transitions (seed 003 eq. 5-7, seed 001 eq. 2),
-noise levels and the adaptive noise of seed 001, initial spreads, validation."""
+"""Motion models of the ``basic`` plugin: exact transitions (the coastal paper's eq. 5-7, the soccer
+paper's eq. 2), noise levels and the adaptive noise of the soccer paper, initial spreads,
+validation."""
 
 from __future__ import annotations
 
@@ -85,8 +86,8 @@ def test_constant_acceleration_without_noise_is_C_of_eq2():
 
 
 def test_constant_acceleration_noise_adapts_to_size_and_tracked_frames():
-    """Seed 001: position noise grows with the size; velocity and acceleration noise variances
-    are inversely proportional to the consecutive tracked frames (floored at 1)."""
+    """The soccer paper: position noise grows with the size; velocity and acceleration noise
+    variances are inversely proportional to the consecutive tracked frames (floored at 1)."""
     m = ConstantAccelerationMotion(position_noise=0.1, velocity_noise=0.8, acceleration_noise=0.4)
     s = np.zeros((N, 6))
 

@@ -1,4 +1,4 @@
-"""Per-track appearance in the volume tracker (issue 13): HSV histograms, the swap of two tracks'
+"""Per-track appearance in the volume tracker: HSV histograms, the swap of two tracks'
 output ids when they separate, and the re-identification by appearance."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""The block eigenspace background model and detector of the coast plugin (seed 003 sec. 2):
-exact numbers on synthetic blocks, masked training, 16-bit range, model files, the real water
+"""The block eigenspace background model and detector of the coast plugin (the coastal paper's sec.
+2): exact numbers on synthetic blocks, masked training, 16-bit range, model files, the real water
 data, and the conformance kit."""
 
 from __future__ import annotations

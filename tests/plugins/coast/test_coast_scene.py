@@ -1,6 +1,6 @@
-"""The ``coast`` scene (seed 003's coast, :mod:`pftrack_coast.scene`): frame format, seeding,
-ground truth against the rendered pixels and the volumes, and what the block eigenspace model
-(against OpenCV's MOG2) sees in it.
+"""The ``coast`` scene (the coastal paper's coast, :mod:`pftrack_coast.scene`): frame format,
+seeding, ground truth against the rendered pixels and the volumes, and what the block eigenspace
+model (against OpenCV's MOG2) sees in it.
 
 ``python tests/test_coast_scene.py`` prints the figures (render time, block precision/recall).
 """

@@ -1,5 +1,5 @@
-"""The volume tracker's compiled paths (seed 003's speed): each gives the numpy path's numbers,
-and the whole run's tracks do not change; the benchmark's speed figure in the goal's
+"""The volume tracker's compiled paths (the coastal paper's speed): each gives the numpy path's
+numbers, and the whole run's tracks do not change; the benchmark's speed figure in the goal's
 configuration (3 groups of 5000 particles)."""
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from tests.plugins.coast.test_coast_volumes import _run
 
 
 def _no_kernels(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Every seed 003 kernel off: the numpy paths (as PFTRACK_NO_JIT=1)."""
+    """Every coastal-paper kernel off: the numpy paths (as PFTRACK_NO_JIT=1)."""
     monkeypatch.setattr(volumes_module, "_kernel", lambda name: None)
     monkeypatch.setattr(camera_module, "_ROWS_KERNEL", [None])
     monkeypatch.setenv("PFTRACK_NO_JIT", "1")

@@ -1,4 +1,5 @@
-"""Seed 003 part 2: intruders in 3-D volumes through the one engine (pftrack_coast.volumes).
+"""The coastal paper part 2: intruders in 3-D volumes through the one engine
+(pftrack_coast.volumes).
 
 A synthetic walk with a perfect foreground (the true cuboids' image boxes) checks the mechanics:
 entry and exit by particle counts, several intruders at once, the support-plane correction of

@@ -1,4 +1,4 @@
-"""Seed 000's experiment helpers: start boxes, errors, tracking the walkers, and the paper's
+"""The colour paper's experiment helpers: start boxes, errors, tracking the walkers, and the paper's
 claim that cross entropy + background is more accurate than Bhattacharyya + background."""
 
 from __future__ import annotations

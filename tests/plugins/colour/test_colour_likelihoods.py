@@ -1,4 +1,4 @@
-"""The four colour likelihoods of seed 000: numbers against brute-force per-pixel loops, the
+"""The four colour likelihoods of the colour paper: numbers against brute-force per-pixel loops, the
 cross-entropy identities (eq. 14 = eq. 18, eq. 21 = eq. 22), clipping, joint weighting with the
 background, template update, parameters and the conformance kit."""
 

@@ -1,4 +1,4 @@
-"""The synthetic ``walkers`` scene (seed 000's test video): size, ground truth, determinism,
+"""The synthetic ``walkers`` scene (the colour paper's test video): size, ground truth, determinism,
 torso colours, crossings without long full occlusions."""
 
 from __future__ import annotations

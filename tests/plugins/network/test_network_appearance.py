@@ -1,6 +1,6 @@
-"""Seed 004's stripes appearance (``appearance="stripes"``, pftrack_network.similarity): the
-feature, its pair-ranking probability on CAVIAR4REID against the paper's eq. 7, and its
-pass-through in the linkers and ``pftrack bench seed004 --appearance``."""
+"""The camera-network paper's stripes appearance (``appearance="stripes"``,
+pftrack_network.similarity): the feature, its pair-ranking probability on CAVIAR4REID against the
+paper's eq. 7, and its pass-through in the linkers and ``pftrack bench seed004 --appearance``."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""Seed 004's virtual experiment on real CAVIAR4REID images, the ``seed004`` benchmark on a
-small case and the plugin's registration (pftrack_network)."""
+"""The camera-network paper's virtual experiment on real CAVIAR4REID images, the ``seed004``
+benchmark on a small case and the plugin's registration (pftrack_network)."""
 
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ def test_plugin_registers_the_benchmark_through_a_host():
     host = Host(load_entry_points=False, plugins=[("network", pftrack_network)])
     bench = host.get("benchmark", "seed004")
     assert isinstance(bench, Benchmark)
-    assert bench.summary.startswith("Seed 004's experiment")
+    assert bench.summary.startswith("The camera-network paper's experiment")
     assert host.listing()["plugins"][0]["components"] == {"benchmark": ["seed004"]}
 
 
@@ -87,7 +87,7 @@ def _images_shared_within_people(ds):
 @pytest.mark.parametrize("seed", [1, 3, 1002])
 def test_no_image_appears_in_two_tracklets_of_one_person(seed):
     """The protocol gives no two tracklets of a person the same image (by pixel hash), which
-    the old protocol (``image_reuse=True``, up to stop 23) did for most same-camera pairs. Seed
+    the old protocol (``image_reuse=True``) did for most same-camera pairs. Seed
     1 cuts two people's walks (an 11th and 13th tracklet through one real camera), seed 3
     draws CAVIAR person 29, whose images 002 and 003 are pixel-identical, seed 1002 cuts the
     walk of a person with 14 tracklets through one real camera."""
@@ -143,7 +143,7 @@ def test_seed004_benchmark_small_case_prints_both_tables():
     # the paper's ensemble keeps its row; the gated change of method has its own at C_d = 9
     assert "trajectory-ensemble-gated (C_d=9)" in methods
     assert result["setup"]["join_min_appearance"] == 0.65  # re-chosen without image reuse
-    # the choices of the tuning seeds without image reuse (stop 24): the tuned rows' C_d and
+    # the choices of the tuning seeds without image reuse: the tuned rows' C_d and
     # break costs; min-cost flow's and the paper's ensemble's break costs stayed
     assert "trajectory-ensemble (C_d=5, tuned)" in methods
     assert "trajectory-ensemble-gated (C_d=5, tuned)" in methods

@@ -1,4 +1,5 @@
-"""Seed 004's exchange types, similarity, linkers, dropout and ensemble (pftrack_network)."""
+"""The camera-network paper's exchange types, similarity, linkers, dropout and ensemble
+(pftrack_network)."""
 
 from __future__ import annotations
 
@@ -336,7 +337,7 @@ def test_trajectory_ensemble_defaults_are_the_tuned_ones():
 
 
 def test_gated_ensemble_defaults_are_the_tuned_ones():
-    """The named change of method's defaults are the choices of the tuning seeds (stop 24,
+    """The named change of method's defaults are the choices of the tuning seeds (the
     protocol without image reuse), and the benchmark's tuned gated row uses the same C_d."""
     from pftrack_network.bench_seed004 import GATED_DROPPED as BENCH_GATED_DROPPED
     from pftrack_network.linkers import (

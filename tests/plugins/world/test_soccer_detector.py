@@ -52,7 +52,7 @@ def test_finds_the_players(run) -> None:
 def test_processes_only_the_pitch_band(run) -> None:
     _, det, _, _ = run
     y0, y1, x0, x1 = det.band_
-    # the seed-001 camera sees the pitch in a thin band of the 1280 x 720 image
+    # the soccer paper's camera sees the pitch in a thin band of the 1280 x 720 image
     assert 0 < y0 < y1 < 720 and y1 - y0 < 200
     assert det.region_.shape == (y1 - y0, x1 - x0)
     # a player's expected box at the pitch centre is ~11 px tall

@@ -1,5 +1,5 @@
-"""The soccer scene: real kloppy trajectories, the pitch through the seed-001 camera, players with
-occlusion, and ground truth in pitch metres."""
+"""The soccer scene: real kloppy trajectories, the pitch through the soccer paper's camera, players
+with occlusion, and ground truth in pitch metres."""
 
 from __future__ import annotations
 
@@ -126,7 +126,7 @@ def test_markings_are_drawn_through_the_lens(scene: SoccerScene) -> None:
 def test_ground_truth_rows(scene: SoccerScene) -> None:
     gt = scene.ground_truth()
     assert gt.shape[1] == 10
-    # the seed-001 camera sees the whole pitch: every player in every frame
+    # the soccer paper's camera sees the whole pitch: every player in every frame
     assert len(gt) == 50 * 22
     assert set(np.unique(gt[:, 1]).astype(int)) == set(range(1, 23))
     f1 = gt[gt[:, 0] == 1]

@@ -1,4 +1,4 @@
-"""Seed 001's matching score (eq. 3-4) and its greedy and Hungarian solvers."""
+"""The soccer paper's matching score (eq. 3-4) and its greedy and Hungarian solvers."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""Seed 001's likelihoods: EMD (exactness), NCC (against a direct computation), detection (eq. 6)
-and the configurable composite (eq. 5, 9)."""
+"""The soccer paper's likelihoods: EMD (exactness), NCC (against a direct computation), detection
+(eq. 6) and the configurable composite (eq. 5, 9)."""
 
 from __future__ import annotations
 

@@ -2,8 +2,8 @@
 
 Runs a demo a plugin registered (:class:`pftrack.extensions.Demo`, hook
 ``pftrack_register_demos``). Without NAME, the default one: the built-in ``walkers`` demo of the
-colour plugin (seed 000: three synthetic walkers tracked with cross entropy + background beside
-the paper's Bhattacharyya baseline; tracks, metrics and report pictures).
+colour plugin (the colour paper: three synthetic walkers tracked with cross entropy + background
+beside the paper's Bhattacharyya baseline; tracks, metrics and report pictures).
 """
 
 from __future__ import annotations

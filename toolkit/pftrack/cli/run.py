@@ -6,7 +6,7 @@ MOT frame N = video frame N-1; world columns x, y, z in metres for ground-plane 
 ``OUT/tracks_uncertainty.csv`` (per row of tracks.txt: the box coordinates' standard deviations
 in pixels and the ground position's covariance in m^2, from each track's particle cloud),
 ``OUT/metrics.json`` when ``--gt`` is given (MOTA, IDF1, HOTA on image boxes, ground-plane error,
-seed 001's 5 px accuracy, seconds per frame) and ``OUT/report/*.png`` (overlays, and image
+the soccer paper's 5 px accuracy, seconds per frame) and ``OUT/report/*.png`` (overlays, and image
 trajectories beside the top view). A progress bar shows on stderr unless ``--quiet``.
 """
 

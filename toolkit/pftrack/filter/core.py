@@ -33,7 +33,7 @@ __all__ = [
 
 
 #: exp(x) is exactly 0.0 below log(2**-1075) = -745.13...; numpy's vectorised exp takes a slow
-#: path for such arguments, and sharply peaked likelihoods (seed 000's cross entropy with
+#: path for such arguments, and sharply peaked likelihoods (the colour paper's cross entropy with
 #: lambda = n) put most particles there
 _EXP_ZERO_BELOW = -746.0
 
@@ -294,7 +294,8 @@ def resample(weights: np.ndarray, rng: np.random.Generator, scheme: str = "syste
 
 
 def weighted_mean(states: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """Estimate as the weighted mean of the particles (seed 000 eq. 12, seed 003 eq. 8-9).
+    """Estimate as the weighted mean of the particles (the colour paper's eq. 12, the coastal
+    paper's eq. 8-9).
 
     ``states`` (N, D), ``weights`` (N,) normalised -> (D,); or one filter per row:
     ``states`` (T, N, D), ``weights`` (T, N) -> (T, D), row ``i`` equal to the (N, D) result
@@ -326,7 +327,7 @@ def weighted_variance(states: np.ndarray, weights: np.ndarray,
 
 def weighted_extent(states: np.ndarray, weights: np.ndarray,
                     mean: np.ndarray | None = None) -> np.ndarray:
-    """Size estimate ``l = 2 sqrt(sum_i g_i (x_i - x_0)^2)`` per axis (seed 003 eq. 10);
+    """Size estimate ``l = 2 sqrt(sum_i g_i (x_i - x_0)^2)`` per axis (the coastal paper's eq. 10);
     shapes as :func:`weighted_variance`."""
     e = np.sqrt(weighted_variance(states, weights, mean))
     e *= 2.0

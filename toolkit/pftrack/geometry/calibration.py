@@ -6,7 +6,8 @@ Two entry points:
   ``cornerSubPix`` with an 11 x 11 window, ``calibrateCamera``), as OpenCV's own
   ``calibration.cpp`` sample does it; optionally with ``CALIB_FIX_ASPECT_RATIO`` (fx = fy).
 * :func:`calibrate_points` -- hand-picked world points (metres) and their pixels in one image,
-  as seed 001 does with soccer-field line intersections (seed 001 sec. 3.4 uses Tsai's method).
+  as the soccer paper does with soccer-field line intersections (the soccer paper's sec. 3.4 uses
+  Tsai's method).
 
 How :func:`calibrate_points` chooses (``method="auto"``):
 
@@ -435,7 +436,7 @@ def calibrate_points(points_world_m: Any, pixels: Any, image_size: Sequence[int]
         Where they appear in the image (pixels, distorted as observed).
     image_size : (width, height)
     lens : {"opencv", "tsai", "none"}
-        Lens model to fit. ``"tsai"`` fits Tsai's kappa1 (seed 001's choice).
+        Lens model to fit. ``"tsai"`` fits Tsai's kappa1 (the soccer paper's choice).
     camera : Camera, optional
         Known intrinsics (and lens); with it, ``method="auto"`` solves the pose only.
     method : {"auto", "pnp", "calibrate", "dlt"}
@@ -632,7 +633,7 @@ def check_against_mot(camera: Camera, gt_path: str | os.PathLike[str],
 
 
 # --------------------------------------------------------------------------------------------
-# Soccer pitch keypoints (line intersections), for seed 001 style calibration
+# Soccer pitch keypoints (line intersections), for soccer-paper-style calibration
 # --------------------------------------------------------------------------------------------
 
 

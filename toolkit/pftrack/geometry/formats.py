@@ -206,8 +206,8 @@ def convert_camera(camera: Camera, target: str, fit_step_px: float = 16.0,
 
     ``opencv_model``: ``"standard"`` (5 coefficients), ``"rational"`` (8, OpenCV's
     ``CALIB_RATIONAL_MODEL``) or ``"auto"``: the standard fit unless its residual exceeds
-    ``rational_above_px`` and the rational one does better (a strong Tsai lens, such as seed 001's
-    kappa1 = 0.36, leaves ~16 px with 5 coefficients and ~0.001 px with 8).
+    ``rational_above_px`` and the rational one does better (a strong Tsai lens, such as the soccer
+    paper's kappa1 = 0.36, leaves ~16 px with 5 coefficients and ~0.001 px with 8).
 
     Raises
     ------

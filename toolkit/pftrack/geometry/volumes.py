@@ -8,7 +8,7 @@ me ``n`` points uniformly inside (:meth:`Volume.sample`), and what are your edge
 Two kinds are built in:
 
 * :class:`CuboidVolume` -- an oriented box (Open3D's ``OrientedBoundingBox`` under the hood, see
-  :meth:`CuboidVolume.to_open3d`); seed 003's two detection volumes are
+  :meth:`CuboidVolume.to_open3d`); the coastal paper's two detection volumes are
   :func:`seed003_volumes`.
 * :class:`SoccerPitchVolume` -- a 105 x 68 m pitch (by default) with a height for the players, plus
   its markings as polylines on the ground (:meth:`SoccerPitchVolume.markings`).
@@ -21,9 +21,9 @@ z is up and the ground is z = 0 everywhere.
   (touch lines run along x, the goal lines are x = -/+ length/2), y across the width
   (touch lines at y = -/+ width/2). ``frame="corner"`` puts the origin at the corner
   (x in [0, length], y in [0, width]) as some tracking providers do.
-* Seed 003 coast: origin at the foot of the camera mast on the sea level, y horizontal away from
-  the camera (the viewing direction), x to the right along the shore, z up. A volume "at D m" has
-  its centre D metres from the camera along y.
+* The coastal paper coast: origin at the foot of the camera mast on the sea level, y horizontal away
+  from the camera (the viewing direction), x to the right along the shore, z up. A volume "at D m"
+  has its centre D metres from the camera along y.
 
 Volumes YAML
 ------------
@@ -478,7 +478,7 @@ class SoccerPitchVolume(Volume):
 
 
 def seed003_volumes() -> dict[str, CuboidVolume]:
-    """Seed 003's two coastal detection volumes (sec. 5.1), in the coast frame.
+    """The coastal paper's two coastal detection volumes (sec. 5.1), in the coast frame.
 
     ``near``: 43 m across x 10 m deep x 6 m high, centred 100 m from the camera;
     ``far``: 170 m x 310 m deep x 9 m high, centred 300 m from the camera (it spans
@@ -493,7 +493,7 @@ def seed003_volumes() -> dict[str, CuboidVolume]:
 
 def builtin_volumes() -> dict[str, Volume]:
     """The named volumes that need no file: ``pitch`` (105 x 68 m), ``near`` and ``far``
-    (seed 003)."""
+    (the coastal paper)."""
     out: dict[str, Volume] = {"pitch": SoccerPitchVolume()}
     out.update(seed003_volumes())
     return out

@@ -1,16 +1,16 @@
 """The accuracy measures the four source papers report, as plain vectorised functions.
 
-* Seed 000 (cross-entropy likelihood): cumulative pixel error per target, the sum over frames of
-  the Euclidean distance between the estimated and the ground-truth centre
+* The colour paper (cross-entropy likelihood): cumulative pixel error per target, the sum over
+  frames of the Euclidean distance between the estimated and the ground-truth centre
   (:func:`cumulative_pixel_error`).
-* Seed 001 (3D soccer particle filter, sec. 4.1): per person, the fraction of the frames in which
-  the person is visible where the estimate (projected into the image) lies within 5 px of the
+* The soccer paper (3D soccer particle filter, sec. 4.1): per person, the fraction of the frames in
+  which the person is visible where the estimate (projected into the image) lies within 5 px of the
   ground-truth point; the score is the mean over people (:func:`accuracy_within`).
-* Seed 003 (coastal surveillance, table 1): per-axis absolute and relative error of an estimated
-  object size against the true size (:func:`size_error`).
-* Seed 004 (camera dropout / trajectory ensemble, eq. 10): Adjusted Rand Index of tracklet labels
-  against the true person labels, with unassigned ("NA") tracklets handled as documented
-  (:func:`adjusted_rand_index`).
+* The coastal paper (coastal surveillance, table 1): per-axis absolute and relative error of an
+  estimated object size against the true size (:func:`size_error`).
+* The camera-network paper (camera dropout / trajectory ensemble, eq. 10): Adjusted Rand Index of
+  tracklet labels against the true person labels, with unassigned ("NA") tracklets handled as
+  documented (:func:`adjusted_rand_index`).
 
 The array functions take per-frame, per-target points of shape (F, K, 2) in pixels with NaN where
 a target has no value in a frame; :func:`points_by_target` builds such arrays from MOT rows (ids
@@ -46,7 +46,8 @@ def _pair_points(est: np.ndarray, truth: np.ndarray) -> tuple[np.ndarray, np.nda
 
 
 def cumulative_pixel_error(estimated_px: np.ndarray, truth_px: np.ndarray) -> np.ndarray | float:
-    """Seed 000's accuracy: per target, the sum over frames of the centre distance in pixels.
+    """The colour paper's accuracy: per target, the sum over frames of the centre distance in
+    pixels.
 
     Parameters
     ----------
@@ -67,7 +68,8 @@ def cumulative_pixel_error(estimated_px: np.ndarray, truth_px: np.ndarray) -> np
 
 def accuracy_within(estimated_px: np.ndarray, truth_px: np.ndarray, radius_px: float = 5.0
                     ) -> tuple[float, np.ndarray]:
-    """Seed 001's accuracy (sec. 4.1): fraction of visible frames tracked within ``radius_px``.
+    """The soccer paper's accuracy (sec. 4.1): fraction of visible frames tracked within
+    ``radius_px``.
 
     Parameters
     ----------
@@ -102,12 +104,12 @@ def accuracy_within(estimated_px: np.ndarray, truth_px: np.ndarray, radius_px: f
 
 
 def size_error(estimated_size: np.ndarray, true_size: np.ndarray) -> dict[str, np.ndarray]:
-    """Seed 003's size comparison: per-axis absolute and relative error.
+    """The coastal paper's size comparison: per-axis absolute and relative error.
 
     Parameters
     ----------
     estimated_size, true_size : array_like, shape (..., D)
-        Object extents per axis (e.g. width, height, depth in metres: seed 003 estimates
+        Object extents per axis (e.g. width, height, depth in metres: the coastal paper estimates
         ``l = 2 sqrt(weighted variance)`` per axis of the particle cloud).
 
     Returns
@@ -144,14 +146,14 @@ def _is_na(x: Any) -> bool:
 
 def adjusted_rand_index(true_labels: Sequence[Any], predicted_labels: Sequence[Any], *,
                         na: str = "singleton") -> float:
-    """Seed 004's score: Adjusted Rand Index of predicted tracklet labels (eq. 10).
+    """The camera-network paper's score: Adjusted Rand Index of predicted tracklet labels (eq. 10).
 
     Parameters
     ----------
     true_labels, predicted_labels : sequence, length n
         Per tracklet, the true person and the predicted trajectory label (any hashable values).
         A predicted label that is None, NaN or the string ``"NA"`` means the tracklet was not
-        assigned (in seed 004, a tracklet of a dropped camera).
+        assigned (in the camera-network paper, a tracklet of a dropped camera).
     na : {"singleton", "drop"}
         ``"singleton"`` (default): every unassigned tracklet is a cluster of its own, so leaving
         tracklets unassigned is penalised like splitting them off. ``"drop"``: unassigned
@@ -231,8 +233,8 @@ def points_by_target(gt_rows: np.ndarray, track_rows: np.ndarray, *,
         000 and 001). ``"match"``: the IDF1-optimal map (:func:`match_ids`). Gt ids absent from a
         mapping get NaN estimates.
     point : {"centre", "foot"}
-        Box centre (seed 000) or bottom centre, the ground contact point (seed 001 compares the
-        projected ground position).
+        Box centre (the colour paper) or bottom centre, the ground contact point (the soccer paper
+        compares the projected ground position).
 
     Returns
     -------

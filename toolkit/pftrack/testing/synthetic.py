@@ -2,8 +2,8 @@
 detections, so a component can be exercised without any data file.
 
 The scene is a noisy grey gradient (160 x 120 px by default) crossed by three uniformly coloured
-rectangles (blue, red and purple, like seed 000's walkers) moving in straight lines. Everything is
-drawn from ``numpy.random.default_rng(seed)``: the same seed gives the same pixels.
+rectangles (blue, red and purple, like the colour paper's walkers) moving in straight lines.
+Everything is drawn from ``numpy.random.default_rng(seed)``: the same seed gives the same pixels.
 """
 
 from __future__ import annotations

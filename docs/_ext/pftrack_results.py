@@ -1,0 +1,219 @@
+"""Benchmark results as data: record them into ``results/``, render them into the docs.
+
+Recording runs a registered benchmark (``pftrack bench NAME --json``) in a new process and
+writes its JSON result, wrapped with what is needed to read it later, to
+``results/NAME-DATE.json``::
+
+    python docs/_ext/pftrack_results.py record pets09-ground -- --no-ablation
+
+Each file holds ``benchmark``, ``args`` (the bench's own arguments), ``commit`` (``git
+rev-parse HEAD`` and whether the working tree had changes), ``date`` (UTC, ISO 8601),
+``machine`` (host name, processor, logical cores, Python, the 1-minute load before and after),
+``wall_s``, ``protocol`` (which frames or seeds chose the settings and which are reported, from
+:data:`PROTOCOLS`) and ``result`` (the benchmark's JSON as printed). No figure is typed by hand:
+every number comes from the run.
+
+Rendering (the Sphinx side, called by ``pftrack_docs``): :func:`results_page` reads every file
+of ``results/`` and writes one section per benchmark from its latest file, the headline figures
+(:data:`HEADLINE`) in a table with the file's commit, date, machine and protocol.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[2]
+RESULTS = ROOT / "results"
+
+#: What each benchmark's settings were chosen on and what it reports: the protocol a reader
+#: needs to judge a figure. Keyed by benchmark name.
+PROTOCOLS: dict[str, dict[str, str]] = {
+    "pets09-ground": {
+        "data": "PETS 2009 S2.L1 (view 1, 768 x 576, 795 frames), its Tsai camera",
+        "chosen_on": "frames 1-400: the SVM detector is trained there (the preset's "
+                     "detector.train.frames)",
+        "reported_on": "frames 401-795 (ground-truth numbering), tracking seed as in args "
+                       "(default 0)",
+    },
+    "fresh-video": {
+        "data": "PETS 2009 S2.L1, nothing learnt from its labels or its camera at run time",
+        "chosen_on": "frames 1-200: the detector's margin and score map, the presets, the "
+                     "peer's settings",
+        "reported_on": "frames 201-795; the real camera only measures the estimated one",
+    },
+    "soccer": {
+        "data": "the built-in soccer scene (real player trajectories rendered through the "
+                "paper's camera)",
+        "chosen_on": "the scene's own settings (see the soccer-ground preset)",
+        "reported_on": "the clip the benchmark renders",
+    },
+}
+
+#: The figures shown per benchmark on the results page (keys of its JSON result, dotted for a
+#: nested one), with a label.
+HEADLINE: dict[str, list[tuple[str, str]]] = {
+    "pets09-ground": [("MOTA", "MOTA (IoU 0.5)"), ("IDF1", "IDF1"), ("HOTA", "HOTA"),
+                      ("median_error_m", "median ground error (m)"),
+                      ("accuracy_5px", "within 5 px (the paper's accuracy)"),
+                      ("frames_per_second_cpu", "frames per second of CPU time")],
+    "fresh-video": [("MOTA", "MOTA (IoU 0.5), seed 0"), ("IDF1", "IDF1, seed 0"),
+                    ("HOTA", "HOTA, seed 0"), ("seeds.n", "tracking seeds in the means (from 0)"),
+                    ("seeds.MOTA_mean", "MOTA, mean over the seeds"),
+                    ("seeds.IDF1_mean", "IDF1, mean over the seeds"),
+                    ("seeds.HOTA_mean", "HOTA, mean over the seeds"),
+                    ("peer.MOTA", "norfair on the same detections: MOTA"),
+                    ("peer.IDF1", "norfair: IDF1"), ("peer.HOTA", "norfair: HOTA"),
+                    ("camera_median_error_m", "estimated camera: median ground error (m)"),
+                    ("frames_per_second_cpu", "frames per second of CPU time")],
+    "soccer": [("MOTA", "MOTA (IoU 0.5)"), ("IDF1", "IDF1"), ("HOTA", "HOTA"),
+               ("MOTA_world", "MOTA on the ground"), ("IDF1_world", "IDF1 on the ground"),
+               ("accuracy_5px", "within 5 px (the paper's accuracy)"),
+               ("frames_per_second",
+                "frames per second (wall time of detection and tracking)")],
+}
+
+
+def value_at(result: dict[str, Any], key: str) -> Any:
+    """``result[key]``, a dotted key walking into nested mappings; None when absent."""
+    value: Any = result
+    for part in key.split("."):
+        if not isinstance(value, dict) or part not in value:
+            return None
+        value = value[part]
+    return value
+
+
+def _git(*args: str) -> str:
+    return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True,
+                          check=True).stdout.strip()
+
+
+def machine() -> dict[str, Any]:
+    """The machine a result was measured on."""
+    return {"host": platform.node(), "processor": platform.processor() or platform.machine(),
+            "logical_cores": os.cpu_count(), "python": platform.python_version(),
+            "system": f"{platform.system()} {platform.release()}"}
+
+
+def record(name: str, args: list[str], out_dir: Path = RESULTS,
+           python: str = sys.executable) -> Path:
+    """Run ``pftrack bench NAME --json ARGS`` and write its result with its provenance.
+
+    Returns the file written (``out_dir/NAME-YYYYmmddTHHMMSSZ.json``, atomically).
+
+    Raises
+    ------
+    RuntimeError
+        The benchmark failed (its exit code and the end of its stderr).
+    """
+    date = _dt.datetime.now(_dt.UTC).replace(microsecond=0)
+    commit = {"sha": _git("rev-parse", "HEAD"),
+              "dirty": bool(_git("status", "--porcelain", "--untracked-files=no"))}
+    load_before = os.getloadavg()[0]
+    with tempfile.TemporaryDirectory(prefix="pftrack-results-") as tmp:
+        raw = Path(tmp) / "result.json"
+        t0 = time.perf_counter()
+        proc = subprocess.run([python, "-m", "pftrack", "bench", name, "--json", "--out",
+                               str(raw), *args], cwd=ROOT, capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+        if proc.returncode != 0:
+            raise RuntimeError(f"pftrack bench {name} failed (exit {proc.returncode}): "
+                               f"{proc.stderr[-2000:]}")
+        result = json.loads(raw.read_text())
+    doc = {"benchmark": name, "args": args, "commit": commit,
+           "date": date.isoformat().replace("+00:00", "Z"),
+           "machine": {**machine(), "load_1min_before": load_before,
+                       "load_1min_after": os.getloadavg()[0]},
+           "wall_s": wall, "protocol": PROTOCOLS.get(name, {}), "result": result}
+    out_dir.mkdir(parents=True, exist_ok=True)
+    dest = out_dir / f"{name}-{date.strftime('%Y%m%dT%H%M%SZ')}.json"
+    tmp_dest = dest.with_suffix(".json.tmp")
+    tmp_dest.write_text(json.dumps(doc, indent=2, default=float) + "\n")
+    os.replace(tmp_dest, dest)
+    return dest
+
+
+def load_results(folder: Path = RESULTS) -> dict[str, dict[str, Any]]:
+    """The latest result file of each benchmark in ``folder``, by benchmark name.
+
+    Raises
+    ------
+    ValueError
+        A file is not a result file (it names the file and the missing key).
+    """
+    latest: dict[str, dict[str, Any]] = {}
+    for path in sorted(folder.glob("*.json")):
+        doc = json.loads(path.read_text())
+        for key in ("benchmark", "commit", "date", "machine", "protocol", "result"):
+            if key not in doc:
+                raise ValueError(f"results: {path.name} has no '{key}'")
+        doc["file"] = path.name
+        name = doc["benchmark"]
+        if name not in latest or doc["date"] > latest[name]["date"]:
+            latest[name] = doc
+    return latest
+
+
+def _fmt(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return str(value)
+
+
+def results_page(folder: Path = RESULTS) -> str:
+    """The results page's body (MyST Markdown): per benchmark, its latest file's headline
+    figures (:data:`HEADLINE`, else every number at the top level of its result), the command
+    that measured them and its provenance."""
+    lines = ["<!-- generated by docs/_ext/pftrack_results.py from results/*.json: do not "
+             "edit -->", ""]
+    docs = load_results(folder)
+    if not docs:
+        return "\n".join(lines + ["No result file is committed yet.", ""])
+    for name, doc in sorted(docs.items()):
+        res = doc["result"]
+        keys = HEADLINE.get(name) or [(k, k) for k, v in res.items()
+                                      if isinstance(v, (int, float)) and not isinstance(v, bool)]
+        cmd = " ".join(["pftrack bench", name, "--json", *doc.get("args", [])])
+        m = doc["machine"]
+        lines += [f"(results-{name})=", f"## `{name}`", "",
+                  "| figure | value |", "|---|---|"]
+        lines += [f"| {label} | {_fmt(value_at(res, k))} |" for k, label in keys
+                  if value_at(res, k) is not None]
+        lines += ["", f"Measured by `{cmd}` on {doc['date']} at commit "
+                  f"`{doc['commit']['sha'][:10]}`"
+                  + (" (with uncommitted changes)" if doc["commit"].get("dirty") else "")
+                  + f"; {m.get('logical_cores')} logical cores ({m.get('processor')}), "
+                  f"1-minute load {_fmt(m.get('load_1min_before'))} before and "
+                  f"{_fmt(m.get('load_1min_after'))} after; file `results/{doc['file']}`.", ""]
+        proto = doc["protocol"]
+        if proto:
+            lines += [f"- **{k.replace('_', ' ')}**: {v}" for k, v in proto.items()]
+            lines.append("")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``record NAME [-- BENCH ARGS...]``: run and record one benchmark."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if len(argv) < 2 or argv[0] != "record":
+        print("usage: python docs/_ext/pftrack_results.py record NAME [-- ARGS...]",
+              file=sys.stderr)
+        return 2
+    name, rest = argv[1], argv[2:]
+    if rest[:1] == ["--"]:
+        rest = rest[1:]
+    print(record(name, rest))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
