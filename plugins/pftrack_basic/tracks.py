@@ -3,7 +3,8 @@ target is believed, which two targets are one object, and what is output.
 
 * :class:`DetectionBirthTracks` (``births``): every unmatched detection at least ``min_score``
   confident starts a target, output at once.
-* :class:`ConfirmedTracks` (``confirmed``, seed 001 on real video): an unmatched detection at
+* :class:`ConfirmedTracks` (``confirmed``, the soccer paper on real video): an unmatched detection
+at
   least ``min_score`` confident, overlapping no live target by more than ``max_iou``, starts a
   *tentative* target; it is confirmed once ``confirm_hits`` of its first ``confirm_window``
   frames had a matched detection, and then its records from birth on are output (confirmation

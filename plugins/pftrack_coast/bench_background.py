@@ -1,5 +1,5 @@
-"""Seed 003's block eigenspace background model against OpenCV's background subtractors on real
-water, campus and thermal video: precision, recall, F-measure and PWC at pixel and block level,
+"""The coastal paper's block eigenspace background model against OpenCV's background subtractors on
+real water, campus and thermal video: precision, recall, F-measure and PWC at pixel and block level,
 frames per second, and on a thermal clip with annotated boxes the entry, false alarms on empty
 frames, recall and block precision, with and without a simulated camera recalibration.
 

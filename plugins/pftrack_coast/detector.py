@@ -1,4 +1,4 @@
-"""Eigenspace intruder detector (seed 003 sec. 2): the block eigenspace background model of
+"""Eigenspace intruder detector (the coastal paper sec. 2): the block eigenspace background model of
 :mod:`pftrack_coast.eigenspace` as a pftrack :class:`~pftrack.components.Detector`.
 
 Per frame: every block's relative variation r_D (eq. 3) against its background eigenspace,
@@ -44,7 +44,7 @@ def boxes_to_mask(boxes_xywh_px: np.ndarray, image_hw: tuple[int, int]) -> np.nd
 
 
 class EigenspaceDetector(Detector):
-    """Block eigenspace background subtraction (seed 003): intruder blocks -> boxes.
+    """Block eigenspace background subtraction (the coastal paper): intruder blocks -> boxes.
 
     {params}
 

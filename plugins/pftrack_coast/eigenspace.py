@@ -1,5 +1,5 @@
-"""Block eigenspace background model (seed 003 sec. 2; Mittal's block PCA with a threshold that
-depends on the eigenspace dimension).
+"""Block eigenspace background model (the coastal paper sec. 2; Mittal's block PCA with a threshold
+that depends on the eigenspace dimension).
 
 The image is cut into ``block_size`` x ``block_size`` pixel blocks; each block ``b`` has its own
 eigenspace learnt by PCA over its background training vectors ``x`` (the block's P = block_size²
@@ -178,7 +178,7 @@ def components_to_boxes(intruder_mask: np.ndarray, excess_map: np.ndarray,
 
 
 class BlockEigenspaceModel:
-    """Per-block PCA background model with the dimension-dependent threshold of seed 003.
+    """Per-block PCA background model with the dimension-dependent threshold of the coastal paper.
 
     Parameters
     ----------

@@ -1,5 +1,5 @@
-"""Detection-to-track association by seed 001's matching score (eq. 3-4, after Breitenstein et
-al., ICCV 2009), solved greedily (the paper) or optimally (Hungarian method).
+"""Detection-to-track association by the soccer paper's matching score (eq. 3-4, after Breitenstein
+et al., ICCV 2009), solved greedily (the paper) or optimally (Hungarian method).
 
 For a track ``tr`` (its particles, as image boxes) and a detection ``det`` (box, score c(det))::
 
@@ -21,14 +21,15 @@ Only pairs with ``s > min_score`` (the paper's ``threshold`` of ``I(tr*)``, eq. 
 so a matched detection is exactly ``I(tr*) = 1``.
 
 Appearance (optional, ``appearance_weight > 0``): Breitenstein et al.'s original score uses a
-track-specific classifier ``c_tr(det)`` where seed 001 uses the generic SVM score ``c(det)``.
-With ``appearance_weight = gamma`` the score becomes ``g * (c(det) + gamma * a(tr, det) + alpha
-* mean p_N)``, where ``a(tr, det)`` in [0, 1] is an appearance similarity the caller puts in
-``target.appearance_scores`` (one value per detection; the pipeline's session uses
-``exp(-d^2 / (2 sigma^2))`` of the per-channel colour EMD between the track's and the
-detection's histograms). Targets without it get ``a = 0``. A NaN in ``appearance_scores`` bars
-that pair (score 0, never matched), whatever ``appearance_weight``: the track management's
-re-identification of hidden targets (``tracks.hidden_reid``).
+track-specific classifier ``c_tr(det)`` where the soccer paper uses the generic SVM score
+``c(det)``. With ``appearance_weight = gamma`` the score becomes
+``g * (c(det) + gamma * a(tr, det) + alpha * mean p_N)``, where ``a(tr, det)`` in [0, 1] is an
+appearance similarity the caller puts in ``target.appearance_scores`` (one value per
+detection; the pipeline's session uses ``exp(-d^2 / (2 sigma^2))`` of the per-channel colour
+EMD between the track's and the detection's histograms). Targets without it get ``a = 0``. A
+NaN in ``appearance_scores`` bars that pair (score 0, never matched), whatever
+``appearance_weight``: the track management's re-identification of hidden targets
+(``tracks.hidden_reid``).
 """
 
 from __future__ import annotations
@@ -160,7 +161,7 @@ class _ScoreAssociator(Associator):
 
 
 class GreedyScoreAssociator(_ScoreAssociator):
-    """Seed 001's association (sec. 3.2): greedy on s(tr, det) of eq. 3-4.
+    """The soccer paper's association (sec. 3.2): greedy on s(tr, det) of eq. 3-4.
 
     Parameters
     ----------

@@ -699,8 +699,8 @@ class TrackRecord:
     position (x, y, z) in metres when the observation model knows one, else None;
     ``confidence`` the logistic of the best particle's log-likelihood (0.5 at a birth);
     ``size_m`` the object's size in metres (width across the view, height, depth along the
-    view) when the track manager estimates one (the coastal paper), else None. ``extent`` is 2 standard
-    deviations of the weighted particles per state axis (the motion model's axis order).
+    view) when the track manager estimates one (the coastal paper), else None. ``extent`` is 2
+    standard deviations of the weighted particles per state axis (the motion model's axis order).
 
     ``xyxy_sd`` (x1, y1, x2, y2 standard deviations, pixels) and ``world_cov`` (2 x 2 ground
     covariance, m^2) are the particle cloud's spread when a caller asked for it

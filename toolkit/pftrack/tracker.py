@@ -85,7 +85,7 @@ __all__ = [
 
 class ImageBoxObservation(ObservationModel):
     """Image-plane state: dims 0 and 1 are the box centre in pixels; the box has a fixed size
-    (seed 000 uses 30 x 30 px).
+    (the colour paper uses 30 x 30 px).
 
     With ``size_from_box=True`` each target keeps the size of the box it was started from
     (``target.box_wh_px``), e.g. each person's ground-truth size at initialisation.
@@ -260,7 +260,8 @@ class MultiTargetTracker:
     dt : float
         Time step per frame in the motion model's unit (1 frame, or 1/fps seconds).
     init_spread : float or array
-        Std of the initial particle spread around a new target's position (seed 000 eq. 6: 1 px).
+        Std of the initial particle spread around a new target's position (the colour paper eq. 6:
+        1 px).
     recover_spread : float or array, optional
         Std used to re-spread the particles around the last estimate when every weight is zero or
         non-finite (defaults to ``5 * init_spread``).
@@ -290,8 +291,8 @@ class MultiTargetTracker:
         matched detection a few particle spreads away supports none of them. 0: the motion
         prior alone (no random draws). Unit: 1.
     valid_region : callable, optional
-        ``f(positions (N, P)) -> bool (N,)``; particles outside get likelihood zero (seed 003:
-        particles leaving the volume) and a target whose estimate leaves it dies.
+        ``f(positions (N, P)) -> bool (N,)``; particles outside get likelihood zero (the coastal
+        paper: particles leaving the volume) and a target whose estimate leaves it dies.
     target_size : float
         Default ``Target.size_m`` for new targets (adaptive motion noise).
     rng : numpy.random.Generator
@@ -434,8 +435,9 @@ class MultiTargetTracker:
         return target
 
     def set_particles(self, target_id: int, particles: np.ndarray) -> Target:
-        """Replace a live target's particles (N, D) with equal weights (seed 003's re-spread
-        of a detection group through its volume, a new group taken from another's particles);
+        """Replace a live target's particles (N, D) with equal weights (the coastal paper's
+        re-spread of a detection group through its volume, a new group taken from another's
+        particles);
         its estimate and extent become theirs."""
         f = self._filters.get(int(target_id))
         if f is None:

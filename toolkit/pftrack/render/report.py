@@ -1,5 +1,5 @@
 """Report pictures of a tracking run: overlay frames and the image trajectories beside a top view
-of the ground plane (seed 001 figures 9-12).
+of the ground plane (the soccer paper figures 9-12).
 
 * ``overlay_FRAME.png``: the frame with each track's box and id in its colour, its recent foot
   trail, and the ground truth's boxes in thin grey;
@@ -98,7 +98,7 @@ def _world_tracks(rows: np.ndarray, frame: int) -> dict[int, np.ndarray]:
 def draw_trajectories(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
                       gt_rows: np.ndarray | None = None, title: str = "",
                       uncertainty: np.ndarray | None = None) -> np.ndarray:
-    """Seed 001 figures 9-12: image trajectories beside the top view, as one BGR image.
+    """The soccer paper figures 9-12: image trajectories beside the top view, as one BGR image.
 
     The top view shows every track's ground positions (world metres) up to ``frame``, and the
     ground truth's (dashed) when given; its height matches the frame's. With ``uncertainty``
