@@ -261,3 +261,22 @@ def test_dev_does_not_reinstall_when_only_the_time_changed(dev_copy):
     r = _dev(dev_copy, "setup")
     assert r.returncode == 0 and "installing" not in r.stdout
     assert stamp.read_text().strip() == digest
+
+
+@pytest.mark.skipif(_missing_system_packages(), reason="./dev setup would install system "
+                                                        "libraries first")
+def test_dev_is_not_fooled_by_the_checkouts_own_egg_info(dev_copy):
+    # an editable install leaves pftrack.egg-info in the checkout; run from there, Python would
+    # find it before the environment's own record of where pftrack comes from
+    _fake_pftrack(dev_copy / "env", dev_copy.resolve().as_uri())
+    egg = dev_copy / "pftrack.egg-info"
+    egg.mkdir()
+    (egg / "PKG-INFO").write_text("Metadata-Version: 2.1\nName: pftrack\nVersion: 0.1.0\n")
+    stamp = dev_copy / "env" / ".pftrack-installed"
+    stamp.write_text(hashlib.sha256((dev_copy / "pyproject.toml").read_bytes()).hexdigest()
+                     + "\n")
+    r = subprocess.run([str(dev_copy / "dev"), "setup"], capture_output=True, text=True,
+                       cwd=dev_copy, timeout=120,
+                       env={**os.environ, "PFTRACK_VENV": "env", "PYTHON": sys.executable})
+    assert r.returncode == 0, r.stderr
+    assert "not re-pointing" not in r.stderr
