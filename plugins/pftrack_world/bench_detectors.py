@@ -1,9 +1,9 @@
 """Person detectors side by side on PETS 2009 S2.L1 and MOT17-09: recall and precision at IoU
 0.5 by box height and at the frame's edge, and time per frame on one core.
 
-``pftrack bench detectors --json`` runs each detector (``--detector``, repeatable; default
-``hog-people`` and ``ssdlite-people``, each with its default parameters and no camera, as
-``pftrack track`` meets a new video) on every ``--every``-th frame of
+``pftrack bench detectors --json`` runs each detector (``--detector NAME[:P=V,...]``,
+repeatable; default ``hog-people`` and ``ssdlite-people``, each with its default parameters
+and no camera, as ``pftrack track`` meets a new video) on every ``--every``-th frame of
 
 * PETS 2009 S2.L1 (768 x 576): counted ground truth = rows with flag 1; a detection matched
   to a flag-0 row (a partly hidden person) counts neither way;
@@ -57,9 +57,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--data", default=None,
                         help="folder holding pets09/ and mot17-09/ (default: $PFTRACK_DATA or "
                              "../shared/data)")
-    parser.add_argument("--detector", action="append", default=None, metavar="NAME",
-                        help="detector plugin to measure (repeatable; default hog-people and "
-                             "ssdlite-people; the first is the speed baseline)")
+    parser.add_argument("--detector", action="append", default=None, metavar="NAME[:P=V,...]",
+                        help="detector plugin to measure, optionally with parameters "
+                             "(e.g. ssdlite-people:fine_height=576); repeatable; default "
+                             "hog-people and ssdlite-people; the first is the baseline of the "
+                             "speed ratios and the precision-matched comparison")
     parser.add_argument("--every", type=int, default=5, metavar="K",
                         help="score every K-th frame (default 5)")
     parser.add_argument("--speed-frames", type=int, default=10, metavar="N",
@@ -229,13 +231,31 @@ def _videos(data: str | None) -> dict[str, tuple[Path, Path]]:
     return {"pets09": (video, gt), "mot17-09": (mv, mg)}
 
 
-def _make(name: str, low: bool) -> Any:
-    """A fresh detector plugin ``name`` with its default parameters (``low``: reporting down to
-    :data:`LOW_SCORE`, for thresholds applied afterwards)."""
+def parse_spec(spec: str) -> tuple[str, dict[str, Any]]:
+    """``"NAME"`` or ``"NAME:P=V,P=V"`` -> (name, parameters; values read as YAML scalars);
+    ``ValueError`` naming ``--detector`` when a parameter has no ``=``."""
+    import yaml
+
+    name, _, rest = spec.partition(":")
+    params: dict[str, Any] = {}
+    for item in filter(None, (x.strip() for x in rest.split(","))):
+        key, eq, value = item.partition("=")
+        if not eq or not key.strip():
+            raise ValueError(f"bench detectors: --detector {spec}: parameters are P=V, got "
+                             f"{item!r}")
+        params[key.strip()] = yaml.safe_load(value)
+    return name.strip(), params
+
+
+def _make(spec: str, low: bool) -> Any:
+    """A fresh detector from ``spec`` (:func:`parse_spec`; unnamed parameters at their
+    defaults; ``low``: reporting down to :data:`LOW_SCORE`, for thresholds applied
+    afterwards)."""
     from pftrack.components import RunContext
     from pftrack.pipeline import build_detector
 
-    det = build_detector({"detector": {"type": name}})
+    name, params = parse_spec(spec)
+    det = build_detector({"detector": {"type": name, "params": params}})
     if low and "threshold" in det.get_params():
         det.set_params(threshold=LOW_SCORE)
         det.setup(RunContext())
@@ -376,7 +396,11 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _f(x: float | None, fmt: str = "5.2f") -> str:
-    return format(x, fmt) if x is not None else "  -  "
+    """``x`` formatted, or a dash as wide (no such box: no figure)."""
+    if x is not None:
+        return format(x, fmt)
+    width = fmt.split(".")[0]
+    return "-".rjust(int(width) if width.isdigit() else 1)
 
 
 def format_table(result: dict[str, Any]) -> str:
@@ -384,13 +408,14 @@ def format_table(result: dict[str, Any]) -> str:
     lines = [f"Detectors at IoU 0.5, every {result['every']}th frame, test parts "
              f"(PETS {result['splits']['pets09']['test']}, MOT17-09 "
              f"{result['splits']['mot17-09']['test']})"]
-    head = f"{'detector':<16s}{'video':<10s}{'thr':>5s}{'rec':>6s}{'prec':>6s}" + \
+    nw = max(16, max(len(n) for n in result["detectors"]) + 1)
+    head = f"{'detector':<{nw}s}{'video':<10s}{'thr':>5s}{'rec':>6s}{'prec':>6s}" + \
         "".join(f"{b:>9s}" for b in bins) + f"{'edge':>7s}"
     lines.append("recall by ground-truth box height (px); edge: boxes touching the frame's edge")
     lines.append(head)
 
     def row(name: str, v: str, thr: float, s: dict[str, Any]) -> str:
-        return (f"{name:<16s}{v:<10s}{thr:5.2f}{_f(s['recall'], '6.3f')}"
+        return (f"{name:<{nw}s}{v:<10s}{thr:5.2f}{_f(s['recall'], '6.3f')}"
                 f"{_f(s['precision'], '6.3f')}"
                 + "".join(f"{_f(s['recall_by_height'][b], '9.3f')}" for b in bins)
                 + f"{_f(s['recall_at_edge'], '7.3f')}")
@@ -403,7 +428,7 @@ def format_table(result: dict[str, Any]) -> str:
                  f"{_f(pm['precision_train_pets09'], '.3f')}):")
     for n, e in pm["detectors"].items():
         if e.get("threshold") is None:
-            lines.append(f"{n:<16s} never reaches that precision")
+            lines.append(f"{n:<{nw}s} never reaches that precision")
             continue
         for v in ("pets09", "mot17-09"):
             lines.append(row(n, v, e["threshold"], e[v]))

@@ -28,10 +28,18 @@ How a frame is read:
 * **Calibrated scores.** The person logit ``z`` is mapped to ``1 / (1 + exp(-(z -
   score_offset) / score_scale))``, a logistic (Platt) map fitted once by logistic regression
   (label: IoU >= 0.5 with a counted ground-truth box) on the detections of PETS 2009 S2.L1
-  frames 1-400 and MOT17-09 frames 1-262 (every 5th frame) and fixed for every video, as
-  ``hog-people``'s scores are: a score is the probability that the box is a person's box, so
-  0.5 means "more likely right than wrong". The map is monotone: ranking and suppression are
+  frames 1-400 and MOT17-09 frames 1-262 (every 5th frame, 2637 detections) and fixed for
+  every video, as ``hog-people``'s scores are: a score is the probability that the box is a
+  person's box, so 0.5 means "more likely right than wrong". Fitted on each video alone the
+  offset is -0.40 (PETS, small people) and 1.01 (MOT17-09): the probability holds on average
+  over both kinds of video, not on each. The map is monotone: ranking and suppression are
   those of the network's own score.
+
+* **A finer pass, optional** (``fine_height``): small people (PETS's 60-100 px in a 576 px
+  frame) shrink below the network's smallest anchors (30 px) at a 300 px input; a second pass
+  over the frame resized to ``fine_height`` adds the people it finds shorter than
+  ``fine_max_px`` in its input, then both passes are suppressed together. Off by default: at
+  576 px it costs about four first passes.
 
 Boxes are the network's: they cover the visible person (a person cut by the frame's edge gets
 the visible part's box, not clipped further).
@@ -270,6 +278,14 @@ class SSDLitePeopleDetector(Detector):
     score_offset, score_scale : float
         The logistic map of the person logit ``z``: ``1 / (1 + exp(-(z - score_offset) /
         score_scale))``. Unit: 1.
+    fine_height : int
+        A second, finer pass for small people: the frame resized to this height (its aspect
+        ratio kept), its detections shorter than ``fine_max_px`` there added to the first
+        pass's before suppression; 0: no second pass. It costs about ``(fine_height /
+        input_height)`` squared first passes. Unit: px.
+    fine_max_px : float
+        The finer pass keeps only people shorter than this in its own input (taller ones are
+        the first pass's; its large boxes are less reliable). Unit: px.
     camera : str or Camera, optional
         A ground-plane camera (path or object) giving detections their ground point (foot
         back-projected to z = 0); default: the run's camera.
@@ -279,6 +295,7 @@ class SSDLitePeopleDetector(Detector):
 
     def __init__(self, threshold: float = 0.5, nms_iou: float = 0.5, input_height: int = 300,
                  width_scale: float = 1.0, score_offset: float = 0.27, score_scale: float = 1.27,
+                 fine_height: int = 0, fine_max_px: float = 150.0,
                  camera: Any = None, threads: int = 0) -> None:
         self.threshold = threshold
         self.nms_iou = nms_iou
@@ -286,6 +303,8 @@ class SSDLitePeopleDetector(Detector):
         self.width_scale = width_scale
         self.score_offset = score_offset
         self.score_scale = score_scale
+        self.fine_height = fine_height
+        self.fine_max_px = fine_max_px
         self.camera = camera
         self.threads = threads
 
@@ -310,6 +329,13 @@ class SSDLitePeopleDetector(Detector):
             raise ValueError(f"detector ssdlite-people: score_scale must be > 0 and "
                              f"score_offset finite, got {self.score_scale}, "
                              f"{self.score_offset}")
+        f = self.fine_height
+        if isinstance(f, bool) or int(f) != f or not (int(f) == 0 or 32 <= int(f) <= 4096):
+            raise ValueError(f"detector ssdlite-people: fine_height is 0 (no second pass) or a "
+                             f"whole number of pixels in 32..4096, got {f}")
+        if not float(self.fine_max_px) > 0.0:
+            raise ValueError(f"detector ssdlite-people: fine_max_px must be > 0 (input pixels), "
+                             f"got {self.fine_max_px}")
         t = self.threads
         if isinstance(t, bool) or int(t) != t or int(t) < 0:
             raise ValueError(f"detector ssdlite-people: threads is a whole number >= 0, got {t}")
@@ -357,11 +383,13 @@ class SSDLitePeopleDetector(Detector):
             self.__dict__["net_"] = net
         return net
 
-    def input_size(self, frame_wh: tuple[int, int]) -> tuple[int, int]:
-        """The network's input (width, height) for a frame of ``frame_wh``: ``input_height``
-        high, the frame's aspect ratio, width a multiple of 4."""
+    def input_size(self, frame_wh: tuple[int, int], height: int | None = None
+                   ) -> tuple[int, int]:
+        """The network's input (width, height) for a frame of ``frame_wh``: ``height`` (default
+        ``input_height``) high, the frame's aspect ratio times ``width_scale``, width a
+        multiple of 4."""
         w, h = frame_wh
-        H = int(self.input_height)
+        H = int(self.input_height if height is None else height)
         W = max(4, int(round(w * H / h * float(self.width_scale) / 4.0)) * 4)
         return W, H
 
@@ -379,15 +407,16 @@ class SSDLitePeopleDetector(Detector):
 
     # -- detection ------------------------------------------------------------------------
 
-    def forward(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[int, int]]:
-        """The network on one BGR (or grey) frame: person logits (N,), box encodings (N, 4)
-        as (ty, tx, th, tw) and the input size (W, H), N anchors in :func:`ssd_anchors`'s
-        order."""
+    def forward(self, image: np.ndarray, height: int | None = None
+                ) -> tuple[np.ndarray, np.ndarray, tuple[int, int], np.ndarray]:
+        """The network on one BGR (or grey) frame resized to ``height`` (default
+        ``input_height``): person logits (N,), box encodings (N, 4) as (ty, tx, th, tw), the
+        input size (W, H) and the anchors (N, 4), in :func:`ssd_anchors`'s order."""
         import cv2
 
         img = image if image.ndim == 3 else cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
         h, w = img.shape[:2]
-        W, H = self.input_size((w, h))
+        W, H = self.input_size((w, h), height)
         blob = cv2.dnn.blobFromImage(img, 1.0 / 127.5, (W, H), (127.5, 127.5, 127.5),
                                      swapRB=True, crop=False)
         net = self._net()
@@ -408,21 +437,37 @@ class SSDLitePeopleDetector(Detector):
             logits.append(cls.reshape(A, 2, fh * fw)[:, 1].reshape(-1))
             enc.append(box.reshape(A, 4, fh * fw).transpose(0, 2, 1).reshape(-1, 4))
             maps.append((fh, fw))
+        cache = self.__dict__.setdefault("anchors_", {})
         key = (W, H, tuple(maps))
-        if self.__dict__.get("anchors_key_") != key:
-            self.__dict__["anchors_"] = ssd_anchors(maps, (W, H))
-            self.__dict__["anchors_key_"] = key
-        return np.concatenate(logits), np.concatenate(enc), (W, H)
+        if key not in cache:
+            cache[key] = ssd_anchors(maps, (W, H))
+        return np.concatenate(logits), np.concatenate(enc), (W, H), cache[key]
 
     def detect_logits(self, image: np.ndarray, min_logit: float
                       ) -> tuple[np.ndarray, np.ndarray]:
         """Person boxes (K, 4, xywh frame px) and logits (K,) after suppression, down to
-        ``min_logit``."""
-        logits, enc, (W, H) = self.forward(image)
+        ``min_logit``: the whole frame at ``input_height``, and with ``fine_height`` the
+        people shorter than ``fine_max_px`` (input pixels) of the finer pass."""
+        boxes, z = self._pass(image, min_logit, None)
+        if int(self.fine_height) > 0:
+            h = image.shape[0]
+            H2 = int(self.fine_height)
+            b2, z2 = self._pass(image, min_logit, H2)
+            small = b2[:, 3] * (H2 / h) < float(self.fine_max_px)
+            boxes = np.concatenate([boxes, b2[small]])
+            z = np.concatenate([z, z2[small]])
+        k = suppress(boxes, z, float(self.nms_iou))
+        return boxes[k], z[k]
+
+    def _pass(self, image: np.ndarray, min_logit: float, height: int | None
+              ) -> tuple[np.ndarray, np.ndarray]:
+        """One pass of the network: decoded boxes (frame px) and logits >= ``min_logit``,
+        before suppression."""
+        logits, enc, (W, H), anchors = self.forward(image, height)
         keep = np.flatnonzero(logits >= min_logit)
         if not len(keep):
             return np.zeros((0, 4)), np.zeros(0)
-        a = self.__dict__["anchors_"][keep]
+        a = anchors[keep]
         t = enc[keep].astype(np.float64) / np.asarray(BOX_CODER_SCALES)
         cx = t[:, 1] * a[:, 2] + a[:, 0]
         cy = t[:, 0] * a[:, 3] + a[:, 1]
@@ -433,9 +478,7 @@ class SSDLitePeopleDetector(Detector):
         boxes = np.stack([(cx - bw / 2) * sx, (cy - bh / 2) * sy, bw * sx, bh * sy], axis=1)
         z = logits[keep].astype(np.float64)
         ok = np.isfinite(boxes).all(axis=1) & (boxes[:, 2] > 0) & (boxes[:, 3] > 0)
-        boxes, z = boxes[ok], z[ok]
-        k = suppress(boxes, z, float(self.nms_iou))
-        return boxes[k], z[k]
+        return boxes[ok], z[ok]
 
     def detect(self, frame: Frame) -> Detections:
         """Detections in ``frame``: person boxes (xywh px), calibrated scores (0-1), ground

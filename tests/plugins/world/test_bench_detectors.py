@@ -73,3 +73,11 @@ def test_fit_logistic_recovers_the_map():
 
 def test_bin_names():
     assert B.bin_names() == ["0-60", "60-100", "100-200", "200-400", "400+"]
+
+
+def test_parse_spec():
+    assert B.parse_spec("hog-people") == ("hog-people", {})
+    assert B.parse_spec("ssdlite-people:fine_height=576, threshold=0.3") == (
+        "ssdlite-people", {"fine_height": 576, "threshold": 0.3})
+    with pytest.raises(ValueError, match="--detector ssdlite-people:576"):
+        B.parse_spec("ssdlite-people:576")
