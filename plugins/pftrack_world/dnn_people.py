@@ -34,7 +34,6 @@ How a frame is read:
   offset is -0.40 (PETS, small people) and 1.01 (MOT17-09): the probability holds on average
   over both kinds of video, not on each. The map is monotone: ranking and suppression are
   those of the network's own score.
-
 * **A finer pass, optional** (``fine_height``): small people (PETS's 60-100 px in a 576 px
   frame) shrink below the network's smallest anchors (30 px) at a 300 px input; a second pass
   over the frame resized to ``fine_height`` adds the people it finds shorter than
