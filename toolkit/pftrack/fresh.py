@@ -4,8 +4,9 @@ What ``pftrack track VIDEO --out DIR`` does (:func:`track_video`):
 
 1. **Detect** people in every frame once with the configuration's detector (the ``people-*``
    presets: ``hog-people``, needing no training), without a camera: its scale search learns the
-   height-row relation from its own first frames. ``--detections FILE`` (MOTChallenge
-   ``det.txt``) replaces this step.
+   height-row relation from its own first frames. ``--detector NAME`` replaces it by another
+   detector plugin with that plugin's default parameters (e.g. ``ssdlite-people``, a CNN);
+   ``--detections FILE`` (MOTChallenge ``det.txt``) replaces this step.
 2. **A camera from the people** (when ``--camera`` is not given):
    :func:`pftrack.geometry.people.estimate_camera_from_people` on the confident detections
    (score >= ``calib_min_score``) assuming a mean person height, with each person's lean
@@ -46,6 +47,7 @@ __all__ = [
     "estimate_camera",
     "explain_no_tracks",
     "track_video",
+    "with_detector",
     "with_ground_points",
 ]
 
@@ -66,7 +68,23 @@ def _detector_params(cfg: dict[str, Any]) -> tuple[str | None, dict[str, Any]]:
 
 
 #: Detectors whose scores are calibrated probabilities, bounded by 1.
-_CALIBRATED = {"hog-people"}
+_CALIBRATED = {"hog-people", "ssdlite-people"}
+
+
+def with_detector(cfg: dict[str, Any], name: str | None) -> dict[str, Any]:
+    """``cfg`` with its detector replaced by the detector plugin ``name`` at that plugin's
+    default parameters (the preset's detector parameters belong to its own detector); ``cfg``
+    itself when ``name`` is None or already the configured detector. ``ValueError`` naming
+    ``--detector`` and the registered detectors when there is no such plugin."""
+    if name is None or _detector_params(cfg)[0] == name:
+        return cfg
+    from pftrack.host import get_host
+
+    names = get_host().names("detector")
+    if name not in names:
+        raise ValueError(f"--detector {name}: no detector plugin of that name (detectors: "
+                         f"{', '.join(sorted(names))})")
+    return {**cfg, "detector": {"type": name, "params": {}}}
 
 
 def check_thresholds(cfg: dict[str, Any]) -> list[str]:
@@ -275,7 +293,7 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
                 camera: CameraSpec | None = None, detections: Any = None, preset: Any = None,
                 frames: Any = None, seed: int = 0, person_height_m: float = 1.7,
                 calib_min_score: float = 0.5, gt: Any = None, progress: bool | str = False,
-                report: bool = True) -> FreshResult:
+                report: bool = True, detector: str | None = None) -> FreshResult:
     """Track the people of ``video`` with no training: see the module docstring.
 
     Parameters
@@ -298,6 +316,9 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
         Detections scoring at least this are used for the camera estimate.
     gt : path, optional
         Ground truth: metrics in the summary and ``metrics.json``.
+    detector : str, optional
+        A detector plugin to use instead of the configuration's (its default parameters);
+        the summary's ``detector`` says which one ran.
     """
     from pftrack.io.detections import read_detections
     from pftrack.io.outputs import check_input_file, check_output_tree
@@ -305,6 +326,9 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
 
     # everything that can be checked is checked before the detector's pass over the video
     parse_frames(frames)
+    if detector is not None and detections is not None:
+        raise ValueError(f"--detector {detector} and --detections {detections}: the detections "
+                         "given replace the detector; give one of them")
     video = check_input_file(video, "video")
     for option, path in (("--gt", gt), ("--camera", camera), ("--detections", detections)):
         if isinstance(path, (str, os.PathLike)):
@@ -315,7 +339,8 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
     messages: list[str] = []
     t0, c0 = time.perf_counter(), time.process_time()
     cam = _load_camera(camera)
-    cfg_ground = load_config(preset if preset is not None else "people-ground")
+    cfg_ground = with_detector(load_config(preset if preset is not None else "people-ground"),
+                               detector)
     # 1. detections, once
     if detections is None:
         dets, size, _ = detect_video(video, cfg_ground, frames, progress=progress)
@@ -349,7 +374,8 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
             raise ValueError(f"preset {preset}: state 'world' needs a camera and none could be "
                              "estimated; give --camera, or --preset people-image")
     else:
-        cfg = cfg_ground if cam is not None else load_config("people-image")
+        cfg = cfg_ground if cam is not None else with_detector(load_config("people-image"),
+                                                               detector)
     if cfg.get("state", "world") == "world" and cam is not None:
         dets = with_ground_points(dets, cam)
     messages.extend(check_thresholds(cfg))
@@ -377,6 +403,7 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
         "video": str(video), "frames": run.n_frames, "tracks": int(ids),
         "rows": len(run.rows), "preset": cfg.get("name", str(preset)),
         "state": cfg.get("state", "world"), "detections": det_source,
+        "detector": _detector_params(cfg_ground)[0] if detections is None else None,
         "n_detections": int(sum(len(d.scores) for d in dets.values())),
         "camera": cam_source,
         "camera_fit": None if fit is None else fit.summary(),

