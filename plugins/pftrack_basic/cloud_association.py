@@ -135,7 +135,8 @@ class CloudAssociator(Associator):
                             unit="1")
     high_score: float = Param(0.6, "Detections at least this confident are matched first, "
                               "against every track; the others only in a second pass, to "
-                              "tracks seen recently (recent_misses). Unit: detector score.",
+                              "tracks seen recently (recent_misses). On the detector's score "
+                              "scale (a probability for calibrated detectors).",
                               unit="1")
     recent_misses: int = Param(2, "A track may take a less confident detection in the second "
                                "pass only if it went at most this many frames without a "
