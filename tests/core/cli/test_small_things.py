@@ -172,7 +172,7 @@ def test_focal_length_messages_agree_with_what_was_fitted():
                for t in plain.notes)
 
 
-def test_getting_started_says_which_frames_fit_the_camera():
+def test_the_track_video_page_says_which_frames_fit_the_camera():
     from pftrack.fresh import estimate_camera, track_video
 
     est = inspect.signature(estimate_camera).parameters
@@ -180,7 +180,7 @@ def test_getting_started_says_which_frames_fit_the_camera():
     min_boxes, scale = est["min_boxes"].default, est["silhouette_scale"].default
     score = inspect.signature(track_video).parameters["calib_min_score"].default
     assert (every, first_n, min_boxes, scale, score) == (2, 600, 20, 0.5, 0.5)
-    text = " ".join((ROOT / "docs" / "getting-started.md").read_text().split())
+    text = " ".join((ROOT / "docs" / "tasks" / "track-video.md").read_text().split())
     assert (f"to the person boxes scoring at least {score:g} in every {every}nd of the first "
             f"{first_n} frames (counted from the first frame of `--frames`; every frame when "
             f"that leaves fewer than {min_boxes} boxes), each person's top, bottom and lean "
