@@ -50,6 +50,15 @@ PROTOCOLS: dict[str, dict[str, str]] = {
                      "peer's settings",
         "reported_on": "frames 201-795; the real camera only measures the estimated one",
     },
+    "own-detections": {
+        "data": "PETS 2009 S2.L1 and MOT17-09: detections simulated from the ground truth "
+                "(clean: 20 % missed, 3 px corner, 4 % size; noisy: 30 % missed, 6 px, 8 %, "
+                "false positives 10 %) over noise seeds, and the hog-people detector's boxes",
+        "chosen_on": "PETS frames 1-400 and MOT17-09 frames 1-262 (the presets' settings); "
+                     "the peers keep their documented defaults",
+        "reported_on": "PETS frames 401-795 and MOT17-09 frames 263-525, noise and tracking "
+                       "seeds 0-4",
+    },
     "soccer": {
         "data": "the built-in soccer scene (real player trajectories rendered through the "
                 "paper's camera)",
@@ -74,6 +83,12 @@ HEADLINE: dict[str, list[tuple[str, str]]] = {
                     ("peer.IDF1", "norfair: IDF1"), ("peer.HOTA", "norfair: HOTA"),
                     ("camera_median_error_m", "estimated camera: median ground error (m)"),
                     ("frames_per_second_cpu", "frames per second of CPU time")],
+    "own-detections": [("speed.people-image.cpu_ms_per_frame",
+                        "people-image: CPU ms per frame (detections given)"),
+                       ("speed.people-image.ratio_to_bytetrack",
+                        "people-image: CPU time per frame / ByteTrack's, same run"),
+                       ("speed.track.ratio_to_bytetrack",
+                        "pftrack track (ground plane): CPU time per frame / ByteTrack's")],
     "soccer": [("MOTA", "MOTA (IoU 0.5)"), ("IDF1", "IDF1"), ("HOTA", "HOTA"),
                ("MOTA_world", "MOTA on the ground"), ("IDF1_world", "IDF1 on the ground"),
                ("accuracy_5px", "within 5 px (the paper's accuracy)"),
@@ -142,6 +157,54 @@ def record(name: str, args: list[str], out_dir: Path = RESULTS,
     return dest
 
 
+def wrap(name: str, result_file: Path, args: list[str], out_dir: Path = RESULTS) -> Path:
+    """Record a result a benchmark already wrote (``pftrack bench NAME --out FILE``, e.g. one
+    process per video joined by the benchmark's own merge): the same file as :func:`record`,
+    with the commit, date and machine the result states when it states them."""
+    result = json.loads(Path(result_file).read_text())
+    commit = ({"sha": result["commit"], "dirty": bool(result.get("dirty"))}
+              if isinstance(result.get("commit"), str) else
+              {"sha": _git("rev-parse", "HEAD"),
+               "dirty": bool(_git("status", "--porcelain", "--untracked-files=no"))})
+    date = result.get("date_utc") or _dt.datetime.now(_dt.UTC).replace(
+        microsecond=0).isoformat().replace("+00:00", "Z")
+    stated = result.get("machine") or {}
+    mach = {**machine(), "load_1min_before": None, "load_1min_after": None}
+    mach["logical_cores"] = stated.get("cpu_count", mach["logical_cores"])
+    doc = {"benchmark": name, "args": args, "commit": commit, "date": date, "machine": mach,
+           "wall_s": None, "wrapped": Path(result_file).name,
+           "protocol": PROTOCOLS.get(name, {}), "result": result}
+    out_dir.mkdir(parents=True, exist_ok=True)
+    stamp = date.replace("-", "").replace(":", "")
+    dest = out_dir / f"{name}-{stamp}.json"
+    tmp_dest = dest.with_suffix(".json.tmp")
+    tmp_dest.write_text(json.dumps(doc, indent=2, default=float) + "\n")
+    os.replace(tmp_dest, dest)
+    return dest
+
+
+def _summary_tables(res: dict[str, Any]) -> list[str]:
+    """A result's ``summary`` rows (video, level, tracker and ``<figure>_mean`` columns, as
+    ``own-detections`` writes them) as one table per video and level."""
+    rows = res.get("summary")
+    if not isinstance(rows, list) or not rows or not isinstance(rows[0], dict):
+        return []
+    figures = [f for f in ("HOTA", "IDF1", "MOTA", "IDSW", "Frag") if f"{f}_mean" in rows[0]]
+    out: list[str] = []
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    for r in rows:
+        groups.setdefault((str(r.get("video")), str(r.get("level"))), []).append(r)
+    for (video, level), rs in groups.items():
+        out += [f"**{video}, {level} detections** (mean over the runs)", "",
+                "| tracker | " + " | ".join(figures) + " | CPU ms per frame |",
+                "|---" * (len(figures) + 2) + "|"]
+        out += ["| " + " | ".join([str(r.get("tracker"))]
+                                  + [_fmt(r.get(f"{f}_mean")) for f in figures]
+                                  + [_fmt(r.get("cpu_ms_per_frame"))]) + " |" for r in rs]
+        out.append("")
+    return out
+
+
 def load_results(folder: Path = RESULTS) -> dict[str, dict[str, Any]]:
     """The latest result file of each benchmark in ``folder``, by benchmark name.
 
@@ -188,12 +251,17 @@ def results_page(folder: Path = RESULTS) -> str:
                   "| figure | value |", "|---|---|"]
         lines += [f"| {label} | {_fmt(value_at(res, k))} |" for k, label in keys
                   if value_at(res, k) is not None]
+        tables = _summary_tables(res)
+        if tables:
+            lines += [""] + tables
         lines += ["", f"Measured by `{cmd}` on {doc['date']} at commit "
                   f"`{doc['commit']['sha'][:10]}`"
                   + (" (with uncommitted changes)" if doc["commit"].get("dirty") else "")
-                  + f"; {m.get('logical_cores')} logical cores ({m.get('processor')}), "
-                  f"1-minute load {_fmt(m.get('load_1min_before'))} before and "
-                  f"{_fmt(m.get('load_1min_after'))} after; file `results/{doc['file']}`.", ""]
+                  + f"; {m.get('logical_cores')} logical cores ({m.get('processor')})"
+                  + (f", 1-minute load {_fmt(m.get('load_1min_before'))} before and "
+                     f"{_fmt(m.get('load_1min_after'))} after"
+                     if m.get("load_1min_before") is not None else "")
+                  + f"; file `results/{doc['file']}`.", ""]
         proto = doc["protocol"]
         if proto:
             lines += [f"- **{k.replace('_', ' ')}**: {v}" for k, v in proto.items()]
@@ -202,8 +270,13 @@ def results_page(folder: Path = RESULTS) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``record NAME [-- BENCH ARGS...]``: run and record one benchmark."""
+    """``record NAME [-- BENCH ARGS...]``: run and record one benchmark; ``wrap NAME FILE
+    [-- BENCH ARGS...]``: record a result file the benchmark already wrote."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    if len(argv) >= 3 and argv[0] == "wrap":
+        rest = argv[3:]
+        print(wrap(argv[1], Path(argv[2]), rest[1:] if rest[:1] == ["--"] else rest))
+        return 0
     if len(argv) < 2 or argv[0] != "record":
         print("usage: python docs/_ext/pftrack_results.py record NAME [-- ARGS...]",
               file=sys.stderr)

@@ -422,7 +422,9 @@ def test_committed_results_come_from_a_recorded_run():
     for name, doc in docs.items():
         assert re.fullmatch(r"[0-9a-f]{40}", doc["commit"]["sha"]), name
         assert doc["protocol"] == pftrack_results.PROTOCOLS[name], name
-        assert doc["machine"]["logical_cores"] >= 1 and doc["wall_s"] > 0
+        assert doc["machine"]["logical_cores"] >= 1
+        # the recorder timed the run, or it wrapped a file the benchmark wrote (and says so)
+        assert doc["wall_s"] > 0 if not doc.get("wrapped") else doc["wall_s"] is None
         for key, _ in pftrack_results.HEADLINE.get(name, []):
             value = pftrack_results.value_at(doc["result"], key)
             assert isinstance(value, (int, float)) and not isinstance(value, bool), (name, key)

@@ -286,7 +286,8 @@ class FreshResult:
 
 
 #: the files ``pftrack track`` writes into its folder besides ``run_pipeline``'s ``report/``
-TRACK_OUTPUTS = ("tracks.txt", "metrics.json", "summary.json", "camera.yaml")
+TRACK_OUTPUTS = ("tracks.txt", "tracks_uncertainty.csv", "metrics.json", "summary.json",
+                 "camera.yaml")
 
 
 def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] | None, *,
