@@ -579,6 +579,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     import cv2
     from pftrack.data import data_dir
 
+    # a Namespace built by hand (a notebook, a script) gets the command's defaults for the
+    # options it leaves out
+    defaults = argparse.ArgumentParser(add_help=False)
+    add_arguments(defaults)
+    args = argparse.Namespace(**{**vars(defaults.parse_args([])), **vars(args)})
+
     root = Path(args.data) if args.data else data_dir()
     seqs = [s.strip() for s in args.sequences.split(",") if s.strip()]
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
