@@ -4,15 +4,14 @@ target is believed, which two targets are one object, and what is output.
 * :class:`DetectionBirthTracks` (``births``): every unmatched detection at least ``min_score``
   confident starts a target, output at once.
 * :class:`ConfirmedTracks` (``confirmed``, the soccer paper on real video): an unmatched detection
-at
-  least ``min_score`` confident, overlapping no live target by more than ``max_iou``, starts a
-  *tentative* target; it is confirmed once ``confirm_hits`` of its first ``confirm_window``
-  frames had a matched detection, and then its records from birth on are output (confirmation
-  costs no frames); otherwise it is dropped unseen. Two confirmed targets that are one object
-  tracked twice (ground positions closer than ``merge_distance_m`` with a world frame, else
-  boxes overlapping by more than ``merge_iou``): the younger is removed. Optionally each target
-  keeps a colour model (Breitenstein et al.'s track-specific appearance) that the associator
-  reads as ``Target.appearance_scores``.
+  at least ``min_score`` confident, overlapping no live target by more than ``max_iou``, starts a
+  *tentative* target; it is confirmed once ``confirm_hits`` of its first ``confirm_window`` frames
+  had a matched detection, and then its records from birth on are output (confirmation costs no
+  frames); otherwise it is dropped unseen. Two confirmed targets that are one object tracked twice
+  (ground positions closer than ``merge_distance_m`` with a world frame, else boxes overlapping by
+  more than ``merge_iou``): the younger is removed. Optionally each target keeps a colour model
+  (Breitenstein et al.'s track-specific appearance) that the associator reads as
+  ``Target.appearance_scores``.
 
 Both run inside the one engine, :class:`pftrack.tracker.MultiTargetTracker`, as its ``tracks``.
 """

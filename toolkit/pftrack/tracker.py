@@ -437,8 +437,7 @@ class MultiTargetTracker:
     def set_particles(self, target_id: int, particles: np.ndarray) -> Target:
         """Replace a live target's particles (N, D) with equal weights (the coastal paper's
         re-spread of a detection group through its volume, a new group taken from another's
-        particles);
-        its estimate and extent become theirs."""
+        particles); its estimate and extent become theirs."""
         f = self._filters.get(int(target_id))
         if f is None:
             raise ValueError(f"set_particles: no live target {target_id}")
