@@ -203,7 +203,7 @@ def _summary_tables(res: dict[str, Any]) -> list[str]:
     ``own-detections`` writes them) as one table per video and level."""
     rows = res.get("summary")
     if not isinstance(rows, list) or not rows or not isinstance(rows[0], dict):
-        return []
+        return _rows_table(res.get("rows"))
     figures = [f for f in ("HOTA", "IDF1", "MOTA", "IDSW", "Frag") if f"{f}_mean" in rows[0]]
     out: list[str] = []
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
@@ -218,6 +218,20 @@ def _summary_tables(res: dict[str, Any]) -> list[str]:
                                   + [_fmt(r.get("cpu_ms_per_frame"))]) + " |" for r in rs]
         out.append("")
     return out
+
+
+def _rows_table(rows: Any, most: int = 9) -> list[str]:
+    """A result's ``rows`` (a list of flat records, as most benchmarks write them) as one table
+    of their first ``most`` scalar columns."""
+    if not isinstance(rows, list) or not rows or not all(isinstance(r, dict) for r in rows):
+        return []
+    cols = [k for k, v in rows[0].items()
+            if isinstance(v, (int, float, str)) and not isinstance(v, bool)][:most]
+    if not cols:
+        return []
+    out = ["| " + " | ".join(cols) + " |", "|---" * len(cols) + "|"]
+    out += ["| " + " | ".join(_fmt(r.get(c, "")) for c in cols) + " |" for r in rows]
+    return out + [""]
 
 
 def load_results(folder: Path = RESULTS) -> dict[str, dict[str, Any]]:
@@ -262,10 +276,11 @@ def results_page(folder: Path = RESULTS) -> str:
                                       if isinstance(v, (int, float)) and not isinstance(v, bool)]
         cmd = " ".join(["pftrack bench", name, "--json", *doc.get("args", [])])
         m = doc["machine"]
-        lines += [f"(results-{name})=", f"## `{name}`", "",
-                  "| figure | value |", "|---|---|"]
-        lines += [f"| {label} | {_fmt(value_at(res, k))} |" for k, label in keys
-                  if value_at(res, k) is not None]
+        lines += [f"(results-{name})=", f"## `{name}`", ""]
+        head = [f"| {label} | {_fmt(value_at(res, k))} |" for k, label in keys
+                if value_at(res, k) is not None]
+        if head:
+            lines += ["| figure | value |", "|---|---|", *head]
         tables = _summary_tables(res)
         if tables:
             lines += [""] + tables
