@@ -120,6 +120,17 @@ class SVMModel:
         }
 
 
+def detections_on_ground(boxes_xywh_px: np.ndarray, scores: np.ndarray,
+                         camera: Camera | None) -> Detections:
+    """A detector's boxes and scores as :class:`~pftrack.components.Detections`, each box's
+    foot point (bottom centre) back-projected to the ground (metres) when there is a camera."""
+    points = None
+    if camera is not None:
+        feet = foot_points(boxes_xywh_px)
+        points = camera.image_to_ground(feet) if len(feet) else np.zeros((0, 3))
+    return Detections(boxes_xywh_px, scores, points)
+
+
 def _hog(window_wh: Sequence[int]):
     import cv2
 
@@ -830,12 +841,7 @@ class SVMDetector(Detector):
         else:
             boxes = boxes[keep]
         scores = scores[keep]
-        points = None
-        cam = self._camera()
-        if cam is not None:
-            feet = foot_points(boxes)
-            points = cam.image_to_ground(feet) if len(feet) else np.zeros((0, 3))
-        return Detections(boxes, scores, points)
+        return detections_on_ground(boxes, scores, self._camera())
 
     # -- training -----------------------------------------------------------------------------
 

@@ -54,7 +54,6 @@ from typing import Any
 
 import numpy as np
 from pftrack.components import Detections, Detector, Frame, RunContext
-from pftrack.geometry.boxes import foot_points
 
 __all__ = ["INSTALL_HINT", "SSDLitePeopleDetector", "model_path", "ssd_anchors", "suppress",
            "text_graph"]
@@ -484,12 +483,9 @@ class SSDLitePeopleDetector(Detector):
         points (m) with a camera."""
         boxes, z = self.detect_logits(frame.image, self.logit_of(float(self.threshold)))
         scores = self.calibrate(z)
-        points = None
-        cam = self._camera()
-        if cam is not None:
-            feet = foot_points(boxes)
-            points = cam.image_to_ground(feet) if len(feet) else np.zeros((0, 3))
-        return Detections(boxes, scores, points)
+        from pftrack_world.detector import detections_on_ground
+
+        return detections_on_ground(boxes, scores, self._camera())
 
     def __getstate__(self) -> dict[str, Any]:
         d = dict(self.__dict__)

@@ -18,23 +18,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bad_inputs._catalogue import CONFIG  # the smallest runnable configuration
 from pftrack.cli import main
 from pftrack.pipeline import run_pipeline
 
 ROOT = Path(__file__).resolve().parents[3]
 W, H, SIDE = 96, 72, 14
 
-CONFIG = """\
-name: tiny
-state: image
-observation: {type: image-box, params: {size_from_box: true}}
-motion: {type: random-walk, params: {sigma_px: 2.0}}
-likelihood: {type: gaussian, params: {sigma_px: 4.0}}
-detector: {type: mog2, params: {min_area_px: 30, warmup_frames: 2, detect_shadows: false}}
-associator: {type: hungarian-iou, params: {metric: iou, min_iou: 0.1}}
-tracks: {type: births, params: {min_score: 0.0}}
-tracker: {n_particles: 40, init_spread: 1.0, max_misses: 3, dt: 1.0}
-"""
 
 
 @pytest.fixture(scope="module")
