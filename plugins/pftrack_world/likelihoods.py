@@ -60,6 +60,7 @@ from typing import Any
 import numpy as np
 from pftrack.components import Detections, Frame, Likelihood, RunContext, Target
 from pftrack.geometry.boxes import foot_points, sub_boxes
+from pftrack.tracker import ComponentOutputError, component_label
 
 from pftrack_world.regions import (
     cell_means,
@@ -529,8 +530,6 @@ def _checked_term(term: Likelihood, logl: Any, n: int) -> np.ndarray:
     """A term's log-likelihoods as float64 (n,), held to the contract the engine holds a
     likelihood to (floating point, one per box, no NaN or +inf): the mix would otherwise turn
     a term's NaN into an impossible particle and hide the term at fault."""
-    from pftrack.tracker import ComponentOutputError, component_label
-
     arr = np.asarray(logl)
     if arr.dtype.kind != "f":
         raise ComponentOutputError(f"composite term {component_label(term)} returned "
