@@ -718,4 +718,7 @@ def _generate(app: Any) -> None:
 def setup(app: Any) -> dict[str, Any]:
     """Register the generation step with Sphinx."""
     app.connect("builder-inited", _generate)
+    from pftrack_results import result_role
+
+    app.add_role("result", result_role)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
