@@ -463,3 +463,16 @@ def test_committed_results_come_from_a_recorded_run():
         for key, _ in pftrack_results.HEADLINE.get(doc["benchmark"], []):
             value = pftrack_results.value_at(doc["result"], key)
             assert isinstance(value, (int, float)) and not isinstance(value, bool), (name, key)
+
+
+def test_readme_headlines_are_the_latest_results():
+    """Each headline figure of the README is followed by ``<!-- NAME:KEY[:FORMAT] -->`` and
+    equals that figure of the latest committed result (the README is read on GitHub, where
+    the docs' ``{result}`` role does not run)."""
+    import pftrack_results
+
+    text = (ROOT / "README.md").read_text()
+    cited = re.findall(r"([-\d.,%]+)(?:\*\*)?(?:\s+[a-z ]+?)?(?:\*\*)?<!-- ([^>]+?) -->", text)
+    assert len(cited) >= 3, cited
+    for shown, spec in cited:
+        assert pftrack_results.figure(spec) == shown, (spec, shown)
