@@ -172,7 +172,8 @@ def value_at(result: dict[str, Any], key: str) -> Any:
         sel = None
         if part.endswith("]") and "[" in part:
             part, _, cond = part[:-1].partition("[")
-            sel = dict(c.split("=", 1) for c in cond.split(",") if "=" in c)
+            # conditions split at commas that start a new ``field=``: a value may hold commas
+            sel = dict(c.split("=", 1) for c in re.split(r",(?=\s*[\w-]+=)", cond) if "=" in c)
         if not isinstance(value, dict) or part not in value:
             return None
         value = value[part]

@@ -434,6 +434,9 @@ def test_a_figure_in_prose_is_read_from_the_latest_result(tmp_path):
     write("seed000@fast-1.json", "2026-03-01T00:00:00Z", "fast", [{"likelihood": "a",
                                                                    "samples": 500, "fps": 7.0}])
     fig = pftrack_results.figure
+    table = {"t": [{"method": "a (C_d=5, tuned)", "v": 1.5}, {"method": "a", "v": 2}]}
+    assert pftrack_results.value_at(table, "t[method=a (C_d=5, tuned)].v") == 1.5
+    assert pftrack_results.value_at(table, "t[method=a].v") == 2
     assert fig("seed000:speed.ratio", tmp_path) == "3.25"
     assert fig("seed000:rows[likelihood=a,samples=500].fps:,.0f", tmp_path) == "1,234"
     assert fig("seed000@fast:rows[likelihood=a].fps:.1f", tmp_path) == "7.0"
