@@ -166,7 +166,7 @@ def value_at(result: dict[str, Any], key: str) -> Any:
 
     A part ``NAME[k=v,...]`` picks, from the list ``NAME``, the one record whose fields ``k``
     equal ``v`` (compared as text): ``rows[likelihood=cross-entropy-bg,samples=500,targets=3]
-    .frames_per_second``. No record or several is None."""
+    .frames_per_second``; no record or several is None. ``NAME[i]`` is the list's item ``i``."""
     value: Any = result
     for part in re.findall(r"[^.\[]+(?:\[[^\]]*\])?", key):
         sel = None
@@ -177,7 +177,12 @@ def value_at(result: dict[str, Any], key: str) -> Any:
         if not isinstance(value, dict) or part not in value:
             return None
         value = value[part]
-        if sel is not None:
+        if sel is not None and not sel and cond.strip().isdigit():
+            i = int(cond)
+            if not isinstance(value, list) or i >= len(value):
+                return None
+            value = value[i]
+        elif sel is not None:
             if not isinstance(value, list):
                 return None
             hits = [r for r in value if isinstance(r, dict)

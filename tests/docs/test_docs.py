@@ -437,6 +437,8 @@ def test_a_figure_in_prose_is_read_from_the_latest_result(tmp_path):
     table = {"t": [{"method": "a (C_d=5, tuned)", "v": 1.5}, {"method": "a", "v": 2}]}
     assert pftrack_results.value_at(table, "t[method=a (C_d=5, tuned)].v") == 1.5
     assert pftrack_results.value_at(table, "t[method=a].v") == 2
+    assert pftrack_results.value_at({"t": [{"x": [4, 5]}]}, "t[0].x[1]") == 5
+    assert pftrack_results.value_at({"t": [1]}, "t[3]") is None
     assert fig("seed000:speed.ratio", tmp_path) == "3.25"
     assert fig("seed000:rows[likelihood=a,samples=500].fps:,.0f", tmp_path) == "1,234"
     assert fig("seed000@fast:rows[likelihood=a].fps:.1f", tmp_path) == "7.0"
