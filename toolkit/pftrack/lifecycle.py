@@ -484,7 +484,6 @@ class LifecycleTracks(TrackManager):
 
     def setup(self, context: RunContext) -> None:
         """Build the stages and hand each the run's context."""
-        self.context_ = context
         for s in self._stages():
             s.setup(context)
 
@@ -696,11 +695,14 @@ class StagedTracks(LifecycleTracks):
 
     def setup(self, context: RunContext) -> None:
         """Build the stages through the run's host and hand each the context."""
-        self.host_ = context.get_host()
-        super().setup(context)
+        self._build_host = context.get_host()  # only while building: a host does not pickle
+        try:
+            super().setup(context)
+        finally:
+            del self._build_host
 
     def build_stages(self) -> list[LifecycleStage]:
-        host = self.__dict__.get("host_")
+        host = self.__dict__.get("_build_host")
         if host is None:
             from pftrack.host import get_host
 
