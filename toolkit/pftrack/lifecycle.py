@@ -56,7 +56,6 @@ from pftrack.components import (
     DetectionMatch,
     Detections,
     Frame,
-    Param,
     RunContext,
     Target,
     TrackManager,
@@ -497,7 +496,9 @@ class LifecycleTracks(TrackManager):
                 if not isinstance(s, LifecycleStage) or s.role not in ROLES:
                     raise ValueError(f"tracks {self.name or type(self).__name__!r}: {s!r} is "
                                      f"not a lifecycle stage of a known role {ROLES}")
-            self.by_role_ = {r: [s for s in st if s.role == r] for r in ROLES}
+            # each role's stages, typed loosely: a role's methods are its subclass's
+            self.by_role_: dict[str, list[Any]] = {r: [s for s in st if s.role == r]
+                                                   for r in ROLES}
         return st
 
     @property
@@ -687,11 +688,15 @@ class StagedTracks(LifecycleTracks):
               - {type: hit-confirmation, params: {confirm_hits: 3, confirm_window: 6}}
               - {type: duplicate-merge, params: {merge_iou: 0.6}}
 
-    {params}
+    Parameters
+    ----------
+    stages : list
+        The stages, each a registered stage name or ``{type: NAME, params: {...}}``; stages of
+        one role run in this order.
     """
 
-    stages: list = Param([], "The stages, each a registered stage name or ``{type: NAME, "
-                         "params: {...}}``; stages of one role run in this order.")
+    def __init__(self, stages: list[Any] | None = None) -> None:
+        self.stages = stages
 
     def setup(self, context: RunContext) -> None:
         """Build the stages through the run's host and hand each the context."""
@@ -707,11 +712,12 @@ class StagedTracks(LifecycleTracks):
             from pftrack.host import get_host
 
             host = get_host()
-        if not isinstance(self.stages, (list, tuple)):
+        specs = [] if self.stages is None else self.stages
+        if not isinstance(specs, (list, tuple)):
             raise ValueError(  # noqa: TRY004 - a configuration error: exit 2, as all are
                 f"tracks.stages must be a list of stages, got {self.stages!r}")
         out = []
-        for k, spec in enumerate(self.stages):
+        for k, spec in enumerate(specs):
             try:
                 out.append(host.build("stage", spec))
             except (KeyError, ValueError, TypeError) as exc:
