@@ -177,3 +177,20 @@ def test_presets_track_pets_as_before(preset, n_rows, sha, tmp_path):
                      report=False)
     assert r.rows.shape == (n_rows, 10)
     assert hashlib.sha256(np.round(r.rows, 6).tobytes()).hexdigest() == sha
+
+
+def test_a_stage_list_reads_pixels_only_through_its_stages():
+    from types import SimpleNamespace
+
+    from pftrack.api import image_readers
+    from pftrack.host import get_host
+
+    lik = get_host().build("likelihood", "gaussian")
+
+    def readers(stages):
+        tracks = StagedTracks(stages=stages)
+        tracks.setup(RunContext())
+        return image_readers(SimpleNamespace(likelihood=lik, tracks=tracks))
+
+    assert readers(["detection-births", "hit-confirmation", "duplicate-merge"]) == []
+    assert readers(["colour-reid", "detection-births"]) == ["stage 'colour-reid'"]
