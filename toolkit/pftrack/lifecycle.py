@@ -34,7 +34,8 @@ Roles and the order the runner calls them in, each frame::
                                        is tentative
       -> list[TrackRecord]
 
-Stages of one role run in the order they are listed. Every stage is told of each track that
+Stages of one role run in the order they are listed, each seeing the tracks as they were when
+the role began. Every stage is told of each track that
 starts (:meth:`LifecycleStage.track_started`) and ends, whoever ended it
 (:meth:`LifecycleStage.track_ended`), to keep or drop its per-track state.
 
@@ -512,14 +513,24 @@ class LifecycleTracks(TrackManager):
 
     # -- views ------------------------------------------------------------------------------
 
-    def _models(self, engine: Any, live: Callable[[], dict[int, Target]]) -> ModelView:
+    def _models(self, engine: Any) -> ModelView:
+        """The run's models as a :class:`ModelView` (tracks looked up when a stage asks)."""
         obs, motion, lik = engine.observation, engine.motion, engine.likelihood
 
+        def target(track_id: int) -> Target | None:
+            for t in engine.targets:
+                if t.id == track_id:
+                    return t
+            return None
+
         def boxes(states: np.ndarray, track_id: int | None) -> np.ndarray:
-            return obs.to_boxes(states, None if track_id is None else live().get(track_id))
+            return obs.to_boxes(states, None if track_id is None else target(track_id))
 
         def log_likelihood(b: np.ndarray, track_id: int) -> np.ndarray:
-            return lik.log_likelihood(b, live()[track_id])
+            t = target(track_id)
+            if t is None:
+                raise ValueError(f"log_likelihood: no live track {track_id}")
+            return lik.log_likelihood(b, t)
 
         vel = getattr(motion, "velocity_dims", None)
         return ModelView(tuple(motion.position_dims), None if vel is None else tuple(vel),
@@ -527,14 +538,11 @@ class LifecycleTracks(TrackManager):
                          engine.valid_region, log_likelihood)
 
     def _view(self, engine: Any, frame: Frame, detections: Detections | None,
-              unmatched: np.ndarray, claimed: frozenset[int]) -> FrameView:
+              unmatched: np.ndarray, claimed: frozenset[int], models: ModelView) -> FrameView:
         tent = self.tentative_
-        targets = engine.targets
-        by_id = {t.id: t for t in targets}
         return FrameView(frame=frame, detections=detections,
-                         tracks=tuple(TrackView.of(t, t.id in tent) for t in targets),
-                         unmatched=unmatched, claimed=claimed,
-                         models=self._models(engine, lambda: by_id))
+                         tracks=tuple(TrackView.of(t, t.id in tent) for t in engine.targets),
+                         unmatched=unmatched, claimed=claimed, models=models)
 
     # -- applying decisions -----------------------------------------------------------------
 
@@ -586,12 +594,13 @@ class LifecycleTracks(TrackManager):
             return
         roles = self.by_role_
         every = np.arange(len(detections)) if detections is not None else np.zeros(0, int)
+        models = self._models(engine)
         if roles["initiator"]:
-            view = self._view(engine, frame, detections, every, frozenset())
+            view = self._view(engine, frame, detections, every, frozenset(), models)
             for s in roles["initiator"]:
                 self._apply_births(engine, frame, s.scheduled(view), None)
         if roles["reidentifier"]:
-            view = self._view(engine, frame, detections, every, frozenset())
+            view = self._view(engine, frame, detections, every, frozenset(), models)
             live = {t.id: t for t in engine.targets}
             for s in roles["reidentifier"]:
                 d = s.scores(view)
@@ -611,9 +620,11 @@ class LifecycleTracks(TrackManager):
         roles = self.by_role_
         claimed = frozenset(t.detection.index for t in engine.targets
                             if t.detection is not None)
+        models = self._models(engine)
 
         def view() -> FrameView:
-            return self._view(engine, frame, detections, unmatched_detections, claimed)
+            """The tracks as they are now (rebuilt only after a role changed them)."""
+            return self._view(engine, frame, detections, unmatched_detections, claimed, models)
 
         v = view()
         for s in roles["reidentifier"]:
@@ -621,18 +632,21 @@ class LifecycleTracks(TrackManager):
         by_id = {r.id: r for r in records}
         if roles["sizer"]:
             live = {t.id: t for t in engine.targets}
+            resized = False
             for s in roles["sizer"]:
                 for d in s.resize(v):
                     t = live.get(d.track_id)
                     if t is None:
                         continue
+                    resized = True
                     t.box_wh_px = d.box_wh_px
                     if d.box_xywh_px is not None:
                         t.box_xywh_px = np.array(d.box_xywh_px, dtype=np.float64)
                         if d.track_id in by_id:
                             by_id[d.track_id].box_xywh_px = np.array(d.box_xywh_px,
                                                                      dtype=np.float64)
-            v = view()
+            if resized:
+                v = view()
         hidden: set[int] = set()
         for s in roles["reporter"]:
             for d in s.report(v):
@@ -647,29 +661,37 @@ class LifecycleTracks(TrackManager):
             for tid, held in tentative.items():
                 if tid in by_id:
                     held.append(by_id[tid])
+            decided = False
             for s in roles["confirmer"]:
                 for d in s.confirm(v):
+                    decided = True
                     if isinstance(d, Confirm) and d.track_id in tentative:
                         out.extend(tentative.pop(d.track_id))
                     elif isinstance(d, End):
                         self._end(engine, [d], withdrawn)
-            v = view()
-        if roles["terminator"]:
-            for s in roles["terminator"]:
-                self._end(engine, s.terminate(v), withdrawn)
+            if decided:
+                v = view()
+        ended: list[End] = []
+        for s in roles["terminator"]:
+            ends = list(s.terminate(v))
+            self._end(engine, ends, withdrawn)
+            ended += ends
+        if ended:
             v = view()
         flushed = {id(r) for r in out}
         for r in records:
             if (r.id not in withdrawn and r.id not in tentative and id(r) not in flushed
                     and r.id not in hidden):
                 out.append(r)
-        if roles["merger"]:
-            gone: set[int] = set()
-            for s in roles["merger"]:
-                ends = list(s.merge(v))
-                self._end(engine, ends, gone)
-            if gone:
-                out = [r for r in out if r.id not in gone or r.frame != frame.index]
+        gone: set[int] = set()
+        merged: list[End] = []
+        for s in roles["merger"]:
+            ends = list(s.merge(v))
+            self._end(engine, ends, gone)
+            merged += ends
+        if gone:
+            out = [r for r in out if r.id not in gone or r.frame != frame.index]
+        if merged:
             v = view()
         for s in roles["initiator"]:
             self._apply_births(engine, frame, s.initiate(v), out)
