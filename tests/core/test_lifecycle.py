@@ -114,11 +114,19 @@ def test_roles_run_in_the_documented_order_and_see_tracks_read_only():
     writes = []
 
     def confirm(self, view: FrameView):
+        arrays = [view.frame.image, view.detections.boxes_xywh_px, view.detections.scores,
+                  view.unmatched]
         for t in view.tracks:
+            arrays += [t.state, t.box_xywh_px]
+            if t.detection is not None:
+                arrays.append(t.detection.box_xywh_px)
+        for a in arrays:
             try:
-                t.state[0] = 0.0
+                a[...] = 0
             except ValueError:
                 writes.append("refused")
+            else:
+                writes.append("written")
         return [Confirm(t.id) for t in view.tracks if t.tentative]
 
     stages = [_logged(Merger, "merge")(), _logged(Initiator, "initiate", _births)(),

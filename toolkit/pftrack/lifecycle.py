@@ -145,9 +145,12 @@ class TrackView:
 
     @classmethod
     def of(cls, t: Target, tentative: bool) -> TrackView:
+        d = t.detection
+        if d is not None:  # its box is a row of the frame's detections: read-only too
+            d = DetectionMatch(_frozen(d.box_xywh_px), d.score, d.index)  # type: ignore[arg-type]
         return cls(id=t.id, state=_frozen(t.state), box_xywh_px=_frozen(t.box_xywh_px),  # type: ignore[arg-type]
                    age=t.age, misses=t.misses, frames_tracked=t.frames_tracked,
-                   detection=t.detection, box_wh_px=t.box_wh_px, tentative=tentative)
+                   detection=d, box_wh_px=t.box_wh_px, tentative=tentative)
 
 
 @dataclass(frozen=True)
@@ -207,9 +210,9 @@ class FrameView:
     Attributes
     ----------
     frame : Frame
-        The frame (its image is read, never written).
+        The frame, its image read-only.
     detections : Detections or None
-        The frame's detections (None when the run has none).
+        The frame's detections, read-only (None when the run has none).
     tracks : tuple of TrackView
         The live tracks, in id order, as they are when the stage is called.
     unmatched : ndarray of int
@@ -537,6 +540,17 @@ class LifecycleTracks(TrackManager):
                          float(engine.dt), boxes, obs.position_from_box, obs.world_position,
                          engine.valid_region, log_likelihood)
 
+    @staticmethod
+    def _read_only(frame: Frame, detections: Detections | None,
+                   ) -> tuple[Frame, Detections | None]:
+        """The frame and detections as stages see them: read-only views (no copies)."""
+        f = Frame(frame.index, _frozen(frame.image), frame.time_s)  # type: ignore[arg-type]
+        if detections is None:
+            return f, None
+        return f, Detections(_frozen(detections.boxes_xywh_px),  # type: ignore[arg-type]
+                             _frozen(detections.scores),  # type: ignore[arg-type]
+                             _frozen(detections.points_world_m))
+
     def _view(self, engine: Any, frame: Frame, detections: Detections | None,
               unmatched: np.ndarray, claimed: frozenset[int], models: ModelView) -> FrameView:
         tent = self.tentative_
@@ -594,13 +608,15 @@ class LifecycleTracks(TrackManager):
             return
         roles = self.by_role_
         every = np.arange(len(detections)) if detections is not None else np.zeros(0, int)
+        every.flags.writeable = False
         models = self._models(engine)
+        seen, seen_detections = self._read_only(frame, detections)
         if roles["initiator"]:
-            view = self._view(engine, frame, detections, every, frozenset(), models)
+            view = self._view(engine, seen, seen_detections, every, frozenset(), models)
             for s in roles["initiator"]:
                 self._apply_births(engine, frame, s.scheduled(view), None)
         if roles["reidentifier"]:
-            view = self._view(engine, frame, detections, every, frozenset(), models)
+            view = self._view(engine, seen, seen_detections, every, frozenset(), models)
             live = {t.id: t for t in engine.targets}
             for s in roles["reidentifier"]:
                 d = s.scores(view)
@@ -621,10 +637,13 @@ class LifecycleTracks(TrackManager):
         claimed = frozenset(t.detection.index for t in engine.targets
                             if t.detection is not None)
         models = self._models(engine)
+        seen, seen_detections = self._read_only(frame, detections)
+        unmatched = _frozen(np.asarray(unmatched_detections))
 
         def view() -> FrameView:
             """The tracks as they are now (rebuilt only after a role changed them)."""
-            return self._view(engine, frame, detections, unmatched_detections, claimed, models)
+            return self._view(engine, seen, seen_detections, unmatched,  # type: ignore[arg-type]
+                              claimed, models)
 
         v = view()
         for s in roles["reidentifier"]:
