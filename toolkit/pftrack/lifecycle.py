@@ -7,8 +7,10 @@ own). A stage sees the frame and the live tracks read-only (:class:`FrameView`,
 :class:`TrackView`), keeps its own per-track state keyed by track id, and returns decisions
 (:class:`Birth`, :class:`End`, :class:`Confirm`, :class:`Hide`, :class:`OutputBox`,
 :class:`Resize`, :class:`AppearanceScores`). No stage receives the engine; one runner,
-:class:`LifecycleTracks`, calls the stages and applies their decisions through the engine's
-public methods (``add_target``, ``remove_target``, ``record``).
+:class:`LifecycleTracks`, calls the stages and applies their decisions: births and ends through
+the engine's public methods (``add_target``, ``remove_target``, ``record``), and the per-target
+fields the engine reads but has no method for (``Target.appearance_scores``,
+``Target.box_wh_px``, a newborn's ``frames_tracked``) by setting them on its targets.
 
 Roles and the order the runner calls them in, each frame::
 
@@ -35,8 +37,8 @@ Roles and the order the runner calls them in, each frame::
       -> list[TrackRecord]
 
 Stages of one role run in the order they are listed, each seeing the tracks as they were when
-the role began. Every stage is told of each track that
-starts (:meth:`LifecycleStage.track_started`) and ends, whoever ended it
+the role began. Every stage is told of each track that starts
+(:meth:`LifecycleStage.track_started`) and ends, whoever ended it
 (:meth:`LifecycleStage.track_ended`), to keep or drop its per-track state.
 
 A configuration lists the stages explicitly (``tracks: {type: stages, params: {stages:
