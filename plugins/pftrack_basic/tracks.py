@@ -192,12 +192,14 @@ class BorderTerminator(Terminator):
     """A confirmed track that has missed its detection ends at once when its box, or the box
     it would have walking on at the velocity it had at its last matched detection (for the
     frames it has missed, ``dt`` each), is not wholly inside the image: its object is walking
-    out of the picture. A detector's boxes lie inside the image, so a box reaching past the
-    border with no detection is an object partly gone, and an object whose own motion carried
-    it out is gone even when its track was held back inside (by neighbours' detections or
-    colour), where it would wait hidden and take over the next object entering at that edge.
-    The walking-on box needs a motion model with ``velocity_dims``; without, only the track's
-    own box is tested. No parameters.
+    out of the picture.
+
+    A detector's boxes lie inside the image, so a box reaching past the border with no
+    detection is an object partly gone, and an object whose own motion carried it out is gone
+    even when its track was held back inside (by neighbours' detections or colour), where it
+    would wait hidden and take over the next object entering at that edge. The walking-on box
+    needs a motion model with ``velocity_dims``; without, only the track's own box is tested.
+    No parameters.
 
     Attributes
     ----------
