@@ -58,6 +58,8 @@ NOTEBOOKS: dict[str, tuple[dict[str, str], str]] = {
 #: configuration key that names it.
 COMPONENT_KINDS = {"observation": "observation", "motion": "motion", "likelihood": "likelihood",
                    "detector": "detector", "associator": "associator", "tracks": "tracks",
+                   "stage": "(lifecycle stages: ``tracks: {type: stages, params: {stages: "
+                            "[...]}}``)",
                    "scene": "(scenes: ``pftrack demo``, benchmarks, notebooks)"}
 
 #: Modules left out of the API reference: private kernels and the command line's internals.
