@@ -153,6 +153,36 @@ HEADLINE: dict[str, list[tuple[str, str]]] = {
                         "people-image: CPU time per frame / ByteTrack's, same run"),
                        ("speed.track.ratio_to_bytetrack",
                         "pftrack track (ground plane): CPU time per frame / ByteTrack's")],
+    "seed003": [("pets09.MOTA_world", "PETS: MOTA on the ground (1 m)"),
+                ("pets09.IDF1_world", "PETS: IDF1 on the ground"),
+                ("pets09.HOTA_world", "PETS: HOTA on the ground"),
+                ("pets09.median_error_m", "PETS: median ground error (m)"),
+                ("pets09.entry_exit_within_10", "PETS: people with entry and exit within 10 "
+                                                "frames"),
+                ("pets09.mog2.MOTA_world", "PETS, MOG2 fraction instead: MOTA on the ground"),
+                ("pets09.frames_per_second_3x5000",
+                 "PETS: frames per second of CPU, 3 groups of 5000 particles"),
+                ("coast.frames_per_second_3x5000",
+                 "coast: frames per second of CPU, 3 groups of 5000 particles"),
+                ("coast.multi.MOTA_world", "coast, two boats and a car: MOTA on the ground"),
+                ("coast.multi.IDF1_world", "coast, two boats and a car: IDF1 on the ground")],
+    "seed004": [(f"table1[method={m}].ari_mean", f"mean ARI: {label}") for m, label in (
+        ("greedy", "greedy"), ("min-cost-flow", "min-cost flow"),
+        ("trajectory-ensemble", "Trajectory Ensemble (C_d = 9, S = 100)"),
+        ("trajectory-ensemble (C_d=5, tuned)", "Trajectory Ensemble, tuned C_d = 5"),
+        ("trajectory-ensemble-gated (C_d=5, tuned)", "appearance-gated ensemble, C_d = 5"))]
+    + [("seconds.trajectory_ensemble_one_run_median",
+        "Trajectory Ensemble: seconds per run (median)")],
+    "detectors": [(f"test.{d}.{v}.{f}", f"{d}, {v}: {f}")
+                  for v in ("pets09", "mot17-09") for d in ("hog-people", "ssdlite-people")
+                  for f in ("recall", "precision")]
+    + [(f"speed[size={size}].ms_per_frame.{d}", f"{d}: ms per frame at {size}")
+       for size in ("640x480", "1920x1080") for d in ("hog-people", "ssdlite-people")],
+    "background": [(f"thermal.runs[clip={c},method={m}].{f}", f"thermal, {c}, {m}: {label}")
+                   for c in ("recorded", "simulated") for m in ("eigenspace", "mog2")
+                   for f, label in (("recall", "recall"),
+                                    ("block_precision", "block precision"),
+                                    ("false_alarm_frames", "false-alarm frames"))],
     "soccer": [("MOTA", "MOTA (IoU 0.5)"), ("IDF1", "IDF1"), ("HOTA", "HOTA"),
                ("MOTA_world", "MOTA on the ground"), ("IDF1_world", "IDF1 on the ground"),
                ("accuracy_5px", "within 5 px (the paper's accuracy)"),
