@@ -15,7 +15,8 @@ A small Sphinx extension (``docs/conf.py`` loads it). On ``builder-inited`` it w
 * ``cli_reference.md``: every command's ``--help``;
 * ``results.md``: the latest result file of each benchmark in ``results/``
   (``pftrack_results.results_page``);
-* ``api/*.md``: one autodoc page per public module of the core and of the built-in plugins;
+* ``api/*.md``: one autodoc page per public module of the core and of the built-in plugins
+  (``api/_modules``), and of the repository's benchmarks (``api/_benchmarks``, their own heading);
 
 and executes the notebooks (``notebooks/*.ipynb``, stored without outputs) into
 ``docs/gallery/`` on the short slices their tests use (:data:`NOTEBOOKS`), so that myst-nb
@@ -551,10 +552,11 @@ def _myst_roles(text: str, module: str) -> str:
 # --------------------------------------------------------------------------------------------
 
 
-def api_modules() -> list[str]:
-    """The public modules of the core and of the built-in plugins, sorted."""
+def api_modules(bases: tuple[str, ...] = ("toolkit", "plugins")) -> list[str]:
+    """The public modules under the repository folders ``bases`` (default: the core and the
+    built-in plugins, the product), sorted."""
     mods = []
-    for base in (ROOT / "toolkit", ROOT / "plugins"):
+    for base in (ROOT / b for b in bases):
         for path in sorted(base.rglob("*.py")):
             rel = path.relative_to(base).with_suffix("")
             parts = list(rel.parts)
@@ -566,10 +568,12 @@ def api_modules() -> list[str]:
     return sorted(set(mods))
 
 
-def write_api_pages(out: Path) -> list[str]:
-    """One Markdown page per module of :func:`api_modules` under ``out``; returns the names."""
+def write_api_pages(out: Path, bases: tuple[str, ...] = ("toolkit", "plugins")) -> list[str]:
+    """One Markdown page per module of :func:`api_modules` (``bases``) under ``out``; returns
+    the names. The benchmarks (``bases=("benchmarks",)``) get a folder of their own, listed
+    under their own heading: they are not the product's API."""
     out.mkdir(parents=True, exist_ok=True)
-    mods = api_modules()
+    mods = api_modules(bases)
     for mod in mods:
         _write_if_changed(out / f"{mod}.md", "\n".join([
             f"# `{mod}`", "", "```{eval-rst}", f".. automodule:: {mod}", "   :members:",
@@ -700,6 +704,7 @@ def _generate(app: Any) -> None:
     _write_if_changed(gen / "volumes_doc.md",
                       docstring_markdown("pftrack.geometry.volumes", "World frame conventions"))
     write_api_pages(DOCS / "api" / "_modules")
+    write_api_pages(DOCS / "api" / "_benchmarks", bases=("benchmarks",))
     if os.environ.get("PFTRACK_DOCS_NOTEBOOKS", "1") == "0":
         for name in NOTEBOOKS:  # unexecuted copies: a quick build without pictures
             dest = DOCS / "gallery" / name

@@ -21,8 +21,7 @@ Components (registered name -> class):
   ``births`` :class:`~pftrack_basic.tracks.DetectionBirthTracks`, ``confirmed``
   :class:`~pftrack_basic.tracks.ConfirmedTracks` (tentative -> confirmed, merging, appearance);
 * report writer: ``tracks`` (:func:`pftrack.render.report.write_report`: overlays and image
-  trajectories beside the ground-plane top view), ``pftrack run``'s default;
-* benchmark: ``core`` (:mod:`pftrack_basic.bench_core`: the filter step against Stone Soup).
+  trajectories beside the ground-plane top view), ``pftrack run``'s default.
 
 Only this module is imported when the host loads the plugin; the component modules are light
 (numpy only; scipy and OpenCV are imported inside the methods that need them).
@@ -74,14 +73,6 @@ def pftrack_register_detectors(register):
 
     register("mog2", BackgroundSubtractionDetector)
 
-
-@hookimpl
-def pftrack_register_benchmarks(register):
-    from pftrack.extensions import Benchmark
-
-    from pftrack_basic import bench_core
-
-    register("core", Benchmark.from_module(bench_core))
 
 
 @hookimpl

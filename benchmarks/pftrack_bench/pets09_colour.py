@@ -16,6 +16,17 @@ import argparse
 import sys
 from typing import Any
 
+from pftrack_bench.protocol import Protocol
+
+#: What chose this benchmark's settings and what it reports (its JSON result carries it).
+PROTOCOL = Protocol(
+    data="PETS 2009 S2.L1 (every person from their first ground-truth box)",
+    chosen_on=("all 795 frames (the colour model's regions and weighting, the tracker's "
+               "noise, particles and end rule): no held-out part"),
+    reported_on=("the frames as in args (default all 795), pftrack's seeds as in args "
+                 "(default 0-2); OpenCV's MIL and CSRT keep their defaults"),
+)
+
 
 def _frames(text: str) -> tuple[int, int | None]:
     try:
