@@ -66,6 +66,8 @@ PROTOCOL = Protocol(
 
 
 SEQUENCES = ("zodiac", "ocean", "pets09", "thermal")
+#: the methods that take the thermal clip's float frames (counts less each frame's median)
+THERMAL_METHODS = ("eigenspace", "mog2", "knn")
 GT_BLOCK_FRACTION = 0.25
 
 
@@ -557,6 +559,10 @@ def _thermal(args: argparse.Namespace, root: Path, methods: list[str], bs: int,
 
     setup = _thermal_setup(args, root)
     clip = setup["clip"]
+    # the thermal frames are float counts; OpenCV's contrib subtractors take 8-bit images only
+    skipped = {m: "takes 8-bit images only; the clip holds 16-bit counts"
+               for m in methods if m not in THERMAL_METHODS}
+    methods = [m for m in methods if m in THERMAL_METHODS]
     model = _thermal_eigenspace(setup, bs, args) if "eigenspace" in methods else None
     conditions = {"none": ["recorded"], "simulated": ["simulated"],
                   "both": ["recorded", "simulated"]}[args.thermal_recalibration]
@@ -568,6 +574,7 @@ def _thermal(args: argparse.Namespace, root: Path, methods: list[str], bs: int,
             say(f"background: thermal {m} ({cond})")
             runs.append({"clip": cond, **_thermal_method(m, setup, c, model, bs, args)})
     out: dict[str, Any] = {
+        "skipped_methods": skipped,
         "clip_file": str(setup["clip_path"]), "annotation": str(setup["annotation"]),
         "frames": len(clip.frames), "train_frames": _ranges(setup["train"]),
         "train_frames_with_animal_masked": _ranges(setup["train_with_boxes"]),

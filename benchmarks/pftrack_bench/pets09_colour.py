@@ -20,11 +20,11 @@ from pftrack_bench.protocol import Protocol
 
 #: What chose this benchmark's settings and what it reports (its JSON result carries it).
 PROTOCOL = Protocol(
-    data="PETS 2009 S2.L1 (every person from their first ground-truth box)",
-    chosen_on=("all 795 frames (the colour model's regions and weighting, the tracker's "
-               "noise, particles and end rule): no held-out part"),
-    reported_on=("the frames as in args (default all 795), pftrack's seeds as in args "
-                 "(default 0-2); OpenCV's MIL and CSRT keep their defaults"),
+    data="PETS 2009 S2.L1, every person started from their first ground-truth box",
+    chosen_on="all 795 frames: the colour region, its three stripes and the "
+              "per-person weighting were compared on the whole sequence (no held-out "
+              "part); OpenCV's trackers keep their defaults",
+    reported_on="all 795 frames, tracking seeds 0-2",
 )
 
 

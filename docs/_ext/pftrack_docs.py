@@ -59,6 +59,8 @@ NOTEBOOKS: dict[str, tuple[dict[str, str], str]] = {
 #: configuration key that names it.
 COMPONENT_KINDS = {"observation": "observation", "motion": "motion", "likelihood": "likelihood",
                    "detector": "detector", "associator": "associator", "tracks": "tracks",
+                   "stage": "(lifecycle stages: ``tracks: {type: stages, params: {stages: "
+                            "[...]}}``)",
                    "scene": "(scenes: ``pftrack demo``, benchmarks, notebooks)"}
 
 #: Modules left out of the API reference: private kernels and the command line's internals.
@@ -723,4 +725,7 @@ def _generate(app: Any) -> None:
 def setup(app: Any) -> dict[str, Any]:
     """Register the generation step with Sphinx."""
     app.connect("builder-inited", _generate)
+    from pftrack_results import result_role
+
+    app.add_role("result", result_role)
     return {"parallel_read_safe": True, "parallel_write_safe": True}

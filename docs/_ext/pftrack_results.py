@@ -24,6 +24,7 @@ import datetime as _dt
 import json
 import os
 import platform
+import re
 import subprocess
 import sys
 import tempfile
@@ -87,12 +88,34 @@ HEADLINE: dict[str, list[tuple[str, str]]] = {
 
 
 def value_at(result: dict[str, Any], key: str) -> Any:
-    """``result[key]``, a dotted key walking into nested mappings; None when absent."""
+    """``result[key]``, a dotted key walking into nested mappings; None when absent.
+
+    A part ``NAME[k=v,...]`` picks, from the list ``NAME``, the one record whose fields ``k``
+    equal ``v`` (compared as text): ``rows[likelihood=cross-entropy-bg,samples=500,targets=3]
+    .frames_per_second``; no record or several is None. ``NAME[i]`` is the list's item ``i``."""
     value: Any = result
-    for part in key.split("."):
+    for part in re.findall(r"[^.\[]+(?:\[[^\]]*\])?", key):
+        sel = None
+        if part.endswith("]") and "[" in part:
+            part, _, cond = part[:-1].partition("[")
+            # conditions split at commas that start a new ``field=``: a value may hold commas
+            sel = dict(c.split("=", 1) for c in re.split(r",(?=\s*[\w-]+=)", cond) if "=" in c)
         if not isinstance(value, dict) or part not in value:
             return None
         value = value[part]
+        if sel is not None and not sel and cond.strip().isdigit():
+            i = int(cond)
+            if not isinstance(value, list) or i >= len(value):
+                return None
+            value = value[i]
+        elif sel is not None:
+            if not isinstance(value, list):
+                return None
+            hits = [r for r in value if isinstance(r, dict)
+                    and all(str(r.get(k.strip())) == v.strip() for k, v in sel.items())]
+            if len(hits) != 1:
+                return None
+            value = hits[0]
     return value
 
 
@@ -108,17 +131,34 @@ def machine() -> dict[str, Any]:
             "system": f"{platform.system()} {platform.release()}"}
 
 
+def _split_variant(name: str) -> tuple[str, str | None]:
+    """``NAME@VARIANT`` -> (NAME, VARIANT); a plain NAME -> (NAME, None)."""
+    bench, _, variant = name.partition("@")
+    if variant and not re.fullmatch(r"[a-z0-9][a-z0-9-]*", variant):
+        raise ValueError(f"results: variant {variant!r} of {bench}: use lower-case letters, "
+                         "digits and '-'")
+    return bench, variant or None
+
+
+def _key(doc: dict[str, Any]) -> str:
+    """A result's key on the results page: its benchmark, ``@variant`` when it has one."""
+    return doc["benchmark"] + (f"@{doc['variant']}" if doc.get("variant") else "")
+
+
 def record(name: str, args: list[str], out_dir: Path = RESULTS,
            python: str = sys.executable) -> Path:
     """Run ``pftrack bench NAME --json ARGS`` and write its result with its provenance.
 
-    Returns the file written (``out_dir/NAME-YYYYmmddTHHMMSSZ.json``, atomically).
+    ``name`` may be ``NAME@VARIANT``: the same benchmark recorded in another configuration (its
+    ARGS), kept beside the default one on the results page (``seed004@stripes``).
+    Returns the file written (``out_dir/NAME[@VARIANT]-YYYYmmddTHHMMSSZ.json``, atomically).
 
     Raises
     ------
     RuntimeError
         The benchmark failed (its exit code and the end of its stderr).
     """
+    bench, variant = _split_variant(name)
     date = _dt.datetime.now(_dt.UTC).replace(microsecond=0)
     commit = {"sha": _git("rev-parse", "HEAD"),
               "dirty": bool(_git("status", "--porcelain", "--untracked-files=no"))}
@@ -126,18 +166,18 @@ def record(name: str, args: list[str], out_dir: Path = RESULTS,
     with tempfile.TemporaryDirectory(prefix="pftrack-results-") as tmp:
         raw = Path(tmp) / "result.json"
         t0 = time.perf_counter()
-        proc = subprocess.run([python, "-m", "pftrack", "bench", name, "--json", "--out",
+        proc = subprocess.run([python, "-m", "pftrack", "bench", bench, "--json", "--out",
                                str(raw), *args], cwd=ROOT, capture_output=True, text=True)
         wall = time.perf_counter() - t0
         if proc.returncode != 0:
-            raise RuntimeError(f"pftrack bench {name} failed (exit {proc.returncode}): "
+            raise RuntimeError(f"pftrack bench {bench} failed (exit {proc.returncode}): "
                                f"{proc.stderr[-2000:]}")
         result = json.loads(raw.read_text())
-    doc = {"benchmark": name, "args": args, "commit": commit,
-           "date": date.isoformat().replace("+00:00", "Z"),
+    doc = {"benchmark": bench, **({"variant": variant} if variant else {}), "args": args,
+           "commit": commit, "date": date.isoformat().replace("+00:00", "Z"),
            "machine": {**machine(), "load_1min_before": load_before,
                        "load_1min_after": os.getloadavg()[0]},
-           "wall_s": wall, "protocol": protocol_of(name, result), "result": result}
+           "wall_s": wall, "protocol": protocol_of(bench, result), "result": result}
     out_dir.mkdir(parents=True, exist_ok=True)
     dest = out_dir / f"{name}-{date.strftime('%Y%m%dT%H%M%SZ')}.json"
     tmp_dest = dest.with_suffix(".json.tmp")
@@ -150,6 +190,7 @@ def wrap(name: str, result_file: Path, args: list[str], out_dir: Path = RESULTS)
     """Record a result a benchmark already wrote (``pftrack bench NAME --out FILE``, e.g. one
     process per video joined by the benchmark's own merge): the same file as :func:`record`,
     with the commit, date and machine the result states when it states them."""
+    bench, variant = _split_variant(name)
     result = json.loads(Path(result_file).read_text())
     commit = ({"sha": result["commit"], "dirty": bool(result.get("dirty"))}
               if isinstance(result.get("commit"), str) else
@@ -160,9 +201,10 @@ def wrap(name: str, result_file: Path, args: list[str], out_dir: Path = RESULTS)
     stated = result.get("machine") or {}
     mach = {**machine(), "load_1min_before": None, "load_1min_after": None}
     mach["logical_cores"] = stated.get("cpu_count", mach["logical_cores"])
-    doc = {"benchmark": name, "args": args, "commit": commit, "date": date, "machine": mach,
+    doc = {"benchmark": bench, **({"variant": variant} if variant else {}), "args": args,
+           "commit": commit, "date": date, "machine": mach,
            "wall_s": None, "wrapped": Path(result_file).name,
-           "protocol": protocol_of(name, result), "result": result}
+           "protocol": protocol_of(bench, result), "result": result}
     out_dir.mkdir(parents=True, exist_ok=True)
     stamp = date.replace("-", "").replace(":", "")
     dest = out_dir / f"{name}-{stamp}.json"
@@ -223,7 +265,7 @@ def load_results(folder: Path = RESULTS) -> dict[str, dict[str, Any]]:
             if key not in doc:
                 raise ValueError(f"results: {path.name} has no '{key}'")
         doc["file"] = path.name
-        name = doc["benchmark"]
+        name = _key(doc)
         if name not in latest or doc["date"] > latest[name]["date"]:
             latest[name] = doc
     return latest
@@ -233,6 +275,60 @@ def _fmt(value: Any) -> str:
     if isinstance(value, float):
         return f"{value:.4g}"
     return str(value)
+
+
+def figure(spec: str, folder: Path = RESULTS,
+           _cache: dict[Path, dict[str, dict[str, Any]]] | None = None) -> str:
+    """The text of one measured figure for prose: ``spec`` is ``NAME:KEY`` or
+    ``NAME:KEY:FORMAT`` -- the benchmark, the (dotted) key into its latest result, and a
+    Python format spec (default 4 significant digits; ``%`` for a percentage).
+
+    Raises
+    ------
+    ValueError
+        No result of that benchmark is committed, or its latest result has no such number.
+    """
+    parts = spec.split(":")
+    if len(parts) not in (2, 3):
+        raise ValueError(f"result figure {spec!r}: expected NAME:KEY or NAME:KEY:FORMAT")
+    name, key = parts[0].strip(), parts[1].strip()
+    docs = load_results(folder) if _cache is None else _cache.setdefault(folder,
+                                                                         load_results(folder))
+    if name not in docs:
+        raise ValueError(f"result figure {spec!r}: no result of benchmark {name!r} in "
+                         f"{folder} (record one: python docs/_ext/pftrack_results.py record "
+                         f"{name})")
+    value = value_at(docs[name]["result"], key)
+    is_number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not is_number:
+        raise ValueError(f"result figure {spec!r}: results/{docs[name]['file']} has no number "
+                         f"at {key!r} (found {value!r})")
+    return format(value, parts[2]) if len(parts) == 3 else _fmt(value)
+
+
+def result_role(name: str, rawtext: str, text: str, lineno: int, inliner: Any,
+                options: Any = None, content: Any = None) -> tuple[list[Any], list[Any]]:
+    """The Sphinx role ``{result}`NAME:KEY[:FORMAT]``: a figure read from the latest committed
+    result of benchmark NAME (:func:`figure`), linked to its section of the results page; an
+    unknown benchmark or key is a build error, so prose cannot quote a figure no run made."""
+    from docutils import nodes
+
+    try:
+        value = figure(text, _cache=_ROLE_CACHE)
+    except ValueError as exc:
+        msg = inliner.reporter.error(str(exc), line=lineno)
+        return [inliner.problematic(rawtext, rawtext, msg)], [msg]
+    from sphinx import addnodes
+
+    bench = text.split(":")[0].strip().replace("@", "-")
+    ref = addnodes.pending_xref(rawtext, refdomain="std", reftype="ref",
+                                reftarget=f"results-{bench}", refexplicit=True,
+                                refwarn=True)
+    ref += nodes.inline(value, value)
+    return [ref], []
+
+
+_ROLE_CACHE: dict[Path, dict[str, dict[str, Any]]] = {}
 
 
 def results_page(folder: Path = RESULTS) -> str:
@@ -246,11 +342,11 @@ def results_page(folder: Path = RESULTS) -> str:
         return "\n".join(lines + ["No result file is committed yet.", ""])
     for name, doc in sorted(docs.items()):
         res = doc["result"]
-        keys = HEADLINE.get(name) or [(k, k) for k, v in res.items()
+        keys = HEADLINE.get(doc["benchmark"]) or [(k, k) for k, v in res.items()
                                       if isinstance(v, (int, float)) and not isinstance(v, bool)]
-        cmd = " ".join(["pftrack bench", name, "--json", *doc.get("args", [])])
+        cmd = " ".join(["pftrack bench", doc["benchmark"], "--json", *doc.get("args", [])])
         m = doc["machine"]
-        lines += [f"(results-{name})=", f"## `{name}`", ""]
+        lines += [f"(results-{name.replace('@', '-')})=", f"## `{name}`", ""]
         head = [f"| {label} | {_fmt(value_at(res, k))} |" for k, label in keys
                 if value_at(res, k) is not None]
         if head:

@@ -17,9 +17,14 @@ Components (registered name -> class):
   position through the run's camera), ``camera-volume``
   :class:`pftrack.observation_world.CameraVolumeObservation` (3-D points in a volume, the coastal
   paper);
-* tracks: ``manual`` :class:`pftrack.tracker.ManualTracks` (targets added by the caller),
+* tracks: ``manual`` :class:`pftrack.lifecycle.ManualTracks` (targets added by the caller),
+  ``stages`` :class:`pftrack.lifecycle.StagedTracks` (an explicit list of lifecycle stages),
   ``births`` :class:`~pftrack_basic.tracks.DetectionBirthTracks`, ``confirmed``
   :class:`~pftrack_basic.tracks.ConfirmedTracks` (tentative -> confirmed, merging, appearance);
+* stage (:mod:`pftrack.lifecycle`): ``unmatched-births`` and ``detection-births``
+  (initiators), ``hit-confirmation`` (confirmer), ``border-exit`` (terminator),
+  ``duplicate-merge`` (merger), ``colour-reid`` (reidentifier), ``output-boxes`` (reporter),
+  all in :mod:`pftrack_basic.tracks`;
 * report writer: ``tracks`` (:func:`pftrack.render.report.write_report`: overlays and image
   trajectories beside the ground-plane top view), ``pftrack run``'s default.
 
@@ -87,13 +92,27 @@ def pftrack_register_observation_models(register):
 
 @hookimpl
 def pftrack_register_track_managers(register):
-    from pftrack.tracker import ManualTracks
+    from pftrack.lifecycle import ManualTracks, StagedTracks
 
     from pftrack_basic.tracks import ConfirmedTracks, DetectionBirthTracks
 
     register("manual", ManualTracks)
+    register("stages", StagedTracks)
     register("births", DetectionBirthTracks)
     register("confirmed", ConfirmedTracks)
+
+
+@hookimpl
+def pftrack_register_lifecycle_stages(register):
+    from pftrack_basic import tracks
+
+    register("unmatched-births", tracks.UnmatchedBirthInitiator)
+    register("detection-births", tracks.DetectionBirthInitiator)
+    register("hit-confirmation", tracks.HitConfirmer)
+    register("border-exit", tracks.BorderTerminator)
+    register("duplicate-merge", tracks.DuplicateMerger)
+    register("colour-reid", tracks.ColourReidentifier)
+    register("output-boxes", tracks.OutputBoxReporter)
 
 
 @hookimpl

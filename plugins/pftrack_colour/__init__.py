@@ -68,6 +68,15 @@ def pftrack_register_track_managers(register):
 
 
 @hookimpl
+def pftrack_register_lifecycle_stages(register):
+    from pftrack_colour.experiment import BoxSizeSizer, GivenEndsTerminator, GivenStartsInitiator
+
+    register("given-starts", GivenStartsInitiator)
+    register("given-ends", GivenEndsTerminator)
+    register("box-size-search", BoxSizeSizer)
+
+
+@hookimpl
 def pftrack_register_observation_models(register):
     from pftrack_colour.observation import SizedImageBoxObservation
 

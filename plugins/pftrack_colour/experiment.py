@@ -17,6 +17,18 @@ from typing import Any
 import numpy as np
 from pftrack.components import Detections, Frame, Likelihood, Target, TrackManager
 from pftrack.host import Host, get_host
+from pftrack.lifecycle import (
+    Birth,
+    End,
+    FrameView,
+    Initiator,
+    LifecycleStage,
+    LifecycleTracks,
+    Resize,
+    Sizer,
+    Terminator,
+    TrackView,
+)
 from pftrack.tracker import ImageBoxObservation, MultiTargetTracker, TrackRecord, records_to_mot
 
 from pftrack_colour import _jit
@@ -27,7 +39,10 @@ __all__ = [
     "build_tracker",
     "centre_errors",
     "cumulative_errors",
+    "BoxSizeSizer",
     "GivenBoxTracks",
+    "GivenEndsTerminator",
+    "GivenStartsInitiator",
     "first_boxes",
     "implementation",
     "last_frames",
@@ -284,17 +299,51 @@ def _track_loop(tracker: MultiTargetTracker, timed: _TimedLikelihood, frames: It
                        recoveries=tracker.recoveries)
 
 
-class GivenBoxTracks(TrackManager):
-    """Targets started from given boxes at given frames and stopped at given frames (the colour
-    paper's protocol: each person from its first ground-truth box to its last), optionally resized
-    every frame; every live target's estimate is output.
+class GivenStartsInitiator(Initiator):
+    """Starts targets from given boxes at given frames, with given ids (the colour paper's
+    protocol: each person from its first ground-truth box), before that frame's predict step.
 
     Parameters
     ----------
     starts : {frame: [(id, box_xywh_px)]}
         Targets to start (e.g. :func:`first_boxes` of the ground truth).
+    """
+
+    def __init__(self, starts: dict[int, list[tuple[int, np.ndarray]]] | None = None) -> None:
+        self.starts = starts
+
+    def scheduled(self, view: FrameView) -> list[Birth]:
+        return [Birth(box_xywh_px=np.asarray(box, float), track_id=tid, supported=False)
+                for tid, box in (self.starts or {}).get(view.frame.index, ())]
+
+
+class GivenEndsTerminator(Terminator):
+    """Ends each target after a given frame (its record of that frame is still output).
+
+    Parameters
+    ----------
     ends : {id: frame}
         Frame after which a target is stopped (e.g. :func:`last_frames`).
+    """
+
+    def __init__(self, ends: dict[int, int] | None = None) -> None:
+        self.ends = ends
+
+    def terminate(self, view: FrameView) -> list[End]:
+        ends = self.ends
+        if not ends:  # none given (the colour paper's walkers): no target to look at
+            return []
+        return [End(t.id, "given last frame", output=True) for t in view.tracks
+                if ends.get(t.id, np.inf) <= view.frame.index]
+
+
+class BoxSizeSizer(Sizer):
+    """Adapts each target's box size every frame: a scale search around the estimate
+    (``scale_step``) and/or a perspective fit of box height against foot row
+    (``perspective``), see :func:`track`.
+
+    Parameters
+    ----------
     scale_step : float, optional
         Per-frame scale search around the estimate (see :func:`track`). Unit: 1.
     scale_limits : (float, float)
@@ -312,12 +361,9 @@ class GivenBoxTracks(TrackManager):
         The start boxes so far (perspective fit).
     """
 
-    def __init__(self, starts: dict[int, list[tuple[int, np.ndarray]]] | None = None,
-                 ends: dict[int, int] | None = None, scale_step: float | None = None,
+    def __init__(self, scale_step: float | None = None,
                  scale_limits: tuple[float, float] = (0.6, 1.6),
                  perspective: bool = False) -> None:
-        self.starts = starts
-        self.ends = ends
         self.scale_step = scale_step
         self.scale_limits = scale_limits
         self.perspective = perspective
@@ -329,36 +375,72 @@ class GivenBoxTracks(TrackManager):
             self.feet_: list[tuple[float, float]] = []
             self.fit_: tuple[float, float] | None = None
 
-    def before_frame(self, engine: Any, frame: Frame, detections: Detections | None) -> None:
+    def track_started(self, track: TrackView, birth: Birth) -> None:
         self._state()
-        for tid, box in (self.starts or {}).get(frame.index, ()):
-            t = engine.add_target(frame, box_xywh_px=np.asarray(box, float), target_id=tid)
-            if self.perspective:
-                b = np.asarray(box, float)
-                self.feet_.append((b[1] + b[3], b[3]))
-                self.fit_ = _fit_perspective(self.feet_)
-                self.start_boxes_[t.id] = b.copy()
+        if self.perspective and birth.box_xywh_px is not None:
+            b = np.asarray(birth.box_xywh_px, float)
+            self.feet_.append((b[1] + b[3], b[3]))
+            self.fit_ = _fit_perspective(self.feet_)
+            self.start_boxes_[track.id] = b.copy()
 
-    def after_frame(self, engine: Any, frame: Frame, detections: Detections | None,
-                    records: list[TrackRecord], unmatched_detections: np.ndarray,
-                    ) -> list[TrackRecord]:
+    def track_ended(self, track_id: int) -> None:
         self._state()
+        self.start_boxes_.pop(track_id, None)
+        self.first_sizes_.pop(track_id, None)
+
+    def resize(self, view: FrameView) -> list[Resize]:
+        self._state()
+        sizes = {t.id: (t.box_wh_px, t.box_xywh_px) for t in view.tracks}
+        out: list[Resize] = []
         if self.scale_step:
-            _adapt_scale(engine, records, float(self.scale_step), self.scale_limits,
-                         self.first_sizes_)
+            for r in _adapt_scale(view, float(self.scale_step), self.scale_limits,
+                                  self.first_sizes_):
+                sizes[r.track_id] = (r.box_wh_px, r.box_xywh_px)
+                out.append(r)
         if self.perspective and self.fit_ is not None:
-            _perspective_size(engine, records, self.fit_, self.start_boxes_)
-        ends = self.ends
-        if ends:  # none given (the colour paper's walkers): no target to look at
-            for t in list(engine.targets):
-                if ends.get(t.id, np.inf) <= frame.index:
-                    engine.remove_target(t.id)
-        return records
+            out.extend(_perspective_size(sizes, self.fit_, self.start_boxes_))
+        return out
 
-    def end_target(self, target: Target) -> None:
-        self._state()
-        self.start_boxes_.pop(target.id, None)
-        self.first_sizes_.pop(target.id, None)
+
+class GivenBoxTracks(LifecycleTracks):
+    """Targets started from given boxes at given frames and stopped at given frames (the colour
+    paper's protocol: each person from its first ground-truth box to its last), optionally resized
+    every frame; every live target's estimate is output. The stages
+    :class:`GivenStartsInitiator`, :class:`BoxSizeSizer` (with ``scale_step`` or
+    ``perspective``) and :class:`GivenEndsTerminator`.
+
+    Parameters
+    ----------
+    starts : {frame: [(id, box_xywh_px)]}
+        Targets to start (e.g. :func:`first_boxes` of the ground truth).
+    ends : {id: frame}
+        Frame after which a target is stopped (e.g. :func:`last_frames`).
+    scale_step : float, optional
+        Per-frame scale search around the estimate (see :func:`track`). Unit: 1.
+    scale_limits : (float, float)
+        Bounds of the scale search, times the starting size. Unit: 1.
+    perspective : bool
+        Box height from a linear fit of height against foot row (see :func:`track`).
+    """
+
+    def __init__(self, starts: dict[int, list[tuple[int, np.ndarray]]] | None = None,
+                 ends: dict[int, int] | None = None, scale_step: float | None = None,
+                 scale_limits: tuple[float, float] = (0.6, 1.6),
+                 perspective: bool = False) -> None:
+        self.starts = starts
+        self.ends = ends
+        self.scale_step = scale_step
+        self.scale_limits = scale_limits
+        self.perspective = perspective
+
+    def build_stages(self) -> list[LifecycleStage]:
+        stages: list[LifecycleStage] = [GivenStartsInitiator(starts=self.starts)]
+        if self.scale_step or self.perspective:
+            stages.append(BoxSizeSizer(scale_step=self.scale_step,
+                                       scale_limits=self.scale_limits,
+                                       perspective=self.perspective))
+        stages.append(GivenEndsTerminator(ends=self.ends))
+        return stages
 
 
 def _held_estimates(track_rows: np.ndarray, tid: int, frames: np.ndarray,
@@ -413,21 +495,21 @@ def _fit_perspective(feet: list[tuple[float, float]]) -> tuple[float, float] | N
     return (float(a), float(b)) if a > 0 else None
 
 
-def _perspective_size(tracker: MultiTargetTracker, records: list[TrackRecord],
-                      fit: tuple[float, float], start_boxes: dict[int, np.ndarray]) -> None:
-    """Resize each target's box to the perspective fit at its current foot row
-    (``start_boxes``: each target's starting box, by id)."""
+def _perspective_size(sizes: dict[int, tuple[Any, np.ndarray]], fit: tuple[float, float],
+                      start_boxes: dict[int, np.ndarray]) -> list[Resize]:
+    """Each target's box from the perspective fit at its current foot row, about the same
+    centre (``sizes``:
+    each live target's ``(box_wh_px, box_xywh_px)`` by id; ``start_boxes``: its starting box)."""
     a, b = fit
-    by_id = {r.id: r for r in records}
-    for t in tracker.targets:
-        b0 = start_boxes.get(t.id)
-        if b0 is None or t.box_wh_px is None or t.id not in by_id:
+    out = []
+    for tid, (wh, box) in sizes.items():
+        b0 = start_boxes.get(tid)
+        if b0 is None or wh is None:
             continue
         model0 = a * (b0[1] + b0[3]) + b
         if model0 <= 0:
             continue
         k = b0[3] / model0  # this person's height relative to the fit
-        box = t.box_xywh_px
         cx, cy = box[0] + box[2] / 2, box[1] + box[3] / 2
         denom = 1.0 - k * a / 2.0  # h = k (a (cy + h / 2) + b)
         if denom <= 0:
@@ -435,22 +517,19 @@ def _perspective_size(tracker: MultiTargetTracker, records: list[TrackRecord],
         h = k * (a * cy + b) / denom
         h = float(np.clip(h, 0.5 * b0[3], 2.0 * b0[3]))
         w = float(b0[2] * h / b0[3])
-        t.box_wh_px = (w, h)
-        new = np.array([cx - w / 2, cy - h / 2, w, h])
-        by_id[t.id].box_xywh_px = new.copy()
-        t.box_xywh_px = new
+        out.append(Resize(tid, (w, h), np.array([cx - w / 2, cy - h / 2, w, h])))
+    return out
 
 
-def _adapt_scale(tracker: MultiTargetTracker, records: list[TrackRecord], step: float,
-                 limits: tuple[float, float], first_sizes: dict[int, tuple[float, float]],
-                 ) -> None:
+def _adapt_scale(view: FrameView, step: float, limits: tuple[float, float],
+                 first_sizes: dict[int, tuple[float, float]]) -> list[Resize]:
     """One step of scale search per target around its estimate (see :func:`track`);
     ``first_sizes`` keeps each target's first box size (by id), the reference of ``limits``."""
-    by_id = {r.id: r for r in records}
     factors = np.array([1.0 - step, 1.0, 1.0 + step])
-    for t in tracker.targets:
+    out = []
+    for t in view.tracks:
         wh = t.box_wh_px
-        if wh is None or t.id not in by_id:
+        if wh is None:
             continue
         w0 = first_sizes.setdefault(t.id, wh)[0]
         box = t.box_xywh_px
@@ -458,12 +537,11 @@ def _adapt_scale(tracker: MultiTargetTracker, records: list[TrackRecord], step: 
         ws = np.clip(wh[0] * factors, limits[0] * w0, limits[1] * w0)
         hs = ws * (wh[1] / wh[0])
         cands = np.column_stack([cx - ws / 2, cy - hs / 2, ws, hs])
-        ll = tracker.likelihood.log_likelihood(cands, t)
+        ll = view.models.log_likelihood(cands, t.id)
         k = int(np.argmax(ll))
         if k != 1 and np.isfinite(ll[k]):
-            t.box_wh_px = (float(ws[k]), float(hs[k]))
-            by_id[t.id].box_xywh_px = cands[k].copy()
-            t.box_xywh_px = cands[k].copy()
+            out.append(Resize(t.id, (float(ws[k]), float(hs[k])), cands[k].copy()))
+    return out
 
 
 def centre_errors(track_rows: np.ndarray, gt_rows: np.ndarray,

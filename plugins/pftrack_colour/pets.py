@@ -59,9 +59,10 @@ __all__ = [
 
 #: The colour model for PETS people (~25 x 70 px, mostly dark clothes on grey pavement): the
 #: central part of the ground-truth box (less pavement in the template) cut into three stripes
-#: (head and shoulders, coat, trousers), cross entropy with background, each person weighted as
-#: in eq. 22 (``overlap="independent"``: on all 795 frames, mean of three seeds, success 0.587
-#: against 0.506 with the ``"mixture"`` joint weighting that wins on ``walkers``).
+#: (head and shoulders, coat, trousers), cross entropy with background, each person weighted
+#: on their own as in eq. 22 (``overlap="independent"``: people in PETS pass close to each
+#: other, and the joint weighting that suits the ``walkers`` scene lets one steal another's
+#: particles; docs/decisions/pets-colour-model.md).
 PETS_LIKELIHOOD: dict[str, Any] = {
     "type": "cross-entropy-bg",
     "params": {"region": (0.2, 0.1, 0.8, 0.9), "parts": 3, "overlap": "independent"},

@@ -65,10 +65,11 @@ def test_installed_plugin_is_listed_as_third_party(sample_site):
         "motion": ["sample-drift"], "likelihood": ["sample-box-area", "sample-brightness"],
         "detector": ["sample-bright"], "associator": ["sample-nearest"],
         "scene": ["sample-dots"], "observation": ["sample-square"],
-        "tracks": ["sample-seen-twice"], "metric": ["sample-count"], "preset": ["sample-dots"],
+        "tracks": ["sample-seen-twice"], "stage": ["sample-miss-limit"],
+        "metric": ["sample-count"], "preset": ["sample-dots"],
         "command": ["sample-write-dots"], "benchmark": ["sample-brightness"],
         "demo": ["sample-dots"], "report": ["sample-boxes"]}
-    assert "pftrack_register_commands" in s["hooks"] and len(s["hooks"]) == 13
+    assert "pftrack_register_commands" in s["hooks"] and len(s["hooks"]) == 14
     assert "error" not in s
     assert all(plugins[n]["builtin"] for n in ("basic", "colour", "world"))
     # third-party plugins are listed after the built-ins
@@ -113,6 +114,52 @@ def test_installed_plugin_builds_runs_and_conforms(sample_site):
     assert 50.0 + 4 * 1.0 - 3.0 < r["x_last"] < 50.0 + 4 * 1.0 + 3.0  # drifts 1 px per frame
     assert r["config"] == {"type": "sample-drift",
                            "params": {"velocity_px": [2.0, -1.0], "sigma_px": 0.0}}
+    assert r["fails"] == []
+
+
+_RUN_SAMPLE_STAGE = r"""
+import json
+import numpy as np
+from pftrack.components import Detections
+from pftrack.host import get_host
+from pftrack.testing import check_component
+from pftrack.tracker import MultiTargetTracker
+
+h = get_host()
+scene = h.build("scene", {"type": "sample-dots", "params": {"n_frames": 12}})
+det = h.build("detector", "sample-bright")
+
+
+def per_frame(stages):
+    tracks = h.build("tracks", {"type": "stages", "params": {"stages": stages}})
+    tr = MultiTargetTracker(h.build("motion", {"type": "sample-drift",
+                                               "params": {"velocity_px": [0.0, 0.5]}}),
+                            h.build("likelihood", "sample-box-area"),
+                            h.build("observation", "sample-square"), tracks=tracks,
+                            associator=h.build("associator", "sample-nearest"),
+                            detection_driven=True, kill_out_of_view=False, n_particles=50,
+                            rng=np.random.default_rng(0))
+    # the dots are detected in frames 1-4 only
+    return [len(tr.step(f, det.detect(f) if f.index <= 4 else Detections.empty()))
+            for f in scene.frames()]
+
+
+births = {"type": "unmatched-births", "params": {"min_score": 0.0}}
+stage = {"type": "sample-miss-limit", "params": {"max_unmatched": 2}}
+print(json.dumps({"without": per_frame([births]), "with": per_frame([births, stage]),
+                  "fails": [str(r) for r in check_component(h.get("stage", "sample-miss-limit"),
+                                                            host=h) if r.status == "fail"]}))
+"""
+
+
+def test_installed_plugin_stage_ends_tracks_in_the_lifecycle(sample_site):
+    """A third-party lifecycle stage, listed among built-in stages in a configuration, ends the
+    tracks it decides to end, and passes the conformance kit."""
+    r = json.loads(_run(sample_site, ["-c", _RUN_SAMPLE_STAGE]).stdout)
+    # two dots, each a track from frame 1; without the stage they are never ended (no
+    # max_misses); with it each ends in its third frame without a detection (frame 7)
+    assert r["without"] == [2] * 12
+    assert r["with"] == [2] * 6 + [0] * 6
     assert r["fails"] == []
 
 

@@ -421,6 +421,46 @@ def test_results_page_renders_the_latest_file_of_each_benchmark(tmp_path):
         pftrack_results.load_results(tmp_path)
 
 
+def test_a_figure_in_prose_is_read_from_the_latest_result(tmp_path):
+    """``{result}`NAME:KEY[:FORMAT]`` reads the latest file of a benchmark (or of one of its
+    recorded variants); a missing benchmark or key is an error naming what is missing."""
+    import json
+
+    import pftrack_results
+
+    def write(file, date, variant, rows):
+        doc = {"benchmark": "seed000", "args": [], "commit": {"sha": "b" * 40},
+               "date": date, "machine": {"logical_cores": 2}, "protocol": {},
+               "result": {"rows": rows, "speed": {"ratio": 3.25}}}
+        if variant:
+            doc["variant"] = variant
+        (tmp_path / file).write_text(json.dumps(doc))
+
+    rows = [{"likelihood": "a", "samples": 500, "fps": 1234.5},
+            {"likelihood": "b", "samples": 500, "fps": 99.0}]
+    write("seed000-1.json", "2026-01-01T00:00:00Z", None, rows)
+    write("seed000-2.json", "2026-02-01T00:00:00Z", None, rows[:1])
+    write("seed000@fast-1.json", "2026-03-01T00:00:00Z", "fast", [{"likelihood": "a",
+                                                                   "samples": 500, "fps": 7.0}])
+    fig = pftrack_results.figure
+    table = {"t": [{"method": "a (C_d=5, tuned)", "v": 1.5}, {"method": "a", "v": 2}]}
+    assert pftrack_results.value_at(table, "t[method=a (C_d=5, tuned)].v") == 1.5
+    assert pftrack_results.value_at(table, "t[method=a].v") == 2
+    assert pftrack_results.value_at({"t": [{"x": [4, 5]}]}, "t[0].x[1]") == 5
+    assert pftrack_results.value_at({"t": [1]}, "t[3]") is None
+    assert fig("seed000:speed.ratio", tmp_path) == "3.25"
+    assert fig("seed000:rows[likelihood=a,samples=500].fps:,.0f", tmp_path) == "1,234"
+    assert fig("seed000@fast:rows[likelihood=a].fps:.1f", tmp_path) == "7.0"
+    with pytest.raises(ValueError, match="no number at 'rows\\[likelihood=b\\].fps'"):
+        fig("seed000:rows[likelihood=b].fps", tmp_path)  # only in the older file
+    with pytest.raises(ValueError, match="no result of benchmark 'soccer'"):
+        fig("soccer:MOTA", tmp_path)
+    with pytest.raises(ValueError, match="NAME:KEY"):
+        fig("seed000", tmp_path)
+    page = pftrack_results.results_page(tmp_path)
+    assert "(results-seed000-fast)=" in page and "## `seed000@fast`" in page
+
+
 def test_committed_results_come_from_a_recorded_run():
     """Every committed result file was written by the recorder: a known benchmark, a commit,
     a date, a machine and the protocol its benchmark declares (``PROTOCOL`` in its module)."""
@@ -432,11 +472,11 @@ def test_committed_results_come_from_a_recorded_run():
     assert docs, "results/ holds no result file"
     for name, doc in docs.items():
         assert re.fullmatch(r"[0-9a-f]{40}", doc["commit"]["sha"]), name
-        assert doc["protocol"] == declared[name], name
+        assert doc["protocol"] == declared[doc["benchmark"]], name
         assert doc["machine"]["logical_cores"] >= 1
         # the recorder timed the run, or it wrapped a file the benchmark wrote (and says so)
         assert doc["wall_s"] > 0 if not doc.get("wrapped") else doc["wall_s"] is None
-        for key, _ in pftrack_results.HEADLINE.get(name, []):
+        for key, _ in pftrack_results.HEADLINE.get(doc["benchmark"], []):
             value = pftrack_results.value_at(doc["result"], key)
             assert isinstance(value, (int, float)) and not isinstance(value, bool), (name, key)
 
@@ -454,3 +494,16 @@ def test_a_recorded_protocol_is_the_one_the_result_carries():
         pftrack_results.protocol_of("x", {"MOTA": 0.5})
     with pytest.raises(ValueError, match="carries no protocol"):
         pftrack_results.protocol_of("x", {"protocol": {"data": "d"}})
+
+
+def test_readme_headlines_are_the_latest_results():
+    """Each headline figure of the README is followed by ``<!-- NAME:KEY[:FORMAT] -->`` and
+    equals that figure of the latest committed result (the README is read on GitHub, where
+    the docs' ``{result}`` role does not run)."""
+    import pftrack_results
+
+    text = (ROOT / "README.md").read_text()
+    cited = re.findall(r"([-\d.,%]+)(?:\*\*)?(?:\s+[a-z ]+?)?(?:\*\*)?<!-- ([^>]+?) -->", text)
+    assert len(cited) >= 3, cited
+    for shown, spec in cited:
+        assert pftrack_results.figure(spec) == shown, (spec, shown)

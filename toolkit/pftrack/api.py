@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pftrack.components import Component, Detections, Frame, TrackRecord
+from pftrack.lifecycle import LifecycleTracks
 
 if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera
@@ -48,8 +49,17 @@ __all__ = ["RecordSpread", "Tracker", "Tracks", "image_readers"]
 _IMAGE_FREE = frozenset({
     "pftrack_world.likelihoods.DetectionLikelihood",
     "pftrack_basic.gaussian.GaussianLikelihood",
-    "pftrack.tracker.ManualTracks",
+    "pftrack.lifecycle.ManualTracks",
     "pftrack_basic.tracks.DetectionBirthTracks",
+    "pftrack_basic.tracks.UnmatchedBirthInitiator",
+    "pftrack_basic.tracks.DetectionBirthInitiator",
+    "pftrack_basic.tracks.HitConfirmer",
+    "pftrack_basic.tracks.BorderTerminator",
+    "pftrack_basic.tracks.DuplicateMerger",
+    "pftrack_basic.tracks.OutputBoxReporter",
+    "pftrack_colour.experiment.GivenStartsInitiator",
+    "pftrack_colour.experiment.GivenEndsTerminator",
+    "pftrack_colour.experiment.BoxSizeSizer",  # asks the likelihood, which is visited itself
 })
 _COMPOSITE = "pftrack_world.likelihoods.CompositeLikelihood"
 _CONFIRMED = "pftrack_basic.tracks.ConfirmedTracks"
@@ -67,8 +77,10 @@ def image_readers(engine: MultiTargetTracker) -> list[str]:
     A component says so with a ``reads_image`` attribute (True or False); without one, the
     built-in detection and Gaussian likelihoods and the ``manual`` and ``births`` track managers
     read no pixels, ``composite`` reads them when one of its terms does, ``confirmed`` when it
-    keeps a colour model (``appearance``), and any other likelihood or track manager is taken
-    to read them. Observation models, motion models and associators are never handed a frame.
+    keeps a colour model (``appearance``), a list of lifecycle stages when one of its stages
+    does (of the built-in stages, only ``colour-reid``), and any other likelihood, track
+    manager or stage is taken to read them. Observation models, motion models and associators
+    are never handed a frame.
     """
     found: list[str] = []
 
@@ -86,6 +98,9 @@ def image_readers(engine: MultiTargetTracker) -> list[str]:
         elif key == _CONFIRMED:
             if c.appearance is not None:
                 found.append(f"{who} (its colour model, tracks.appearance)")
+        elif isinstance(c, LifecycleTracks) and key not in _IMAGE_FREE:
+            for stage in c._stages():  # a list of lifecycle stages: the stages that read them
+                visit(stage)
         elif key not in _IMAGE_FREE:
             found.append(who)
 

@@ -774,6 +774,12 @@ class ObservationModel(Component):
 class TrackManager(Component):
     """Track management: which targets exist and which estimates are output.
 
+    This is the engine's interface to track management. Write new track management as
+    lifecycle stages (:mod:`pftrack.lifecycle`: each stage returns decisions, and
+    :class:`pftrack.lifecycle.LifecycleTracks` applies them through this interface); a subclass
+    that overrides ``before_frame`` / ``after_frame`` and drives the engine itself is the legacy
+    form, still supported (the coastal paper's ``volumes``).
+
     The engine (:class:`pftrack.tracker.MultiTargetTracker`) runs one frame as: detect ->
     ``before_frame`` -> predict -> associate -> weight -> normalise, estimate, resample -> the
     filter's own deaths (misses, out of view, out of the valid region) -> ``after_frame``.
@@ -824,3 +830,14 @@ KINDS: dict[str, type[Component]] = {
     "observation": ObservationModel,
     "tracks": TrackManager,
 }
+
+
+def _register_stage_kind() -> None:
+    """Add the lifecycle stages' kind (``stage``) to :data:`KINDS`. Their contracts live in
+    :mod:`pftrack.lifecycle`, which builds on this module, so it is imported at the end."""
+    from pftrack.lifecycle import LifecycleStage
+
+    KINDS["stage"] = LifecycleStage
+
+
+_register_stage_kind()

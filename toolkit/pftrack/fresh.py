@@ -210,11 +210,9 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
     first ``max_frames`` frames' detections are used (``max_frames`` None: all), and the
     background model sees only those frames, at ``silhouette_scale`` of their size: the pass
     costs a bounded time however long the video is, and spreading it over more frames sees
-    more people. On PETS 2009 S2.L1 (``pftrack bench fresh-video``'s detections from frame
-    201, every 2nd frame at half size) the ground error is 0.31 m (focal length 1261 px, real
-    1185; 4.4 s of CPU under load); with a pinhole (before the distortion was fitted) it was
-    0.50 m, 0.51 m from 201-600 at full size, 0.55-0.66 m from 201-400 every frame: the lean's
-    focal length was 10-15 % long whatever the frames.
+    more people. How well the estimate places people on PETS 2009 S2.L1 is measured by
+    ``pftrack bench fresh-video`` (its ``camera_median_error_m``); why the distortion is fitted:
+    docs/decisions/camera-from-people.md.
     Returns ``(PeopleCameraFit, description)`` or ``(None, reason)``.
     """
     from pftrack.geometry.people import estimate_camera_from_people, estimate_camera_from_video

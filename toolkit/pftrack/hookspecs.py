@@ -49,6 +49,7 @@ if TYPE_CHECKING:  # typing only: the specs import nothing heavy
         TrackManager,
     )
     from pftrack.extensions import Benchmark, Command, Demo, ReportWriter
+    from pftrack.lifecycle import LifecycleStage
 
 PROJECT = "pftrack"
 hookspec = pluggy.HookspecMarker(PROJECT)
@@ -106,7 +107,17 @@ def pftrack_register_observation_models(register: Register[type[ObservationModel
 @hookspec
 def pftrack_register_track_managers(register: Register[type[TrackManager]]) -> None:
     """Register :class:`pftrack.components.TrackManager` subclasses by name (births,
-    confirmation, merging, ends, output)."""
+    confirmation, merging, ends, output). A new track manager is best written as lifecycle
+    stages (:func:`pftrack_register_lifecycle_stages`); a :class:`TrackManager` subclass that
+    drives the engine itself is the legacy form, still supported."""
+
+
+@hookspec
+def pftrack_register_lifecycle_stages(register: Register[type[LifecycleStage]]) -> None:
+    """Register :class:`pftrack.lifecycle.LifecycleStage` subclasses by name: initiators,
+    confirmers, terminators, mergers, reidentifiers, sizers and reporters, which a
+    configuration lists under ``tracks: {type: stages, params: {stages: [...]}}``. Each returns
+    decisions that the lifecycle runner applies; none receives the engine."""
 
 
 # -- run configurations ----------------------------------------------------------------------
@@ -175,6 +186,7 @@ __all__ = [
     "pftrack_register_commands",
     "pftrack_register_demos",
     "pftrack_register_detectors",
+    "pftrack_register_lifecycle_stages",
     "pftrack_register_likelihoods",
     "pftrack_register_metrics",
     "pftrack_register_motion_models",

@@ -49,6 +49,7 @@ _REGISTER_HOOKS = {
     "pftrack_register_scenes": "scene",
     "pftrack_register_observation_models": "observation",
     "pftrack_register_track_managers": "tracks",
+    "pftrack_register_lifecycle_stages": "stage",
     "pftrack_register_presets": "preset",
     "pftrack_register_volumes": "volumes",
     "pftrack_register_metrics": "metric",
@@ -60,7 +61,7 @@ _REGISTER_HOOKS = {
 _RECORD_TYPES: dict[str, type] = {"benchmark": Benchmark, "command": Command, "demo": Demo,
                                   "report": ReportWriter}
 ALL_KINDS = ("detector", "likelihood", "motion", "associator", "scene", "observation", "tracks",
-             "preset", "volumes", "metric", "benchmark", "command", "demo", "report")
+             "stage", "preset", "volumes", "metric", "benchmark", "command", "demo", "report")
 
 
 class RegistrationError(ValueError):

@@ -25,6 +25,8 @@ Data flow per frame (top to bottom)::
 The observation model (:class:`pftrack.components.ObservationModel`) and the track management
 (:class:`pftrack.components.TrackManager`) are plugin kinds; :class:`ImageBoxObservation` and
 :class:`ManualTracks` (targets added by the caller, every estimate output) are the defaults.
+Track management is written as lifecycle stages (:mod:`pftrack.lifecycle`) that return
+decisions; their runner applies them through the engine's public methods below.
 
 The engine streams: it keeps only the live targets, so memory does not grow with video length.
 All randomness comes from one ``numpy.random.Generator``; the same seed gives bit-identical tracks.
@@ -65,6 +67,7 @@ from pftrack.filter import (
     weighted_mean,
 )
 from pftrack.filter.core import _EXP_ZERO_BELOW
+from pftrack.lifecycle import ManualTracks
 
 log = logging.getLogger(__name__)
 
@@ -206,15 +209,6 @@ class _Filter:
     weights: np.ndarray
     anchor: np.ndarray  # position to re-spread around when every weight vanishes
     log_weights: np.ndarray  # np.log(weights), kept so a uniform row is not re-logged each frame
-
-
-class ManualTracks(TrackManager):
-    """The default track management: targets are added by the caller
-    (:meth:`MultiTargetTracker.add_target`), end only by the filter's own rules, and every
-    live target's estimate is output. No parameters."""
-
-    def __init__(self) -> None:
-        """No parameters."""
 
 
 class ComponentOutputError(RuntimeError):

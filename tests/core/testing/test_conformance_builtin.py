@@ -11,7 +11,7 @@ from pftrack.host import get_host
 from pftrack.testing import assert_conforms, parametrize_with_checks
 
 _COMPONENT_KINDS = ("detector", "likelihood", "motion", "associator", "scene", "observation",
-                    "tracks")
+                    "tracks", "stage")
 
 
 def _builtin_entries():
@@ -26,7 +26,8 @@ _ENTRIES = _builtin_entries()
 
 def test_every_kind_has_a_builtin_component():
     kinds = {e.kind for e in _ENTRIES}
-    assert {"detector", "likelihood", "motion", "associator", "observation", "tracks"} <= kinds, \
+    assert {"detector", "likelihood", "motion", "associator", "observation", "tracks",
+            "stage"} <= kinds, \
         kinds
 
 

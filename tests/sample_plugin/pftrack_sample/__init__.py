@@ -2,7 +2,8 @@
 
 It shows the whole surface a plugin author needs: components subclassing the contracts in
 :mod:`pftrack.components` (a detector, likelihoods, a motion model, an associator, a scene, an
-observation model and a track manager), a preset shipped as package data, a metric, a report writer,
+observation model, a track manager in the legacy form that drives the engine itself, and a lifecycle
+stage that only returns decisions), a preset shipped as package data, a metric, a report writer,
 and a command, a benchmark and a demo (:mod:`pftrack.extensions`), all registered through
 ``pftrack_register_*`` hooks and exposed through the ``pftrack`` entry-point group in
 ``pyproject.toml``. The project's tests install it into a temporary folder and check that ``pftrack
@@ -27,6 +28,7 @@ from pftrack.components import (
     Target,
     TrackManager,
 )
+from pftrack.lifecycle import End, FrameView, Terminator
 
 __version__ = "0.3.1"
 
@@ -217,6 +219,26 @@ class SeenTwiceTracks(TrackManager):
         self.__dict__.setdefault("hits_", {}).pop(target.id, None)
 
 
+class MissLimitTerminator(Terminator):
+    """A lifecycle stage: a track ends once it has gone more than ``max_unmatched`` frames
+    without a matched detection (its record of that frame is withdrawn). It sees the tracks
+    read-only and returns :class:`~pftrack.lifecycle.End` decisions; the lifecycle runner
+    applies them.
+
+    Parameters
+    ----------
+    max_unmatched : int
+        Frames without a matched detection a track survives. Unit: frames.
+    """
+
+    def __init__(self, max_unmatched: int = 3):
+        self.max_unmatched = max_unmatched
+
+    def terminate(self, view: FrameView) -> list[End]:
+        return [End(t.id, f"{t.misses} frames unmatched") for t in view.tracks
+                if t.misses > self.max_unmatched]
+
+
 def count_metric(gt_rows: np.ndarray, track_rows: np.ndarray) -> dict[str, float]:
     """Rows of tracks per row of ground truth."""
     return {"rows_ratio": len(track_rows) / max(len(gt_rows), 1),
@@ -325,6 +347,11 @@ def pftrack_register_observation_models(register):
 @hookimpl
 def pftrack_register_track_managers(register):
     register("sample-seen-twice", SeenTwiceTracks)
+
+
+@hookimpl
+def pftrack_register_lifecycle_stages(register):
+    register("sample-miss-limit", MissLimitTerminator)
 
 
 @hookimpl

@@ -37,6 +37,7 @@ from pftrack.components import (
     TrackRecord,
     _plain,
 )
+from pftrack.lifecycle import Birth, FrameView, Initiator, LifecycleStage, StagedTracks
 from pftrack.testing.synthetic import SyntheticScene, synthetic_scene, target_from_box
 
 __all__ = [
@@ -651,6 +652,29 @@ def _tracks_workflow(ex: ConformanceExample, rng: np.random.Generator, run: _Run
     run.outputs["rows"] = np.array(rows).reshape(-1, 6)
 
 
+class _KitBirths(Initiator):
+    """The stage workflow's initiator: every detection the associator left unmatched starts a
+    track (a stage of another role then has tracks to act on)."""
+
+    def initiate(self, view: FrameView) -> list[Birth]:
+        d = view.detections
+        if d is None:
+            return []
+        return [Birth(box_xywh_px=d.boxes_xywh_px[i], detection_index=int(i))
+                for i in view.unmatched]
+
+
+def _stage_workflow(ex: ConformanceExample, rng: np.random.Generator, run: _Run) -> None:
+    """A lifecycle stage runs as the engine's track management (:class:`StagedTracks`), with
+    the kit's initiator beside it unless it is an initiator itself: the tracks workflow."""
+    stage = ex.component
+    assert isinstance(stage, LifecycleStage)
+    stages: list[Any] = [stage] if stage.role == "initiator" else [stage, _KitBirths()]
+    inner = copy.copy(ex)
+    inner.component = StagedTracks(stages=stages)
+    _tracks_workflow(inner, rng, run)
+
+
 _WORKFLOWS: dict[str, Callable[[ConformanceExample, np.random.Generator, _Run], None]] = {
     "motion": _motion_workflow,
     "likelihood": _likelihood_workflow,
@@ -659,6 +683,7 @@ _WORKFLOWS: dict[str, Callable[[ConformanceExample, np.random.Generator, _Run], 
     "scene": _scene_workflow,
     "observation": _observation_workflow,
     "tracks": _tracks_workflow,
+    "stage": _stage_workflow,
 }
 
 

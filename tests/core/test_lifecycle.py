@@ -1,0 +1,204 @@
+"""The track lifecycle as stages (:mod:`pftrack.lifecycle`): the named track managers equal
+their explicit stage lists and the rows they gave as single track managers; stages see tracks
+read-only and run in the documented order."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pftrack.components import RunContext
+from pftrack.lifecycle import (
+    ROLES,
+    Birth,
+    Confirm,
+    Confirmer,
+    End,
+    FrameView,
+    Initiator,
+    Merger,
+    Reidentifier,
+    Reporter,
+    Sizer,
+    StagedTracks,
+    Terminator,
+)
+from pftrack.testing.checks import _KitAssociator, _KitNearest, _KitWalk
+from pftrack.testing.synthetic import synthetic_scene
+from pftrack.tracker import ImageBoxObservation, MultiTargetTracker
+from pftrack_basic.tracks import ConfirmedTracks, DetectionBirthTracks
+
+#: every option of ``confirmed`` that acts on this small scene (merging, output boxes,
+#: confirmation, the birth overlap test), and the colour model and border test beside them
+CONFIRMED = dict(min_score=0.0, max_iou=0.2, confirm_hits=2, confirm_window=3, merge_iou=0.3,
+                 hide_after_misses=1, end_at_border=True, hidden_reid=True,
+                 appearance={"bins": 8, "sigma": 0.2}, box_from_detection=0.5, box_min_iou=0.1)
+#: the same as an explicit list of stages
+STAGES = [
+    {"type": "colour-reid", "params": {"bins": 8, "sigma": 0.2, "hidden_after_misses": 1}},
+    {"type": "output-boxes", "params": {"hide_after_misses": 1, "box_from_detection": 0.5,
+                                        "box_min_iou": 0.1}},
+    {"type": "hit-confirmation", "params": {"confirm_hits": 2, "confirm_window": 3}},
+    "border-exit",
+    {"type": "duplicate-merge", "params": {"merge_iou": 0.3}},
+    {"type": "detection-births", "params": {"min_score": 0.0, "max_iou": 0.2}},
+]
+#: sha256 of the rows (frame, id, box rounded to 1e-9 px) that ``confirmed`` gave with these
+#: parameters when it was one track manager driving the engine itself (117 rows, 6 ids)
+CONFIRMED_ROWS_SHA = "834e3e91ba8e8904b54a270e2fb938acdf16b3e5f2ed3e956ef005dddeca81dc"
+
+
+def _rows(tracks, seed: int = 3) -> np.ndarray:
+    sc = synthetic_scene(seed=seed, n_frames=30)
+    tracks.setup(RunContext())
+    eng = MultiTargetTracker(_KitWalk(), _KitNearest(), ImageBoxObservation(20, 40),
+                             tracks=tracks, associator=_KitAssociator(), detection_driven=True,
+                             n_particles=64, init_spread=2.0, max_misses=3,
+                             rng=np.random.default_rng(seed))
+    out = [[r.frame, r.id, *r.box_xywh_px] for f in sc.frames
+           for r in eng.step(f, sc.detections(f.index))]
+    return np.array(out).reshape(-1, 6)
+
+
+def test_confirmed_equals_its_stages_and_its_rows_as_one_manager():
+    named = _rows(ConfirmedTracks(**CONFIRMED))
+    explicit = _rows(StagedTracks(stages=STAGES))
+    assert named.shape == (117, 6) and len(np.unique(named[:, 1])) == 6
+    np.testing.assert_array_equal(named, explicit)
+    assert hashlib.sha256(np.round(named, 9).tobytes()).hexdigest() == CONFIRMED_ROWS_SHA
+    # the options act on this scene: without merging or output boxes the rows differ
+    for key, value in [("merge_iou", 1.0), ("box_from_detection", 0.0), ("confirm_hits", 1)]:
+        other = _rows(ConfirmedTracks(**{**CONFIRMED, key: value}))
+        assert other.shape != named.shape or not np.array_equal(other, named), key
+
+
+def test_births_is_the_unmatched_births_stage():
+    named = _rows(DetectionBirthTracks(min_score=0.0))
+    explicit = _rows(StagedTracks(stages=[{"type": "unmatched-births",
+                                           "params": {"min_score": 0.0}}]))
+    assert len(named) > 0
+    np.testing.assert_array_equal(named, explicit)
+
+
+def test_no_stage_outputs_every_estimate_and_starts_nothing():
+    assert len(_rows(StagedTracks(stages=[]))) == 0
+
+
+def test_unknown_stage_is_named():
+    with pytest.raises(ValueError, match=r"tracks.stages\[1\].*no stage named 'nope'"):
+        StagedTracks(stages=["border-exit", "nope"]).setup(RunContext())
+
+
+class _Log:
+    calls: list[str] = []
+
+
+def _logged(role_cls, method, result=()):
+    def run(self, view):
+        _Log.calls.append(f"{self.role}.{method}")
+        return result(self, view) if callable(result) else result
+
+    return type(f"Logged{role_cls.__name__}", (role_cls,), {method: run})
+
+
+def _births(self, view: FrameView):
+    d = view.detections
+    return [Birth(box_xywh_px=d.boxes_xywh_px[i], detection_index=int(i))
+            for i in view.unmatched]
+
+
+def test_roles_run_in_the_documented_order_and_see_tracks_read_only():
+    writes = []
+
+    def confirm(self, view: FrameView):
+        arrays = [view.frame.image, view.detections.boxes_xywh_px, view.detections.scores,
+                  view.unmatched]
+        for t in view.tracks:
+            arrays += [t.state, t.box_xywh_px]
+            if t.detection is not None:
+                arrays.append(t.detection.box_xywh_px)
+        for a in arrays:
+            try:
+                a[...] = 0
+            except ValueError:
+                writes.append("refused")
+            else:
+                writes.append("written")
+        return [Confirm(t.id) for t in view.tracks if t.tentative]
+
+    stages = [_logged(Merger, "merge")(), _logged(Initiator, "initiate", _births)(),
+              _logged(Initiator, "scheduled")(), _logged(Terminator, "terminate")(),
+              _logged(Confirmer, "confirm", confirm)(), _logged(Reporter, "report")(),
+              _logged(Sizer, "resize")(), _logged(Reidentifier, "observe")()]
+    _Log.calls = []
+    rows = _rows(StagedTracks(stages=stages))
+    assert len(rows) and writes and set(writes) == {"refused"}
+    # one frame with live tracks: before the predict, then after the estimates in ROLES order
+    frame = ["initiator.scheduled", "reidentifier.observe", "sizer.resize", "reporter.report",
+             "confirmer.confirm", "terminator.terminate", "merger.merge", "initiator.initiate"]
+    assert [c.split(".")[0] for c in frame[1:]] == list(ROLES)
+    assert _Log.calls[:len(frame)] == frame
+    assert _Log.calls[len(frame):2 * len(frame)] == frame
+
+
+def test_an_end_keeps_or_withdraws_the_frame_record():
+    class EndAll(Terminator):
+        def __init__(self, output: bool = False) -> None:
+            self.output = output
+
+        def terminate(self, view: FrameView):
+            return [End(t.id, "test", output=self.output) for t in view.tracks]
+
+    births = {"type": "unmatched-births", "params": {"min_score": 0.0}}
+    kept = _rows(StagedTracks(stages=[births, EndAll(output=True)]))
+    gone = _rows(StagedTracks(stages=[births, EndAll(output=False)]))
+    # a track born from a detection is output in its birth frame, then ends in its first
+    # frame after that: with output=True that frame's record is kept
+    assert len(kept) > len(gone) > 0
+
+
+_DATA = Path(os.environ.get("PFTRACK_DATA", "")) / "pets09"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not (_DATA / "vtest.avi").is_file(), reason="PETS 2009 data not found")
+@pytest.mark.parametrize(("preset", "n_rows", "sha"), [
+    ("people-image", 160, "ca5a893d3652de560996463b3f2cce2883d721b9e320b9cb399b2bd4fc529315"),
+    ("people-ground", 154, "0da4c3e5a94508f214160fba6d7083fe66a370126a1a41c0fe1aea4ddfa6f033"),
+])
+def test_presets_track_pets_as_before(preset, n_rows, sha, tmp_path):
+    """PETS frames 1-40 with the bench's simulated noisy detections (seed 0), seed 0: the rows
+    (rounded to 1e-6) the presets' ``confirmed`` gave as one track manager."""
+    from pftrack.io.detections import read_detections
+    from pftrack.pipeline import load_config, run_pipeline
+    from pftrack_bench.own_detections import simulate_detections
+
+    gt = np.loadtxt(_DATA / "gt.txt", delimiter=",")
+    det = simulate_detections(gt[gt[:, 0] <= 40], "noisy", 0, (768, 576))
+    np.savetxt(tmp_path / "det.txt", det, delimiter=",")
+    r = run_pipeline(load_config(preset), video=_DATA / "vtest.avi",
+                     camera=_DATA / "View_001.xml", frames=(1, 40),
+                     detections=read_detections(tmp_path / "det.txt"), seed=0, progress=False,
+                     report=False)
+    assert r.rows.shape == (n_rows, 10)
+    assert hashlib.sha256(np.round(r.rows, 6).tobytes()).hexdigest() == sha
+
+
+def test_a_stage_list_reads_pixels_only_through_its_stages():
+    from types import SimpleNamespace
+
+    from pftrack.api import image_readers
+    from pftrack.host import get_host
+
+    lik = get_host().build("likelihood", "gaussian")
+
+    def readers(stages):
+        tracks = StagedTracks(stages=stages)
+        tracks.setup(RunContext())
+        return image_readers(SimpleNamespace(likelihood=lik, tracks=tracks))
+
+    assert readers(["detection-births", "hit-confirmation", "duplicate-merge"]) == []
+    assert readers(["colour-reid", "detection-births"]) == ["stage 'colour-reid'"]
