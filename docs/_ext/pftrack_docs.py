@@ -339,6 +339,13 @@ def _schema_table(fields: list[tuple[str, Any]]) -> list[str]:
     return out
 
 
+def _component_plugins(host: Any) -> list[str]:
+    """The loaded plugins that register more than benchmarks (the repository's benchmark
+    package registers only those: it is no part of a run's configuration)."""
+    return [name for name, p in host.plugins.items()
+            if set(p.components) - {"benchmark"} or not p.components]
+
+
 def config_reference() -> str:
     """The configuration reference page, generated from the code.
 
@@ -377,7 +384,8 @@ def config_reference() -> str:
                     lines += _schema_table([(f"{path}.{sub}.{c.name}", c) for c in f.children])
     lines += ["", "## Components", "",
               "Every component registered by the installed plugins (this build's: "
-              + ", ".join(f"`{p}`" for p in sorted(host.plugins)) + "). The unit column "
+              + ", ".join(f"`{p}`" for p in sorted(_component_plugins(host)))
+              + "). The unit column "
               "shows the unit each component states (a `Param`'s `unit`, or a description's "
               "closing `Unit: X.`; for a third-party parameter that states none, one read off "
               "its name, `_m`, `_px`, ...):", "",

@@ -38,6 +38,14 @@ def _rows(page: str, section: str) -> dict[str, list[str]]:
     return out
 
 
+def test_the_configuration_reference_names_the_plugins_of_components_only(page):
+    """The repository's benchmarks (plugin ``bench``, ``pftrack_bench``) register no
+    component: the configuration reference, a product page, does not list them."""
+    line = next(ln for ln in page.splitlines() if "this build's:" in ln)
+    assert "`basic`, `coast`, `colour`, `network`, `world`" in line
+    assert "`bench`" not in line and "pftrack_bench" not in page
+
+
 def test_every_schema_key_is_on_the_page_with_its_default_and_unit(page):
     from pftrack.config import CONFIG_SCHEMA, iter_fields
     from pftrack.pipeline import CONFIG_KEYS, TRACKER_KEYS
