@@ -74,3 +74,15 @@ def test_the_scan_sees_lazy_imports(tmp_path):
 
 def test_no_core_package_data_is_a_plugin_preset():
     assert not (CORE / "presets").exists()
+
+
+def test_without_the_benchmarks_pftrack_bench_says_where_they_are():
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PFTRACK_DISABLE_PLUGINS": "bench"}
+    out = subprocess.run([sys.executable, "-m", "pftrack", "bench", "--help"], env=env,
+                         capture_output=True, text=True, timeout=120, check=True).stdout
+    assert "no benchmark is registered: pftrack ships none" in " ".join(out.split())
+    assert "pftrack_bench" in out
