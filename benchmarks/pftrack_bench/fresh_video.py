@@ -275,7 +275,8 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
         "preset": cfg.get("name", args.preset), "detector_threshold": threshold,
         "detector_full_every": int(((cfg.get("detector") or {}).get("params") or {}).get(
             "full_every", 1)),
-        "tuned_on": "frames 1-200 (detector margin and score map, presets, peer settings)",
+        "tuned_on": "frames {}-{} (detector margin and score map, presets, peer settings)"
+                    .format(*PROTOCOL.chosen_frames[""]),
     })
     goals = {}
     for k, (op, v) in GOALS.items():

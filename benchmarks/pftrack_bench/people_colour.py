@@ -109,7 +109,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     finally:
         cv2.setNumThreads(threads)
     return {"frames": f"{first}:{last}", "detections": source, "seeds": seeds, "rows": rows,
-            "tuned_on": "frames 1-200"}
+            "tuned_on": "frames {}-{}".format(*PROTOCOL.chosen_frames[""])}
 
 
 def format_table(result: dict[str, Any]) -> str:
