@@ -721,15 +721,9 @@ class LifecycleTracks(TrackManager):
 
 class StagedTracks(LifecycleTracks):
     """Track management as an explicit list of lifecycle stages (see :mod:`pftrack.lifecycle`
-    for the roles and the order they run in), e.g.::
-
-        tracks:
-          type: stages
-          params:
-            stages:
-              - {type: detection-births, params: {min_score: 0.5, max_iou: 0.3}}
-              - {type: hit-confirmation, params: {confirm_hits: 3, confirm_window: 6}}
-              - {type: duplicate-merge, params: {merge_iou: 0.6}}
+    for the roles and the order they run in), e.g. the configuration ``tracks: {type: stages,
+    params: {stages: [{type: detection-births, params: {min_score: 0.5}}, hit-confirmation,
+    duplicate-merge]}}`` (a full example: the docs page "How tracks start, are confirmed and end").
 
     Parameters
     ----------
