@@ -15,7 +15,8 @@ A small Sphinx extension (``docs/conf.py`` loads it). On ``builder-inited`` it w
 * ``cli_reference.md``: every command's ``--help``;
 * ``results.md``: the latest result file of each benchmark in ``results/``
   (``pftrack_results.results_page``);
-* ``api/*.md``: one autodoc page per public module of the core and of the built-in plugins;
+* ``api/*.md``: one autodoc page per public module of the core and of the built-in plugins
+  (``api/_modules``), and of the repository's benchmarks (``api/_benchmarks``, their own heading);
 
 and executes the notebooks (``notebooks/*.ipynb``, stored without outputs) into
 ``docs/gallery/`` on the short slices their tests use (:data:`NOTEBOOKS`), so that myst-nb
@@ -338,6 +339,13 @@ def _schema_table(fields: list[tuple[str, Any]]) -> list[str]:
     return out
 
 
+def _component_plugins(host: Any) -> list[str]:
+    """The loaded plugins that register more than benchmarks (the repository's benchmark
+    package registers only those: it is no part of a run's configuration)."""
+    return [name for name, p in host.plugins.items()
+            if set(p.components) - {"benchmark"} or not p.components]
+
+
 def config_reference() -> str:
     """The configuration reference page, generated from the code.
 
@@ -376,7 +384,8 @@ def config_reference() -> str:
                     lines += _schema_table([(f"{path}.{sub}.{c.name}", c) for c in f.children])
     lines += ["", "## Components", "",
               "Every component registered by the installed plugins (this build's: "
-              + ", ".join(f"`{p}`" for p in sorted(host.plugins)) + "). The unit column "
+              + ", ".join(f"`{p}`" for p in sorted(_component_plugins(host)))
+              + "). The unit column "
               "shows the unit each component states (a `Param`'s `unit`, or a description's "
               "closing `Unit: X.`; for a third-party parameter that states none, one read off "
               "its name, `_m`, `_px`, ...):", "",
@@ -553,10 +562,11 @@ def _myst_roles(text: str, module: str) -> str:
 # --------------------------------------------------------------------------------------------
 
 
-def api_modules() -> list[str]:
-    """The public modules of the core and of the built-in plugins, sorted."""
+def api_modules(bases: tuple[str, ...] = ("toolkit", "plugins")) -> list[str]:
+    """The public modules under the repository folders ``bases`` (default: the core and the
+    built-in plugins, the product), sorted."""
     mods = []
-    for base in (ROOT / "toolkit", ROOT / "plugins"):
+    for base in (ROOT / b for b in bases):
         for path in sorted(base.rglob("*.py")):
             rel = path.relative_to(base).with_suffix("")
             parts = list(rel.parts)
@@ -568,10 +578,12 @@ def api_modules() -> list[str]:
     return sorted(set(mods))
 
 
-def write_api_pages(out: Path) -> list[str]:
-    """One Markdown page per module of :func:`api_modules` under ``out``; returns the names."""
+def write_api_pages(out: Path, bases: tuple[str, ...] = ("toolkit", "plugins")) -> list[str]:
+    """One Markdown page per module of :func:`api_modules` (``bases``) under ``out``; returns
+    the names. The benchmarks (``bases=("benchmarks",)``) get a folder of their own, listed
+    under their own heading: they are not the product's API."""
     out.mkdir(parents=True, exist_ok=True)
-    mods = api_modules()
+    mods = api_modules(bases)
     for mod in mods:
         _write_if_changed(out / f"{mod}.md", "\n".join([
             f"# `{mod}`", "", "```{eval-rst}", f".. automodule:: {mod}", "   :members:",
@@ -702,6 +714,7 @@ def _generate(app: Any) -> None:
     _write_if_changed(gen / "volumes_doc.md",
                       docstring_markdown("pftrack.geometry.volumes", "World frame conventions"))
     write_api_pages(DOCS / "api" / "_modules")
+    write_api_pages(DOCS / "api" / "_benchmarks", bases=("benchmarks",))
     if os.environ.get("PFTRACK_DOCS_NOTEBOOKS", "1") == "0":
         for name in NOTEBOOKS:  # unexecuted copies: a quick build without pictures
             dest = DOCS / "gallery" / name

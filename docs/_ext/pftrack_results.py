@@ -9,9 +9,9 @@ writes its JSON result, wrapped with what is needed to read it later, to
 Each file holds ``benchmark``, ``args`` (the bench's own arguments), ``commit`` (``git
 rev-parse HEAD`` and whether the working tree had changes), ``date`` (UTC, ISO 8601),
 ``machine`` (host name, processor, logical cores, Python, the 1-minute load before and after),
-``wall_s``, ``protocol`` (which frames or seeds chose the settings and which are reported, from
-:data:`PROTOCOLS`) and ``result`` (the benchmark's JSON as printed). No figure is typed by hand:
-every number comes from the run.
+``wall_s``, ``protocol`` (which frames or seeds chose the settings and which are reported, as
+the benchmark declares it and its JSON carries it: :func:`protocol_of`) and ``result`` (the
+benchmark's JSON as printed). No figure is typed by hand: every number comes from the run.
 
 Rendering (the Sphinx side, called by ``pftrack_docs``): :func:`results_page` reads every file
 of ``results/`` and writes one section per benchmark from its latest file, the headline figures
@@ -35,101 +35,27 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "results"
 
-#: What each benchmark's settings were chosen on and what it reports: the protocol a reader
-#: needs to judge a figure. Keyed by benchmark name.
-PROTOCOLS: dict[str, dict[str, str]] = {
-    "pets09-ground": {
-        "data": "PETS 2009 S2.L1 (view 1, 768 x 576, 795 frames), its Tsai camera",
-        "chosen_on": "frames 1-400: the SVM detector is trained there (the preset's "
-                     "detector.train.frames)",
-        "reported_on": "frames 401-795 (ground-truth numbering), tracking seed as in args "
-                       "(default 0)",
-    },
-    "fresh-video": {
-        "data": "PETS 2009 S2.L1, nothing learnt from its labels or its camera at run time",
-        "chosen_on": "frames 1-200: the detector's margin and score map, the presets, the "
-                     "peer's settings",
-        "reported_on": "frames 201-795; the real camera only measures the estimated one",
-    },
-    "own-detections": {
-        "data": "PETS 2009 S2.L1 and MOT17-09: detections simulated from the ground truth "
-                "(clean: 20 % missed, 3 px corner, 4 % size; noisy: 30 % missed, 6 px, 8 %, "
-                "false positives 10 %) over noise seeds, and the hog-people detector's boxes",
-        "chosen_on": "PETS frames 1-400 and MOT17-09 frames 1-262 (the presets' settings); "
-                     "the peers keep their documented defaults",
-        "reported_on": "PETS frames 401-795 and MOT17-09 frames 263-525, noise and tracking "
-                       "seeds 0-4",
-    },
-    "people-colour": {
-        "data": "PETS 2009 S2.L1, the hog-people detector's boxes",
-        "chosen_on": "frames 1-200 (the people-colour preset's colour weight and gates)",
-        "reported_on": "frames 201-795, tracking seeds 0-2",
-    },
-    "seed000": {
-        "data": "the built-in walkers scene (synthetic colour targets)",
-        "chosen_on": "the colour paper's settings (500 particles, its likelihoods)",
-        "reported_on": "the scene as rendered; speeds in frames per second of one core",
-    },
-    "core": {
-        "data": "synthetic particle clouds, the same for both libraries",
-        "chosen_on": "nothing is tuned: one predict, weight and resample step",
-        "reported_on": "the step's time, pftrack against Stone Soup in the same process",
-    },
-    "soccer": {
-        "data": "the built-in soccer scene (real player trajectories rendered through the "
-                "paper's camera)",
-        "chosen_on": "the scene's own settings (see the soccer-ground preset)",
-        "reported_on": "the clip the benchmark renders",
-    },
-    "seed003": {
-        "data": "PETS 2009 S2.L1 with its Tsai camera and the walkway cuboid; the built-in "
-                "coast scene through its camera",
-        "chosen_on": "PETS frames 1-400 train the eigenspace model; tracking parameters on "
-                     "frames 201-400, the identity ones on 401-600",
-        "reported_on": "PETS frames as in args (default 401-795; 601-795 alone chose "
-                       "nothing), the coast scene's boat, car and multi clips",
-    },
-    "seed004": {
-        "data": "virtual camera networks of CAVIAR4REID person images (16 cameras, 24 "
-                "people per dataset)",
-        "chosen_on": "datasets drawn from seeds 1000-1002 (break costs, cameras dropped, "
-                     "gates)",
-        "reported_on": "datasets drawn from seeds 0-4, 10 ensemble runs each",
-    },
-    "background": {
-        "data": "real infrared sea (zodiac), a beach (ocean), PETS 2009 S2.L1 and a 16-bit "
-                "thermal clip with its annotated boxes",
-        "chosen_on": "the first half of each sequence trains the models (PETS frames "
-                     "1-400); OpenCV's subtractors keep their defaults",
-        "reported_on": "the second half of each sequence (PETS 401-795); the thermal clip's "
-                       "frames after its training frames",
-    },
-    "batch": {
-        "data": "PETS 2009 S2.L1, the pets09-ground preset in 8 slices of 50 frames",
-        "chosen_on": "nothing is tuned: the same jobs serially and on a 2-worker local "
-                     "Dask cluster",
-        "reported_on": "frames 396-795; wall times on a shared machine, with its load",
-    },
-    "detectors": {
-        "data": "PETS 2009 S2.L1 (768 x 576) and MOT17-09 (1920 x 1080, MOT17's rule for "
-                "distractors)",
-        "chosen_on": "PETS frames 1-400 and MOT17-09 frames 1-262 (the ssdlite-people "
-                     "score calibration and the precision-matched threshold)",
-        "reported_on": "PETS frames 401-795 and MOT17-09 frames 263-525, every 5th frame",
-    },
-    "pets09-colour": {
-        "data": "PETS 2009 S2.L1, every person started from their first ground-truth box",
-        "chosen_on": "all 795 frames: the colour region, its three stripes and the "
-                     "per-person weighting were compared on the whole sequence (no held-out "
-                     "part); OpenCV's trackers keep their defaults",
-        "reported_on": "all 795 frames, tracking seeds 0-2",
-    },
-    "mog2-people": {
-        "data": "PETS 2009 S2.L1 with its Tsai camera",
-        "chosen_on": "nothing is tuned: OpenCV MOG2's defaults, a 1.7 m person",
-        "reported_on": "frames 201-795 (MOG2 learns from frame 1)",
-    },
-}
+#: The keys of the protocol a benchmark declares (``PROTOCOL`` in its module of
+#: ``pftrack_bench``) and its JSON result carries under ``"protocol"``.
+PROTOCOL_KEYS = ("data", "chosen_on", "reported_on")
+
+
+def protocol_of(name: str, result: dict[str, Any]) -> dict[str, str]:
+    """The protocol a benchmark's JSON result carries (the words of :data:`PROTOCOL_KEYS`).
+
+    Raises
+    ------
+    ValueError
+        The result carries no protocol (a benchmark that declares none, or a result file
+        written before benchmarks carried theirs).
+    """
+    proto = result.get("protocol")
+    if not isinstance(proto, dict) or any(k not in proto for k in PROTOCOL_KEYS):
+        raise ValueError(f"results: the result of benchmark {name!r} carries no protocol "
+                         f"({', '.join(PROTOCOL_KEYS)} under 'protocol'); every benchmark of "
+                         "pftrack_bench declares one")
+    return {k: str(proto[k]) for k in PROTOCOL_KEYS}
+
 
 #: The figures shown per benchmark on the results page (keys of its JSON result, dotted for a
 #: nested one), with a label.
@@ -281,7 +207,7 @@ def record(name: str, args: list[str], out_dir: Path = RESULTS,
            "commit": commit, "date": date.isoformat().replace("+00:00", "Z"),
            "machine": {**machine(), "load_1min_before": load_before,
                        "load_1min_after": os.getloadavg()[0]},
-           "wall_s": wall, "protocol": PROTOCOLS.get(bench, {}), "result": result}
+           "wall_s": wall, "protocol": protocol_of(bench, result), "result": result}
     out_dir.mkdir(parents=True, exist_ok=True)
     dest = out_dir / f"{name}-{date.strftime('%Y%m%dT%H%M%SZ')}.json"
     tmp_dest = dest.with_suffix(".json.tmp")
@@ -308,7 +234,7 @@ def wrap(name: str, result_file: Path, args: list[str], out_dir: Path = RESULTS)
     doc = {"benchmark": bench, **({"variant": variant} if variant else {}), "args": args,
            "commit": commit, "date": date, "machine": mach,
            "wall_s": None, "wrapped": Path(result_file).name,
-           "protocol": PROTOCOLS.get(bench, {}), "result": result}
+           "protocol": protocol_of(bench, result), "result": result}
     out_dir.mkdir(parents=True, exist_ok=True)
     stamp = date.replace("-", "").replace(":", "")
     dest = out_dir / f"{name}-{stamp}.json"

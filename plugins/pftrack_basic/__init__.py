@@ -26,8 +26,7 @@ Components (registered name -> class):
   ``duplicate-merge`` (merger), ``colour-reid`` (reidentifier), ``output-boxes`` (reporter),
   all in :mod:`pftrack_basic.tracks`;
 * report writer: ``tracks`` (:func:`pftrack.render.report.write_report`: overlays and image
-  trajectories beside the ground-plane top view), ``pftrack run``'s default;
-* benchmark: ``core`` (:mod:`pftrack_basic.bench_core`: the filter step against Stone Soup).
+  trajectories beside the ground-plane top view), ``pftrack run``'s default.
 
 Only this module is imported when the host loads the plugin; the component modules are light
 (numpy only; scipy and OpenCV are imported inside the methods that need them).
@@ -79,14 +78,6 @@ def pftrack_register_detectors(register):
 
     register("mog2", BackgroundSubtractionDetector)
 
-
-@hookimpl
-def pftrack_register_benchmarks(register):
-    from pftrack.extensions import Benchmark
-
-    from pftrack_basic import bench_core
-
-    register("core", Benchmark.from_module(bench_core))
 
 
 @hookimpl

@@ -17,9 +17,7 @@ Components (registered name -> class):
   through its camera, package data ``pftrack_coast/data/coast_seed003.yaml``: sea, shore, land,
   boats and a car, training frames);
 * volumes: ``pets09-walkway`` (package data ``pftrack_coast/data/pets09_walkway.yaml``: the
-  ``walkway`` cuboid of preset ``pets09-volume``);
-* benchmark: ``background`` (:mod:`pftrack_coast.bench_background`: the model against OpenCV's
-  background subtractors on real water, campus and thermal video).
+  ``walkway`` cuboid of preset ``pets09-volume``).
 
 Only this module is imported when the host loads the plugin; the component modules are imported
 inside the hooks.
@@ -77,12 +75,3 @@ def pftrack_register_volumes(register):
     register("pets09-walkway",
              str(resources.files("pftrack_coast") / "data" / "pets09_walkway.yaml"))
 
-
-@hookimpl
-def pftrack_register_benchmarks(register):
-    from pftrack.extensions import Benchmark
-
-    from pftrack_coast import bench_background, bench_seed003
-
-    register("background", Benchmark.from_module(bench_background))
-    register("seed003", Benchmark.from_module(bench_seed003))

@@ -1,10 +1,10 @@
 """Built-in plugin ``colour`` (the colour paper): colour-histogram likelihoods (Bhattacharyya and
 cross entropy, with and without a background histogram), the synthetic ``walkers`` scene and a
-generic ``video`` scene (a video file with optional MOTChallenge ground truth); the benchmarks
-``seed000`` (the paper's Tables 1-4) and ``pets09-colour`` (every person of PETS 2009 S2.L1,
-against OpenCV's MIL and CSRT), the default demo ``walkers`` (``pftrack demo``), the
-``image-box-sized`` observation model (box size following the matched detections) and the
-``people-colour`` preset (the colour likelihood for a user's own detections, ``pftrack run``).
+generic ``video`` scene (a video file with optional MOTChallenge ground truth), the default
+demo ``walkers`` (``pftrack demo``), the ``image-box-sized`` observation model (box size
+following the matched detections) and the ``people-colour`` preset (the colour likelihood for a
+user's own detections, ``pftrack run``). The paper's tables are the benchmarks ``seed000`` and
+``pets09-colour`` of the repository's benchmark package ``pftrack_bench``.
 
 Registered through the ``pftrack`` entry-point group exactly as a third-party plugin is; nothing
 is imported from here until the host loads the plugin.
@@ -47,16 +47,6 @@ def pftrack_register_scenes(register):
     except RegistrationError:
         pass
 
-
-@hookimpl
-def pftrack_register_benchmarks(register):
-    from pftrack.extensions import Benchmark
-
-    from pftrack_colour import bench_people_colour, bench_pets09, bench_seed000
-
-    register("seed000", Benchmark.from_module(bench_seed000))
-    register("pets09-colour", Benchmark.from_module(bench_pets09))
-    register("people-colour", Benchmark.from_module(bench_people_colour))
 
 
 @hookimpl

@@ -13,22 +13,13 @@ Python API (imported on use; nothing heavy at plugin load):
 * :mod:`pftrack_network.virtual`: the virtual experiment of sec. 4.1 on real CAVIAR4REID images;
 * :mod:`pftrack_network.video`: tracklets cut out of a video with pftrack's ``tracks.txt``.
 
-Registered: benchmark ``seed004`` (:mod:`pftrack_network.bench_seed004`: Tables 1 and 3).
+The paper's Tables 1 and 3 are the benchmark ``seed004`` of the repository's benchmark package
+(``pftrack_bench``, not part of the installed product); this plugin registers no component.
 Linkers are not a pftrack component kind (they partition tracklets offline, not frame by
 frame); they are plain classes, listed in :data:`pftrack_network.linkers.LINKERS`.
 """
 
 from __future__ import annotations
 
-from pftrack import hookimpl
-
 __version__ = "0.1.0"
 
-
-@hookimpl
-def pftrack_register_benchmarks(register):
-    from pftrack.extensions import Benchmark
-
-    from pftrack_network import bench_seed004
-
-    register("seed004", Benchmark.from_module(bench_seed004))

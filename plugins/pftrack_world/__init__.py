@@ -22,15 +22,11 @@ Components (registered name -> class):
   data, ``pftrack_world/presets``);
 * volumes: ``world`` (package data ``pftrack_world/data/volumes.yaml``: ``pitch_seed001`` and
   the coastal paper's ``near`` / ``far``); the soccer camera
-  ``pftrack_world/data/soccer_seed001.yaml``;
-* benchmark: ``detectors`` (:mod:`pftrack_world.bench_detectors`: the person detectors' recall
-  and precision by box height and at the frame's edge on PETS and MOT17-09, and their time per
-  frame), ``fresh-video`` (:mod:`pftrack_world.bench_fresh_video`: PETS with nothing learnt
-  from its labels or camera, against norfair), ``own-detections``
-  (:mod:`pftrack_world.bench_own_detections`: pftrack against norfair and roboflow's trackers on
-  identical detections, PETS and MOT17-09), ``pets09-ground``
-  (:mod:`pftrack_world.bench_pets09_ground`) and ``soccer``
-  (:mod:`pftrack_world.bench_soccer`).
+  ``pftrack_world/data/soccer_seed001.yaml``.
+
+The paper's benchmarks (``pftrack bench pets09-ground``, ``soccer``, ``fresh-video``,
+``own-detections``, ``detectors``, ...) live in the repository's benchmark package
+``pftrack_bench``, not in this plugin.
 
 The ground-plane observation model (particles -> image boxes through the camera) is core:
 :class:`pftrack.observation_world.CameraBoxObservation`.
@@ -108,25 +104,3 @@ def pftrack_register_volumes(register):
 
     register("world", str(resources.files("pftrack_world") / "data" / "volumes.yaml"))
 
-
-@hookimpl
-def pftrack_register_benchmarks(register):
-    from pftrack.extensions import Benchmark
-
-    from pftrack_world import (
-        bench_batch,
-        bench_detectors,
-        bench_fresh_video,
-        bench_mog2_people,
-        bench_own_detections,
-        bench_pets09_ground,
-        bench_soccer,
-    )
-
-    register("batch", Benchmark.from_module(bench_batch))
-    register("detectors", Benchmark.from_module(bench_detectors))
-    register("fresh-video", Benchmark.from_module(bench_fresh_video))
-    register("mog2-people", Benchmark.from_module(bench_mog2_people))
-    register("own-detections", Benchmark.from_module(bench_own_detections))
-    register("pets09-ground", Benchmark.from_module(bench_pets09_ground))
-    register("soccer", Benchmark.from_module(bench_soccer))

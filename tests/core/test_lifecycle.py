@@ -174,7 +174,7 @@ def test_presets_track_pets_as_before(preset, n_rows, sha, tmp_path):
     (rounded to 1e-6) the presets' ``confirmed`` gave as one track manager."""
     from pftrack.io.detections import read_detections
     from pftrack.pipeline import load_config, run_pipeline
-    from pftrack_world.bench_own_detections import simulate_detections
+    from pftrack_bench.own_detections import simulate_detections
 
     gt = np.loadtxt(_DATA / "gt.txt", delimiter=",")
     det = simulate_detections(gt[gt[:, 0] <= 40], "noisy", 0, (768, 576))

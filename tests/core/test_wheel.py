@@ -1,7 +1,9 @@
 """The wheel works anywhere: built from this checkout, installed into a fresh virtual environment
 outside the repository and run from a temporary folder, it lists its plugins and presets, runs
-the demo, a short soccer benchmark and a top view with a volume it ships (package data found
-through ``importlib.resources``, no path into a repository).
+the demo, and a top view with a volume it ships (package data found through
+``importlib.resources``, no path into a repository). It holds no benchmark: the repository's
+benchmarks (``benchmarks/``, ``pftrack_bench``) are a wheel of their own, installed beside it as
+a third-party plugin would be, and a short soccer benchmark runs through it.
 
 The fresh environment borrows the test environment's third-party dependencies (a ``.pth`` file
 naming a folder of links to them, pftrack's own entries left out) so that the test needs no
@@ -61,6 +63,12 @@ def wheel_env(tmp_path_factory):
     _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
           "-w", str(dist), str(src)], cwd=base, env=dict(os.environ))
     (wheel,) = dist.glob("pftrack-*.whl")
+    shutil.copytree(ROOT / "benchmarks", src / "benchmarks",
+                    ignore=shutil.ignore_patterns("__pycache__", "*.egg-info"))
+    _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
+          "-w", str(base / "bench-dist"), str(src / "benchmarks")], cwd=base,
+         env=dict(os.environ))
+    (bench_wheel,) = (base / "bench-dist").glob("pftrack_bench-*.whl")
     venv = base / "venv"
     _run([sys.executable, "-m", "venv", "--without-pip", str(venv)], cwd=base,
          env=dict(os.environ))
@@ -70,14 +78,14 @@ def wheel_env(tmp_path_factory):
     deps = _dependency_links(base / "deps")
     (vsite / "_pftrack_test_deps.pth").write_text(f"{deps}\n")
     _run([sys.executable, "-m", "pip", "--python", str(vpy), "install", "--no-deps", "-q",
-          str(wheel)], cwd=base, env=dict(os.environ))
+          str(wheel), str(bench_wheel)], cwd=base, env=dict(os.environ))
     work = base / "work"
     work.mkdir()
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PFTRACK_DATA")}
     env.update(VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow", PYVISTA_OFF_SCREEN="true",
                PFTRACK_DATA=str(base / "no-data"))
-    return {"wheel": wheel, "cli": str(venv / "bin" / "pftrack"), "py": str(vpy), "cwd": work,
-            "env": env}
+    return {"wheel": wheel, "bench_wheel": bench_wheel, "cli": str(venv / "bin" / "pftrack"),
+            "py": str(vpy), "cwd": work, "env": env}
 
 
 def test_wheel_holds_the_plugins_data(wheel_env):
@@ -86,6 +94,16 @@ def test_wheel_holds_the_plugins_data(wheel_env):
               "pftrack_world/presets/soccer-ground.yaml", "pftrack_coast/data/coast_seed003.yaml",
               "pftrack_coast/data/pets09_walkway.yaml", "pftrack/py.typed"):
         assert f in names, f
+
+
+def test_wheel_holds_no_benchmark(wheel_env):
+    names = zipfile.ZipFile(wheel_env["wheel"]).namelist()
+    assert not [n for n in names if n.startswith("pftrack_bench") or "/bench_" in n], names
+    entry_points = next(n for n in names if n.endswith(".dist-info/entry_points.txt"))
+    text = zipfile.ZipFile(wheel_env["wheel"]).read(entry_points).decode()
+    assert "pftrack_bench" not in text
+    bench = zipfile.ZipFile(wheel_env["bench_wheel"])
+    assert "pftrack_bench/pets09_ground.py" in bench.namelist()
 
 
 def test_wheel_imports_from_its_own_install(wheel_env):
@@ -101,6 +119,11 @@ def test_wheel_plugins_and_presets(wheel_env):
     plugins = json.loads(_run([cli, "plugins", "--json"], cwd=cwd, env=env))["plugins"]
     by_name = {p["name"]: p for p in plugins}
     assert {"basic", "colour", "world", "coast"} <= set(by_name)
+    # the benchmarks come from their own distribution, a third-party plugin to pftrack
+    assert by_name["bench"]["builtin"] is False
+    assert "soccer" in by_name["bench"]["components"]["benchmark"]
+    assert not [p for n, p in by_name.items() if n != "bench"
+                and p.get("components", {}).get("benchmark")]
     assert not [p for p in plugins if p.get("error")], plugins
     assert by_name["world"]["components"]["volumes"] == ["world"]
     assert by_name["coast"]["components"]["volumes"] == ["pets09-walkway"]

@@ -38,6 +38,14 @@ def _rows(page: str, section: str) -> dict[str, list[str]]:
     return out
 
 
+def test_the_configuration_reference_names_the_plugins_of_components_only(page):
+    """The repository's benchmarks (plugin ``bench``, ``pftrack_bench``) register no
+    component: the configuration reference, a product page, does not list them."""
+    line = next(ln for ln in page.splitlines() if "this build's:" in ln)
+    assert "`basic`, `coast`, `colour`, `network`, `world`" in line
+    assert "`bench`" not in line and "pftrack_bench" not in page
+
+
 def test_every_schema_key_is_on_the_page_with_its_default_and_unit(page):
     from pftrack.config import CONFIG_SCHEMA, iter_fields
     from pftrack.pipeline import CONFIG_KEYS, TRACKER_KEYS
@@ -175,6 +183,15 @@ def test_api_pages_cover_the_public_modules(tmp_path):
     assert not [m for m in mods if m.startswith("pftrack.cli.") or "._" in m]
     text = (tmp_path / "pftrack.tracker.md").read_text()
     assert ".. automodule:: pftrack.tracker" in text
+    # the benchmarks are not the product's API: pages of their own, under their own heading
+    assert not [m for m in mods if m.startswith("pftrack_bench")]
+    bench = pftrack_docs.write_api_pages(tmp_path / "bench", bases=("benchmarks",))
+    assert "pftrack_bench.protocol" in bench and "pftrack_bench.pets09_ground" in bench
+    assert all(m.startswith("pftrack_bench") for m in bench)
+    index = (ROOT / "docs" / "api" / "index.md").read_text()
+    assert "_modules/pftrack_*" in index and "_benchmarks/*" in index
+    heading = index.index("## Benchmarks (not part of the product)")
+    assert heading > index.index("_modules/pftrack_*")
 
 
 def test_image_plane_example_builds_without_a_camera_and_tracks_in_pixels(tmp_path):
@@ -454,20 +471,37 @@ def test_a_figure_in_prose_is_read_from_the_latest_result(tmp_path):
 
 def test_committed_results_come_from_a_recorded_run():
     """Every committed result file was written by the recorder: a known benchmark, a commit,
-    a date, a machine and the protocol of its benchmark."""
+    a date, a machine and the protocol its benchmark declares (``PROTOCOL`` in its module)."""
     import pftrack_results
+    from pftrack_bench import protocols
 
+    declared = protocols()
     docs = pftrack_results.load_results()
     assert docs, "results/ holds no result file"
     for name, doc in docs.items():
         assert re.fullmatch(r"[0-9a-f]{40}", doc["commit"]["sha"]), name
-        assert doc["protocol"] == pftrack_results.PROTOCOLS[doc["benchmark"]], name
+        assert doc["protocol"] == declared[doc["benchmark"]], name
         assert doc["machine"]["logical_cores"] >= 1
         # the recorder timed the run, or it wrapped a file the benchmark wrote (and says so)
         assert doc["wall_s"] > 0 if not doc.get("wrapped") else doc["wall_s"] is None
         for key, _ in pftrack_results.HEADLINE.get(doc["benchmark"], []):
             value = pftrack_results.value_at(doc["result"], key)
             assert isinstance(value, (int, float)) and not isinstance(value, bool), (name, key)
+
+
+def test_a_recorded_protocol_is_the_one_the_result_carries():
+    """The recorder takes the protocol from the benchmark's JSON (its declared words, the
+    details a benchmark adds there itself left in the result), and refuses a result without
+    one."""
+    import pftrack_results
+
+    words = {"data": "d", "chosen_on": "frames 1-10", "reported_on": "frames 11-20"}
+    result = {"MOTA": 0.5, "protocol": {**words, "videos": {"v": [1, 10]}}}
+    assert pftrack_results.protocol_of("x", result) == words
+    with pytest.raises(ValueError, match="benchmark 'x' carries no protocol"):
+        pftrack_results.protocol_of("x", {"MOTA": 0.5})
+    with pytest.raises(ValueError, match="carries no protocol"):
+        pftrack_results.protocol_of("x", {"protocol": {"data": "d"}})
 
 
 def test_readme_headlines_are_the_latest_results():

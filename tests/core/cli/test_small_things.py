@@ -198,11 +198,18 @@ def _missing_system_packages() -> bool:
 def dev_copy(tmp_path):
     """``dev`` and ``pyproject.toml`` in a folder of their own, with a bare environment
     ``env`` (no pip) whose Python is this one's version."""
-    for name in ("dev", "pyproject.toml"):
+    for name in ("dev", "pyproject.toml", "benchmarks/pyproject.toml"):
+        (tmp_path / name).parent.mkdir(exist_ok=True)
         shutil.copy2(ROOT / name, tmp_path / name)
     subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(tmp_path / "env")],
                    check=True)
     return tmp_path
+
+
+def _digest(folder: Path) -> str:
+    """What ./dev's stamp records: the SHA-256 of the two pyproject.toml files, joined."""
+    return hashlib.sha256((folder / "pyproject.toml").read_bytes()
+                          + (folder / "benchmarks" / "pyproject.toml").read_bytes()).hexdigest()
 
 
 def _fake_pftrack(env: Path, url: str) -> None:
@@ -238,7 +245,7 @@ def test_dev_refuses_an_environment_with_pftrack_from_elsewhere(dev_copy, tmp_pa
 def test_dev_does_not_reinstall_when_only_the_time_changed(dev_copy):
     _fake_pftrack(dev_copy / "env", dev_copy.resolve().as_uri())
     stamp = dev_copy / "env" / ".pftrack-installed"
-    digest = hashlib.sha256((dev_copy / "pyproject.toml").read_bytes()).hexdigest()
+    digest = _digest(dev_copy)
     stamp.write_text(digest + "\n")
     t = stamp.stat().st_mtime
     os.utime(dev_copy / "pyproject.toml", (t + 60, t + 60))  # newer than the stamp, same text
@@ -263,8 +270,7 @@ def test_dev_is_not_fooled_by_the_checkouts_own_egg_info(dev_copy):
     egg.mkdir()
     (egg / "PKG-INFO").write_text("Metadata-Version: 2.1\nName: pftrack\nVersion: 0.1.0\n")
     stamp = dev_copy / "env" / ".pftrack-installed"
-    stamp.write_text(hashlib.sha256((dev_copy / "pyproject.toml").read_bytes()).hexdigest()
-                     + "\n")
+    stamp.write_text(_digest(dev_copy) + "\n")
     r = subprocess.run([str(dev_copy / "dev"), "setup"], capture_output=True, text=True,
                        cwd=dev_copy, timeout=120,
                        env={**os.environ, "PFTRACK_VENV": "env", "PYTHON": sys.executable})

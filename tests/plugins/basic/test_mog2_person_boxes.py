@@ -94,7 +94,7 @@ def test_person_boxes_find_more_pets_people_than_blob_boxes():
     recall and precision at IoU 0.5 (flag-0 people count neither way) of the blob boxes and the
     person boxes of the same foreground masks."""
     from pftrack.geometry.formats import load_camera
-    from pftrack_world.bench_fresh_video import detector_recall_precision
+    from pftrack_bench.fresh_video import detector_recall_precision
 
     cam = load_camera(PETS / "View_001.xml")
     blob = BackgroundSubtractionDetector()

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from pftrack.components import Frame
 from pftrack.data import data_dir
-from pftrack_coast import bench_background as bb
+from pftrack_bench import background as bb
 from pftrack_coast.detector import EigenspaceDetector
 from pftrack_coast.eigenspace import BlockEigenspaceModel, untrained_picture
 from pftrack_coast.recalibration import RecalibrationGuard, RecalibrationWarning

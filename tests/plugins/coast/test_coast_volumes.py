@@ -372,7 +372,7 @@ def test_pets09_gathering_exit_hysteresis_and_reid_keep_identities(tmp_path):
     from pftrack.geometry.formats import load_camera
     from pftrack.geometry.volumes import resolve_volume
     from pftrack.pipeline import iter_frames, load_config, read_ground_truth, train_detector
-    from pftrack_coast.bench_seed003 import score_pets, track_frames
+    from pftrack_bench.seed003 import score_pets, track_frames
 
     video, gt_path, cam_path = pets09_files()
     cfg = load_config("pets09-volume")

@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from pftrack_bench.colour_tables import walkers_tables
 from pftrack_colour.experiment import (
     centre_errors,
     cumulative_errors,
     first_boxes,
     last_frames,
     track,
-    walkers_tables,
 )
 
 

@@ -156,7 +156,7 @@ def test_ensemble_takes_the_appearance_feature():
 
 @needs_caviar
 def test_seed004_bench_appearance_option_uses_the_stripes_and_their_parameters():
-    from pftrack_network import bench_seed004
+    from pftrack_bench import seed004 as bench_seed004
     from pftrack_network.linkers import STRIPES_PARAMETERS
 
     parser = argparse.ArgumentParser()

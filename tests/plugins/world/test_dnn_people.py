@@ -122,7 +122,7 @@ def test_finds_the_ground_truth_people_on_pets_frames(params, min_recall, min_pr
     56 found) at the default threshold 0.5, 0.71 / 0.69 (40) at 0.2, and 0.68 / 0.86 (38)
     at 0.5 with the finer pass at 576 px; the bounds leave room for OpenCV builds'
     rounding."""
-    from pftrack_world.bench_detectors import score
+    from pftrack_bench.detectors import score
 
     det = _build(**params)
     threshold = det.threshold

@@ -20,7 +20,7 @@ needs_pets = pytest.mark.skipif(not (PETS / "gt.txt").is_file(), reason="PETS 20
 def _recall_precision(det, first, last):
     """Recall and precision at IoU 0.5 (detections on partly hidden, flag-0 people count
     neither way) and the CPU seconds per frame."""
-    from pftrack_world.bench_fresh_video import detector_recall_precision
+    from pftrack_bench.fresh_video import detector_recall_precision
 
     gt = read_ground_truth(PETS / "gt.txt", first, last)
     dets = {}

@@ -1,9 +1,11 @@
 """``pftrack bench NAME``: benchmarks that measure and report (never timed tests).
 
 A benchmark is a :class:`pftrack.extensions.Benchmark` that a plugin registered through
-``pftrack_register_benchmarks`` (the built-ins: ``core``, ``seed000``, ``pets09-colour``,
-``pets09-ground``, ``soccer``). Its result dict is printed as JSON with ``--json`` (and written
-atomically to ``--out``), otherwise as its ``format_table(result)`` text.
+``pftrack_register_benchmarks``. pftrack itself ships none: the papers' benchmarks (``core``,
+``seed000``, ``pets09-ground``, ``soccer``, ...) are the repository's package ``pftrack_bench``
+(``benchmarks/``, installed by ``./dev``), a plugin like any third party's. Its result dict is
+printed as JSON with ``--json`` (and written atomically to ``--out``), otherwise as its
+``format_table(result)`` text.
 """
 
 from __future__ import annotations
@@ -19,9 +21,13 @@ from pftrack.extensions import Benchmark
 def register(sub: argparse._SubParsersAction) -> None:
     from pftrack.host import get_host
 
-    p = sub.add_parser("bench", help="run a benchmark a plugin registered and report its figures")
-    bsub = p.add_subparsers(dest="bench", metavar="NAME")
     host = get_host()
+    none = next(iter(host.registry.entries("benchmark")), None) is None
+    p = sub.add_parser("bench", help="run a benchmark a plugin registered and report its figures",
+                       description="no benchmark is registered: pftrack ships none; the "
+                       "repository's benchmarks (benchmarks/, package pftrack_bench) are "
+                       "installed by its ./dev" if none else None)
+    bsub = p.add_subparsers(dest="bench", metavar="NAME")
     for entry in sorted(host.registry.entries("benchmark"), key=lambda e: e.name):
         bench: Benchmark = entry.obj
         bp = bsub.add_parser(entry.name, help=f"{bench.summary} [{entry.plugin}]")

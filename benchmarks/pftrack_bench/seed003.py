@@ -67,8 +67,21 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from pftrack_bench.protocol import Protocol
+
 if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera
+
+#: What chose this benchmark's settings and what it reports (its JSON result carries it).
+PROTOCOL = Protocol(
+    data="PETS 2009 S2.L1 with its Tsai camera and the walkway cuboid; the built-in "
+         "coast scene through its camera",
+    chosen_on="PETS frames 1-400 train the eigenspace model; tracking parameters on "
+              "frames 201-400, the identity ones on 401-600",
+    reported_on="PETS frames as in args (default 401-795; 601-795 alone chose "
+                "nothing), the coast scene's boat, car and multi clips",
+)
+
 
 #: a person's size (width across the view, height, depth along the view), metres
 PERSON_M = (0.5, 1.75, 0.5)
@@ -355,7 +368,6 @@ def pets_images(folder: Path, engine: Any, frame: Any, camera: Camera, volume: A
     from pftrack.geometry.clouds import ParticleCloud
     from pftrack.io.images import write_png
     from pftrack.render.view3d import render_view3d
-
     from pftrack_coast.report import intruders_image
 
     folder.mkdir(parents=True, exist_ok=True)
@@ -439,7 +451,6 @@ def _coast(args: argparse.Namespace, say: Any) -> dict[str, Any]:
 
     from pftrack.metrics import evaluate
     from pftrack.pipeline import load_config
-
     from pftrack_coast.eigenspace import BlockEigenspaceModel
     from pftrack_coast.scene import CoastScene
 

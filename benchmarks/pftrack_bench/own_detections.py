@@ -56,7 +56,7 @@ untimed and discarded (imports, compiled kernels).
 From Python, e.g. a modified preset against the peers on the tune part::
 
     from pftrack.pipeline import load_config
-    from pftrack_world import bench_own_detections as bod
+    from pftrack_bench import own_detections as bod
 
     cfg = load_config("people-image")
     cfg["tracker"]["max_misses"] = 40
@@ -83,6 +83,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from pftrack_bench.protocol import (
+    REPORT_PART,
+    TUNE_PART,
+    Protocol,
+    add_part_argument,
+)
+from pftrack_bench.protocol import part_frames as _part_frames
 
 __all__ = [
     "LEVELS",
@@ -137,11 +145,19 @@ VIDEOS: dict[str, VideoSpec] = {
                           525, (1920, 1080), (1, 262), (263, 525), "mot17"),
 }
 
-#: The part whose frames chose every setting (presets, thresholds, this bench's choices).
-TUNE_PART = "tune"
-#: The part the figures are reported on; it chose nothing.
-REPORT_PART = "report"
-PARTS = (REPORT_PART, TUNE_PART)
+#: What chose this benchmark's settings and what it reports (its JSON result carries it).
+PROTOCOL = Protocol(
+    data="PETS 2009 S2.L1 and MOT17-09: detections simulated from the ground truth "
+         "(clean: 20 % missed, 3 px corner, 4 % size; noisy: 30 % missed, 6 px, 8 %, "
+         "false positives 10 %) over noise seeds, and the hog-people detector's boxes",
+    chosen_on="PETS frames 1-400 and MOT17-09 frames 1-262 (the presets' settings); "
+              "the peers keep their documented defaults",
+    reported_on="PETS frames 401-795 and MOT17-09 frames 263-525, noise and tracking "
+                "seeds 0-4",
+    chosen_frames={k: v.tune for k, v in VIDEOS.items()},
+    reported_frames={k: v.report for k, v in VIDEOS.items()},
+)
+
 
 #: MOT17 classes whose matched tracker boxes are removed before scoring: person on vehicle,
 #: static person, distractor, reflection (TrackEval's MOT17 preprocessing).
@@ -232,10 +248,8 @@ def video_spec(name: str) -> VideoSpec:
 
 def part_frames(name: str, part: str) -> tuple[int, int]:
     """The inclusive frame range of ``part`` (``"report"`` or ``"tune"``) of video ``name``."""
-    spec = video_spec(name)
-    if part not in PARTS:
-        raise ValueError(f"own-detections: --part must be one of {PARTS}, got {part!r}")
-    return spec.report if part == REPORT_PART else spec.tune
+    video_spec(name)
+    return _part_frames("own-detections", PROTOCOL, part, video=name)
 
 
 def read_gt(name: str, data: str | os.PathLike[str] | None = None) -> np.ndarray:
@@ -607,7 +621,7 @@ NORFAIR_SETTINGS = {"distance_function": "iou", "distance_threshold": 0.7,
 
 
 def _norfair(inp: TrackInput) -> TrackResult:
-    from pftrack_world.bench_fresh_video import norfair_tracks
+    from pftrack_bench.fresh_video import norfair_tracks
 
     s = NORFAIR_SETTINGS
     timing: dict[str, float] = {}
@@ -783,20 +797,10 @@ def resolve_frames(name: str, part: str, frames: tuple[int, int] | None = None
     """The frames to track and score: the part's, or ``frames`` (inclusive) inside it.
 
     Raises ValueError when ``frames`` reach outside ``part``: tune-part frames are shown only
-    when the tune part is asked for, and a report figure never includes a tune frame."""
-    a, b = part_frames(name, part)
-    if frames is None:
-        return a, b
-    f0, f1 = int(frames[0]), int(frames[1])
-    if not a <= f0 <= f1 <= b:
-        other = TUNE_PART if part == REPORT_PART else REPORT_PART
-        oa, ob = part_frames(name, other)
-        raise ValueError(
-            f"own-detections: frames {f0}:{f1} of {name} are not inside its {part} part "
-            f"({a}:{b}); the {other} part is {oa}:{ob}"
-            + ("; results on tune frames are printed only with --part tune"
-               if other == TUNE_PART else ""))
-    return f0, f1
+    when the tune part is asked for, and a report figure never includes a tune frame
+    (:func:`pftrack_bench.protocol.part_frames`)."""
+    video_spec(name)
+    return _part_frames("own-detections", PROTOCOL, part, frames, video=name)
 
 
 def _select_trackers(names: Sequence[str | TrackerEntry] | None,
@@ -1098,10 +1102,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "set per seed), hog (the hog-people detector, once) (default all)")
     parser.add_argument("--seeds", default=",".join(map(str, DEFAULT_SEEDS)), metavar="S,...",
                         help="noise seeds, also pftrack's tracking seeds (default 0,1,2,3,4)")
-    parser.add_argument("--part", choices=PARTS, default=None,
-                        help="report (default: the frames that chose nothing: PETS 401-795, "
-                             "MOT17-09 263-525) or tune (PETS 1-400, MOT17-09 1-262: the frames "
-                             "settings are chosen on; printed only when asked for)")
+    add_part_argument(parser, PROTOCOL)
     parser.add_argument("--frames", action="append", default=[], metavar="VIDEO=A:B",
                         help="track and score only frames A:B of VIDEO (inside the part; "
                              "repeatable), for a quick look")

@@ -42,6 +42,25 @@ import sys
 import time
 from typing import Any
 
+from pftrack_bench.protocol import (
+    TUNE_PART,
+    Protocol,
+    add_part_argument,
+    checked_frames,
+    part_frames,
+)
+
+#: What chose this benchmark's settings and what it reports (its JSON result carries it).
+PROTOCOL = Protocol(
+    data="PETS 2009 S2.L1 (view 1, 768 x 576, 795 frames), its Tsai camera",
+    chosen_on="frames 1-400: the SVM detector is trained there (the preset's "
+              "detector.train.frames)",
+    reported_on="frames 401-795 (ground-truth numbering), tracking seed as in args "
+                "(default 0)",
+    chosen_frames={"": (1, 400)}, reported_frames={"": (401, 795)},
+)
+
+
 KEYS = ("MOTA", "IDF1", "HOTA", "median_error_m", "p90_error_m", "accuracy_5px",
         "detection_s_per_frame", "tracking_s_per_frame", "frames_per_second",
         "detection_cpu_s_per_frame", "tracking_cpu_s_per_frame", "frames_per_second_cpu")
@@ -60,10 +79,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="configuration: preset name or YAML (default pets09-ground)")
     parser.add_argument("--data", default=None,
                         help="folder holding pets09/ (default: $PFTRACK_DATA or ../shared/data)")
-    parser.add_argument("--frames", default="401:795", metavar="A:B",
-                        help="test frames, ground-truth numbering (default 401:795)")
+    add_part_argument(parser, PROTOCOL)
+    parser.add_argument("--frames", default=None, metavar="A:B",
+                        help="test frames, ground-truth numbering, inside the part (default: "
+                             "the part's, 401:795)")
     parser.add_argument("--train-frames", default=None, metavar="A:B",
-                        help="training frames (default: the preset's, 1:400)")
+                        help="training frames, inside the tune part (default: the preset's, "
+                             "1:400)")
     parser.add_argument("--model", default=None,
                         help="use this detector model instead of training one")
     parser.add_argument("--seed", type=int, default=0, help="tracking seed (default 0)")
@@ -128,6 +150,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     from pftrack.data import pets09_files
     from pftrack.pipeline import load_config, run_pipeline, train_detector
 
+    test_frames = checked_frames("pets09-ground", PROTOCOL, args)
+    if args.train_frames is not None:  # a detector trained on a reported frame is refused too
+        part_frames("pets09-ground", PROTOCOL, TUNE_PART, args.train_frames)
     video, gt, cam = pets09_files(args.data)
     cfg = load_config(args.preset)
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, file=sys.stderr,
@@ -149,8 +174,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                 train_detector(video, gt, frames, out=model, cfg=cfg, camera=None,
                                seed=int(train.get("seed", 0)))
                 train_s = time.perf_counter() - t0
-            log(f"pets09-ground: tracking frames {args.frames} ...")
-            main = run_pipeline(cfg, video=video, camera=str(cam), gt=gt, frames=args.frames,
+            log(f"pets09-ground: tracking frames {test_frames} ...")
+            main = run_pipeline(cfg, video=video, camera=str(cam), gt=gt, frames=test_frames,
                                 detector_model=model, seed=args.seed,
                                 progress=not args.quiet, report=False)
     finally:
@@ -160,13 +185,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     result["tracking_fps"] = 1.0 / max(m["tracking_s_per_frame"], 1e-12)
     result["tracking_fps_cpu"] = 1.0 / max(m["tracking_cpu_s_per_frame"], 1e-12)
     result.update({"IDSW": m.get("IDSW"), "FP": m.get("FP"), "FN": m.get("FN"),
-                   "frames": args.frames, "n_frames": main.n_frames,
+                   "frames": test_frames, "n_frames": main.n_frames,
                    "train_s": train_s, "preset": cfg.get("name", args.preset)})
     ablation = []
     if not args.no_ablation:
         for name, vcfg in _variants(cfg).items():
             log(f"pets09-ground: ablation {name} ...")
-            r = run_pipeline(vcfg, video=video, camera=str(cam), gt=gt, frames=args.frames,
+            r = run_pipeline(vcfg, video=video, camera=str(cam), gt=gt, frames=test_frames,
                              seed=args.seed, detections=main.detections, progress=False,
                              report=False)
             vm = r.metrics or {}

@@ -52,6 +52,19 @@ from typing import Any
 
 import numpy as np
 
+from pftrack_bench.protocol import Protocol
+
+#: What chose this benchmark's settings and what it reports (its JSON result carries it).
+PROTOCOL = Protocol(
+    data="real infrared sea (zodiac), a beach (ocean), PETS 2009 S2.L1 and a 16-bit "
+         "thermal clip with its annotated boxes",
+    chosen_on="the first half of each sequence trains the models (PETS frames "
+              "1-400); OpenCV's subtractors keep their defaults",
+    reported_on="the second half of each sequence (PETS 401-795); the thermal clip's "
+                "frames after its training frames",
+)
+
+
 SEQUENCES = ("zodiac", "ocean", "pets09", "thermal")
 #: the methods that take the thermal clip's float frames (counts less each frame's median)
 THERMAL_METHODS = ("eigenspace", "mog2", "knn")
@@ -161,7 +174,6 @@ def _pets(folder: Path, step: int, margin: int,
     import cv2
     from pftrack.io.mot import read_mot
     from pftrack.scenes.video import VideoScene
-
     from pftrack_coast.detector import boxes_to_mask
 
     gt = read_mot(folder / "gt.txt")

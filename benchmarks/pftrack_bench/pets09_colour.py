@@ -16,6 +16,17 @@ import argparse
 import sys
 from typing import Any
 
+from pftrack_bench.protocol import Protocol
+
+#: What chose this benchmark's settings and what it reports (its JSON result carries it).
+PROTOCOL = Protocol(
+    data="PETS 2009 S2.L1, every person started from their first ground-truth box",
+    chosen_on="all 795 frames: the colour region, its three stripes and the "
+              "per-person weighting were compared on the whole sequence (no held-out "
+              "part); OpenCV's trackers keep their defaults",
+    reported_on="all 795 frames, tracking seeds 0-2",
+)
+
 
 def _frames(text: str) -> tuple[int, int | None]:
     try:

@@ -7,7 +7,7 @@ import json
 
 import pytest
 from pftrack.cli import main
-from pftrack_basic import bench_core as core
+from pftrack_bench import core as core
 
 
 def _args(**kw) -> argparse.Namespace:

@@ -9,7 +9,7 @@ import tracemalloc
 
 import numpy as np
 import pytest
-from pftrack_world.bench_soccer import (
+from pftrack_bench.soccer import (
     KEYS,
     _load_preset,
     score_run,

@@ -40,6 +40,8 @@ from typing import Any
 
 import numpy as np
 
+from pftrack_bench.protocol import Protocol
+
 #: Box-height bins (ground-truth height for recall, detection height for precision). Unit: px.
 HEIGHT_BINS_PX = (0.0, 60.0, 100.0, 200.0, 400.0, np.inf)
 #: A ground-truth box touches the frame's edge when it is within this of a border. Unit: px.
@@ -48,6 +50,17 @@ EDGE_PX = 2.0
 MOT17_IGNORED_CLASSES = (2, 7, 8, 12)
 #: Training / test split (ground-truth frame numbers).
 SPLITS = {"pets09": ((1, 400), (401, 795)), "mot17-09": ((1, 262), (263, 525))}
+
+#: What chose this benchmark's settings and what it reports (its JSON result carries it).
+PROTOCOL = Protocol(
+    data="PETS 2009 S2.L1 (768 x 576) and MOT17-09 (1920 x 1080, MOT17's rule for "
+         "distractors)",
+    chosen_on="PETS frames 1-400 and MOT17-09 frames 1-262 (the ssdlite-people "
+              "score calibration and the precision-matched threshold)",
+    reported_on="PETS frames 401-795 and MOT17-09 frames 263-525, every 5th frame",
+    chosen_frames={k: v[0] for k, v in SPLITS.items()},
+    reported_frames={k: v[1] for k, v in SPLITS.items()},
+)
 #: Every detector reports down to this score; higher thresholds are applied afterwards.
 LOW_SCORE = 0.05
 SPEED_SIZES = ((640, 480), (768, 576), (1920, 1080))

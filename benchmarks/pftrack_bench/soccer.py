@@ -36,6 +36,17 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
+from pftrack_bench.protocol import Protocol
+
+#: What chose this benchmark's settings and what it reports (its JSON result carries it).
+PROTOCOL = Protocol(
+    data="the built-in soccer scene (real player trajectories rendered through the "
+         "paper's camera)",
+    chosen_on="the scene's own settings (see the soccer-ground preset)",
+    reported_on="the clip the benchmark renders",
+)
+
+
 KEYS = ("MOTA", "IDF1", "HOTA", "median_error_m", "p90_error_m", "accuracy_5px",
         "detection_s_per_frame", "tracking_s_per_frame", "frames_per_second", "players",
         "particles")

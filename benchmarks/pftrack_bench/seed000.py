@@ -14,6 +14,15 @@ import argparse
 import sys
 from typing import Any
 
+from pftrack_bench.protocol import Protocol
+
+#: What chose this benchmark's settings and what it reports (its JSON result carries it).
+PROTOCOL = Protocol(
+    data="the built-in walkers scene (synthetic colour targets)",
+    chosen_on="the colour paper's settings (500 particles, its likelihoods)",
+    reported_on="the scene as rendered; speeds in frames per second of one core",
+)
+
 
 def _ints(text: str) -> list[int]:
     try:
@@ -47,7 +56,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
     host = get_host()
     host.get("scene", "walkers")  # a clear error if the colour plugin is not loaded
-    from pftrack_colour.experiment import DEFAULT_SIGMA_PX, walkers_tables
+    from pftrack_colour.experiment import DEFAULT_SIGMA_PX
+
+    from pftrack_bench.colour_tables import walkers_tables
 
     names = [n.strip() for n in args.likelihoods.split(",") if n.strip()]
     for n in names:
@@ -69,6 +80,6 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def format_table(result: dict[str, Any]) -> str:
-    from pftrack_colour.experiment import format_walkers_tables
+    from pftrack_bench.colour_tables import format_walkers_tables
 
     return format_walkers_tables(result)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack_world import bench_detectors as B
+from pftrack_bench import detectors as B
 
 
 def _rows(frame, boxes, flag=1, cls=1):

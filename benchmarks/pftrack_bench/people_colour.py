@@ -20,6 +20,17 @@ from typing import Any
 
 import numpy as np
 
+from pftrack_bench.protocol import Protocol, add_part_argument, checked_frames
+
+#: What chose this benchmark's settings and what it reports (its JSON result carries it).
+PROTOCOL = Protocol(
+    data="PETS 2009 S2.L1, the hog-people detector's boxes",
+    chosen_on="frames 1-200 (the people-colour preset's colour weight and gates)",
+    reported_on="frames 201-795, tracking seeds 0-2",
+    chosen_frames={"": (1, 200)}, reported_frames={"": (201, 795)},
+)
+
+
 #: (row name, preset, change): the configurations compared.
 CONFIGS = (("people-colour", "people-colour", None),
            ("people-colour, colour weight 0", "people-colour", "no-colour"),
@@ -29,9 +40,10 @@ CONFIGS = (("people-colour", "people-colour", None),
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--data", default=None,
                         help="folder holding pets09/ (default: $PFTRACK_DATA or ../shared/data)")
-    parser.add_argument("--frames", default="201:795", metavar="A:B",
-                        help="frames, ground-truth numbering (default 201:795; 1-200 were used "
-                             "for tuning)")
+    add_part_argument(parser, PROTOCOL)
+    parser.add_argument("--frames", default=None, metavar="A:B",
+                        help="frames, ground-truth numbering, inside the part (default: the "
+                             "part's, 201:795)")
     parser.add_argument("--detections", default=None, metavar="FILE",
                         help="MOTChallenge det.txt to track (default: run hog-people once)")
     parser.add_argument("--seeds", default="0,1,2", help="tracking seeds (default 0,1,2)")
@@ -56,8 +68,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     from pftrack.io.detections import read_detections
     from pftrack.pipeline import load_config, parse_frames, run_pipeline
 
+    frames = checked_frames("people-colour", PROTOCOL, args)
     video, gt, _ = pets09_files(args.data)
-    first, last = parse_frames(args.frames)
+    first, last = parse_frames(frames)
     seeds = [int(s) for s in str(args.seeds).split(",") if s.strip()]
     if not seeds:
         raise ValueError(f"bench people-colour: --seeds {args.seeds!r} names no seed")
@@ -72,7 +85,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                     if f >= first and (last is None or f <= last)}
             source = str(args.detections)
         else:
-            log(f"people-colour: hog-people over frames {args.frames} ...")
+            log(f"people-colour: hog-people over frames {frames} ...")
             dets, _, _ = detect_video(video, load_config("people-colour"), (first, last))
             source = "hog-people (threshold 0.5)"
         rows = []
@@ -96,7 +109,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     finally:
         cv2.setNumThreads(threads)
     return {"frames": f"{first}:{last}", "detections": source, "seeds": seeds, "rows": rows,
-            "tuned_on": "frames 1-200"}
+            "tuned_on": "frames {}-{}".format(*PROTOCOL.chosen_frames[""])}
 
 
 def format_table(result: dict[str, Any]) -> str:

@@ -6,7 +6,7 @@ from frame 1) and makes, from each frame's same foreground mask, the blob boxes 
 boxes through each camera (``--camera``, repeatable; default the real Tsai camera
 ``View_001.xml``; e.g. also a ``pftrack calib people`` camera file). Recall and precision at IoU
 0.5 of every box against the visible ground-truth people
-(:func:`pftrack_world.bench_fresh_video.detector_recall_precision`: one-to-one Hungarian
+(:func:`pftrack_bench.fresh_video.detector_recall_precision`: one-to-one Hungarian
 matching per frame; a box matched to a flag-0 person counts neither way).
 """
 
@@ -17,6 +17,15 @@ import sys
 from typing import Any
 
 import numpy as np
+
+from pftrack_bench.protocol import Protocol
+
+#: What chose this benchmark's settings and what it reports (its JSON result carries it).
+PROTOCOL = Protocol(
+    data="PETS 2009 S2.L1 with its Tsai camera",
+    chosen_on="nothing is tuned: OpenCV MOG2's defaults, a 1.7 m person",
+    reported_on="frames 201-795 (MOG2 learns from frame 1)",
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -41,7 +50,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     from pftrack.pipeline import iter_frames, parse_frames, read_ground_truth
     from pftrack_basic.background import BackgroundSubtractionDetector, person_boxes
 
-    from pftrack_world.bench_fresh_video import detector_recall_precision
+    from pftrack_bench.fresh_video import detector_recall_precision
 
     video, gt, real = pets09_files(args.data)
     first, last = parse_frames(args.frames)

@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 from pftrack.data import data_dir
-from pftrack_world import bench_own_detections as bod
+from pftrack_bench import own_detections as bod
 
 PETS = data_dir() / "pets09"
 needs_pets = pytest.mark.skipif(not (PETS / "gt.txt").is_file(), reason="PETS 2009 not found")

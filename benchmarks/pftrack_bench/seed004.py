@@ -28,6 +28,18 @@ from typing import Any
 
 import numpy as np
 
+from pftrack_bench.protocol import Protocol
+
+#: What chose this benchmark's settings and what it reports (its JSON result carries it).
+PROTOCOL = Protocol(
+    data="virtual camera networks of CAVIAR4REID person images (16 cameras, 24 "
+         "people per dataset)",
+    chosen_on="datasets drawn from seeds 1000-1002 (break costs, cameras dropped, "
+              "gates)",
+    reported_on="datasets drawn from seeds 0-4, 10 ensemble runs each",
+)
+
+
 DROPPED = (5, 7, 9, 11, 13)
 #: C_d of Table 1's tuned row of the appearance-gated ensemble (``trajectory-ensemble-gated``),
 #: chosen on the tuning datasets (seeds 1000-1002): the linker's own default,

@@ -50,6 +50,17 @@ import time
 from pathlib import Path
 from typing import Any
 
+from pftrack_bench.protocol import Protocol
+
+#: What chose this benchmark's settings and what it reports (its JSON result carries it).
+PROTOCOL = Protocol(
+    data="PETS 2009 S2.L1, the pets09-ground preset in 8 slices of 50 frames",
+    chosen_on="nothing is tuned: the same jobs serially and on a 2-worker local "
+              "Dask cluster",
+    reported_on="frames 396-795; wall times on a shared machine, with its load",
+)
+
+
 GOALS = {"speedup": (">=", 1.8), "overhead_per_job_s": ("<", 0.5)}
 
 

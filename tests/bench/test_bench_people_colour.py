@@ -27,9 +27,11 @@ def test_people_colour_bench_on_a_slice_with_given_detections(tmp_path):
     bench = get_host().get("benchmark", "people-colour")
     parser = argparse.ArgumentParser()
     bench.add_arguments(parser)
-    r = bench.run(parser.parse_args(["--frames", "1:40", "--detections", str(path),
-                                     "--seeds", "0,1", "--quiet"]))
+    r = bench.run(parser.parse_args(["--part", "tune", "--frames", "1:40", "--detections",
+                                     str(path), "--seeds", "0,1", "--quiet"]))
     json.dumps(r)
+    assert r["part"] == "tune" and r["frames"] == "1:40"
+    assert r["protocol"]["chosen_on"].startswith("frames 1-200")
     rows = {row["name"]: row for row in r["rows"]}
     assert set(rows) == {"people-colour", "people-colour, colour weight 0", "people-image"}
     for row in rows.values():
@@ -46,4 +48,17 @@ def test_people_colour_bench_refuses_no_seed():
     parser = argparse.ArgumentParser()
     bench.add_arguments(parser)
     with pytest.raises(ValueError, match="--seeds"):
-        bench.run(parser.parse_args(["--seeds", ",", "--frames", "1:2"]))
+        bench.run(parser.parse_args(["--seeds", ",", "--frames", "201:202"]))
+
+
+def test_people_colour_bench_refuses_the_frames_that_chose_its_settings():
+    bench = get_host().get("benchmark", "people-colour")
+    parser = argparse.ArgumentParser()
+    bench.add_arguments(parser)
+    with pytest.raises(ValueError, match=r"frames 1:40 are not inside its report part "
+                                         r"\(201:795\).*only with --part tune"):
+        bench.run(parser.parse_args(["--frames", "1:40", "--quiet"]))
+    with pytest.raises(ValueError, match="not inside its report part"):
+        bench.run(parser.parse_args(["--frames", "190:210", "--quiet"]))
+    with pytest.raises(ValueError, match=r"not inside its tune part \(1:200\)"):
+        bench.run(parser.parse_args(["--part", "tune", "--frames", "201:240", "--quiet"]))

@@ -52,6 +52,18 @@ from typing import Any
 
 import numpy as np
 
+from pftrack_bench.protocol import Protocol, add_part_argument, checked_frames
+
+#: What chose this benchmark's settings and what it reports (its JSON result carries it).
+PROTOCOL = Protocol(
+    data="PETS 2009 S2.L1, nothing learnt from its labels or its camera at run time",
+    chosen_on="frames 1-200: the detector's margin and score map, the presets, the "
+              "peer's settings",
+    reported_on="frames 201-795; the real camera only measures the estimated one",
+    chosen_frames={"": (1, 200)}, reported_frames={"": (201, 795)},
+)
+
+
 GOALS = {"MOTA": (">=", 0.6), "IDF1": (">=", 0.6), "camera_median_error_m": ("<=", 0.5),
          "frames_per_second_cpu": (">=", 10.0)}
 
@@ -64,9 +76,10 @@ PEER_INITIALIZATION_DELAY = 3
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--data", default=None,
                         help="folder holding pets09/ (default: $PFTRACK_DATA or ../shared/data)")
-    parser.add_argument("--frames", default="201:795", metavar="A:B",
-                        help="test frames, ground-truth numbering (default 201:795; 1-200 were "
-                             "used for tuning)")
+    add_part_argument(parser, PROTOCOL)
+    parser.add_argument("--frames", default=None, metavar="A:B",
+                        help="test frames, ground-truth numbering, inside the part (default: "
+                             "the part's, 201:795)")
     parser.add_argument("--preset", default="people-ground",
                         help="configuration (default people-ground)")
     parser.add_argument("--person-height", type=float, default=1.7, metavar="M",
@@ -178,8 +191,9 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
         run_pipeline,
     )
 
+    frames = checked_frames("fresh-video", PROTOCOL, args)
     video, gt, cam_path = pets09_files(args.data)
-    first, last = parse_frames(args.frames)
+    first, last = parse_frames(frames)
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, file=sys.stderr,
                                                                   flush=True))
     cfg = load_config(args.preset)
@@ -193,7 +207,7 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
     threads = cv2.getNumThreads()
     cv2.setNumThreads(1)
     try:
-        log(f"fresh-video: detecting people in frames {args.frames} ...")
+        log(f"fresh-video: detecting people in frames {frames} ...")
         t0, c0 = time.perf_counter(), time.process_time()
         dets, size, _ = detect_video(video, cfg, (first, last), progress=not args.quiet)
         t_det, c_det = time.perf_counter() - t0, time.process_time() - c0
@@ -261,7 +275,8 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
         "preset": cfg.get("name", args.preset), "detector_threshold": threshold,
         "detector_full_every": int(((cfg.get("detector") or {}).get("params") or {}).get(
             "full_every", 1)),
-        "tuned_on": "frames 1-200 (detector margin and score map, presets, peer settings)",
+        "tuned_on": "frames {}-{} (detector margin and score map, presets, peer settings)"
+                    .format(*PROTOCOL.chosen_frames[""]),
     })
     goals = {}
     for k, (op, v) in GOALS.items():
