@@ -84,8 +84,10 @@ _CALIBRATED = {"hog-people", "ssdlite-people"}
 PROBE_FRAMES = 8
 PROBE_SECONDS = 10.0
 #: ``ssdlite-people`` is chosen when the people it finds in those frames are, at the median,
-#: at least this fraction of the frame's height (below it ``hog-people`` finds more of them),
-#: and it finds at least ``PROBE_MIN_PEOPLE`` boxes. Unit: frame heights, boxes.
+#: at least this fraction of the frame's height, and it finds at least ``PROBE_MIN_PEOPLE``
+#: boxes. 0.2 is the network's smallest anchor scale (a fraction of its input's height):
+#: shorter people are below the boxes it was trained to find, and ``hog-people`` finds more
+#: of them (docs/decisions/track-detector-choice.md). Unit: frame heights, boxes.
 PROBE_MIN_HEIGHT_FRACTION = 0.2
 PROBE_MIN_PEOPLE = 4
 
