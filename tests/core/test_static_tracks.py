@@ -47,6 +47,11 @@ def test_place_and_time_decide_without_the_video():
     # a shorter minimum time takes the 6 s track too
     assert [t["id"] for t in flag_static_tracks(rows, FPS, StaticRule(min_seconds=5.0))] == [1, 3]
     assert flag_static_tracks(np.zeros((0, 10)), FPS) == []
+    # a record whose box is not a number (a tracker's estimate off the image) is left out
+    with_nan = rows.copy()
+    with_nan[5, 2:6] = np.nan
+    assert [t["id"] for t in flag_static_tracks(with_nan, FPS)] == [1]
+    assert static_evidence([1, 2], [[np.nan] * 4] * 2, FPS)["seconds"] == 0.0
 
 
 def test_patch_similarity_is_one_for_a_fixed_look_and_low_for_a_changing_one():

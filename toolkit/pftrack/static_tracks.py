@@ -88,7 +88,7 @@ def static_evidence(frames: np.ndarray, boxes_xywh_px: np.ndarray, fps: float,
     frames : ndarray, shape (N,)
         The track's frame numbers.
     boxes_xywh_px : ndarray, shape (N, 4)
-        Its boxes (left, top, width, height), pixels.
+        Its boxes (left, top, width, height), pixels; rows with a NaN are left out.
     fps : float
         Frames per second of the video.
     quantile : float
@@ -103,6 +103,8 @@ def static_evidence(frames: np.ndarray, boxes_xywh_px: np.ndarray, fps: float,
     """
     f = np.asarray(frames, dtype=np.float64).reshape(-1)
     b = np.asarray(boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
+    ok = np.isfinite(b).all(axis=1) & np.isfinite(f)  # a record without a box says nothing
+    f, b = f[ok], b[ok]
     if len(f) == 0:
         return {"seconds": 0.0, "shift_heights": float("inf"), "height_change": float("inf"),
                 "median_height_px": 0.0}
@@ -193,6 +195,9 @@ def flag_static_tracks(rows: np.ndarray, fps: float, rule: StaticRule | None = N
     flagged: list[dict[str, Any]] = []
     for tid in np.unique(r[:, 1]) if len(r) else []:
         mine = r[r[:, 1] == tid]
+        mine = mine[np.isfinite(mine[:, :6]).all(axis=1)]
+        if not len(mine):
+            continue
         ev = static_evidence(mine[:, 0], mine[:, 2:6], fps, rule.quantile)
         if ev["seconds"] < rule.min_seconds or ev["shift_heights"] > rule.max_shift_heights \
                 or ev["height_change"] > rule.max_shift_heights:
