@@ -449,10 +449,12 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
         det_choice = "the preset's"
     else:
         detector, det_choice = choose_detector(video, frames)
-    if detections is None:
-        messages.append(f"detector {det_choice}")
     cfg_ground = with_detector(load_config(preset if preset is not None else "people-ground"),
                                detector)
+    if preset is not None and detector is None:
+        det_choice = f"{_detector_params(cfg_ground)[0]}: the preset's ({preset})"
+    if detections is None:
+        messages.append(f"detector {det_choice}")
     # 1. detections, once
     if detections is None:
         dets, size, _ = detect_video(video, cfg_ground, frames, progress=progress)
