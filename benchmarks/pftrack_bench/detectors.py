@@ -17,7 +17,7 @@ and for ground-truth boxes touching the frame's edge (within ``EDGE_PX``); preci
 detection's height.
 
 Settings and where they were chosen: a detector reports detections down to its own threshold
-(``hog-people`` and ``ssdlite-people``: 0.5, a calibrated probability); the ``ssdlite-people``
+(``hog-people``: 0.5, ``ssdlite-people``: 0.3, calibrated probabilities); the ``ssdlite-people``
 scores' logistic map was fitted on the training part (PETS 1-400, MOT17-09 1-262; the fit is
 printed again as ``calibration``); the *precision-matched* comparison takes, on PETS 1-400,
 the lowest ``ssdlite-people`` score whose precision reaches ``hog-people``'s precision there,

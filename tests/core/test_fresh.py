@@ -188,3 +188,33 @@ def test_run_with_a_camera_made_from_people_carries_the_ground_truth(people_fit,
     # both compare like with like: the tracks (started on the ground-truth boxes) against the
     # truth's feet through this camera, or against its surveyed positions in the camera's frame
     assert r.metrics["median_error_m"] < 0.5
+
+
+@needs_pets
+def test_a_thing_that_never_moves_is_left_out_and_listed(tmp_path):
+    """A box over a fixed patch of PETS's background (the building, top left) for 12 s, and
+    a person walking: the box is a static thing, listed in the summary and left out of
+    tracks.txt and the metrics unless kept."""
+    from pftrack.io.mot import read_mot
+
+    lines = []
+    for f in range(1, 121):
+        lines.append(f"{f},-1,20,20,30,90,0.9\n")
+        lines.append(f"{f},-1,{150 + 3 * f},300,30,90,0.9\n")
+    det = tmp_path / "det.txt"
+    det.write_text("".join(lines))
+    runs = {}
+    for keep in (False, True):
+        out = tmp_path / f"o{keep}"
+        res = track_video(PETS / "vtest.avi", out, detections=det, frames="1:120",
+                          report=False, preset="people-image", keep_static=keep)
+        s = json.loads((out / "summary.json").read_text())
+        assert len(s["static_tracks"]) == 1 and s["static_tracks_reported"] is keep
+        t = s["static_tracks"][0]
+        assert t["seconds"] >= 10.0 and t["shift_heights"] <= 0.1 and t["similarity"] >= 0.9
+        runs[keep] = (t["id"], read_mot(out / "tracks.txt"), res)
+    sid, rows, res = runs[False]
+    assert sid not in rows[:, 1] and len(np.unique(rows[:, 1])) == 1  # the walker only
+    assert any("static things" in m and "--keep-static" in m for m in res.messages)
+    sid, rows, _ = runs[True]
+    assert sid in rows[:, 1] and len(np.unique(rows[:, 1])) == 2

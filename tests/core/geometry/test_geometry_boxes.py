@@ -42,6 +42,17 @@ def test_nms_keeps_the_best_of_each_overlapping_group():
     assert nms(np.zeros((0, 4)), np.zeros(0), 0.5).shape == (0,)
 
 
+def test_nms_keeps_a_lone_box_and_the_lowest_scoring_separate_one():
+    one = np.array([[10.0, 10, 20, 40]])
+    for s in (-2.0, 0.0, 0.7):
+        assert nms(one, np.array([s]), 0.5).tolist() == [0]
+    # three separate boxes: all kept, best first, the lowest-scoring one too
+    boxes = np.array([[0.0, 0, 10, 20], [50.0, 0, 10, 20], [100.0, 0, 10, 20]])
+    assert nms(boxes, np.array([0.3, -4.0, 0.9]), 0.5).tolist() == [2, 0, 1]
+    # equal scores: none is below the others, all separate boxes kept
+    assert sorted(nms(boxes, np.zeros(3), 0.5).tolist()) == [0, 1, 2]
+
+
 def test_sub_boxes_foot_points_and_clipping():
     b = np.array([[10.0, 20.0, 40.0, 100.0]])
     np.testing.assert_allclose(sub_boxes(b, (0.25, 0.1, 0.75, 0.5)), [[20.0, 30.0, 20.0, 40.0]])

@@ -64,7 +64,9 @@ def nms(boxes_xywh_px: np.ndarray, scores: np.ndarray, iou_threshold: float) -> 
     ----------
     boxes_xywh_px : ndarray, shape (N, 4)
     scores : ndarray, shape (N,)
-        Any real scores (shifted to be non-negative for OpenCV; their order is kept).
+        Any real scores. OpenCV keeps only boxes scoring strictly above its score threshold,
+        so the scores are shifted to 1 and above for it (their order is kept): every box takes
+        part, the lowest-scoring one and a lone box too.
     iou_threshold : float
         A box whose IoU with a better kept one exceeds this is dropped.
 
@@ -79,7 +81,7 @@ def nms(boxes_xywh_px: np.ndarray, scores: np.ndarray, iou_threshold: float) -> 
         return np.zeros(0, dtype=np.intp)
     import cv2
 
-    shifted = scores - scores.min()
+    shifted = scores - scores.min() + 1.0
     kept = cv2.dnn.NMSBoxes(boxes.tolist(), shifted.tolist(), 0.0, float(iou_threshold))
     idx = np.asarray(kept, dtype=np.intp).reshape(-1)
     return idx[np.argsort(-scores[idx], kind="stable")]
