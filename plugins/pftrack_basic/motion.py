@@ -477,7 +477,10 @@ class ConstantAccelerationMotion(MotionModel):
         if s.shape[1] > _SMALL_N:  # large clouds: each target's compiled or blocked update
             return super().predict_rows(s, dt, rng, targets)
         std = self.noise_std_rows(dt, targets)
-        out = _standard_normal(rng, s.shape)
+        # the compiled ziggurat (numpy's numbers) only once the engine loaded it: the T
+        # targets' few thousand draws never pay for loading numba
+        out = _standard_normal(rng, s.shape) if _jit.small_ready() else \
+            rng.standard_normal(s.shape)
         out *= std[:, None, :]
         out += s @ self.transition_matrix(float(dt)).T
         return out
