@@ -777,28 +777,39 @@ class MultiTargetTracker:
 
     def _propose_at_detections(self, targets: list[Target]) -> None:
         """Redraw ``detection_proposal`` of each matched target's predicted particles around
-        its detection's position (in place: the stacked rows and their boxes stay shared)."""
+        its detection's position (in place: the stacked rows and their boxes stay shared).
+        Which particles (``k`` of the ``N``, uniformly without replacement: the ``k`` smallest
+        of ``N`` uniform keys) and their new positions (``init_spread`` about the detection's)
+        are drawn for all matched targets at once, in that order."""
         n = self.n_particles
         k = int(round(self.detection_proposal * n))
         if k < 1:
             return
-        pos_dims = list(self.motion.position_dims)
+        chosen, centres = [], []
         for t in targets:
-            p = t.particles
-            if t.detection is None or p is None or len(p) != n:
+            if t.detection is None or t.particles is None or len(t.particles) != n:
                 continue
             pos = self.observation.position_from_box(
                 np.asarray(t.detection.box_xywh_px, dtype=np.float64))
-            if not np.all(np.isfinite(pos)):
-                continue
-            idx = np.sort(self.rng.choice(n, size=k, replace=False))
-            fresh = self.motion.init_states(pos, k, self.rng, spread=self.init_spread)
-            rows = p[idx]
-            rows[:, pos_dims] = fresh[:, pos_dims]
-            p[idx] = rows
-            b = t.particle_boxes_xywh_px
-            if b is not None:
-                b[idx] = self.observation.to_boxes(rows, t)
+            if np.all(np.isfinite(pos)):
+                chosen.append(t)
+                centres.append(pos)
+        if not chosen:
+            return
+        m = len(chosen)
+        pos_dims = list(self.motion.position_dims)
+        idx = np.sort(np.argpartition(self.rng.random((m, n)), k - 1, axis=1)[:, :k], axis=1)
+        # Gaussian about the origin (the motion model's own start), moved to each detection
+        fresh = self.motion.init_states(np.zeros(len(pos_dims)), m * k, self.rng,
+                                        spread=self.init_spread)
+        rows = np.array([t.particles[i] for t, i in zip(chosen, idx)])  # (m, k, D)
+        rows[:, :, pos_dims] = (fresh[:, pos_dims].reshape(m, k, len(pos_dims))
+                                + np.array(centres)[:, None, :])
+        boxes = self.observation.to_boxes_rows(rows, chosen)
+        for t, i, r, b in zip(chosen, idx, rows, boxes):
+            t.particles[i] = r  # type: ignore[index]
+            if t.particle_boxes_xywh_px is not None:
+                t.particle_boxes_xywh_px[i] = b
 
     def _finish_rows(self, frame: Frame, filters: list[_Filter], detections: Detections | None,
                      states: np.ndarray, extents: np.ndarray, best_rows: list[float],
