@@ -629,7 +629,7 @@ class CompositeLikelihood(Likelihood):
     terms_ : list of Likelihood
         The built terms.
     beta_ : dict[int, float]
-        This frame's beta per target id.
+        This frame's beta per target id (empty when no term is weighted by beta).
     anchors_ : dict[int, ndarray (2,)]
         This frame's predicted positions of the targets that matched a detection (exclusion).
     """
@@ -714,7 +714,8 @@ class CompositeLikelihood(Likelihood):
                     detections: Detections | None = None) -> None:
         terms = self._build()
         self.beta_ = {}
-        if targets:
+        symbolic = any(isinstance(t.get("weight", 1.0), str) for t in self.terms)
+        if targets and symbolic:  # beta weighs only the terms weighted 'beta' or '1-beta'
             pos = np.array([np.asarray(t.state, dtype=np.float64)[:2] for t in targets])
             d = np.linalg.norm(pos[:, None, :] - pos[None, :, :], axis=2)
             np.fill_diagonal(d, np.inf)
