@@ -599,6 +599,20 @@ def _checked_term_rows(term: Likelihood, logl: Any, targets: Sequence[Target],
                                    f"or +inf log-likelihood(s) of {n} (target {targets[i].id})")
     return arr
 
+def _term_rows(term: Likelihood, boxes_xywh_px: np.ndarray, targets: Sequence[Target],
+               n: int) -> np.ndarray:
+    """A term's log-likelihoods of the targets' boxes (T, N, 4) -> (T, N), checked: one rows
+    call when the term offers it, else its per-target calls, each checked as
+    :meth:`CompositeLikelihood._mixed` checks them."""
+    if term.offers_rows():
+        return _checked_term_rows(term, term.log_likelihood_rows(boxes_xywh_px, targets),
+                                  targets, n)
+    out = np.empty((len(targets), n))
+    for i, (b, t) in enumerate(zip(boxes_xywh_px, targets)):
+        out[i] = _checked_term(term, term.log_likelihood(b, t), n)
+    return out
+
+
 _MIXES = ("sum", "product")
 _SYMBOLIC = ("beta", "1-beta")
 
@@ -790,13 +804,10 @@ class CompositeLikelihood(Likelihood):
             if not rows:
                 logls.append(None)  # a zero weight never needs its likelihood computed
             elif len(rows) == n_rows:
-                logls.append(_checked_term_rows(
-                    term, term.log_likelihood_rows(boxes_xywh_px, targets), targets, n))
+                logls.append(_term_rows(term, boxes_xywh_px, targets, n))
             else:
-                sub = [targets[i] for i in rows]
                 full = np.empty((n_rows, n))
-                full[rows] = _checked_term_rows(
-                    term, term.log_likelihood_rows(boxes_xywh_px[rows], sub), sub, n)
+                full[rows] = _term_rows(term, boxes_xywh_px[rows], [targets[i] for i in rows], n)
                 logls.append(full)
         for on, rows in groups.items():
             ks = [k for k, used in enumerate(on) if used]

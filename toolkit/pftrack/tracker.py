@@ -624,7 +624,10 @@ class MultiTargetTracker:
         if not all(f.particles.base is p for f in filters):  # a component replaced some
             p = np.array([f.particles for f in filters])
         self.likelihood.begin_frame(frame, targets, detections)
-        lw = self._log_likelihood_rows(frame, filters, boxes, p)  # (T, N)
+        if self.likelihood.offers_rows():
+            lw = self._log_likelihood_rows(frame, filters, boxes, p)  # (T, N)
+        else:  # (backend "rows" forced) the per-target calls, checked as the reference does
+            lw = np.array([self._log_likelihood(frame, f) for f in filters])
         ends = self._weigh_rows(lw, filters, p)
         if ends is None:  # a target lost every weight: the reference's ends, target by target
             records, dead = self._filter_each(frame, filters, list(lw), detections)
@@ -802,7 +805,8 @@ class MultiTargetTracker:
         # Gaussian about the origin (the motion model's own start), moved to each detection
         fresh = self.motion.init_states(np.zeros(len(pos_dims)), m * k, self.rng,
                                         spread=self.init_spread)
-        rows = np.array([t.particles[i] for t, i in zip(chosen, idx)])  # (m, k, D)
+        # the chosen particles of each target, (m, k, D)
+        rows = np.array([t.particles[i] for t, i in zip(chosen, idx)])  # type: ignore[index]
         rows[:, :, pos_dims] = (fresh[:, pos_dims].reshape(m, k, len(pos_dims))
                                 + np.array(centres)[:, None, :])
         boxes = self.observation.to_boxes_rows(rows, chosen)
