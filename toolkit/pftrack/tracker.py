@@ -840,7 +840,6 @@ class MultiTargetTracker:
         rec_positions = states[:, pos].copy()
         rec_extents = extents.copy()
         no_world = type(observation).world_position is ObservationModel.world_position
-        mll = self.min_log_likelihood
         uniform, uniform_log = self._uniform, self._uniform_log
         index = frame.index
         records = []
@@ -851,14 +850,12 @@ class MultiTargetTracker:
             state = states[i]
             t.state = state
             t.extent = extents[i]
-            # (a model without a rows method sees the target's new state and extent, as before)
+            # (an observation model without rows boxes the estimate of a target whose state
+            # and extent are already this frame's, as in the reference)
             box = est_boxes[i] if est_boxes is not None else \
                 observation.to_boxes(state[None], t)[0]
             t.box_xywh_px = box
-            supported = (t.detection is not None or (mll is not None and best >= mll)
-                         or (detections is None and mll is None))
-            t.frames_tracked = t.frames_tracked + 1 if supported else 0
-            t.misses = 0 if supported else t.misses + 1
+            self._support(t, t.detection is not None or self._self_supported(best, detections))
             f.anchor = anchors[i]
             # resampled (``t.resample_index``: which weighted particle each new one copies)
             f.particles = t.particles = resampled[i]
