@@ -405,6 +405,28 @@ class ConstantAccelerationMotion(MotionModel):
         std[4:6] = _axis_std(self, "acceleration_noise", 2) * root
         return std
 
+    def noise_std_rows(self, dt: float, targets: Sequence[Target]) -> np.ndarray:
+        """:meth:`noise_std` of every target at once, (T, 6), row ``i`` equal to
+        ``noise_std(dt, targets[i])`` bit for bit."""
+        dt = _check_dt(self, dt)
+        size = np.array([float(t.size_m) for t in targets], dtype=np.float64)
+        n = np.array([max(int(t.frames_tracked), 1) for t in targets], dtype=np.int64)
+        if self.max_frames_tracked is not None:
+            if int(self.max_frames_tracked) < 1:
+                raise ValueError(f"ConstantAccelerationMotion: max_frames_tracked must be >= 1, "
+                                 f"got {self.max_frames_tracked!r}")
+            np.minimum(n, int(self.max_frames_tracked), out=n)
+        bad = ~(np.isfinite(size) & (size >= 0))
+        if bad.any():
+            self.noise_std(dt, targets[int(np.flatnonzero(bad)[0])])  # raises, naming it
+        std = np.empty((len(size), 6))
+        scale = (size * math.sqrt(dt))[:, None]
+        std[:, 0:2] = _axis_std(self, "position_noise", 2)[None, :] * scale
+        root = np.sqrt(dt / n)[:, None]
+        std[:, 2:4] = _axis_std(self, "velocity_noise", 2)[None, :] * root
+        std[:, 4:6] = _axis_std(self, "acceleration_noise", 2)[None, :] * root
+        return std
+
     @staticmethod
     def transition_matrix(dt: float) -> np.ndarray:
         """C of eq. 2 for a step ``dt``, shape (6, 6)."""
@@ -441,6 +463,27 @@ class ConstantAccelerationMotion(MotionModel):
                 o[4 + i] += x[4 + i]
 
         return _noisy_update(s, std, rng, update)
+
+    def predict_rows(self, states: np.ndarray, dt: float, rng: np.random.Generator,
+                     targets: Sequence[Target]) -> np.ndarray:
+        """Every target's particles at once: (T, N, D) -> (T, N, D), equal to T successive
+        :meth:`predict` calls bit for bit: one ``standard_normal((T, N, 6))`` draws the
+        numbers the T calls would, each row scaled by its target's noise
+        (:meth:`noise_std_rows`), then one ``C x`` product per row (the calls' products)."""
+        s = np.asarray(states, dtype=np.float64)
+        if s.ndim != 3 or s.shape[2] != 6 or len(s) != len(targets):
+            raise ValueError(f"ConstantAccelerationMotion.predict_rows: states must have shape "
+                             f"(T, N, 6) with T = {len(targets)} targets, got {s.shape}")
+        if s.shape[1] > _SMALL_N:  # large clouds: each target's compiled or blocked update
+            return super().predict_rows(s, dt, rng, targets)
+        std = self.noise_std_rows(dt, targets)
+        # the compiled ziggurat (numpy's numbers) only once the engine loaded it: the T
+        # targets' few thousand draws never pay for loading numba
+        out = _standard_normal(rng, s.shape) if _jit.small_ready() else \
+            rng.standard_normal(s.shape)
+        out *= std[:, None, :]
+        out += s @ self.transition_matrix(float(dt)).T
+        return out
 
     def init_states(self, position: np.ndarray, n: int, rng: np.random.Generator,
                     spread: float | np.ndarray = 1.0) -> np.ndarray:

@@ -520,6 +520,37 @@ class DetectionLikelihood(Likelihood):
         with np.errstate(divide="ignore"):
             return np.log(p)
 
+    def probability_rows(self, boxes_xywh_px: np.ndarray,
+                         targets: Sequence[Target]) -> np.ndarray:
+        """p_D (T, N) of every target's particle boxes (T, N, 4) without the floor, row ``i``
+        equal to ``probability(boxes_xywh_px[i], targets[i])`` bit for bit: the matched
+        targets' rows in one pass, zeros for the others."""
+        b = np.asarray(boxes_xywh_px, dtype=np.float64)
+        out = np.zeros(b.shape[:2])
+        matched = [i for i, t in enumerate(targets) if t.detection is not None]
+        if not matched:
+            return out
+        rows = slice(None) if len(matched) == len(targets) else np.array(matched)
+        bm = b[rows]  # (M, N, 4)
+        d = np.array([np.asarray(targets[i].detection.box_xywh_px,  # type: ignore[union-attr]
+                                 dtype=np.float64) for i in matched])  # (M, 4)
+        heights = np.maximum(d[:, 3], 1e-6)
+        dist = np.linalg.norm(foot_points(bm) - foot_points(d)[:, None, :], axis=2)
+        dist /= heights[:, None]
+        pn = np.exp(-0.5 * (dist / float(self.sigma)) ** 2)
+        p = float(self.psi) * pn
+        if float(self.phi) > 0:
+            p = p + float(self.phi) * self.svm_score(bm.reshape(-1, 4)).reshape(pn.shape)
+        out[rows] = np.where(np.isfinite(p), p, 0.0)
+        return out
+
+    def log_likelihood_rows(self, boxes_xywh_px: np.ndarray,
+                            targets: Sequence[Target]) -> np.ndarray:
+        """Every target's log-likelihoods (T, N) in one pass (:meth:`probability_rows`)."""
+        p = self.probability_rows(boxes_xywh_px, targets) + float(self.floor)
+        with np.errstate(divide="ignore"):
+            return np.log(p)
+
 
 # --------------------------------------------------------------------------------------------
 # Composite (eq. 5, 9)
@@ -545,6 +576,42 @@ def _checked_term(term: Likelihood, logl: Any, n: int) -> np.ndarray:
         raise ComponentOutputError(f"composite term {component_label(term)} returned {bad} NaN "
                                    f"or +inf log-likelihood(s) of {n}")
     return arr
+
+
+def _checked_term_rows(term: Likelihood, logl: Any, targets: Sequence[Target],
+                       n: int) -> np.ndarray:
+    """:func:`_checked_term` of a term's rows (T, N), the message naming the first target at
+    fault."""
+    arr = np.asarray(logl)
+    if arr.dtype.kind != "f":
+        raise ComponentOutputError(f"composite term {component_label(term)} returned "
+                                   f"log-likelihoods of dtype {arr.dtype}, expected floating "
+                                   "point")
+    if arr.shape != (len(targets), n):
+        raise ComponentOutputError(f"composite term {component_label(term)} returned "
+                                   f"log-likelihoods of shape {arr.shape} from "
+                                   f"log_likelihood_rows, expected ({len(targets)}, {n})")
+    arr = arr.astype(np.float64, copy=False)
+    if not (arr < np.inf).all():
+        i = int(np.flatnonzero(~(arr < np.inf).all(axis=1))[0])
+        bad = int(np.count_nonzero(~(arr[i] < np.inf)))
+        raise ComponentOutputError(f"composite term {component_label(term)} returned {bad} NaN "
+                                   f"or +inf log-likelihood(s) of {n} (target {targets[i].id})")
+    return arr
+
+def _term_rows(term: Likelihood, boxes_xywh_px: np.ndarray, targets: Sequence[Target],
+               n: int) -> np.ndarray:
+    """A term's log-likelihoods of the targets' boxes (T, N, 4) -> (T, N), checked: one rows
+    call when the term offers it, else its per-target calls, each checked as
+    :meth:`CompositeLikelihood._mixed` checks them."""
+    if term.offers_rows():
+        return _checked_term_rows(term, term.log_likelihood_rows(boxes_xywh_px, targets),
+                                  targets, n)
+    out = np.empty((len(targets), n))
+    for i, (b, t) in enumerate(zip(boxes_xywh_px, targets)):
+        out[i] = _checked_term(term, term.log_likelihood(b, t), n)
+    return out
+
 
 _MIXES = ("sum", "product")
 _SYMBOLIC = ("beta", "1-beta")
@@ -576,7 +643,7 @@ class CompositeLikelihood(Likelihood):
     terms_ : list of Likelihood
         The built terms.
     beta_ : dict[int, float]
-        This frame's beta per target id.
+        This frame's beta per target id (empty when no term is weighted by beta).
     anchors_ : dict[int, ndarray (2,)]
         This frame's predicted positions of the targets that matched a detection (exclusion).
     """
@@ -661,7 +728,8 @@ class CompositeLikelihood(Likelihood):
                     detections: Detections | None = None) -> None:
         terms = self._build()
         self.beta_ = {}
-        if targets:
+        symbolic = any(isinstance(t.get("weight", 1.0), str) for t in self.terms)
+        if targets and symbolic:  # beta weighs only the terms weighted 'beta' or '1-beta'
             pos = np.array([np.asarray(t.state, dtype=np.float64)[:2] for t in targets])
             d = np.linalg.norm(pos[:, None, :] - pos[None, :, :], axis=2)
             np.fill_diagonal(d, np.inf)
@@ -697,6 +765,73 @@ class CompositeLikelihood(Likelihood):
         ex = self._exclusion(target)
         if ex is not None and len(ex) == len(out):  # boxes are the target's own particles
             out = out + ex
+        return out
+
+    def offers_rows(self) -> bool:
+        """True: the mix runs over every target at once; a term without its own rows method
+        is called once per target (the base class's rows)."""
+        return True
+
+    def log_likelihood_rows(self, boxes_xywh_px: np.ndarray,
+                            targets: Sequence[Target]) -> np.ndarray:
+        """Every target's log-likelihoods (T, N): each term's rows in one call, mixed for all
+        targets at once; row ``i`` equals ``log_likelihood(boxes_xywh_px[i], targets[i])``
+        bit for bit."""
+        b = np.asarray(boxes_xywh_px, dtype=np.float64)
+        out = self._mixed_rows(b, targets)
+        if self.exclusion_m is not None:
+            for i, t in enumerate(targets):
+                ex = self._exclusion(t)
+                if ex is not None and len(ex) == out.shape[1]:
+                    out[i] = out[i] + ex
+        return out
+
+    def _mixed_rows(self, boxes_xywh_px: np.ndarray,
+                    targets: Sequence[Target]) -> np.ndarray:
+        """:meth:`_mixed` of every target (T, N): a term is computed for the targets that
+        weigh it (one rows call), and targets weighing the same terms are mixed together, with
+        the arithmetic of one target's mix."""
+        terms = self._build()
+        n_rows, n = boxes_xywh_px.shape[:2]
+        weights = [self._weights(t) for t in targets]
+        out = np.zeros((n_rows, n))
+        groups: dict[tuple[bool, ...], list[int]] = {}
+        for i, w in enumerate(weights):
+            groups.setdefault(tuple(v > 0 for v in w), []).append(i)
+        logls: list[np.ndarray | None] = []
+        for k, term in enumerate(terms):
+            rows = [i for i, w in enumerate(weights) if w[k] > 0]
+            if not rows:
+                logls.append(None)  # a zero weight never needs its likelihood computed
+            elif len(rows) == n_rows:
+                logls.append(_term_rows(term, boxes_xywh_px, targets, n))
+            else:
+                full = np.empty((n_rows, n))
+                full[rows] = _term_rows(term, boxes_xywh_px[rows], [targets[i] for i in rows], n)
+                logls.append(full)
+        for on, rows in groups.items():
+            ks = [k for k, used in enumerate(on) if used]
+            if not ks:
+                continue  # no term: zeros
+            idx: slice | list[int] = slice(None) if len(rows) == n_rows else rows
+            L = np.stack([logls[k][idx] for k in ks])  # type: ignore[index]  # (K, R, N)
+            logw = np.log(np.array([[weights[i][k] for i in rows] for k in ks]))  # (K, R)
+            if self.mix == "product":
+                w = np.exp(logw)[:, :, None]
+                with np.errstate(invalid="ignore"):
+                    mixed = (w * L).sum(axis=0)
+                out[idx] = np.where(np.isnan(mixed), -np.inf, mixed)
+                continue
+            A = L + logw[:, :, None]
+            if len(ks) == 1:  # log(exp(a - a)) is 0 exactly: the one term's weighted values
+                out[idx] = A[0]
+                continue
+            m = A.max(axis=0)
+            finite = np.isfinite(m)
+            ms = np.where(finite, m, 0.0)
+            with np.errstate(divide="ignore"):
+                mixed = ms + np.log(np.exp(A - ms[None]).sum(axis=0))
+            out[idx] = np.where(finite, mixed, -np.inf)
         return out
 
     def _mixed(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:

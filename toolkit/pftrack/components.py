@@ -536,8 +536,8 @@ class Likelihood(Component):
        background histogram, integral images, detections);
     3. :meth:`log_likelihood` once per target per frame, vectorised over that target's particles;
        or, for a likelihood that overrides :meth:`log_likelihood_rows`, that method once per
-       frame with every target's particles (the engine uses it when all targets have as many
-       particles).
+       frame with every target's particles (when the engine runs its rows backend:
+       :meth:`pftrack.tracker.MultiTargetTracker.uses_rows`).
 
     Log-weights may be ``-inf`` (impossible) but never NaN.
     """
@@ -582,9 +582,9 @@ class Likelihood(Component):
 
         A likelihood MAY override this to score all targets at once (one compiled pass instead
         of one call per target); row ``i`` must equal ``log_likelihood(boxes_xywh_px[i],
-        targets[i])``. The engine calls it, instead of :meth:`log_likelihood` per target, only
-        when :meth:`offers_rows` says so. Default: the per-target
-        calls, stacked.
+        targets[i])``. The engine calls it, instead of :meth:`log_likelihood` per target, on
+        its rows backend, which it picks when :meth:`offers_rows` says so and the motion and
+        observation models offer their rows too. Default: the per-target calls, stacked.
 
         Parameters
         ----------

@@ -3,24 +3,31 @@ pftrack (``pftrack run``, the demo, every benchmark, the notebooks) goes through
 :meth:`MultiTargetTracker.step`; what varies between papers is a component chosen by
 configuration, not another loop.
 
-Data flow per frame (top to bottom)::
+Data flow per frame (top to bottom), :meth:`MultiTargetTracker.step`::
 
     frame -> [detector] -> detections
-          -> tracks.before_frame                     track management: given starts, appearance
-          -> motion.predict (per target)            particles (N, D) in the motion model's space
+          -> tracks.before_frame                    lifecycle: starts due now, appearance
+          -> motion.predict                         particles (N, D) in the motion model's space
           -> observation.to_boxes                   particle boxes (N, 4) xywh px
-          -> [associator] detections <-> targets    ``target.detection``
-          -> likelihood.begin_frame(all targets) -> likelihood.log_likelihood (per target),
-             or likelihood.log_likelihood_rows (all targets in one call) when it offers it
-          -> normalise, estimate (weighted mean), extent, resample on ESS: vectorised over
-             the targets (one row per filter, each row the single-filter numbers bit for bit;
-             systematic resampling every frame with the compiled kernels loaded: two compiled
-             passes around numpy's exp, :meth:`MultiTargetTracker._fused_rows`, then the
-             estimates' boxes and the records of all targets per block, ``_finish_rows``)
-          -> the filter's deaths (misses, leaving the image or the valid region)
+          -> [associator] detections <-> targets    ``target.detection`` (and the detection
+                                                    proposal's redrawn particles)
+          -> likelihood.begin_frame(all targets) -> likelihood.log_likelihood
+          -> normalise, estimate (weighted mean), extent, resample (re-spread a target whose
+             weights all vanished)
+          -> the filter's own ends (misses, leaving the image or the valid region)
           -> observation.update_target (matched targets)
-          -> tracks.after_frame: births, confirmation, merging, ends, the records to output
+          -> tracks.after_frame                     lifecycle: births, confirmation, merging,
+                                                    ends, the records to output
           -> list[TrackRecord]
+
+Two backends compute the frame, with the same records bit for bit (a test holds them equal):
+the reference, :meth:`MultiTargetTracker._step_reference`, one target at a time, the steps
+above as written; and the rows backend, :meth:`MultiTargetTracker._step_rows`, every target's
+particles stacked into one (T, N, D) array and each step one call for all targets
+(``predict_rows``, ``to_boxes_rows``, ``log_likelihood_rows``, then weights, estimates and
+systematic resampling of all rows at once). The rows backend runs wherever every per-frame
+component offers its rows method and the filter resamples systematically every frame; the
+reference otherwise (:meth:`MultiTargetTracker.uses_rows`).
 
 The observation model (:class:`pftrack.components.ObservationModel`) and the track management
 (:class:`pftrack.components.TrackManager`) are plugin kinds; :class:`ImageBoxObservation` and
@@ -73,6 +80,7 @@ log = logging.getLogger(__name__)
 
 _NO_DETECTIONS = np.zeros(0, dtype=int)  # unmatched detections of a frame without any
 _NO_DETECTIONS.flags.writeable = False
+_BACKENDS = ("auto", "rows", "reference")  # MultiTargetTracker(backend=...)
 
 __all__ = [
     "ComponentOutputError",
@@ -291,6 +299,13 @@ class MultiTargetTracker:
         Default ``Target.size_m`` for new targets (adaptive motion noise).
     rng : numpy.random.Generator
         The only source of randomness.
+    backend : {"auto", "rows", "reference"}
+        How a frame is computed; every backend gives the same records bit for bit.
+        ``reference``: one target at a time (:meth:`_step_reference`); ``rows``: all targets'
+        particles as one (T, N, D) array, each step one vectorised call (:meth:`_step_rows`;
+        needs systematic resampling every frame); ``auto``: rows when every per-frame
+        component offers its rows method and the filter resamples systematically every frame,
+        else the reference (:meth:`uses_rows`).
     """
 
     def __init__(self, motion: MotionModel, likelihood: Likelihood, observation: ObservationModel,
@@ -304,7 +319,8 @@ class MultiTargetTracker:
                  min_log_likelihood: float | None = None, kill_out_of_view: bool = True,
                  detection_proposal: float = 0.0,
                  valid_region: Callable[[np.ndarray], np.ndarray] | None = None,
-                 target_size: float = 1.0, rng: np.random.Generator | None = None) -> None:
+                 target_size: float = 1.0, rng: np.random.Generator | None = None,
+                 backend: str = "auto") -> None:
         if n_particles < 1:
             raise ValueError(f"n_particles must be >= 1, got {n_particles}")
         if not 0.0 <= ess_threshold <= 1.0:
@@ -351,12 +367,19 @@ class MultiTargetTracker:
         self._uniform.flags.writeable = False
         self._uniform_log.flags.writeable = False
         self._uniform_log_row = self._uniform_log[None].copy()  # (1, N), for the kernels
-        self._vectorise = True  # False: one target at a time (same numbers; for tests)
-        # predict and box all targets in one call only where the models do it vectorised: the
-        # default row loops would only add the stacking
-        self._rows_pay = (type(motion).predict_rows is not MotionModel.predict_rows
-                          and type(observation).to_boxes_rows
-                          is not ObservationModel.to_boxes_rows)
+        if backend not in _BACKENDS:
+            raise ValueError(f"tracker.backend must be one of {_BACKENDS}, got {backend!r}")
+        self._rows_filter = self.resampling == "systematic" and self.ess_threshold >= 1.0
+        if backend == "rows" and not self._rows_filter:
+            raise ValueError("tracker.backend 'rows' resamples systematically every frame: it "
+                             "needs resampling='systematic' and ess_threshold=1, got "
+                             f"{resampling!r} and {ess_threshold}")
+        self.backend = backend
+        # every per-frame component vectorised over the targets (backend "auto": rows)
+        self._rows_components = (self._rows_filter
+                                 and type(motion).predict_rows is not MotionModel.predict_rows
+                                 and type(observation).to_boxes_rows
+                                 is not ObservationModel.to_boxes_rows)
         likelihood.prepare()  # compiled kernels and the like: before the first frame
         # a likelihood that imported numba: the engine's own kernels serve its small per-frame
         # calls too (same numbers), loaded now rather than in the first frame
@@ -461,203 +484,343 @@ class MultiTargetTracker:
     def step(self, frame: Frame, detections: Detections | None = None) -> list[TrackRecord]:
         """Advance every live target by one frame and return their estimates.
 
-        ``detections`` overrides the tracker's own detector for this frame.
+        ``detections`` overrides the tracker's own detector for this frame. The frame runs on
+        :meth:`_step_reference` (one target at a time) or on :meth:`_step_rows` (all targets
+        as rows of arrays, the same records bit for bit); :meth:`uses_rows` says which.
         """
         if detections is None and self.detector is not None:
             detections = self.detector.detect(frame)
         if detections is None and self.detection_driven:
             detections = Detections.empty()
         self.last_detections = detections
-        self.tracks.before_frame(self, frame, detections)
-        pos_dims = list(self.motion.position_dims)
+        self.tracks.before_frame(self, frame, detections)  # starts due now, appearance scores
         filters = list(self._filters.values())
-        observation = self.observation
+        if filters and self.uses_rows():
+            records, dead, unmatched = self._step_rows(frame, filters, detections)
+        else:
+            records, dead, unmatched = self._step_reference(frame, filters, detections)
+        for tid in dead:
+            self.remove_target(tid)
+        # per-target observation parameters from the matched detections (a height factor)
+        if type(self.observation).update_target is not ObservationModel.update_target:
+            for f in self._filters.values():
+                if f.target.detection is not None:
+                    self.observation.update_target(f.target, f.target.detection.box_xywh_px)
+        # births, confirmation, merging, ends, the records to output
+        return self.tracks.after_frame(self, frame, detections, records, unmatched)
+
+    def uses_rows(self) -> bool:
+        """Whether :meth:`step` runs on the rows backend (:meth:`_step_rows`).
+
+        ``backend="auto"`` (the default): when every per-frame component does its work for all
+        targets in one vectorised call -- the motion model overrides
+        :meth:`~pftrack.components.MotionModel.predict_rows`, the observation model
+        :meth:`~pftrack.components.ObservationModel.to_boxes_rows`, the likelihood
+        :meth:`~pftrack.components.Likelihood.offers_rows` -- and the filter resamples
+        systematically every frame (``resampling="systematic"``, ``ess_threshold=1``);
+        otherwise the reference. ``"rows"`` and ``"reference"`` force one (the records are the
+        same; rows with a component lacking its rows method stack its per-target calls).
+        """
+        if self.backend != "auto":
+            return self.backend == "rows"
+        return self._rows_components and self.likelihood.offers_rows()
+
+    def _step_reference(self, frame: Frame, filters: list[_Filter],
+                        detections: Detections | None) -> tuple[list[TrackRecord], list[int],
+                                                                np.ndarray]:
+        """The engine's frame, one target at a time: what every backend must equal, record
+        for record. Returns ``(records, ids of the targets that died, unmatched detections)``.
+        """
         rng = self.rng
-        # 1. predict; each target's particle boxes are computed once here and reused by the
-        # associator, the likelihood and callers (``target.particle_boxes_xywh_px``). Several
-        # targets with as many particles each: one (T, N, D) call of each (the same numbers)
-        n = self.n_particles
-        predicted: np.ndarray | list[np.ndarray]
-        boxes: np.ndarray | list[np.ndarray]
-        same_n = all(len(f.particles) == n for f in filters)  # (prediction keeps the counts)
-        if self._vectorise and len(filters) > 1 and self._rows_pay and same_n:
-            targets = [f.target for f in filters]
-            predicted = self.motion.predict_rows(self._stacked_particles(filters), self.dt,
-                                                 rng, targets)
-            boxes = observation.to_boxes_rows(predicted, targets)
-        else:
-            predicted = [self.motion.predict(f.particles, self.dt, rng, target=f.target)
-                         for f in filters]
-            boxes = [observation.to_boxes(p, f.target) for p, f in zip(predicted, filters)]
-        for f, p, b in zip(filters, predicted, boxes):
-            t = f.target
-            f.particles = t.particles = p
-            t.particle_boxes_xywh_px = b
-            t.resample_index = None
-            t.age += 1
-            t.detection = None
-        # 2. associate
-        unmatched_dets = np.arange(len(detections)) if detections is not None else _NO_DETECTIONS
-        if detections is not None and self.associator is not None and filters:
-            targets = [f.target for f in filters]
-            a = self.associator.associate(targets, detections)
-            for ti, di in a.matches:
-                targets[ti].detection = DetectionMatch(detections.boxes_xywh_px[di],
-                                                       float(detections.scores[di]), int(di))
-            unmatched_dets = a.unmatched_detections
-            if self.detection_proposal > 0.0 and len(a.matches):
-                self._propose_at_detections(targets)
-        # 3. weight every target (each sees the others as the frame found them)
-        targets = [f.target for f in filters]
-        self.likelihood.begin_frame(frame, targets, detections)
-        logls = []
-        # step 4 takes all targets as one (T, N) array: the NaN / +inf check then runs once on
-        # it (rows a valid region masks are checked before the mask, one by one)
-        rows = bool(self._vectorise and filters and same_n)
-        check_stacked = rows and self.valid_region is None
-        lw_rows = None  # (T, N): a likelihood that scores every target in one call
-        if rows and self.likelihood.offers_rows():
-            lw_rows = self._log_likelihood_rows(frame, filters, boxes)
-            for f, logl in zip(filters, lw_rows):
-                t = f.target
-                if t.valid_region is not None or self.valid_region is not None:
-                    self._check_finite(logl, frame, t)
-                    if self.valid_region is not None:
-                        logl = np.where(self.valid_region(f.particles[:, pos_dims]), logl,
-                                        -np.inf)
-                    if t.valid_region is not None:
-                        logl = np.where(t.valid_region(f.particles[:, pos_dims]), logl, -np.inf)
-                    lw_rows = None  # rows changed: stacked again below
-                t.log_likelihoods = logl
-                logls.append(logl)
-            filters_left: list[_Filter] = []
-        else:
-            filters_left = filters
-        for f in filters_left:
-            t = f.target
-            try:
-                logl = self.likelihood.log_likelihood(t.particle_boxes_xywh_px, t)  # type: ignore[arg-type]
-            except (ValueError, OSError) as exc:  # bad input met at run time: still exit 2
-                raise ValueError(f"{self._who(self.likelihood)}: {exc}") from exc
-            except Exception as exc:
-                raise ComponentOutputError(
-                    f"{self._who(self.likelihood)} raised {type(exc).__name__}: {exc} (frame "
-                    f"{frame.index}, target {t.id})") from exc
-            if type(logl) is not np.ndarray or logl.dtype != np.float64:
-                logl = self._checked_dtype(logl)
-            if logl.shape != (len(f.particles),):
-                raise ComponentOutputError(
-                    f"{self._who(self.likelihood)} returned log-likelihoods of shape "
-                    f"{logl.shape}, expected ({len(f.particles)},) (one per particle)")
-            if not check_stacked or t.valid_region is not None:
-                self._check_finite(logl, frame, t)
-            if self.valid_region is not None:
-                logl = np.where(self.valid_region(f.particles[:, pos_dims]), logl, -np.inf)
-            if t.valid_region is not None:
-                logl = np.where(t.valid_region(f.particles[:, pos_dims]), logl, -np.inf)
-            t.log_likelihoods = logl
-            logls.append(logl)
-        # 4. normalise, estimate, resample: one filter per row, vectorised over the targets
-        # (every row equals the single-filter computation bit for bit; the T systematic offsets
-        # are the T numbers successive calls would draw)
-        always_resample = self.ess_threshold >= 1.0  # ESS <= N: no need to compute it
-        weights = ok_rows = best_rows = states = extents = resampled = resample_rows = None
-        fused = None
-        if (rows and check_stacked and always_resample and self.resampling == "systematic"
-                and isinstance(predicted, np.ndarray) and predicted.shape[2] >= 2
-                and predicted.flags.c_contiguous and _jit.small_ready()
-                and all(f.particles.base is predicted for f in filters)):
-            # the whole of step 4 in two compiled passes around numpy's exp (same numbers)
-            fused = self._fused_rows(np.array(logls) if lw_rows is None else lw_rows, filters,
-                                     predicted, frame)
-        if fused is None and rows:
-            if lw_rows is not None:
-                lw = lw_rows.copy()  # (T, N); the rows stay the targets' log_likelihoods
-            else:
-                lw = np.array(logls)  # (T, N); np.array is cheaper than np.stack for a few rows
-            if check_stacked and not (lw < np.inf).all():
-                i = int(np.flatnonzero(~(lw < np.inf).all(axis=1))[0])
-                self._check_finite(logls[i], frame, filters[i].target)
-            best_rows = lw.max(axis=1).tolist()
-            if all(f.log_weights is self._uniform_log for f in filters):
-                lw += self._uniform_log
-            else:
-                lw += np.array([f.log_weights for f in filters])
-            weights, ok_rows = normalize_log_weight_rows(lw)
-            if ok_rows.all():  # no recovery draws random numbers between the targets
-                if (isinstance(predicted, np.ndarray)
-                        and all(f.particles.base is predicted for f in filters)):
-                    p = predicted  # still the rows step 1 made (T, N, D): no new stack
-                else:
-                    p = np.array([f.particles for f in filters])  # (T, N, D)
-                states = weighted_mean(p, weights)
-                extents = weighted_extent(p, weights, states)
-                if always_resample and self.resampling == "systematic":
-                    idx = systematic_resample_rows(weights, rng)
-                    resample_rows = idx.copy()
-                    idx += (np.arange(len(filters), dtype=np.intp) * n)[:, None]
-                    resampled = p.reshape(-1, p.shape[2]).take(idx.ravel(), axis=0)
-                    resampled = resampled.reshape(p.shape)
-        # the base in_view is "the estimate's box overlaps the image": read it off that box
-        box_in_view = type(observation).in_view is ObservationModel.in_view
+        for f in filters:  # 1. predict; the particles' boxes serve associator and likelihood
+            p = self.motion.predict(f.particles, self.dt, rng, target=f.target)
+            self._moved(f, p, self.observation.to_boxes(p, f.target))
+        unmatched = self._associate(filters, detections)  # 2. ``target.detection``
+        self.likelihood.begin_frame(frame, [f.target for f in filters], detections)
+        logls = [self._log_likelihood(frame, f) for f in filters]  # 3. weight every target
+        # 4. normalise, estimate, resample; 5. the filter's own ends
+        records, dead = self._filter_each(frame, filters, logls, detections)
+        return records, dead, unmatched
+
+    def _filter_each(self, frame: Frame, filters: list[_Filter],
+                     logls: Sequence[np.ndarray], detections: Detections | None,
+                     ) -> tuple[list[TrackRecord], list[int]]:
+        """Steps 4 and 5 target by target (:meth:`_filter_one`): ``(records, dead ids)``."""
+        records: list[TrackRecord] = []
+        dead: list[int] = []
         recovered = False
-        if fused is not None:  # every row ok and resampled: the estimates of all rows at once
-            _, best_f, states_f, extents_f, idx_f, resampled_f = fused
-            records, dead = self._finish_rows(frame, filters, detections, states_f, extents_f,
-                                              best_f, resampled_f, idx_f, pos_dims, box_in_view)
-        else:
-            records, dead, recovered = self._finish_each(
-                frame, filters, detections, logls, weights, ok_rows, best_rows, states,
-                extents, resampled, resample_rows, pos_dims, box_in_view)
+        for f, logl in zip(filters, logls):
+            record, lost = self._filter_one(frame, f, logl, detections)
+            recovered |= lost
+            if record is None:
+                dead.append(f.target.id)
+            else:
+                records.append(record)
         if recovered:
             self.recoveries += 1
             log.info("frame %d: every particle weight of a target vanished; re-spread around "
                      "its last estimate", frame.index)
-        for tid in dead:
-            self.remove_target(tid)
-        # 6. per-target observation parameters from the matched detections (a height factor)
-        if type(observation).update_target is not ObservationModel.update_target:
-            for f in self._filters.values():
-                if f.target.detection is not None:
-                    observation.update_target(f.target, f.target.detection.box_xywh_px)
-        # 7. track management: births, confirmation, merging, ends, output
-        return self.tracks.after_frame(self, frame, detections, records, unmatched_dets)
+        return records, dead
+
+    def _filter_one(self, frame: Frame, f: _Filter, logl: np.ndarray,
+                    detections: Detections | None) -> tuple[TrackRecord | None, bool]:
+        """Steps 4 and 5 for one target: normalise its weights (re-spread around the last
+        estimate when every weight vanished), estimate, resample (every frame, or when the
+        ESS falls below ``ess_threshold * N``), support and misses, death. Returns ``(its
+        record or None when it died, whether it was re-spread)``."""
+        t, n = f.target, self.n_particles
+        w, ok = normalize_log_weights(f.log_weights + logl)
+        if not ok:  # nothing explains the observation: re-spread around the last estimate
+            f.particles = self.motion.init_states(f.anchor, n, self.rng,
+                                                  spread=self.recover_spread)
+            w = self._uniform
+        best = float(logl.max()) if ok and len(logl) else -math.inf
+        state = weighted_mean(f.particles, w)
+        t.extent = weighted_extent(f.particles, w, state)
+        if self.ess_threshold >= 1.0 or effective_sample_size(w) < self.ess_threshold * n + 1e-9:
+            ri = RESAMPLERS[self.resampling](w, self.rng, None)
+            # take() is several times faster than fancy indexing for small N, same values
+            f.particles = f.particles.take(ri, axis=0)
+            t.resample_index = ri if ok else None  # (re-spread particles are not copies)
+            f.weights, f.log_weights = self._uniform, self._uniform_log
+        else:
+            f.weights, f.log_weights = w, np.log(w)
+        t.particles = f.particles
+        t.state = state
+        t.box_xywh_px = box = self.observation.to_boxes(state[None], t)[0]
+        pos_dims = list(self.motion.position_dims)
+        f.anchor = state[pos_dims]  # a copy
+        self._support(t, ok and (t.detection is not None or self._self_supported(best,
+                                                                                 detections)))
+        box_in_view = type(self.observation).in_view is ObservationModel.in_view
+        if self._gone(t, state, box, box_in_view, self.observation, frame, pos_dims):
+            return None, not ok
+        return self._record(frame, t, best, pos_dims), not ok
+
+    def _step_rows(self, frame: Frame, filters: list[_Filter],
+                   detections: Detections | None) -> tuple[list[TrackRecord], list[int],
+                                                           np.ndarray]:
+        """The frame of :meth:`_step_reference` with every target's particles as one (T, N, D)
+        array: one call each for predict, boxes and log-likelihoods (T, N), then weights,
+        estimates, extents and systematic resampling for all rows at once (compiled in two
+        passes around numpy's exp when the engine's kernels are loaded). Each row's numbers,
+        the random draws and their order are the reference's (T offsets from one
+        ``rng.random(T)`` are the T numbers successive draws give). A frame in which some
+        target lost every weight ends target by target as in the reference (its re-spread
+        draws between the targets' offsets)."""
+        targets = [f.target for f in filters]
+        p = self.motion.predict_rows(self._stacked_particles(filters), self.dt, self.rng,
+                                     targets)
+        boxes = self.observation.to_boxes_rows(p, targets)
+        for i, f in enumerate(filters):
+            self._moved(f, p[i], boxes[i])
+        unmatched = self._associate(filters, detections)  # (proposals change p in place)
+        if not all(f.particles.base is p for f in filters):  # a component replaced some
+            p = np.array([f.particles for f in filters])
+        self.likelihood.begin_frame(frame, targets, detections)
+        if self.likelihood.offers_rows():
+            lw = self._log_likelihood_rows(frame, filters, boxes, p)  # (T, N)
+        else:  # (backend "rows" forced) the per-target calls, checked as the reference does
+            lw = np.array([self._log_likelihood(frame, f) for f in filters])
+        ends = self._weigh_rows(lw, filters, p)
+        if ends is None:  # a target lost every weight: the reference's ends, target by target
+            records, dead = self._filter_each(frame, filters, list(lw), detections)
+            return records, dead, unmatched
+        states, extents, best, resampled, idx = ends
+        records, dead = self._finish_rows(frame, filters, detections, states, extents, best,
+                                          resampled, idx)
+        return records, dead, unmatched
+
+    # -- the parts of a frame -----------------------------------------------------------------
+
+    def _moved(self, f: _Filter, particles: np.ndarray, boxes: np.ndarray) -> None:
+        """A target's predicted particles and their boxes, at the start of its frame."""
+        t = f.target
+        f.particles = t.particles = particles
+        t.particle_boxes_xywh_px = boxes
+        t.resample_index = None
+        t.age += 1
+        t.detection = None
+
+    def _associate(self, filters: list[_Filter], detections: Detections | None) -> np.ndarray:
+        """Match the frame's detections to the targets (``target.detection``), redraw a share
+        of each matched target's particles at its detection (``detection_proposal``); returns
+        the rows of ``detections`` no target matched."""
+        if detections is None:
+            return _NO_DETECTIONS
+        if self.associator is None or not filters:
+            return np.arange(len(detections))
+        targets = [f.target for f in filters]
+        a = self.associator.associate(targets, detections)
+        for ti, di in a.matches:
+            targets[ti].detection = DetectionMatch(detections.boxes_xywh_px[di],
+                                                   float(detections.scores[di]), int(di))
+        if self.detection_proposal > 0.0 and len(a.matches):
+            self._propose_at_detections(targets)
+        return a.unmatched_detections
+
+    def _self_supported(self, best: float, detections: Detections | None) -> bool:
+        """Whether a frame supports a target without a matched detection: its best particle's
+        log-likelihood reaches ``min_log_likelihood``, or the run has neither detections nor
+        that threshold."""
+        mll = self.min_log_likelihood
+        return (mll is not None and best >= mll) or (detections is None and mll is None)
+
+    @staticmethod
+    def _support(t: Target, supported: bool) -> None:
+        t.frames_tracked = t.frames_tracked + 1 if supported else 0
+        t.misses = 0 if supported else t.misses + 1
+
+    def _log_likelihood(self, frame: Frame, f: _Filter) -> np.ndarray:
+        """One target's log-likelihoods (N,) from :meth:`Likelihood.log_likelihood`, checked
+        (dtype, shape, no NaN or +inf), zero outside the valid regions; kept in
+        ``target.log_likelihoods``."""
+        t = f.target
+        try:
+            logl = self.likelihood.log_likelihood(t.particle_boxes_xywh_px, t)  # type: ignore[arg-type]
+        except (ValueError, OSError) as exc:  # bad input met at run time: still exit 2
+            raise ValueError(f"{self._who(self.likelihood)}: {exc}") from exc
+        except Exception as exc:
+            raise ComponentOutputError(
+                f"{self._who(self.likelihood)} raised {type(exc).__name__}: {exc} (frame "
+                f"{frame.index}, target {t.id})") from exc
+        if type(logl) is not np.ndarray or logl.dtype != np.float64:
+            logl = self._checked_dtype(logl)
+        if logl.shape != (len(f.particles),):
+            raise ComponentOutputError(
+                f"{self._who(self.likelihood)} returned log-likelihoods of shape "
+                f"{logl.shape}, expected ({len(f.particles)},) (one per particle)")
+        self._check_finite(logl, frame, t)
+        pos_dims = list(self.motion.position_dims)
+        if self.valid_region is not None:
+            logl = np.where(self.valid_region(f.particles[:, pos_dims]), logl, -np.inf)
+        if t.valid_region is not None:
+            logl = np.where(t.valid_region(f.particles[:, pos_dims]), logl, -np.inf)
+        t.log_likelihoods = logl
+        return logl
+
+    def _log_likelihood_rows(self, frame: Frame, filters: list[_Filter], boxes: np.ndarray,
+                             p: np.ndarray) -> np.ndarray:
+        """Every target's log-likelihoods (T, N) float64 from one
+        :meth:`Likelihood.log_likelihood_rows` call, checked as :meth:`_log_likelihood` checks
+        one row (the error names the first target at fault), zero outside the valid regions;
+        row ``i`` kept in ``targets[i].log_likelihoods``."""
+        targets = [f.target for f in filters]
+        try:
+            lw = self.likelihood.log_likelihood_rows(boxes, targets)
+        except (ValueError, OSError) as exc:  # bad input met at run time: still exit 2
+            raise ValueError(f"{self._who(self.likelihood)}: {exc}") from exc
+        except Exception as exc:
+            raise ComponentOutputError(
+                f"{self._who(self.likelihood)} raised {type(exc).__name__}: {exc} (frame "
+                f"{frame.index}, targets {[t.id for t in targets]}, log_likelihood_rows)"
+            ) from exc
+        if type(lw) is not np.ndarray or lw.dtype != np.float64:
+            lw = self._checked_dtype(lw)
+        if lw.shape != boxes.shape[:2]:
+            raise ComponentOutputError(
+                f"{self._who(self.likelihood)} returned log-likelihoods of shape {lw.shape} from "
+                f"log_likelihood_rows, expected {boxes.shape[:2]} (one row per target, one "
+                "value per particle)")
+        if not (lw < np.inf).all():
+            i = int(np.flatnonzero(~(lw < np.inf).all(axis=1))[0])
+            self._check_finite(lw[i], frame, targets[i])
+        pos = self._pos_index(list(self.motion.position_dims))
+        if self.valid_region is not None:
+            xy = p[:, :, pos]
+            inside = np.asarray(self.valid_region(xy.reshape(-1, xy.shape[2])), dtype=bool)
+            lw = np.where(inside.reshape(lw.shape), lw, -np.inf)
+        own = [(i, t.valid_region) for i, t in enumerate(targets) if t.valid_region is not None]
+        if own:
+            lw = lw.copy()  # (never the likelihood's own array)
+            for i, region in own:
+                lw[i] = np.where(region(p[i][:, pos]), lw[i], -np.inf)
+        for t, row in zip(targets, lw):
+            t.log_likelihoods = row
+        return lw
+
+    def _weigh_rows(self, lw: np.ndarray, filters: list[_Filter], p: np.ndarray,
+                    ) -> tuple[Any, ...] | None:
+        """Step 4 for every target at once (systematic resampling every frame): from the
+        log-likelihoods ``lw`` (T, N) and the particles ``p`` (T, N, D), ``(states (T, D),
+        extents (T, D), best log-likelihood per row, resampled particles (T, N, D),
+        resampling indices (T, N))``, each row the single filter's numbers bit for bit; None,
+        having drawn nothing, when some row has no finite weight. Compiled (two passes around
+        numpy's exp, :mod:`pftrack.filter._jit`) when the engine's kernels are loaded, else
+        numpy's rows functions: the same numbers."""
+        if all(f.log_weights is self._uniform_log for f in filters):
+            logw = self._uniform_log_row
+        else:
+            logw = np.array([f.log_weights for f in filters])
+        if (_jit.small_ready() and p.ndim == 3 and p.shape[2] >= 2 and p.flags.c_contiguous
+                and p.dtype == np.float64):
+            lwc = np.ascontiguousarray(lw, dtype=np.float64)
+            status, vals, pos, best = _jit.shift_rows_for_exp(lwc, logw, _EXP_ZERO_BELOW)
+            if status != 0:  # (NaN and +inf were rejected when the rows were checked)
+                return None
+            np.exp(vals, out=vals)  # numpy's exp, on the weights that are not exactly 0
+            u = self.rng.random(len(filters))  # what the systematic resampling draws
+            _, states, extents, idx, resampled = _jit.estimate_resample_rows(vals, pos, p, u)
+            return states, extents, best.tolist(), resampled, idx
+        weights, ok = normalize_log_weight_rows(lw + logw)
+        if not ok.all():
+            return None
+        states = weighted_mean(p, weights)
+        extents = weighted_extent(p, weights, states)
+        idx = systematic_resample_rows(weights, self.rng)
+        flat = idx + (np.arange(len(filters), dtype=np.intp) * p.shape[1])[:, None]
+        resampled = p.reshape(-1, p.shape[2]).take(flat.ravel(), axis=0).reshape(p.shape)
+        return states, extents, lw.max(axis=1).tolist(), resampled, idx
 
     def _propose_at_detections(self, targets: list[Target]) -> None:
         """Redraw ``detection_proposal`` of each matched target's predicted particles around
-        its detection's position (in place: the stacked rows and their boxes stay shared)."""
+        its detection's position (in place: the stacked rows and their boxes stay shared).
+        Which particles (``k`` of the ``N``, uniformly without replacement: the ``k`` smallest
+        of ``N`` uniform keys) and their new positions (``init_spread`` about the detection's)
+        are drawn for all matched targets at once, in that order."""
         n = self.n_particles
         k = int(round(self.detection_proposal * n))
         if k < 1:
             return
-        pos_dims = list(self.motion.position_dims)
+        chosen, centres = [], []
         for t in targets:
-            p = t.particles
-            if t.detection is None or p is None or len(p) != n:
+            if t.detection is None or t.particles is None or len(t.particles) != n:
                 continue
             pos = self.observation.position_from_box(
                 np.asarray(t.detection.box_xywh_px, dtype=np.float64))
-            if not np.all(np.isfinite(pos)):
-                continue
-            idx = np.sort(self.rng.choice(n, size=k, replace=False))
-            fresh = self.motion.init_states(pos, k, self.rng, spread=self.init_spread)
-            rows = p[idx]
-            rows[:, pos_dims] = fresh[:, pos_dims]
-            p[idx] = rows
-            b = t.particle_boxes_xywh_px
-            if b is not None:
-                b[idx] = self.observation.to_boxes(rows, t)
+            if np.all(np.isfinite(pos)):
+                chosen.append(t)
+                centres.append(pos)
+        if not chosen:
+            return
+        m = len(chosen)
+        pos_dims = list(self.motion.position_dims)
+        idx = np.sort(np.argpartition(self.rng.random((m, n)), k - 1, axis=1)[:, :k], axis=1)
+        # Gaussian about the origin (the motion model's own start), moved to each detection
+        fresh = self.motion.init_states(np.zeros(len(pos_dims)), m * k, self.rng,
+                                        spread=self.init_spread)
+        # the chosen particles of each target, (m, k, D)
+        rows = np.array([t.particles[i] for t, i in zip(chosen, idx)])  # type: ignore[index]
+        rows[:, :, pos_dims] = (fresh[:, pos_dims].reshape(m, k, len(pos_dims))
+                                + np.array(centres)[:, None, :])
+        boxes = self.observation.to_boxes_rows(rows, chosen)
+        for t, i, r, b in zip(chosen, idx, rows, boxes):
+            t.particles[i] = r  # type: ignore[index]
+            if t.particle_boxes_xywh_px is not None:
+                t.particle_boxes_xywh_px[i] = b
 
     def _finish_rows(self, frame: Frame, filters: list[_Filter], detections: Detections | None,
                      states: np.ndarray, extents: np.ndarray, best_rows: list[float],
-                     resampled: np.ndarray, resample_rows: np.ndarray, pos_dims: list[int],
-                     box_in_view: bool) -> tuple[list[TrackRecord], list[int]]:
-        """The end of the frame when every target was weighted, estimated and resampled by
-        :meth:`_fused_rows`: the estimates' boxes, anchors and confidences of all targets at
+                     resampled: np.ndarray, resample_rows: np.ndarray,
+                     ) -> tuple[list[TrackRecord], list[int]]:
+        """Step 5 of the rows backend, when every target was weighted, estimated and resampled
+        by :meth:`_weigh_rows`: the estimates' boxes, anchors and confidences of all targets at
         once, support and death per target, and the records, each field a row of one block
-        copied once per frame (the numbers and the records of :meth:`_finish_each`). Returns
+        copied once per frame (the numbers and the records of :meth:`_filter_one`). Returns
         ``(records, dead ids)``."""
         observation = self.observation
+        pos_dims = list(self.motion.position_dims)
+        box_in_view = type(observation).in_view is ObservationModel.in_view
         targets = [f.target for f in filters]
         est_boxes = rec_boxes = None
         if type(observation).to_boxes_rows is not ObservationModel.to_boxes_rows:
@@ -671,7 +834,6 @@ class MultiTargetTracker:
         rec_positions = states[:, pos].copy()
         rec_extents = extents.copy()
         no_world = type(observation).world_position is ObservationModel.world_position
-        mll = self.min_log_likelihood
         uniform, uniform_log = self._uniform, self._uniform_log
         index = frame.index
         records = []
@@ -682,14 +844,12 @@ class MultiTargetTracker:
             state = states[i]
             t.state = state
             t.extent = extents[i]
-            # (a model without a rows method sees the target's new state and extent, as before)
+            # (an observation model without rows boxes the estimate of a target whose state
+            # and extent are already this frame's, as in the reference)
             box = est_boxes[i] if est_boxes is not None else \
                 observation.to_boxes(state[None], t)[0]
             t.box_xywh_px = box
-            supported = (t.detection is not None or (mll is not None and best >= mll)
-                         or (detections is None and mll is None))
-            t.frames_tracked = t.frames_tracked + 1 if supported else 0
-            t.misses = 0 if supported else t.misses + 1
+            self._support(t, t.detection is not None or self._self_supported(best, detections))
             f.anchor = anchors[i]
             # resampled (``t.resample_index``: which weighted particle each new one copies)
             f.particles = t.particles = resampled[i]
@@ -753,129 +913,6 @@ class MultiTargetTracker:
         if self.valid_region is not None and not self.valid_region(state[None, pos_dims])[0]:
             gone = True
         return bool(gone)
-
-    def _finish_each(self, frame: Frame, filters: list[_Filter], detections: Detections | None,
-                     logls: list[np.ndarray], weights: np.ndarray | None,
-                     ok_rows: np.ndarray | None, best_rows: list[float] | None,
-                     states: np.ndarray | None, extents: np.ndarray | None,
-                     resampled: np.ndarray | None, resample_rows: np.ndarray | None,
-                     pos_dims: list[int], box_in_view: bool,
-                     ) -> tuple[list[TrackRecord], list[int], bool]:
-        """The end of the frame target by target (the general path): normalise where step 4
-        did not, re-spread a target that lost every weight, estimate, support, resample,
-        death, record. Returns ``(records, dead ids, whether a target was re-spread)``."""
-        observation = self.observation
-        rng = self.rng
-        n = self.n_particles
-        resampler = RESAMPLERS[self.resampling]
-        always_resample = self.ess_threshold >= 1.0  # ESS <= N: no need to compute it
-        ess_min = self.ess_threshold * n + 1e-9
-        records = []
-        dead = []
-        recovered = False
-        for i, f in enumerate(filters):
-            t = f.target
-            if weights is not None:
-                w, ok = weights[i], bool(ok_rows[i])  # type: ignore[index]
-            else:
-                w, ok = normalize_log_weights(f.log_weights + logls[i])
-            if not ok:
-                # nothing explains the observation: re-spread around the last estimate
-                recovered = True
-                f.particles = self.motion.init_states(f.anchor, n, rng,
-                                                      spread=self.recover_spread)
-                w = self._uniform
-            if not ok or not len(logls[i]):
-                best = -math.inf
-            else:
-                best = best_rows[i] if best_rows is not None else float(logls[i].max())
-            if states is not None:
-                state, t.extent = states[i], extents[i]  # type: ignore[index]
-            else:
-                state = weighted_mean(f.particles, w)
-                t.extent = weighted_extent(f.particles, w, state)
-            t.state = state
-            box = observation.to_boxes(state[None], t)[0]
-            t.box_xywh_px = box
-            supported = ok and (
-                t.detection is not None
-                or (self.min_log_likelihood is not None and best >= self.min_log_likelihood)
-                or (detections is None and self.min_log_likelihood is None))
-            t.frames_tracked = t.frames_tracked + 1 if supported else 0
-            t.misses = 0 if supported else t.misses + 1
-            f.anchor = state[pos_dims]  # a copy
-            # resample (``t.resample_index``: which weighted particle each new one copies)
-            if resampled is not None:
-                f.particles = resampled[i]
-                t.resample_index = resample_rows[i]  # type: ignore[index]
-                f.weights, f.log_weights = self._uniform, self._uniform_log
-            elif always_resample or effective_sample_size(w) < ess_min:
-                # take() is several times faster than fancy indexing for small N, same values
-                ri = resampler(w, rng, None)
-                f.particles = f.particles.take(ri, axis=0)
-                t.resample_index = None if not ok else ri  # (re-spread: not copies)
-                f.weights, f.log_weights = self._uniform, self._uniform_log
-            else:
-                t.resample_index = None
-                f.weights, f.log_weights = w, np.log(w)
-            t.particles = f.particles
-            # 5. death
-            if self._gone(t, state, box, box_in_view, observation, frame, pos_dims):
-                dead.append(t.id)
-                continue
-            records.append(self._record(frame, t, best, pos_dims))
-        return records, dead, recovered
-
-    def _fused_rows(self, lw: np.ndarray, filters: list[_Filter], p: np.ndarray, frame: Frame,
-                    ) -> tuple[Any, ...] | None:
-        """Step 4 for every target at once when all resample systematically every frame:
-        log-weights, numpy's exp, then normalised weights, estimates, extents, resampling
-        indices and resampled particles in one compiled pass
-        (:func:`pftrack.filter._jit.estimate_resample_rows`), the numbers of the general path
-        bit for bit. Returns ``(weights, best, states, extents, indices, resampled)``, or None
-        (nothing drawn) when some target has no finite weight (the general path re-spreads
-        it); raises, naming the target, on NaN or +inf."""
-        if all(f.log_weights is self._uniform_log for f in filters):
-            logw = self._uniform_log_row
-        else:
-            logw = np.array([f.log_weights for f in filters])
-        if lw.dtype != np.float64 or not lw.flags.c_contiguous:
-            lw = np.ascontiguousarray(lw, dtype=np.float64)
-        status, vals, pos, best = _jit.shift_rows_for_exp(lw, logw, _EXP_ZERO_BELOW)
-        if status == 1:
-            i = int(np.flatnonzero(~(lw < np.inf).all(axis=1))[0])
-            self._check_finite(lw[i], frame, filters[i].target)
-        if status != 0:
-            return None
-        np.exp(vals, out=vals)  # numpy's exp, on the weights that are not exactly 0
-        u = self.rng.random(len(filters))  # what the systematic resampling of the rows draws
-        w, states, extents, idx, resampled = _jit.estimate_resample_rows(vals, pos, p, u)
-        return w, best.tolist(), states, extents, idx, resampled
-
-    def _log_likelihood_rows(self, frame: Frame, filters: list[_Filter],
-                             boxes: np.ndarray | list[np.ndarray]) -> np.ndarray:
-        """Every target's log-likelihoods from one :meth:`Likelihood.log_likelihood_rows` call,
-        (T, N) float64, checked for shape and dtype (NaN / +inf are checked by the caller)."""
-        targets = [f.target for f in filters]
-        if not isinstance(boxes, np.ndarray):
-            boxes = np.array(boxes)  # (T, N, 4)
-        try:
-            lw = self.likelihood.log_likelihood_rows(boxes, targets)
-        except (ValueError, OSError) as exc:  # bad input met at run time: still exit 2
-            raise ValueError(f"{self._who(self.likelihood)}: {exc}") from exc
-        except Exception as exc:
-            raise ComponentOutputError(
-                f"{self._who(self.likelihood)} raised {type(exc).__name__}: {exc} (frame "
-                f"{frame.index}, targets {[t.id for t in targets]}, log_likelihood_rows)"
-            ) from exc
-        if type(lw) is not np.ndarray or lw.dtype != np.float64:
-            lw = self._checked_dtype(lw)
-        if lw.shape != boxes.shape[:2]:
-            raise ComponentOutputError(
-                f"{self._who(self.likelihood)} returned log-likelihoods of shape {lw.shape} from "
-                f"log_likelihood_rows, expected {boxes.shape[:2]} (one row per target, one "
-                "value per particle)")
-        return lw
 
     def record(self, frame: Frame, target: Target, best_logl: float = 0.0) -> TrackRecord:
         """``target``'s current estimate as a :class:`TrackRecord` of ``frame`` (confidence

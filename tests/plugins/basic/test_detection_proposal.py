@@ -142,17 +142,19 @@ def test_the_proposal_on_the_stacked_rows_of_several_targets():
         engine.set_particles(t.id, p)
     seen = {}
     lik = engine.likelihood
-    orig = type(lik).log_likelihood
+    assert engine.uses_rows()  # every target scored in one log_likelihood_rows call
+    orig = type(lik).log_likelihood_rows
 
-    def spy(self, boxes_xywh_px, target):
-        seen[target.id] = (np.array(boxes_xywh_px), target.particles.copy())
-        return orig(self, boxes_xywh_px, target)
+    def spy(self, boxes_xywh_px, targets):
+        for b, target in zip(boxes_xywh_px, targets, strict=True):
+            seen[target.id] = (np.array(b), target.particles.copy())
+        return orig(self, boxes_xywh_px, targets)
 
-    type(lik).log_likelihood = spy
+    type(lik).log_likelihood_rows = spy
     try:
         recs = {r.id: r for r in engine.step(sc.frames[1], Detections(boxes, np.full(3, 0.9)))}
     finally:
-        type(lik).log_likelihood = orig
+        type(lik).log_likelihood_rows = orig
     for t, b in zip(targets, boxes, strict=True):
         assert t.detection is not None
         scored, parts = seen[t.id]

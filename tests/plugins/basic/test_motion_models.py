@@ -247,3 +247,25 @@ def test_constant_velocity_predict_rows_equals_one_target_at_a_time(model):
     assert a.random() == b.random()
     with pytest.raises(ValueError, match=rf"predict_rows: states must have shape \(T, N, {d}\)"):
         model.predict_rows(s[0], 1.0, a, [None])
+
+
+def test_constant_acceleration_predict_rows_equals_one_target_at_a_time():
+    """All targets in one call, each with its own adaptive noise (size, tracked frames): the
+    numbers and the Generator's state of one predict per target, bit for bit; bad input is
+    named as predict names it."""
+    model = ConstantAccelerationMotion(position_noise=0.3, velocity_noise=1.0,
+                                       acceleration_noise=0.3, max_frames_tracked=5)
+    targets = [_target(frames_tracked=f, size=s) for f, s in ((0, 1.0), (3, 1.7), (9, 0.4))]
+    s = np.random.default_rng(4).normal(0.0, 2.0, (3, 200, 6))
+    a, b = np.random.default_rng(8), np.random.default_rng(8)
+    rows = model.predict_rows(s, 0.04, a, targets)
+    one = np.array([model.predict(s[i], 0.04, b, target=t) for i, t in enumerate(targets)])
+    assert rows.tobytes() == one.tobytes()
+    assert a.random() == b.random()
+    std = model.noise_std_rows(0.04, targets)
+    assert std.tobytes() == np.array([model.noise_std(0.04, t) for t in targets]).tobytes()
+    targets[1].size_m = float("nan")
+    with pytest.raises(ValueError, match="target .* has size_m=nan"):
+        model.predict_rows(s, 0.04, a, targets)
+    with pytest.raises(ValueError, match=r"predict_rows: states must have shape \(T, N, 6\)"):
+        model.predict_rows(s[:2], 0.04, a, targets)

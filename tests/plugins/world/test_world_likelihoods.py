@@ -298,3 +298,55 @@ def test_compiled_emd_and_ncc_give_the_numpy_numbers_bit_for_bit(lik_cls, params
         assert np.isnan(fast).sum() > 0
         np.testing.assert_array_equal(fast, slow)
         np.testing.assert_array_equal(lik.log_likelihood(boxes, t), ll_slow)
+
+
+def _rows_scene(seed: int = 0):
+    """Four targets (two matched to detections, one far from everyone) with 60 particle boxes
+    each, some NaN, and the frame's detections."""
+    rng = np.random.default_rng(seed)
+    dets = Detections([[60, 30, 20, 50], [100, 40, 22, 55], [10, 10, 18, 40]], [0.8, 1.2, 0.4])
+    targets = [_target([60, 30, 20, 50], 1, (70, 80)), _target([100, 40, 22, 55], 2, (111, 95)),
+               _target([10, 10, 18, 40], 3, (19, 50)), _target([300, 10, 20, 50], 4, (310, 60))]
+    targets[0].detection = DetectionMatch(dets.boxes_xywh_px[0], 0.8, 0)
+    targets[1].detection = DetectionMatch(dets.boxes_xywh_px[1], 1.2, 1)
+    boxes = np.array([t.box_xywh_px + rng.normal(0.0, 4.0, (60, 4)) * [1, 1, 0.2, 0.2]
+                      for t in targets])
+    boxes[2, 5] = np.nan
+    for t, b in zip(targets, boxes):
+        t.particles = np.column_stack([b[:, :2] + 0.5 * b[:, 2:], np.zeros((60, 4))])
+    return targets, dets, boxes
+
+
+@pytest.mark.parametrize("phi, floor", [(0.5, 1e-3), (0.0, 0.0)])
+def test_detection_rows_equal_one_target_at_a_time_bit_for_bit(phi, floor):
+    lik = DetectionLikelihood(phi=phi, psi=10.0, sigma=0.13, floor=floor)
+    targets, dets, boxes = _rows_scene()
+    lik.begin_frame(_frame(), targets, dets)
+    rows = lik.log_likelihood_rows(boxes, targets)
+    one = np.array([lik.log_likelihood(b, t) for b, t in zip(boxes, targets)])
+    assert rows.shape == (4, 60) and rows.tobytes() == one.tobytes()
+    assert np.all(rows[2:] == np.log(floor) if floor else rows[2:] == -np.inf)
+
+
+@pytest.mark.parametrize("mix", ["sum", "product"])
+def test_composite_rows_equal_one_target_at_a_time_bit_for_bit(host_with_const, mix):
+    """Terms with rows of their own (detection) and without (a constant, called per target),
+    beta weights that vanish for a target far from the others (its group mixes fewer terms),
+    the exclusion prior on the unmatched targets: every row is the per-target call's."""
+    terms = [{"likelihood": {"type": "detection", "params": {"floor": 1e-3}}, "weight": 1.0},
+             {"likelihood": {"type": "const-test", "params": {"value": np.log(0.6)}},
+              "weight": "beta"},
+             {"likelihood": {"type": "const-test", "params": {"value": np.log(0.2)}},
+              "weight": "1-beta"}]
+    comp = CompositeLikelihood(terms=terms, mix=mix, beta_sigma=3.0, exclusion_m=40.0)
+    targets, dets, boxes = _rows_scene(1)
+    f = _frame()
+    for t in targets:
+        comp.init_target(f, t)
+    comp.begin_frame(f, targets, dets)
+    assert comp.offers_rows()
+    assert comp.beta_[4] == 0.0 and 0.0 < comp.beta_[1] < 1.0
+    rows = comp.log_likelihood_rows(boxes, targets)
+    one = np.array([comp.log_likelihood(b, t) for b, t in zip(boxes, targets)])
+    assert rows.shape == (4, 60) and rows.tobytes() == one.tobytes()
+    assert np.nanmax(comp._exclusion(targets[2])) < -0.01  # the prior weighs the unmatched rows
