@@ -19,12 +19,12 @@ __version__ = "0.1.0"
 #: Benchmark name -> its module in this package.
 BENCHMARKS: dict[str, str] = {
     "core": "core",
-    "seed000": "seed000",
+    "colour": "colour",
     "pets09-colour": "pets09_colour",
     "people-colour": "people_colour",
     "background": "background",
-    "seed003": "seed003",
-    "seed004": "seed004",
+    "coast": "coast",
+    "camera-network": "camera_network",
     "batch": "batch",
     "detectors": "detectors",
     "fresh-video": "fresh_video",

@@ -1,6 +1,6 @@
 """The colour paper's Tables 1-4 on the ``walkers`` scene as library calls: run every likelihood
 at every sample and target count (:func:`walkers_tables`), and print the tables as text
-(:func:`format_walkers_tables`, ``pftrack bench seed000``) or Markdown (:func:`walkers_markdown`,
+(:func:`format_walkers_tables`, ``pftrack bench colour``) or Markdown (:func:`walkers_markdown`,
 the notebook ``01_cross_entropy.ipynb``).
 
 Timing covers tracking only: frames are rendered before the clock starts, and drawing happens

@@ -64,7 +64,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scene-seed", type=int, default=0, help="scene seed (default 0)")
     parser.add_argument("--seed", type=int, default=0, help="tracker seed (default 0)")
     parser.add_argument("--camera", default=None, help="camera file (default the plugin's soccer "
-                        "camera, pftrack_world/data/soccer_seed001.yaml)")
+                        "camera, pftrack_world/data/soccer_camera.yaml)")
     parser.add_argument("--particles", type=int, default=None,
                         help="particles per player (default: the preset's, 300)")
     parser.add_argument("--background-frames", type=int, default=25,

@@ -11,7 +11,8 @@ rev-parse HEAD`` and whether the working tree had changes), ``date`` (UTC, ISO 8
 ``machine`` (host name, processor, logical cores, Python, the 1-minute load before and after),
 ``wall_s``, ``protocol`` (which frames or seeds chose the settings and which are reported, as
 the benchmark declares it and its JSON carries it: :func:`protocol_of`) and ``result`` (the
-benchmark's JSON as printed). No figure is typed by hand: every number comes from the run.
+benchmark's JSON as printed), and ``ran_as`` when the benchmark has been renamed since (the
+name it ran under). No figure is typed by hand: every number comes from the run.
 
 Rendering (the Sphinx side, called by ``pftrack_docs``): :func:`results_page` reads every file
 of ``results/`` and writes one section per benchmark from its latest file, the headline figures
@@ -79,7 +80,7 @@ HEADLINE: dict[str, list[tuple[str, str]]] = {
                         "people-image: CPU time per frame / ByteTrack's, same run"),
                        ("speed.track.ratio_to_bytetrack",
                         "pftrack track (ground plane): CPU time per frame / ByteTrack's")],
-    "seed003": [("pets09.MOTA_world", "PETS: MOTA on the ground (1 m)"),
+    "coast": [("pets09.MOTA_world", "PETS: MOTA on the ground (1 m)"),
                 ("pets09.IDF1_world", "PETS: IDF1 on the ground"),
                 ("pets09.HOTA_world", "PETS: HOTA on the ground"),
                 ("pets09.median_error_m", "PETS: median ground error (m)"),
@@ -92,7 +93,7 @@ HEADLINE: dict[str, list[tuple[str, str]]] = {
                  "coast: frames per second of CPU, 3 groups of 5000 particles"),
                 ("coast.multi.MOTA_world", "coast, two boats and a car: MOTA on the ground"),
                 ("coast.multi.IDF1_world", "coast, two boats and a car: IDF1 on the ground")],
-    "seed004": [(f"table1[method={m}].ari_mean", f"mean ARI: {label}") for m, label in (
+    "camera-network": [(f"table1[method={m}].ari_mean", f"mean ARI: {label}") for m, label in (
         ("greedy", "greedy"), ("min-cost-flow", "min-cost flow"),
         ("trajectory-ensemble", "Trajectory Ensemble (C_d = 9, S = 100)"),
         ("trajectory-ensemble (C_d=5, tuned)", "Trajectory Ensemble, tuned C_d = 5"),
@@ -180,7 +181,7 @@ def record(name: str, args: list[str], out_dir: Path = RESULTS,
     """Run ``pftrack bench NAME --json ARGS`` and write its result with its provenance.
 
     ``name`` may be ``NAME@VARIANT``: the same benchmark recorded in another configuration (its
-    ARGS), kept beside the default one on the results page (``seed004@stripes``).
+    ARGS), kept beside the default one on the results page (``camera-network@stripes``).
     Returns the file written (``out_dir/NAME[@VARIANT]-YYYYmmddTHHMMSSZ.json``, atomically).
 
     Raises
@@ -374,7 +375,9 @@ def results_page(folder: Path = RESULTS) -> str:
         res = doc["result"]
         keys = HEADLINE.get(doc["benchmark"]) or [(k, k) for k, v in res.items()
                                       if isinstance(v, (int, float)) and not isinstance(v, bool)]
-        cmd = " ".join(["pftrack bench", doc["benchmark"], "--json", *doc.get("args", [])])
+        # ``ran_as``: the name the benchmark had when this file was recorded
+        cmd = " ".join(["pftrack bench", doc.get("ran_as") or doc["benchmark"], "--json",
+                        *doc.get("args", [])])
         m = doc["machine"]
         lines += [f"(results-{name.replace('@', '-')})=", f"## `{name}`", ""]
         head = [f"| {label} | {_fmt(value_at(res, k))} |" for k, label in keys

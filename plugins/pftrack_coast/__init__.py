@@ -14,7 +14,7 @@ Components (registered name -> class):
   detection groups in cuboid volumes, entry and exit by particle counts, several intruders at
   once, size with the support-plane correction);
 * scene: ``coast`` :class:`~pftrack_coast.scene.CoastScene` (the paper's coast, synthetic,
-  through its camera, package data ``pftrack_coast/data/coast_seed003.yaml``: sea, shore, land,
+  through its camera, package data ``pftrack_coast/data/coast_camera.yaml``: sea, shore, land,
   boats and a car, training frames);
 * volumes: ``pets09-walkway`` (package data ``pftrack_coast/data/pets09_walkway.yaml``: the
   ``walkway`` cuboid of preset ``pets09-volume``).

@@ -3,9 +3,9 @@ camera.
 
 Okamura and Fujimoto watch a coast with a 384 x 288 thermal camera upscaled 2x to 768 x 576
 (the coastal paper). Their video is not public; this scene renders the same set-up through
-``calib/coast_seed003.yaml`` (20 m up on a mast at the origin, looking out to sea 7.6 deg down;
+``calib/coast_camera.yaml`` (20 m up on a mast at the origin, looking out to sea 7.6 deg down;
 coast frame: x along the shore, y out to sea, z up, metres, origin at the mast foot on the sea
-level) so that the detection volumes of :func:`pftrack.geometry.volumes.seed003_volumes` have
+level) so that the detection volumes of :func:`pftrack.geometry.volumes.coast_volumes` have
 something to watch: ``near`` (43 x 10 x 6 m at y = 95..105 m) lies on LAND, ``far``
 (170 x 310 x 9 m at y = 145..455 m) on the SEA, the shore line between (y ~ 118..134 m).
 
@@ -106,13 +106,13 @@ _LAND = 138.0
 
 
 def default_coast_camera() -> Camera:
-    """The project's coastal camera, package data ``pftrack_coast/data/coast_seed003.yaml``
-    (``calib/coast_seed003.yaml`` in a checkout points to it)."""
+    """The project's coastal camera, package data ``pftrack_coast/data/coast_camera.yaml``
+    (``calib/coast_camera.yaml`` in a checkout points to it)."""
     from importlib import resources
 
     from pftrack.geometry.formats import load_camera
 
-    return load_camera(Path(str(resources.files("pftrack_coast") / "data" / "coast_seed003.yaml")))
+    return load_camera(Path(str(resources.files("pftrack_coast") / "data" / "coast_camera.yaml")))
 
 
 # ------------------------------------------------------------------------------------------------
@@ -214,7 +214,7 @@ _FACES = (
 
 
 class CoastScene(Scene):
-    """The coastal paper's coast through ``calib/coast_seed003.yaml``: sea, shore, land, intruders.
+    """The coastal paper's coast through ``calib/coast_camera.yaml``: sea, shore, land, intruders.
 
     Parameters
     ----------
@@ -615,7 +615,7 @@ def _car(oid: int, y0: float, vy: float, n: int, fps: float) -> CoastObject:
 def _clip_objects(name: str, n: int, fps: float, rng: np.random.Generator) -> list[CoastObject]:
     """The clip's intruders, with their volume entry and exit frames. Paths are fixed in
     metres per second of clip time, so they do not depend on ``n`` or ``fps`` beyond sampling."""
-    from pftrack.geometry.volumes import seed003_volumes
+    from pftrack.geometry.volumes import coast_volumes
 
     if name == "boat":
         objs = [_boat(1, 230.0, -95.0, 5.0, n, fps, rng)]
@@ -627,7 +627,7 @@ def _clip_objects(name: str, n: int, fps: float, rng: np.random.Generator) -> li
                 _car(3, 21.0, 3.0, n, fps)]
     else:
         objs = []
-    vols = seed003_volumes()
+    vols = coast_volumes()
     for o in objs:
         inside = np.flatnonzero(vols[o.volume].contains(o.centres_m))
         if len(inside):

@@ -3,7 +3,7 @@ cross entropy, with and without a background histogram), the synthetic ``walkers
 generic ``video`` scene (a video file with optional MOTChallenge ground truth), the default
 demo ``walkers`` (``pftrack demo``), the ``image-box-sized`` observation model (box size
 following the matched detections) and the ``people-colour`` preset (the colour likelihood for a
-user's own detections, ``pftrack run``). The paper's tables are the benchmarks ``seed000`` and
+user's own detections, ``pftrack run``). The paper's tables are the benchmarks ``colour`` and
 ``pets09-colour`` of the repository's benchmark package ``pftrack_bench``.
 
 Registered through the ``pftrack`` entry-point group exactly as a third-party plugin is; nothing

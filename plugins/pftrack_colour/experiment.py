@@ -1,7 +1,7 @@
 """The colour paper's experiments as library calls: track a scene from given boxes, score, tabulate.
 
 Used by ``pftrack demo``, :mod:`pftrack_colour.pets`, the notebook ``01_cross_entropy.ipynb``
-and the repository's benchmarks ``seed000`` and ``pets09-colour`` (package ``pftrack_bench``).
+and the repository's benchmarks ``colour`` and ``pets09-colour`` (package ``pftrack_bench``).
 
 Timing covers tracking only: frames are decoded or rendered before the clock starts (or outside
 the timed calls), and drawing happens afterwards.

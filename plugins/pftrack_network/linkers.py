@@ -37,14 +37,14 @@ NA = -1
 #: default trajectory break cost ``C_en + C_ex`` (-log of a similarity in 1/s) of the
 #: min-cost-flow linker (alone and inside the ensemble): a link is taken only when cheaper than
 #: a break. Chosen on the tuning datasets (seeds 1000-1002, not the benchmark's 0-4) of
-#: ``pftrack bench seed004``, with no candidate limit per camera (the paper's sec. 3.3); the
+#: ``pftrack bench camera-network``, with no candidate limit per camera (the paper's sec. 3.3); the
 #: figures: docs/decisions/network-parameters.md
 DEFAULT_PATH_COST = 6.5
 #: the greedy linker's break cost (-log of a similarity in 1/s), chosen the same way
 GREEDY_PATH_COST = 6.25
 #: the break cost (-log of a similarity in 1/s) of the min-cost-flow linker run on each Camera
 #: Dropout sub-network of :class:`TrajectoryEnsemble` (its default linker and ``pftrack bench
-#: seed004``'s), chosen on the tuning datasets at C_d = 9. Lower than the full network's: a
+#: camera-network``'s), chosen on the tuning datasets at C_d = 9. Lower than the full network's: a
 #: sub-network's joined edges offer many more candidate links than the full network's edges,
 #: and most of them are wrong, so its tracker must link more sparingly.
 ENSEMBLE_PATH_COST = 5.5
@@ -482,7 +482,7 @@ JOIN_MIN_APPEARANCE = 0.65
 #: near the full network's, which the gate allows; chosen on the tuning datasets
 GATED_PATH_COST = 6.75
 #: :class:`GatedTrajectoryEnsemble`'s cameras dropped per sub-network (C_d), chosen on the
-#: tuning datasets (the paper's 9 tracked worse there); ``pftrack bench seed004``'s tuned gated
+#: tuning datasets (the paper's 9 tracked worse there); ``pftrack bench camera-network``'s tuned gated
 #: row uses the same C_d
 GATED_DROPPED = 5
 
@@ -511,7 +511,7 @@ class GatedTrajectoryEnsemble(TrajectoryEnsemble):
     Everything else (dropout by moments, the edge cap, average linkage, k the mean number of
     trajectories, sub-networks only) is :class:`TrajectoryEnsemble`'s.
 
-    How it was chosen: on the tuning datasets (seeds 1000-1002) of ``pftrack bench seed004``,
+    How it was chosen: on the tuning datasets (seeds 1000-1002) of ``pftrack bench camera-network``,
     never the benchmark's 0-4, on the protocol in which no image is shared between a person's
     tracklets: the gate, C_d (:data:`GATED_DROPPED`) and the break cost, one at a time, then a
     small joint check; S = 100 and the share distance stayed. The figures and what was not
@@ -531,7 +531,7 @@ class GatedTrajectoryEnsemble(TrajectoryEnsemble):
 
 
 #: the linkers' parameters for the stripes appearance (``appearance_feature="stripes"``;
-#: ``pftrack bench seed004 --appearance stripes`` takes every one it is not given): its values
+#: ``pftrack bench camera-network --appearance stripes`` takes every one it is not given): its values
 #: are ``-log`` of another scale than eq. 7's, so each was chosen again, on the tuning datasets
 #: (seeds 1000-1002) only (docs/decisions/stripes-appearance.md). Keys: the bench's options
 #: (break costs of min-cost flow, greedy, the paper's ensemble's sub-networks at C_d 9, its

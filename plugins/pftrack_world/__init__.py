@@ -20,9 +20,9 @@ Components (registered name -> class):
 * scene: ``soccer`` :class:`~pftrack_world.soccer.SoccerScene`;
 * preset: ``pets09-ground``, ``soccer-ground``, ``people-ground`` and ``people-image`` (package
   data, ``pftrack_world/presets``);
-* volumes: ``world`` (package data ``pftrack_world/data/volumes.yaml``: ``pitch_seed001`` and
+* volumes: ``world`` (package data ``pftrack_world/data/volumes.yaml``: ``pitch_corner`` and
   the coastal paper's ``near`` / ``far``); the soccer camera
-  ``pftrack_world/data/soccer_seed001.yaml``.
+  ``pftrack_world/data/soccer_camera.yaml``.
 
 The paper's benchmarks (``pftrack bench pets09-ground``, ``soccer``, ``fresh-video``,
 ``own-detections``, ``detectors``, ...) live in the repository's benchmark package

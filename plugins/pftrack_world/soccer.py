@@ -85,10 +85,10 @@ SOURCES: dict[str, str] = {
 }
 
 #: Candidate file names of the project's soccer camera, searched in ``calib/``.
-_CAMERA_FILE = "soccer_seed001.yaml"
+_CAMERA_FILE = "soccer_camera.yaml"
 #: Default pitch volume (in the camera's world frame), looked up with
 #: :func:`pftrack.geometry.volumes.resolve_volume` (``pftrack_world/data/volumes.yaml``).
-_DEFAULT_VOLUME = "pitch_seed001"
+_DEFAULT_VOLUME = "pitch_corner"
 
 # Player body plan in metres for a 1.80 m player (scaled by height): (name, z0, z1, half side
 # width, half depth, lateral offset, swing: 0 none, +-1 legs, +-2 forearms, +-3 upper arms, colour).
@@ -110,8 +110,8 @@ _BOX_HALF_M = 0.30  # ground-truth cuboid: 0.6 x 0.6 m footprint
 
 
 def default_soccer_camera_path() -> Path:
-    """The plugin's soccer camera, package data ``pftrack_world/data/soccer_seed001.yaml``
-    (the soccer paper's Table 1 camera; ``calib/soccer_seed001.yaml`` in a checkout points to it).
+    """The plugin's soccer camera, package data ``pftrack_world/data/soccer_camera.yaml``
+    (the soccer paper's Table 1 camera; ``calib/soccer_camera.yaml`` in a checkout points to it).
 
     Raises
     ------

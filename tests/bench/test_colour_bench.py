@@ -1,4 +1,4 @@
-"""``pftrack bench seed000`` and ``pftrack bench pets09-colour`` on short runs: structure and
+"""``pftrack bench colour`` and ``pftrack bench pets09-colour`` on short runs: structure and
 sanity of the numbers they report."""
 
 from __future__ import annotations
@@ -11,9 +11,9 @@ from pftrack.cli import main
 from pftrack.data import data_dir
 
 
-def test_seed000_bench_small(tmp_path, capsys):
-    out = tmp_path / "seed000.json"
-    rc = main(["bench", "seed000", "--samples", "40,80", "--targets", "1,3", "--frames", "20",
+def test_colour_bench_small(tmp_path, capsys):
+    out = tmp_path / "colour.json"
+    rc = main(["bench", "colour", "--samples", "40,80", "--targets", "1,3", "--frames", "20",
                "--json", "--out", str(out), "--quiet"])
     assert rc == 0
     printed = json.loads(capsys.readouterr().out)
@@ -34,8 +34,8 @@ def test_seed000_bench_small(tmp_path, capsys):
     assert "rendered" in result["setup"]["timing"]
 
 
-def test_seed000_bench_slow_frames_and_table(capsys):
-    rc = main(["bench", "seed000", "--samples", "5000", "--targets", "1", "--frames", "12",
+def test_colour_bench_slow_frames_and_table(capsys):
+    rc = main(["bench", "colour", "--samples", "5000", "--targets", "1", "--frames", "12",
                "--likelihoods", "bhattacharyya,cross-entropy", "--slow-frames", "4", "--quiet"])
     assert rc == 0
     text = capsys.readouterr().out
@@ -44,8 +44,8 @@ def test_seed000_bench_slow_frames_and_table(capsys):
     assert lines and lines[0].split()[2] == "4"  # the slow baseline ran 4 frames
 
 
-def test_seed000_bad_arguments(capsys):
-    assert main(["bench", "seed000", "--likelihoods", "nope", "--quiet"]) == 2
+def test_colour_bad_arguments(capsys):
+    assert main(["bench", "colour", "--likelihoods", "nope", "--quiet"]) == 2
     assert "nope" in capsys.readouterr().err
 
 

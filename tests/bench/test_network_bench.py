@@ -1,4 +1,4 @@
-"""The camera-network paper's virtual experiment on real CAVIAR4REID images, the ``seed004``
+"""The camera-network paper's virtual experiment on real CAVIAR4REID images, the ``camera-network``
 benchmark on a small case and the plugin's registration (pftrack_network)."""
 
 from __future__ import annotations
@@ -23,10 +23,10 @@ def test_plugin_registers_the_benchmark_through_a_host():
     from pftrack.host import Host
 
     host = Host(load_entry_points=False, plugins=[("bench", pftrack_bench)])
-    bench = host.get("benchmark", "seed004")
+    bench = host.get("benchmark", "camera-network")
     assert isinstance(bench, Benchmark)
     assert bench.summary.startswith("The camera-network paper's experiment")
-    assert "seed004" in host.listing()["plugins"][0]["components"]["benchmark"]
+    assert "camera-network" in host.listing()["plugins"][0]["components"]["benchmark"]
 
 
 def test_virtual_dataset_follows_the_protocol():
@@ -117,7 +117,7 @@ def test_no_image_appears_in_two_tracklets_of_one_person(seed):
 
 def test_project_ari_matches_scikit_learn_on_linker_output():
     from pftrack.metrics import adjusted_rand_index
-    from pftrack_bench.seed004 import dataset
+    from pftrack_bench.camera_network import dataset
     from pftrack_network.linkers import GreedyLinker, MinCostFlowLinker
     from sklearn.metrics import adjusted_rand_score
 
@@ -129,14 +129,14 @@ def test_project_ari_matches_scikit_learn_on_linker_output():
     assert adjusted_rand_index(ds.truth, ds.truth) == 1.0
 
 
-def test_seed004_benchmark_small_case_prints_both_tables():
-    from pftrack_bench import seed004 as bench_seed004
+def test_camera_network_benchmark_small_case_prints_both_tables():
+    from pftrack_bench import camera_network as bench_camera_network
 
     parser = argparse.ArgumentParser()
-    bench_seed004.add_arguments(parser)
+    bench_camera_network.add_arguments(parser)
     args = parser.parse_args(["--datasets", "2", "--runs", "2", "--subnetworks", "10",
                               "--table3", "5,9:10", "--quiet"])
-    result = bench_seed004.run(args)
+    result = bench_camera_network.run(args)
     json.dumps(result)  # serialisable
     methods = [r["method"] for r in result["table1"]]
     assert methods[:3] == ["greedy", "min-cost-flow", "trajectory-ensemble"]
@@ -154,7 +154,7 @@ def test_seed004_benchmark_small_case_prints_both_tables():
     tuned = next(r for r in result["table1"] if r["method"].endswith("(C_d=5, tuned)")
                  and r["method"].startswith("trajectory-ensemble ("))
     for d in range(2):
-        own = bench_seed004.ensemble_runs(d, 5, 10, 2, path_cost=5.75)["ari"]
+        own = bench_camera_network.ensemble_runs(d, 5, 10, 2, path_cost=5.75)["ari"]
         assert tuned["per_dataset"][d] == pytest.approx(np.mean(own))
     assert result["setup"]["image_reuse"] is False
     assert result["seconds"]["trajectory_ensemble_gated_one_run_median"] > 0
@@ -167,7 +167,7 @@ def test_seed004_benchmark_small_case_prints_both_tables():
     assert [(c["dropped"], c["subnetworks"]) for c in result["table3"]] == [(5, 10), (9, 10)]
     assert len(result["table2"]) == 2
     assert result["seconds"]["trajectory_ensemble_one_run_median"] > 0
-    text = bench_seed004.format_table(result)
+    text = bench_camera_network.format_table(result)
     assert "min-cost-flow" in text and "C_d=9" in text
     # the goals, read off Table 1 and the timings for each ensemble
     g = result["goals"]
@@ -184,7 +184,7 @@ def test_seed004_benchmark_small_case_prints_both_tables():
         g["gated"]["one_run_s"]["value"] < 1.0)
     assert text.count("goals (") == 3
     # the grid's unit of work is independent and seeded: the same cell twice, the same ARI
-    from pftrack_bench.seed004 import table3_cell
+    from pftrack_bench.camera_network import table3_cell
 
     cell = table3_cell(9, 10, datasets=2, runs=2)
     assert cell["ari_mean"] == result["table3"][1]["ari_mean"]
@@ -196,7 +196,7 @@ def test_trajectory_ensemble_of_s100_runs_in_about_a_second():
     slow path (a Python loop over pairs) that would make it ten times slower."""
     import time
 
-    from pftrack_bench.seed004 import dataset
+    from pftrack_bench.camera_network import dataset
     from pftrack_network.linkers import TrajectoryEnsemble
 
     ds, app = dataset(1000)
@@ -206,18 +206,18 @@ def test_trajectory_ensemble_of_s100_runs_in_about_a_second():
     assert time.perf_counter() - t0 < 10
 
 
-def test_seed004_table3_on_two_dask_workers_equals_in_process():
+def test_camera_network_table3_on_two_dask_workers_equals_in_process():
     """Table 3's cells mapped over a real 2-worker local Dask cluster give the in-process
     figures exactly (each cell is seeded)."""
     pytest.importorskip("distributed")
-    from pftrack_bench import seed004 as bench_seed004
+    from pftrack_bench import camera_network as bench_camera_network
 
     parser = argparse.ArgumentParser()
-    bench_seed004.add_arguments(parser)
+    bench_camera_network.add_arguments(parser)
     common = ["--datasets", "1", "--runs", "2", "--subnetworks", "10", "--tuned-dropped", "0",
               "--table3", "5,9:5,10", "--quiet"]
-    serial = bench_seed004.run(parser.parse_args(common))
-    dask = bench_seed004.run(parser.parse_args(common + ["--workers", "2"]))
+    serial = bench_camera_network.run(parser.parse_args(common))
+    dask = bench_camera_network.run(parser.parse_args(common + ["--workers", "2"]))
     assert dask["setup"]["table3_workers"] == 2
     key = [(c["dropped"], c["subnetworks"], c["ari_mean"], c["ari_var"])
            for c in serial["table3"]]
@@ -269,7 +269,7 @@ def test_ensemble_sub_networks_track_better_with_moments_and_their_own_break_cos
     paper's literal rule (shape and scale added) with the full network's break cost makes
     sub-networks whose links over joined edges are mostly wrong; joining by moments with the
     ensemble's lower break cost makes them both more often right and better tracked."""
-    from pftrack_bench.seed004 import dataset
+    from pftrack_bench.camera_network import dataset
     from pftrack_network.linkers import DEFAULT_PATH_COST, ENSEMBLE_PATH_COST
 
     ds, app = dataset(1000)
@@ -287,7 +287,7 @@ def test_gated_joins_let_sub_networks_use_the_full_networks_break_cost():
     break cost (the ensemble's gain then comes from combining them: see the next test).
     Measured on the old protocol with image reuse at its gate 0.7, where the method was built
     (the protocol without reuse: the next-but-one test)."""
-    from pftrack_bench.seed004 import dataset
+    from pftrack_bench.camera_network import dataset
     from pftrack_network.linkers import DEFAULT_PATH_COST, ENSEMBLE_PATH_COST
 
     ds, app = dataset(1000, None, True)
@@ -306,7 +306,7 @@ def test_gated_ensemble_beats_min_cost_flow_on_a_tuning_dataset():
     the paper's ensemble below it. Without image reuse it no longer holds (min-cost flow
     0.568, gated 0.459, the paper's 0.331: the next test)."""
     from pftrack.metrics import adjusted_rand_index
-    from pftrack_bench.seed004 import dataset
+    from pftrack_bench.camera_network import dataset
     from pftrack_network.linkers import (
         DEFAULT_PATH_COST,
         GatedTrajectoryEnsemble,
@@ -334,7 +334,7 @@ def test_gated_ensemble_beats_the_papers_without_image_reuse(seed):
     0.452 against 0.246 / 0.242 / 0.331; 0.400 / 0.348 / 0.459 at the break cost 6.5 of
     before), though not above min-cost flow (0.462 / 0.350 / 0.568)."""
     from pftrack.metrics import adjusted_rand_index
-    from pftrack_bench.seed004 import dataset
+    from pftrack_bench.camera_network import dataset
     from pftrack_network.linkers import GatedTrajectoryEnsemble, TrajectoryEnsemble
 
     ds, app = dataset(seed)
@@ -351,7 +351,7 @@ def test_gated_joins_without_image_reuse():
     without image reuse: at the full network's break cost, gating joined links at 0.65 raises
     their share of true links (measured 0.23 -> 0.32) and doubles the ARI on the kept
     tracklets (0.127 -> 0.264; ungated at the ensemble's 5.5: 0.258)."""
-    from pftrack_bench.seed004 import dataset
+    from pftrack_bench.camera_network import dataset
     from pftrack_network.linkers import DEFAULT_PATH_COST, JOIN_MIN_APPEARANCE
 
     ds, app = dataset(1000)

@@ -148,14 +148,14 @@ def test_track_checks_its_outputs_before_detecting(tmp_path, monkeypatch):
 
 @needs_pets
 def test_pitch_blob_takes_the_run_camera_file(tmp_path):
-    """``pftrack run soccer-ground --camera calib/soccer_seed001.yaml`` stopped
+    """``pftrack run soccer-ground --camera calib/soccer_camera.yaml`` stopped
     with ``TypeError: expected str ... not Camera`` in pitch-blob; the run's camera object is
     used as is (on any video: the camera is resized to its frames)."""
     from pathlib import Path
 
     from pftrack.cli import main
 
-    cam = Path(__file__).resolve().parents[2] / "calib" / "soccer_seed001.yaml"
+    cam = Path(__file__).resolve().parents[2] / "calib" / "soccer_camera.yaml"
     assert main(["run", "soccer-ground", "--video", str(PETS / "vtest.avi"), "--camera",
                  str(cam), "--frames", "1:3", "--out", str(tmp_path / "s"), "--no-report",
                  "--quiet"]) == 0

@@ -90,8 +90,8 @@ def wheel_env(tmp_path_factory):
 
 def test_wheel_holds_the_plugins_data(wheel_env):
     names = set(zipfile.ZipFile(wheel_env["wheel"]).namelist())
-    for f in ("pftrack_world/data/soccer_seed001.yaml", "pftrack_world/data/volumes.yaml",
-              "pftrack_world/presets/soccer-ground.yaml", "pftrack_coast/data/coast_seed003.yaml",
+    for f in ("pftrack_world/data/soccer_camera.yaml", "pftrack_world/data/volumes.yaml",
+              "pftrack_world/presets/soccer-ground.yaml", "pftrack_coast/data/coast_camera.yaml",
               "pftrack_coast/data/pets09_walkway.yaml", "pftrack/py.typed"):
         assert f in names, f
 
@@ -151,7 +151,7 @@ def test_wheel_soccer_bench_and_topview_with_a_shipped_volume(wheel_env):
     tracks = np.loadtxt(cwd / "soccer.txt", delimiter=",", ndmin=2)
     # world x, y on the 105 x 68 m pitch of the shipped volume (origin at a corner)
     assert (tracks[:, 7] > -5).all() and (tracks[:, 7] < 110).all()
-    _run([cli, "render", "topview", "soccer.txt", "--volume", "pitch_seed001", "--out",
+    _run([cli, "render", "topview", "soccer.txt", "--volume", "pitch_corner", "--out",
           "top.png"], cwd=cwd, env=env)
     _run([cli, "render", "topview", "soccer.txt", "--volume", "walkway", "--out",
           "walkway.png"], cwd=cwd, env=env)

@@ -437,7 +437,7 @@ def test_a_figure_in_prose_is_read_from_the_latest_result(tmp_path):
     import pftrack_results
 
     def write(file, date, variant, rows):
-        doc = {"benchmark": "seed000", "args": [], "commit": {"sha": "b" * 40},
+        doc = {"benchmark": "colour", "args": [], "commit": {"sha": "b" * 40},
                "date": date, "machine": {"logical_cores": 2}, "protocol": {},
                "result": {"rows": rows, "speed": {"ratio": 3.25}}}
         if variant:
@@ -446,9 +446,9 @@ def test_a_figure_in_prose_is_read_from_the_latest_result(tmp_path):
 
     rows = [{"likelihood": "a", "samples": 500, "fps": 1234.5},
             {"likelihood": "b", "samples": 500, "fps": 99.0}]
-    write("seed000-1.json", "2026-01-01T00:00:00Z", None, rows)
-    write("seed000-2.json", "2026-02-01T00:00:00Z", None, rows[:1])
-    write("seed000@fast-1.json", "2026-03-01T00:00:00Z", "fast", [{"likelihood": "a",
+    write("colour-1.json", "2026-01-01T00:00:00Z", None, rows)
+    write("colour-2.json", "2026-02-01T00:00:00Z", None, rows[:1])
+    write("colour@fast-1.json", "2026-03-01T00:00:00Z", "fast", [{"likelihood": "a",
                                                                    "samples": 500, "fps": 7.0}])
     fig = pftrack_results.figure
     table = {"t": [{"method": "a (C_d=5, tuned)", "v": 1.5}, {"method": "a", "v": 2}]}
@@ -456,17 +456,17 @@ def test_a_figure_in_prose_is_read_from_the_latest_result(tmp_path):
     assert pftrack_results.value_at(table, "t[method=a].v") == 2
     assert pftrack_results.value_at({"t": [{"x": [4, 5]}]}, "t[0].x[1]") == 5
     assert pftrack_results.value_at({"t": [1]}, "t[3]") is None
-    assert fig("seed000:speed.ratio", tmp_path) == "3.25"
-    assert fig("seed000:rows[likelihood=a,samples=500].fps:,.0f", tmp_path) == "1,234"
-    assert fig("seed000@fast:rows[likelihood=a].fps:.1f", tmp_path) == "7.0"
+    assert fig("colour:speed.ratio", tmp_path) == "3.25"
+    assert fig("colour:rows[likelihood=a,samples=500].fps:,.0f", tmp_path) == "1,234"
+    assert fig("colour@fast:rows[likelihood=a].fps:.1f", tmp_path) == "7.0"
     with pytest.raises(ValueError, match="no number at 'rows\\[likelihood=b\\].fps'"):
-        fig("seed000:rows[likelihood=b].fps", tmp_path)  # only in the older file
+        fig("colour:rows[likelihood=b].fps", tmp_path)  # only in the older file
     with pytest.raises(ValueError, match="no result of benchmark 'soccer'"):
         fig("soccer:MOTA", tmp_path)
     with pytest.raises(ValueError, match="NAME:KEY"):
-        fig("seed000", tmp_path)
+        fig("colour", tmp_path)
     page = pftrack_results.results_page(tmp_path)
-    assert "(results-seed000-fast)=" in page and "## `seed000@fast`" in page
+    assert "(results-colour-fast)=" in page and "## `colour@fast`" in page
 
 
 def test_committed_results_come_from_a_recorded_run():

@@ -70,7 +70,7 @@ def test_readme_is_short_and_says_what_and_how():
     # the papers by subject, never by an internal number
     for subject in ("colour", "Soccer", "Coastal", "camera network"):
         assert subject in text
-    assert not re.search(r"\bseed 00\d\b", text, re.I)  # `bench seed000` is a command name
+    assert not re.search(r"\bseed 00\d\b", text, re.I)  # `bench colour` is a command name
 
 
 def test_readme_commands_parse(parser):

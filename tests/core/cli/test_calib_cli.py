@@ -69,7 +69,7 @@ def test_chessboard_cli(capsys, tmp_path):
 
 def test_points_cli_round_trip(capsys, tmp_path):
     # done-when 4 through the CLI: pitch line intersections from the shipped camera, 0.5 px noise
-    truth = load_camera(ROOT / "calib" / "soccer_seed001.yaml")
+    truth = load_camera(ROOT / "calib" / "soccer_camera.yaml")
     X = np.array(list(soccer_pitch_keypoints().values()))
     x = truth.project(X) + np.random.default_rng(2009).normal(0.0, 0.5, (len(X), 2))
     csv = tmp_path / "pitch.csv"

@@ -56,7 +56,7 @@ def test_chessboard_rejects_bad_input(tmp_path):
 
 
 def _soccer_truth() -> tuple[Camera, np.ndarray, np.ndarray]:
-    cam = load_camera(CALIB / "soccer_seed001.yaml")
+    cam = load_camera(CALIB / "soccer_camera.yaml")
     X = np.array(list(soccer_pitch_keypoints(frame="corner").values()))
     return cam, X, cam.project(X)
 

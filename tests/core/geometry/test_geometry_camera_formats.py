@@ -111,7 +111,7 @@ def test_conversion_residuals_are_what_we_measured(pets):
 
 
 def test_strong_tsai_lens_goes_rational_in_opencv():
-    cam = load_camera(CALIB / "soccer_seed001.yaml")
+    cam = load_camera(CALIB / "soccer_camera.yaml")
     _, rep_std = convert_camera(cam, "opencv", opencv_model="standard")
     auto, rep = convert_camera(cam, "opencv")
     assert rep_std.residual_max_px > 5.0  # 5 coefficients cannot follow kappa1 = 0.36
@@ -161,7 +161,7 @@ def test_pftrack_yaml_is_bit_exact(tmp_path, pets):
 
 
 def test_shipped_soccer_camera_views_the_whole_pitch():
-    cam = load_camera(CALIB / "soccer_seed001.yaml")
+    cam = load_camera(CALIB / "soccer_camera.yaml")
     assert cam.image_size == (1280, 720)
     np.testing.assert_allclose(cam.center_m, [35.04, -67.73, 16.01], atol=0.01)
     assert cam.fx == pytest.approx(3.155433 / 0.005)
@@ -179,7 +179,7 @@ def test_shipped_soccer_camera_views_the_whole_pitch():
 def test_shipped_coast_camera_views_both_volumes():
     from pftrack.geometry.volumes import load_volumes
 
-    cam = load_camera(CALIB / "coast_seed003.yaml")
+    cam = load_camera(CALIB / "coast_camera.yaml")
     vols = load_volumes(CALIB / "volumes.yaml")
     assert cam.image_size == (768, 576)
     np.testing.assert_allclose(cam.center_m, [0.0, 0.0, 20.0], atol=1e-9)
@@ -187,7 +187,7 @@ def test_shipped_coast_camera_views_both_volumes():
         assert cam.visible(vols[name].corners()).all(), name
     near_px = cam.project(vols["near"].corners())
     assert np.ptp(near_px[:, 0]) > 200  # 43 m wide at 100 m: a sizeable target area
-    assert vols["pitch_seed001"].frame == "corner"
+    assert vols["pitch_corner"].frame == "corner"
 
 
 def test_errors_name_the_file(tmp_path):

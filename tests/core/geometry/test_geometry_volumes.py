@@ -12,7 +12,7 @@ from pftrack.geometry.volumes import (
     resolve_volume,
     sample_polyline,
     save_volumes,
-    seed003_volumes,
+    coast_volumes,
 )
 
 
@@ -78,8 +78,8 @@ def test_cuboid_rejects_bad_parameters(bad):
         CuboidVolume(**bad)
 
 
-def test_seed003_volumes_sizes_and_distances():
-    v = seed003_volumes()
+def test_coast_volumes_sizes_and_distances():
+    v = coast_volumes()
     assert np.allclose(v["near"].size_m, [43, 10, 6])
     assert np.allclose(v["far"].size_m, [170, 310, 9])
     assert v["near"].center_m[1] == 100 and v["far"].center_m[1] == 300
@@ -137,7 +137,7 @@ def test_sample_polyline_keeps_vertices():
 
 
 def test_volumes_yaml_round_trip(tmp_path):
-    vols = dict(seed003_volumes())
+    vols = dict(coast_volumes())
     vols["tilted"] = CuboidVolume.from_yaw([1, 2, 3], [4, 5, 6], 30.0, name="tilted")
     vols["pitch"] = SoccerPitchVolume(length_m=100, width_m=64, frame="corner")
     path = save_volumes(tmp_path / "v.yaml", vols)
@@ -185,7 +185,7 @@ def test_plugins_ship_volume_files_found_by_name(tmp_path):
     from pftrack.host import Host, RegistrationError
 
     # the built-ins' package data: the soccer paper's pitch and the PETS walkway cuboid
-    pitch = resolve_volume("pitch_seed001")
+    pitch = resolve_volume("pitch_corner")
     assert isinstance(pitch, SoccerPitchVolume) and pitch.frame == "corner"
     walkway = resolve_volume("walkway")
     np.testing.assert_allclose(walkway.size_m, [27.0, 22.0, 2.0])

@@ -157,8 +157,8 @@ def test_soccer_pitch_overlay_lines_through_projected_corners():
     from pftrack.geometry.formats import load_camera
     from pftrack.geometry.volumes import resolve_volume
 
-    cam = load_camera(ROOT / "calib" / "soccer_seed001.yaml")
-    pitch = resolve_volume("pitch_seed001")
+    cam = load_camera(ROOT / "calib" / "soccer_camera.yaml")
+    pitch = resolve_volume("pitch_corner")
     w, h = cam.image_size
     green = np.full((h, w, 3), (40, 110, 40), np.uint8)
     img = render_overlay(green, camera=cam, volume=pitch)

@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 import pytest
 from pftrack.components import Frame
-from pftrack.geometry.volumes import seed003_volumes
+from pftrack.geometry.volumes import coast_volumes
 from pftrack_coast.eigenspace import BlockEigenspaceModel
 from pftrack_coast.scene import CoastScene
 
@@ -100,7 +100,7 @@ def test_ground_truth_matches_objects_and_volumes(clip):
     objs = sc.objects()
     assert gt.shape[1] == 10 and np.all(gt[:, 6] == 1) and np.all(gt[:, 9] == 0)
     assert set(gt[:, 1].astype(int)) == {o.id for o in objs}
-    vols = seed003_volumes()
+    vols = coast_volumes()
     for o in objs:
         rows = gt[gt[:, 1] == o.id]
         k = rows[:, 0].astype(int) - 1

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 from pftrack.geometry import camera as camera_module
-from pftrack_bench.seed003 import speed_3x5000, speed_runs
+from pftrack_bench.coast import speed_3x5000, speed_runs
 from pftrack_coast import likelihood as likelihood_module
 from pftrack_coast import volumes as volumes_module
 from pftrack_coast._kernels import blocks_of_pixels

@@ -4,7 +4,7 @@
 A synthetic walk with a perfect foreground (the true cuboids' image boxes) checks the mechanics:
 entry and exit by particle counts, several intruders at once, the support-plane correction of
 the depth the paper over-estimates, determinism. The real-data figures are the benchmark's
-(``pftrack bench seed003``); a short PETS slice here checks the preset runs from the command line.
+(``pftrack bench coast``); a short PETS slice here checks the preset runs from the command line.
 """
 
 from __future__ import annotations
@@ -240,7 +240,7 @@ def test_pets09_volume_preset_trains_and_runs_from_the_command_line(tmp_path, ca
     assert metrics["MOTA"] > 0.0, metrics
     # the benchmark on the same model and a few frames: its figures and its pictures
     images = tmp_path / "img"
-    assert main(["bench", "seed003", "--parts", "pets09", "--frames", "401:425", "--no-mog2",
+    assert main(["bench", "coast", "--parts", "pets09", "--frames", "401:425", "--no-mog2",
                  "--model", str(model), "--images", str(images), "--json"]) == 0
     res = json.loads(capsys.readouterr().out)["pets09"]
     for key in ("MOTA", "IDF1", "HOTA", "MOTA_world", "IDF1_world", "median_error_m",
@@ -372,7 +372,7 @@ def test_pets09_gathering_exit_hysteresis_and_reid_keep_identities(tmp_path):
     from pftrack.geometry.formats import load_camera
     from pftrack.geometry.volumes import resolve_volume
     from pftrack.pipeline import iter_frames, load_config, read_ground_truth, train_detector
-    from pftrack_bench.seed003 import score_pets, track_frames
+    from pftrack_bench.coast import score_pets, track_frames
 
     video, gt_path, cam_path = pets09_files()
     cfg = load_config("pets09-volume")

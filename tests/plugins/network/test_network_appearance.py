@@ -1,6 +1,6 @@
 """The camera-network paper's stripes appearance (``appearance="stripes"``,
 pftrack_network.similarity): the feature, its pair-ranking probability on CAVIAR4REID against the
-paper's eq. 7, and its pass-through in the linkers and ``pftrack bench seed004 --appearance``."""
+paper's eq. 7, and its pass-through in the linkers and ``pftrack bench camera-network --appearance``."""
 
 from __future__ import annotations
 
@@ -155,16 +155,16 @@ def test_ensemble_takes_the_appearance_feature():
 
 
 @needs_caviar
-def test_seed004_bench_appearance_option_uses_the_stripes_and_their_parameters():
-    from pftrack_bench import seed004 as bench_seed004
+def test_camera_network_bench_appearance_option_uses_the_stripes_and_their_parameters():
+    from pftrack_bench import camera_network as bench_camera_network
     from pftrack_network.linkers import STRIPES_PARAMETERS
 
     parser = argparse.ArgumentParser()
-    bench_seed004.add_arguments(parser)
+    bench_camera_network.add_arguments(parser)
     base = ["--datasets", "1", "--runs", "1", "--subnetworks", "10", "--table3", "none",
             "--seed", "1000", "--quiet"]
-    paper = bench_seed004.run(parser.parse_args(base))
-    stripes = bench_seed004.run(parser.parse_args(base + ["--appearance", "stripes"]))
+    paper = bench_camera_network.run(parser.parse_args(base))
+    stripes = bench_camera_network.run(parser.parse_args(base + ["--appearance", "stripes"]))
     assert paper["setup"]["appearance"] == "paper"
     assert stripes["setup"]["appearance"] == "stripes"
     for key in ("path_cost", "greedy_path_cost", "ensemble_path_cost", "tuned_path_cost",
@@ -178,8 +178,8 @@ def test_seed004_bench_appearance_option_uses_the_stripes_and_their_parameters()
     assert ari["greedy"] > ari_paper["greedy"] + 0.05
     # an explicit option still wins over the stripes' parameters; the paper's are untouched
     given = parser.parse_args(base + ["--appearance", "stripes", "--path-cost", "7.0"])
-    filled = bench_seed004._with_appearance_parameters(given)
+    filled = bench_camera_network._with_appearance_parameters(given)
     assert filled.path_cost == 7.0 and filled.gated_path_cost == STRIPES_PARAMETERS[
         "gated_path_cost"] and given.gated_path_cost is None
     plain = parser.parse_args(base)
-    assert bench_seed004._with_appearance_parameters(plain) is plain
+    assert bench_camera_network._with_appearance_parameters(plain) is plain

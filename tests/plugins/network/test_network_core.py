@@ -339,7 +339,7 @@ def test_trajectory_ensemble_defaults_are_the_tuned_ones():
 def test_gated_ensemble_defaults_are_the_tuned_ones():
     """The named change of method's defaults are the choices of the tuning seeds (the
     protocol without image reuse), and the benchmark's tuned gated row uses the same C_d."""
-    from pftrack_bench.seed004 import GATED_DROPPED as BENCH_GATED_DROPPED
+    from pftrack_bench.camera_network import GATED_DROPPED as BENCH_GATED_DROPPED
     from pftrack_network.linkers import (
         GATED_DROPPED,
         GATED_PATH_COST,

@@ -2,7 +2,7 @@
 
 A benchmark is a :class:`pftrack.extensions.Benchmark` that a plugin registered through
 ``pftrack_register_benchmarks``. pftrack itself ships none: the papers' benchmarks (``core``,
-``seed000``, ``pets09-ground``, ``soccer``, ...) are the repository's package ``pftrack_bench``
+``colour``, ``pets09-ground``, ``soccer``, ...) are the repository's package ``pftrack_bench``
 (``benchmarks/``, installed by ``./dev``), a plugin like any third party's. Its result dict is
 printed as JSON with ``--json`` (and written atomically to ``--out``), otherwise as its
 ``format_table(result)`` text.

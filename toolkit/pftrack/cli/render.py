@@ -45,7 +45,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--out", required=True, help="output PNG")
     t.add_argument("--gt", help="ground-truth MOTChallenge CSV, drawn dashed")
     t.add_argument("--volume", help="volume name (pitch, near, far, or a name in a plugin's "
-                   "volume files: pitch_seed001, walkway), YAML file or FILE:NAME")
+                   "volume files: pitch_corner, walkway), YAML file or FILE:NAME")
     t.add_argument("--size", type=_size, default=(1024, 768), help="WxH pixels (1024x768)")
     t.add_argument("--title", help="title text")
     t.add_argument("--label", default="estimate",

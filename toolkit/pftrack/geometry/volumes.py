@@ -9,7 +9,7 @@ Two kinds are built in:
 
 * :class:`CuboidVolume` -- an oriented box (Open3D's ``OrientedBoundingBox`` under the hood, see
   :meth:`CuboidVolume.to_open3d`); the coastal paper's two detection volumes are
-  :func:`seed003_volumes`.
+  :func:`coast_volumes`.
 * :class:`SoccerPitchVolume` -- a 105 x 68 m pitch (by default) with a height for the players, plus
   its markings as polylines on the ground (:meth:`SoccerPitchVolume.markings`).
 
@@ -64,7 +64,7 @@ __all__ = [
     "resolve_volume",
     "sample_polyline",
     "save_volumes",
-    "seed003_volumes",
+    "coast_volumes",
 ]
 
 # Index pairs into the corner order of :meth:`CuboidVolume.corners` (bit k of the corner index
@@ -477,7 +477,7 @@ class SoccerPitchVolume(Volume):
 # ---------------------------------------------------------------------------------------------
 
 
-def seed003_volumes() -> dict[str, CuboidVolume]:
+def coast_volumes() -> dict[str, CuboidVolume]:
     """The coastal paper's two coastal detection volumes (sec. 5.1), in the coast frame.
 
     ``near``: 43 m across x 10 m deep x 6 m high, centred 100 m from the camera;
@@ -495,7 +495,7 @@ def builtin_volumes() -> dict[str, Volume]:
     """The named volumes that need no file: ``pitch`` (105 x 68 m), ``near`` and ``far``
     (the coastal paper)."""
     out: dict[str, Volume] = {"pitch": SoccerPitchVolume()}
-    out.update(seed003_volumes())
+    out.update(coast_volumes())
     return out
 
 

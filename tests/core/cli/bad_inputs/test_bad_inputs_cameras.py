@@ -255,10 +255,10 @@ def test_chessboard_not_images(tmp_path, cli):
 
 
 def test_soccer_ground_takes_the_run_camera(work, cli):
-    """``pftrack run soccer-ground --camera calib/soccer_seed001.yaml`` failed with a TypeError in
+    """``pftrack run soccer-ground --camera calib/soccer_camera.yaml`` failed with a TypeError in
     ``pitch-blob`` (a Camera where a path was expected)."""
     r = cli("run", "soccer-ground", "--video", work.video, "--camera",
-            ROOT / "calib" / "soccer_seed001.yaml", "--frames", "1:3", "--out", work.out,
+            ROOT / "calib" / "soccer_camera.yaml", "--frames", "1:3", "--out", work.out,
             "--quiet", "--no-report")
     assert r.rc == 0, r.err
     assert (work.out / "tracks.txt").is_file() and not (work.out / "metrics.json").exists()

@@ -159,7 +159,7 @@ def test_failure_while_writing_leaves_the_previous_outputs(work, cli, plugin_hos
 # ---- other commands' outputs -----------------------------------------------------------------
 
 def _cases(tmp: Path) -> dict[str, list[str]]:
-    cam = str(Path(__file__).resolve().parents[4] / "calib" / "soccer_seed001.yaml")
+    cam = str(Path(__file__).resolve().parents[4] / "calib" / "soccer_camera.yaml")
     tracks = tmp / "tracks.txt"
     tracks.write_text("1,1,10,20,14,14,1,1.0,2.0,0.0\n2,1,11,20,14,14,1,1.1,2.0,0.0\n")
     return {

@@ -273,9 +273,9 @@ def test_every_seed_option_of_every_command_refuses_a_negative_seed(cli):
     found = list(_seed_options(build_parser()))
     commands = {c for c, _, _ in found}
     # the core's commands and the built-in plugins' benchmarks and demos
-    assert {"run", "track", "detector train", "calib people", "bench seed000",
+    assert {"run", "track", "detector train", "calib people", "bench colour",
             "demo"} <= commands, commands
     assert [f for f in found if f[2] is not _args.seed] == []
-    r = cli("bench", "seed000", "--scene-seed", "-1")
+    r = cli("bench", "colour", "--scene-seed", "-1")
     assert r.rc == 2 and ("argument --scene-seed: expected a random seed, an integer >= 0, got "
                           "-1") in r.err

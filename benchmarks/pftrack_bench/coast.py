@@ -1,7 +1,7 @@
 """The coastal paper through the one engine: intruders found and tracked in 3-D volumes with no
 detector.
 
-``pftrack bench seed003 --json`` runs, on real video:
+``pftrack bench coast --json`` runs, on real video:
 
 * ``pets09``: PETS 2009 S2.L1 with the preset ``pets09-volume`` -- the block eigenspace model
   trained on frames 1-400 (people's boxes, grown by 8 px, as foreground) exactly as
@@ -36,7 +36,7 @@ detector.
     shown the training frames, then learning online) in place of the eigenspace one.
 
 * ``coast``: the paper's coast, the built-in ``coast`` scene (:mod:`pftrack_coast.scene`) through
-  ``calib/coast_seed003.yaml`` with the preset ``coast-volumes``: the eigenspace model trained on
+  ``calib/coast_camera.yaml`` with the preset ``coast-volumes``: the eigenspace model trained on
   the scene's 400 background-only frames; the ``boat`` clip (a 7.5 x 1.8 x 2.3 m boat crossing
   the far volume) and the ``car`` clip (a 1.7 x 1.5 x 4.7 m car through the near volume) give
   Table 1 -- per object the median size of the estimates matched to it, the paper's eq. 10
@@ -195,7 +195,7 @@ def speed_runs(first: list[dict[str, Any]], again: Any, n: int) -> dict[str, Any
         for a, b in zip(first, runs):
             if a["rows"].shape != b["rows"].shape or not np.array_equal(a["rows"], b["rows"],
                                                                         equal_nan=True):
-                raise RuntimeError("seed003: a repeated run gave other tracks (the tracking "
+                raise RuntimeError("coast: a repeated run gave other tracks (the tracking "
                                    "is not deterministic for a seed)")
         figures.append(speed_3x5000(runs))
     fps = [f["frames_per_second_3x5000"] for f in figures]
@@ -317,8 +317,8 @@ def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
     model = args.model
     tmp = None
     if model is None:
-        say("seed003: training the eigenspace model on frames 1-400")
-        tmp = tempfile.TemporaryDirectory(prefix="pftrack-seed003-")
+        say("coast: training the eigenspace model on frames 1-400")
+        tmp = tempfile.TemporaryDirectory(prefix="pftrack-coast-")
         model = str(Path(tmp.name) / "eigenspace.npz")
         train_detector(video, gt_path, cfg["detector"]["train"]["frames"], out=model, cfg=cfg,
                        camera=camera)
@@ -326,7 +326,7 @@ def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
         frames = list(iter_frames(video, first, last))
         gt = read_ground_truth(gt_path, first, last)
         t0 = time.perf_counter()
-        say(f"seed003: pets09 eigenspace, frames {first}-{last}")
+        say(f"coast: pets09 eigenspace, frames {first}-{last}")
         snap = None
         if args.images:
             at = min(max(first + 160, first), last if last is not None else first + 160)
@@ -339,11 +339,11 @@ def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
         out = score_pets(gt, run, volume)
         out["frames_per_second_with_decoding"] = run["frames"] / (run["wall_s"] + max(decode, 0))
         if args.speed_runs > 1:
-            say(f"seed003: pets09 eigenspace again for its speed ({args.speed_runs - 1} more)")
+            say(f"coast: pets09 eigenspace again for its speed ({args.speed_runs - 1} more)")
         out.update(speed_runs([run], lambda: [track_frames(cfg, frames, camera, args.seed,
                                                            model)], args.speed_runs))
         if not args.no_mog2:
-            say("seed003: pets09 mog2-fraction")
+            say("coast: pets09 mog2-fraction")
             a, b = parse_frames(cfg["detector"]["train"]["frames"])
             mcfg = copy.deepcopy(cfg)
             mcfg["likelihood"] = {"type": "mog2-fraction", "params": {
@@ -458,9 +458,9 @@ def _coast(args: argparse.Namespace, say: Any) -> dict[str, Any]:
     if args.particles is not None:
         cfg["tracker"] = {**cfg["tracker"], "n_particles": int(args.particles)}
     out: dict[str, Any] = {}
-    with tempfile.TemporaryDirectory(prefix="pftrack-seed003-coast-") as tmp:
+    with tempfile.TemporaryDirectory(prefix="pftrack-coast-coast-") as tmp:
         model = str(Path(tmp) / "coast.npz")
-        say("seed003: coast, training the eigenspace model on the 400 background frames")
+        say("coast: coast, training the eigenspace model on the 400 background frames")
         bs = int(cfg["detector"]["params"].get("block_size", 8))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # untrained blocks borrow; counted in the model
@@ -470,7 +470,7 @@ def _coast(args: argparse.Namespace, say: Any) -> dict[str, Any]:
         seconds = frames = 0.0
         runs, clips = [], []
         for clip in ("boat", "car"):
-            say(f"seed003: coast, clip {clip}")
+            say(f"coast: coast, clip {clip}")
             res = coast_clip(clip, cfg, model, args.seed, args.scene_seed)
             runs.append(res["run"])
             clips.append(res)
@@ -490,7 +490,7 @@ def _coast(args: argparse.Namespace, say: Any) -> dict[str, Any]:
         out["entry_error_frames"] = float(np.median(found_e)) if found_e else None
         out["exit_error_frames"] = float(np.median(found_x)) if found_x else None
         out["objects_found"] = f"{len(found_e)} of {len(entry)}"
-        say("seed003: coast, clip multi")
+        say("coast: coast, clip multi")
         res = coast_clip("multi", cfg, model, args.seed, args.scene_seed)
         runs.append(res["run"])
         clips.append(res)
@@ -503,7 +503,7 @@ def _coast(args: argparse.Namespace, say: Any) -> dict[str, Any]:
                         "match_m": COAST_MATCH_M}
         out["frames_per_second"] = frames / max(seconds, 1e-12)
         if args.speed_runs > 1:
-            say(f"seed003: coast clips again for their speed ({args.speed_runs - 1} more)")
+            say(f"coast: coast clips again for their speed ({args.speed_runs - 1} more)")
         out.update(speed_runs(runs, lambda: [
             track_frames(cfg, c["frames"], c["scene"].camera_, args.seed, model)
             for c in clips], args.speed_runs))
@@ -520,7 +520,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     from pftrack.data import data_dir
 
     if int(args.speed_runs) < 1:
-        raise ValueError(f"pftrack bench seed003: --speed-runs must be >= 1, got "
+        raise ValueError(f"pftrack bench coast: --speed-runs must be >= 1, got "
                          f"{args.speed_runs!r}")
     root = Path(args.data) if args.data else data_dir()
     parts = [p.strip() for p in args.parts.split(",") if p.strip()]

@@ -1,7 +1,7 @@
 """The colour paper's Tables 1-4 on the ``walkers`` scene: time per frame and cumulative error for
 the four colour likelihoods (Bhattacharyya and cross entropy, with and without background).
 
-``pftrack bench seed000 --json`` runs N in {100, 500, 5000} samples and T in {1, 2, 3} targets
+``pftrack bench colour --json`` runs N in {100, 500, 5000} samples and T in {1, 2, 3} targets
 for all four likelihoods in one run. Frames are rendered into a list before any timing; drawing
 is excluded; OpenCV runs on one thread. ``--slow-frames K`` limits the Bhattacharyya baselines at
 N >= 5000 to the first K frames (their time per frame is then measured over those frames and

@@ -246,7 +246,7 @@ def _table3(grid: list[tuple[int, int]], args: argparse.Namespace, epc: float,
         out = []
         for cd, s in grid:
             out.append(table3_cell(cd, s, **kw))
-            say(f"seed004: table3 C_d={cd} S={s} ARI {out[-1]['ari_mean']:.3f} "
+            say(f"camera-network: table3 C_d={cd} S={s} ARI {out[-1]['ari_mean']:.3f} "
                 f"({out[-1]['seconds']:.1f} s)")
         return out
     from pftrack.batch import local_cluster, require_dask
@@ -262,7 +262,7 @@ def _table3(grid: list[tuple[int, int]], args: argparse.Namespace, epc: float,
         if cluster is not None:
             cluster.close()
     for c in out:
-        say(f"seed004: table3 C_d={c['dropped']} S={c['subnetworks']} ARI "
+        say(f"camera-network: table3 C_d={c['dropped']} S={c['subnetworks']} ARI "
             f"{c['ari_mean']:.3f} ({c['seconds']:.1f} s on a worker)")
     return list(out)
 
@@ -335,7 +335,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             per[name].append(_ari(ds.truth, linker.link(ds.tracklets, ds.network,
                                                         appearance=app)))
         seconds[name] = time.perf_counter() - t0
-        say(f"seed004: {name} {np.round(per[name], 3).tolist()}")
+        say(f"camera-network: {name} {np.round(per[name], 3).tolist()}")
     gated_pc = getattr(args, "gated_path_cost", None)
     gmin = getattr(args, "join_min_appearance", None)
     for label, how, cd in ensembles:
@@ -363,7 +363,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                 table2.append({"dataset": d, "ari_mean": float(np.mean(res["ari"])),
                                "ari_var": float(np.var(res["ari"]))})
         seconds[label] = time.perf_counter() - t0
-        say(f"seed004: {label} {np.round(per[label], 3).tolist()}")
+        say(f"camera-network: {label} {np.round(per[label], 3).tolist()}")
     table1 = [{"method": m, "ari_mean": float(np.mean(v)), "ari_var": float(np.var(v)),
                "per_dataset": [float(x) for x in v]} for m, v in per.items()]
     t0 = time.perf_counter()
