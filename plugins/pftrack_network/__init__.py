@@ -13,8 +13,9 @@ Python API (imported on use; nothing heavy at plugin load):
 * :mod:`pftrack_network.virtual`: the virtual experiment of sec. 4.1 on real CAVIAR4REID images;
 * :mod:`pftrack_network.video`: tracklets cut out of a video with pftrack's ``tracks.txt``.
 
-The paper's Tables 1 and 3 are the benchmark ``camera-network`` of the repository's benchmark package
-(``pftrack_bench``, not part of the installed product); this plugin registers no component.
+The paper's Tables 1 and 3 are the benchmark ``camera-network`` of the repository's benchmark
+package (``pftrack_bench``, not part of the installed product); this plugin registers no
+component.
 Linkers are not a pftrack component kind (they partition tracklets offline, not frame by
 frame); they are plain classes, listed in :data:`pftrack_network.linkers.LINKERS`.
 """

@@ -482,8 +482,8 @@ JOIN_MIN_APPEARANCE = 0.65
 #: near the full network's, which the gate allows; chosen on the tuning datasets
 GATED_PATH_COST = 6.75
 #: :class:`GatedTrajectoryEnsemble`'s cameras dropped per sub-network (C_d), chosen on the
-#: tuning datasets (the paper's 9 tracked worse there); ``pftrack bench camera-network``'s tuned gated
-#: row uses the same C_d
+#: tuning datasets (the paper's 9 tracked worse there); ``pftrack bench camera-network``'s tuned
+#: gated row uses the same C_d
 GATED_DROPPED = 5
 
 
@@ -531,9 +531,9 @@ class GatedTrajectoryEnsemble(TrajectoryEnsemble):
 
 
 #: the linkers' parameters for the stripes appearance (``appearance_feature="stripes"``;
-#: ``pftrack bench camera-network --appearance stripes`` takes every one it is not given): its values
-#: are ``-log`` of another scale than eq. 7's, so each was chosen again, on the tuning datasets
-#: (seeds 1000-1002) only (docs/decisions/stripes-appearance.md). Keys: the bench's options
+#: ``pftrack bench camera-network --appearance stripes`` takes every one it is not given): its
+#: values are ``-log`` of another scale than eq. 7's, so each was chosen again, on the tuning
+#: datasets (seeds 1000-1002) only (docs/decisions/stripes-appearance.md). Keys: the bench's options
 #: (break costs of min-cost flow, greedy, the paper's ensemble's sub-networks at C_d 9, its
 #: tuned row's and the gated ensemble's; the gated ensemble's gate).
 STRIPES_PARAMETERS: dict[str, float] = {

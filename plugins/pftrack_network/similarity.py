@@ -57,11 +57,9 @@ STRIPE_CROP_W = 0.15
 STRIPE_SIZE = (128, 48)
 #: the stripes appearance is the mean intersection to this power (a monotone calibration: the
 #: ranking, hence the AUC, is the mean's; it sets the weight of appearance against transit in
-#: eq. 6's ``-log S``). Chosen on the tuning seeds 1000-1002 of ``pftrack bench camera-network`` with
-#: min-cost flow, each power at its best break cost on a 0.5 grid (mean ARI of the three): 1:
-#: 0.410, 2: 0.405, 3: 0.431, 4: 0.449, 6: 0.469, **8: 0.530**, 10: 0.530, 12: 0.517, 16:
-#: 0.522, 20: 0.497 (the mean intersections of tracklets lie in 0.45-0.75, so at power 1
-#: appearance hardly moves a link's cost)
+#: eq. 6's ``-log S``): the mean intersections of tracklets lie in 0.45-0.75, so at power 1
+#: appearance hardly moves a link's cost. Chosen on the tuning datasets (seeds 1000-1002) of
+#: ``pftrack bench camera-network`` (docs/decisions/stripes-appearance.md).
 STRIPE_POWER = 8.0
 _BLOCK_ELEMENTS = 8_000_000  # float32 elements per broadcast block (32 MB)
 

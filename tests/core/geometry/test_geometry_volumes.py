@@ -8,11 +8,11 @@ from pftrack.geometry.volumes import (
     CuboidVolume,
     SoccerPitchVolume,
     builtin_volumes,
+    coast_volumes,
     load_volumes,
     resolve_volume,
     sample_polyline,
     save_volumes,
-    coast_volumes,
 )
 
 

@@ -1,6 +1,7 @@
 """The camera-network paper's stripes appearance (``appearance="stripes"``,
 pftrack_network.similarity): the feature, its pair-ranking probability on CAVIAR4REID against the
-paper's eq. 7, and its pass-through in the linkers and ``pftrack bench camera-network --appearance``."""
+paper's eq. 7, and its pass-through in the linkers and ``pftrack bench camera-network
+--appearance``."""
 
 from __future__ import annotations
 
