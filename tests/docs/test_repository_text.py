@@ -12,11 +12,13 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 
-#: "stop" or "issue" (or their plurals) and a number: a development step or a tracker number.
-HISTORY = re.compile(r"\b(stop|issue)s? [0-9]+", re.I)
+#: "stop" or "issue" (or their plurals) and a number: a development step or a tracker number;
+#: or "seed" and three digits, the project's old names of the papers (a paper is named by its
+#: subject; "seed" means a random seed).
+HISTORY = re.compile(r"\b(stop|issue)s? [0-9]+|seed[0-9]{3}", re.I)
 
-#: Where history is the subject.
-HISTORY_PLACES = ("CHANGELOG.md", "docs/decisions/")
+#: Where history is the subject (results/ holds recorded runs under the names they ran with).
+HISTORY_PLACES = ("CHANGELOG.md", "docs/decisions/", "results/")
 
 #: Pending: files other work edits at the same time; they are cleaned when that work is merged,
 #: then removed from this list (the test then covers them).
@@ -68,7 +70,9 @@ def test_the_pattern_and_the_exclusions():
     phrases = [" ".join(p) for p in (("Stop", "24"), ("issue", "16"), ("issues", "3"),
                                      ("stops", "2"))]
     assert history_mentions("before {}, see {}; {} and {}".format(*phrases)) == phrases
+    assert history_mentions("the {} benchmark".format("seed" + "003")) == ["seed" + "003"]
     assert not history_mentions("stops at frame 10; nonstop 3; tissue 4; a stop-24 name")
+    assert not history_mentions("--seed 3; seeds 0-4; seed 1000")
     assert not _checked("CHANGELOG.md") and not _checked("docs/decisions/index.md")
     assert _checked("toolkit/pftrack/render/report.py")
     assert _checked("README.md") and _checked("plugins/pftrack_network/linkers.py")
