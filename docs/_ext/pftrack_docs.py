@@ -584,6 +584,8 @@ def write_api_pages(out: Path, bases: tuple[str, ...] = ("toolkit", "plugins")) 
     under their own heading: they are not the product's API."""
     out.mkdir(parents=True, exist_ok=True)
     mods = api_modules(bases)
+    for stale in set(out.glob("*.md")) - {out / f"{m}.md" for m in mods}:
+        stale.unlink()  # a module moved or renamed since the last build
     for mod in mods:
         _write_if_changed(out / f"{mod}.md", "\n".join([
             f"# `{mod}`", "", "```{eval-rst}", f".. automodule:: {mod}", "   :members:",
