@@ -494,9 +494,6 @@ class VolumeTracks(TrackManager):
     appearance_inner: float = Param(
         0.4, "Fraction of the region's width (about its centre) whose colours are counted.",
         unit="1")
-    appearance_reid_max: float | None = Param(
-        None, "With appearance: re-identification only when the best match's Bhattacharyya "
-        "distance is at most this (None: any).", unit="1")
     appearance_margin: float = Param(
         0.05, "Bhattacharyya distance (sum over the pair) by which the swapped match must beat "
         "the kept one.", unit="1")
@@ -561,12 +558,6 @@ class VolumeTracks(TrackManager):
         "the particles, which live in the volume, could not follow an intruder's foot that "
         "is nearer than the volume's near face, so the footprint may be that face's, not the "
         "intruder's.")
-    partition: bool = Param(
-        False, "With object_size_m and gate_margin: tracks share the image between them: a "
-        "track's particle that lies, in units of each box's width and height, nearer the "
-        "centre of another track's predicted box (a cuboid of object_size_m where that track's "
-        "footprint goes next) than of its own gets likelihood 0 (a neighbour's blob cannot "
-        "capture a track's particles; no constant).")
     colour_share: bool = Param(
         False, "With appearance: among tracks whose gates overlap, a track's particle whose "
         "pixel's colour (its bin of the HSV histograms) is more than colour_share_ratio times "
@@ -787,8 +778,6 @@ class VolumeTracks(TrackManager):
             px = self._pixels(tid, points) if len(lo) else np.zeros((0, 2))
             kernel(np.ascontiguousarray(local), lim, np.ascontiguousarray(px, dtype=np.float64),
                    lo, hi, mode == "gate", out)
-            if mode == "gate" and self.partition and len(lo):
-                out &= self._own_share(tid, px)
             if mode == "gate" and self.colour_share and len(lo):
                 out &= self._colour_own(tid, px)
             return out
@@ -803,36 +792,10 @@ class VolumeTracks(TrackManager):
             hit = ((px[:, None, :] >= lo[None]) & (px[:, None, :] <= hi[None])).all(axis=2)
         if mode == "gate":
             keep = inside & hit[:, 0]
-            if self.partition:
-                keep &= self._own_share(tid, px)
             if self.colour_share:
                 keep &= self._colour_own(tid, px)
             return keep
         return inside & ~hit.any(axis=1)
-
-    def _own_share(self, tid: int, px: np.ndarray) -> np.ndarray:
-        """``partition``: whether each pixel (N, 2) lies at least as near (in units of each
-        box's width and height) the centre of track ``tid``'s predicted box as the centre of
-        any other track's whose gate overlaps ``tid``'s (NaN pixels: not near any)."""
-        own = self.ahead_.get(tid)
-        keep = np.ones(len(px), dtype=np.bool_)
-        if own is None or self.gates_.get(tid) is None or not np.isfinite(own).all():
-            return keep
-        others = [self.ahead_[k] for k in self._neighbours(tid)
-                  if k in self.ahead_ and np.isfinite(self.ahead_[k]).all()]
-        if not others:
-            return keep
-
-        def dist2(b: np.ndarray) -> np.ndarray:
-            u = (px[:, 0] - (b[0] + 0.5 * b[2])) / b[2]
-            v = (px[:, 1] - (b[1] + 0.5 * b[3])) / b[3]
-            return u * u + v * v
-
-        d_own = dist2(own)
-        with np.errstate(invalid="ignore"):
-            for b in others:
-                keep &= ~(dist2(b) < d_own)
-        return keep
 
     def _neighbours(self, tid: int) -> list[int]:
         """The live tracks other than ``tid`` whose gates overlap ``tid``'s gate."""
@@ -1328,9 +1291,6 @@ class VolumeTracks(TrackManager):
             c = float(bhattacharyya(h, tpl[0]))
             if c < cost:
                 best, cost = int(i), c
-        lim = self.appearance_reid_max
-        if lim is not None and cost > float(lim):  # (no template: the nearest is kept)
-            d[:] = np.inf  # nothing like it ended nearby: a new id
         return best
 
     def _appearance(self, frame: Frame, out: list[TrackRecord]) -> None:

@@ -395,46 +395,6 @@ def test_pets09_gathering_exit_hysteresis_and_reid_keep_identities(tmp_path):
     assert new["MOTA_world"] > 0.5, new
 
 
-def test_partition_gives_each_pixel_to_the_nearest_predicted_box_among_overlapping_gates():
-    """``partition``: a track's particle nearer (in box widths and heights) another track's
-    predicted box centre than its own is barred; tracks whose gates do not overlap, and
-    ended tracks, do not count; without a neighbour nothing is barred."""
-    tracks = VolumeTracks(volumes=["near"], object_size_m=(0.5, 1.75, 0.5), partition=True)
-    tracks._check()
-    # track 1 centred at (110, 150), box 20 x 100; track 2 at (140, 150), box 40 x 100
-    tracks.tracks_ = {1: "near", 2: "near", 3: "near"}
-    tracks.ahead_ = {1: np.array([100.0, 100.0, 20.0, 100.0]),
-                     2: np.array([120.0, 100.0, 40.0, 100.0]),
-                     3: np.array([500.0, 100.0, 20.0, 100.0])}
-    tracks.gates_ = {1: np.array([90.0, 90.0, 40.0, 120.0]),
-                     2: np.array([110.0, 90.0, 60.0, 120.0]),
-                     3: np.array([490.0, 90.0, 40.0, 120.0])}
-    px = np.array([[110.0, 150.0], [120.0, 150.0], [124.0, 150.0], [130.0, 150.0],
-                   [140.0, 150.0], [np.nan, np.nan], [505.0, 150.0]])
-    # from track 1: |u| in its widths (20) against track 2's (40): 120 -> 0.5 vs 0.5 (a tie
-    # stays with both tracks), 124 -> 0.7 vs 0.4 (barred)
-    # (505: outside track 1's gate, and nearer track 2's centre than its own)
-    assert tracks._own_share(1, px).tolist() == [True, True, False, False, False, True, False]
-    assert tracks._own_share(2, px).tolist() == [False, True, True, True, True, True, True]
-    assert tracks._own_share(3, px).all()  # its gate overlaps no other
-    del tracks.tracks_[2]  # an ended track takes no share
-    assert tracks._own_share(1, px).all()
-
-
-def test_partition_in_both_region_paths_and_in_a_run(monkeypatch):
-    """With ``partition`` the compiled and the numpy region of a track give the same mask, a
-    neighbour's share is taken out of it, and the two walkers are still tracked."""
-    engine, tracks, rows, gt, vol, _ = _run(seed=2, n_frames=60, partition=True)
-    assert len(np.unique(rows[:, 1])) >= 2 and len(tracks.ahead_) >= 1
-    tid, pts, px = _with_a_neighbour(tracks)
-    # the neighbour predicted on the middle of the track's cloud
-    box = tracks.ahead_[tid]
-    tracks.ahead_[999] = np.concatenate([np.median(px, axis=0) - 0.5 * box[2:], box[2:]])
-    own = tracks._own_share(tid, px)
-    assert not own.all() and own.any()
-    _same_in_both_region_paths(monkeypatch, tracks, tid, vol, pts, own, "partition")
-
-
 def _with_a_neighbour(tracks: VolumeTracks) -> tuple[int, np.ndarray, np.ndarray]:
     """A live track's id, its particles' positions and their pixels (projected again), with a
     neighbour (id 999) whose gate is the track's."""
