@@ -15,20 +15,13 @@ import pytest
 from pftrack.components import Detections
 from pftrack.tracker import MultiTargetTracker, records_to_mot
 
+from tests.core.test_tracker import _record_bytes
+
 DATA = Path(os.environ.get("PFTRACK_DATA", Path(__file__).resolve().parents[3] / "shared"
                            / "data"))
 PETS = DATA / "pets09"
 needs_pets = pytest.mark.skipif(not (PETS / "vtest.avi").exists(),
                                 reason="PETS 2009 data not found ($PFTRACK_DATA)")
-
-
-def _record_bytes(recs):
-    out = []
-    for r in recs:
-        out.append((r.frame, r.id, r.box_xywh_px.tobytes(), r.state.tobytes(),
-                    r.position.tobytes(), r.extent.tobytes(), r.confidence,
-                    None if r.world_m is None else r.world_m.tobytes(), r.size_m))
-    return out
 
 
 def _run(engine: MultiTargetTracker, backend: str, frames, detections=None, starts=None):
