@@ -122,40 +122,28 @@ def track_frames(cfg: dict[str, Any], frames: list[Any], camera: Camera, seed: i
     """Run the configuration over ``frames``: MOT rows, the track manager, timings
     (``fit_frames``: images the likelihood's ``fit`` is shown first, untimed; ``snapshot``:
     ``(frame, f(engine, frame))`` called after that frame, its time not counted)."""
-    import cv2
     from pftrack.pipeline import build_engine
-    from pftrack.tracker import records_to_mot
+    from pftrack.runner import FrameStep, run_frames
 
     engine = build_engine(cfg, camera=camera, fps=7.0, seed=seed, detector_model=model)
     if fit_frames is not None:
         engine.likelihood.fit(fit_frames)
-    threads = cv2.getNumThreads()
-    cv2.setNumThreads(1)
-    records = []
-    frame_cpu, frame_targets = [], []  # per frame: CPU seconds, live targets it weighted
-    try:
-        t0, c0 = time.perf_counter(), time.process_time()
-        paused = paused_cpu = 0.0
-        for f in frames:
-            live = len(engine.targets)
-            q = time.process_time()
-            records.extend(engine.step(f))
-            frame_cpu.append(time.process_time() - q)
-            frame_targets.append(live)
-            if snapshot is not None and f.index == snapshot[0]:
-                p0, q0 = time.perf_counter(), time.process_time()
-                snapshot[1](engine, f)
-                paused += time.perf_counter() - p0
-                paused_cpu += time.process_time() - q0
-        wall = time.perf_counter() - t0 - paused
-        cpu = time.process_time() - c0 - paused_cpu
-    finally:
-        cv2.setNumThreads(threads)
-    rows = records_to_mot(records)
-    if len(rows):
-        rows = rows[np.lexsort((rows[:, 1], rows[:, 0]))]
-    return {"rows": rows, "records": records, "tracks": engine.tracks, "wall_s": wall,
-            "cpu_s": cpu, "frames": len(frames), "frame_cpu_s": np.array(frame_cpu),
+    frame_targets: list[int] = []  # per frame: the live targets it weighted
+
+    def count_targets(step: FrameStep) -> None:
+        frame_targets.append(len(step.engine.targets))
+
+    def draw_snapshot(step: FrameStep) -> None:
+        if snapshot is not None and step.frame.index == snapshot[0]:
+            snapshot[1](step.engine, step.frame)
+
+    # one OpenCV thread: the figures are one core's
+    loop = run_frames(engine, frames, before_step={"targets": count_targets},
+                      after_step={"snapshot": draw_snapshot} if snapshot else None,
+                      cv2_threads=1)
+    return {"rows": loop.rows(), "records": loop.records, "tracks": engine.tracks,
+            "wall_s": loop.loop_s, "cpu_s": loop.loop_cpu_s, "frames": len(frames),
+            "frame_cpu_s": loop.frame_tracking_cpu_s,
             "frame_targets": np.array(frame_targets, dtype=int),
             "n_particles": int(engine.n_particles)}
 

@@ -31,8 +31,6 @@ confirmed-detection births, with no ground truth used at all).
 from __future__ import annotations
 
 import argparse
-import sys
-import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -179,11 +177,9 @@ def track_scene(scene: Any, preset: str | dict[str, Any] = "soccer-ground", *, s
     keep_frames : tuple of int
         Frames (1-based) whose image and particle clouds are kept.
     """
-    import cv2
-    import numpy as np
     from pftrack.geometry.clouds import ParticleCloud
     from pftrack.pipeline import build_engine
-    from pftrack.tracker import records_to_mot
+    from pftrack.runner import FrameStep, run_frames
 
     if init not in ("gt", "detections"):
         raise ValueError(f"init must be 'gt' or 'detections', got {init!r}")
@@ -204,39 +200,28 @@ def track_scene(scene: Any, preset: str | dict[str, Any] = "soccer-ground", *, s
         # the fixed camera films the empty pitch before play: the background is learned there
         detector.fit(list(scene.empty_frames(background_frames)), {})
     first = gt[gt[:, 0] == 1]
-    keep = {int(k) for k in keep_frames}
+    keep_at = {int(k) for k in keep_frames}
     out = SoccerRun(scene, gt, None, {}, particles=int(engine.n_particles))
 
-    threads = cv2.getNumThreads()
-    cv2.setNumThreads(1)
-    records = []
-    t_det = t_trk = 0.0
-    n = 0
-    try:
-        for frame in scene.frames():  # drawn here, outside the timed sections
-            t0 = time.perf_counter()
-            dets = detector.detect(frame)
-            t1 = time.perf_counter()
-            if frame.index == 1 and init == "gt":
-                for row in first:
-                    engine.add_target(frame, position=row[7:9], target_id=int(row[1]))
-            records.extend(engine.step(frame, dets))
-            t2 = time.perf_counter()
-            t_det += t1 - t0
-            t_trk += t2 - t1
-            n += 1
-            if frame.index in keep:
-                out.images[frame.index] = frame.image.copy()
-                out.clouds[frame.index] = _clouds(engine, ParticleCloud)
-            if progress and n % 50 == 0:
-                print(f"soccer: frame {n}/{scene.n_frames}", file=sys.stderr, flush=True)
-    finally:
-        cv2.setNumThreads(threads)
-    rows = records_to_mot(records)
-    if len(rows):
-        rows = rows[np.lexsort((rows[:, 1], rows[:, 0]))]
-    out.rows = rows
-    n = max(n, 1)
+    def start_players(step: FrameStep) -> None:
+        if step.frame.index == 1 and init == "gt":
+            for row in first:
+                engine.add_target(step.frame, position=row[7:9], target_id=int(row[1]))
+
+    def keep(step: FrameStep) -> None:
+        if step.frame.index in keep_at:
+            out.images[step.frame.index] = step.frame.image.copy()
+            out.clouds[step.frame.index] = _clouds(engine, ParticleCloud)
+
+    # the frames are drawn by the scene as the loop asks for them, outside the timed sections;
+    # one OpenCV thread: the figures are one core's
+    loop = run_frames(engine, scene.frames(), detector=detector,
+                      before_step={"start players": start_players},
+                      after_step={"keep frames": keep}, cv2_threads=1,
+                      progress="soccer" if progress else False, total=scene.n_frames)
+    out.rows = loop.rows()
+    n = max(loop.n_frames, 1)
+    t_det, t_trk = float(loop.frame_detection_s.sum()), float(loop.frame_tracking_s.sum())
     out.timing = {"detection_s_per_frame": t_det / n, "tracking_s_per_frame": t_trk / n,
                   "frames_per_second": n / max(t_det + t_trk, 1e-12), "frames": n}
     return out

@@ -29,7 +29,8 @@ from pftrack.lifecycle import (
     Terminator,
     TrackView,
 )
-from pftrack.tracker import ImageBoxObservation, MultiTargetTracker, TrackRecord, records_to_mot
+from pftrack.runner import FrameStep, run_frames
+from pftrack.tracker import ImageBoxObservation, MultiTargetTracker, records_to_mot
 
 from pftrack_colour import _jit
 
@@ -278,24 +279,19 @@ def _track_loop(tracker: MultiTargetTracker, timed: _TimedLikelihood, frames: It
                 snaps: set[int]) -> TrackingRun:
     """Step the engine through ``frames`` (its track manager starts, resizes and ends the
     targets), timing the engine's calls only."""
-    records: list[TrackRecord] = []
     snapshots: dict[int, dict[int, np.ndarray]] = {}
-    seconds = 0.0
-    n_frames = 0
-    clock = time.perf_counter
-    for frame in frames:
-        t0 = clock()
-        recs = tracker.step(frame)
-        seconds += clock() - t0
-        n_frames += 1
-        records.extend(recs)
-        if frame.index in snaps:
-            snapshots[frame.index] = {
+
+    def snapshot(step: FrameStep) -> None:
+        if step.frame.index in snaps:
+            snapshots[step.frame.index] = {
                 t.id: t.particle_boxes_xywh_px[:, :2] + t.particle_boxes_xywh_px[:, 2:] / 2
                 for t in tracker.targets if t.particle_boxes_xywh_px is not None}
-    return TrackingRun(rows=records_to_mot(records), seconds=seconds,
-                       likelihood_seconds=getattr(timed, "seconds_", 0.0), n_frames=n_frames,
-                       n_updates=len(records), snapshots=snapshots,
+
+    loop = run_frames(tracker, frames, after_step={"snapshots": snapshot})
+    return TrackingRun(rows=records_to_mot(loop.records),
+                       seconds=float(loop.frame_tracking_s.sum()),
+                       likelihood_seconds=getattr(timed, "seconds_", 0.0),
+                       n_frames=loop.n_frames, n_updates=len(loop.records), snapshots=snapshots,
                        recoveries=tracker.recoveries)
 
 

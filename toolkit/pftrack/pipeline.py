@@ -23,10 +23,11 @@ a run is replaceable by a third-party plugin::
                                   these detections are tracked and the detector is not run
     report: {writer}              the registered report writer of ``report/*.png`` (``tracks``)
 
-Data flow per frame: video frame -> detector (timed on its own) -> the one engine,
-:meth:`pftrack.tracker.MultiTargetTracker.step` (predict, associate, weight, estimate, resample,
-the filter's deaths; then the track manager's births, confirmation and merging) -> track records
--> MOTChallenge rows (world columns filled for ground-plane state).
+Data flow per frame, in the one frame loop :func:`pftrack.runner.run_frames`: video frame ->
+detector (timed on its own) -> the one engine, :meth:`pftrack.tracker.MultiTargetTracker.step`
+(predict, associate, weight, estimate, resample, the filter's deaths; then the track manager's
+births, confirmation and merging) -> track records -> MOTChallenge rows (world columns filled
+for ground-plane state).
 
 Frame numbers are the ground truth's (MOTChallenge, 1-based): MOT frame N is video frame N - 1.
 """
@@ -34,8 +35,7 @@ Frame numbers are the ground truth's (MOTChallenge, 1-based): MOT frame N is vid
 from __future__ import annotations
 
 import os
-import time
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pftrack.components import Detections, Frame, RunContext
-from pftrack.tracker import MultiTargetTracker, TrackRecord, records_to_mot
+from pftrack.tracker import MultiTargetTracker, records_to_mot
 
 if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera, CameraSpec
@@ -579,25 +579,10 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
             (cfg["detector"].get("detect", True) if isinstance(cfg["detector"], dict) else True):
         detector = build_detector(cfg, RunContext(camera=cam, fps=fps, detector_model=(
             None if detector_model is None else str(detector_model))))
-    frame_iter: Iterable[Frame] = source.frames(fps)
-    n_total = None
-    if last is not None:
-        n_total = last - first + 1
-    if progress:
-        from tqdm.auto import tqdm
-
-        label = progress if isinstance(progress, str) else "tracking"
-        name = cfg.get("name")
-        frame_iter = tqdm(frame_iter, total=n_total, unit="frame", leave=False,
-                          desc=f"{label} ({name})" if name else label)
     from pftrack.api import RecordSpread
+    from pftrack.runner import FrameStep, run_frames
 
     spread = RecordSpread(engine)  # each record's spread, from its particle cloud
-    records: list[TrackRecord] = []
-    dets_out: dict[int, Detections] = {}
-    t_det = t_trk = c_det = c_trk = 0.0
-    t_out = c_out = 0.0  # the uncertainty output, which (as the report) is not timed
-    n = 0
     keep_frames: dict[int, np.ndarray] = {}
     drawing = report and out_dir is not None
     # the middle from the frames announced when the run goes to the end; the last frame is the
@@ -605,35 +590,31 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     want = _report_frames(first, last if last is not None else (n_announced or None)) \
         if drawing else set()
     last_seen: tuple[int, np.ndarray] | None = None
-    t_start, c_start = time.perf_counter(), time.process_time()
-    for frame in frame_iter:
-        t0, c0 = time.perf_counter(), time.process_time()
-        if detections is not None:
-            d = detections.get(frame.index, Detections.empty())
-        elif detector is not None:
-            d = detector.detect(frame)
-        else:
-            d = None
-        t1, c1 = time.perf_counter(), time.process_time()
-        recs = engine.step(frame, d)
-        t2, c2 = time.perf_counter(), time.process_time()
-        spread.fill(engine, recs, frame.index)
-        t_out += time.perf_counter() - t2
-        c_out += time.process_time() - c2
-        records.extend(recs)
-        t_det += t1 - t0
-        t_trk += t2 - t1
-        c_det += c1 - c0
-        c_trk += c2 - c1
-        n += 1
-        if d is not None:
-            dets_out[frame.index] = d
+
+    def fill_spread(step: FrameStep) -> None:
+        spread.fill(engine, step.records, step.frame.index)
+
+    def keep_frame(step: FrameStep) -> None:
+        nonlocal last_seen
+        frame = step.frame
         if frame.index in want:
             keep_frames[frame.index] = frame.image.copy()
-        elif drawing:
+        else:
             last_seen = (frame.index, frame.image)
-    t_loop = time.perf_counter() - t_start - t_out
-    c_loop = time.process_time() - c_start - c_out
+
+    # the uncertainty output and the report's frames are hooks: not timed (the uncertainty's
+    # own time is reported apart)
+    hooks: dict[str, Callable[[FrameStep], None]] = {"uncertainty": fill_spread}
+    if drawing:
+        hooks["report"] = keep_frame
+    bar: bool | str = False
+    if progress:
+        label = progress if isinstance(progress, str) else "tracking"
+        bar = f"{label} ({cfg['name']})" if cfg.get("name") else label
+    loop = run_frames(engine, source.frames(fps), detector=detector, detections=detections,
+                      after_step=hooks, progress=bar,
+                      total=None if last is None else last - first + 1)
+    records, dets_out, n = loop.records, loop.detections, loop.n_frames
     if last_seen is not None and last_seen[0] > max(keep_frames, default=0):
         keep_frames[last_seen[0]] = last_seen[1].copy()
     if n == 0:
@@ -650,16 +631,12 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     if keep_rows is not None and len(rows):
         mask = np.asarray(keep_rows(rows, fps), dtype=bool).reshape(-1)
         rows, spread_rows = rows[mask], spread_rows[mask]
-    n = max(n, 1)
     # frames per second of the whole loop: decoding, detection and tracking (not the report
     # nor the uncertainty of tracks_uncertainty.csv, timed on its own).
     # Wall time, and the process's CPU time (the same on an idle core; on a shared, loaded
     # machine the CPU time is the one-core cost and the wall time includes waiting for a core).
-    timing = {"detection_s_per_frame": t_det / n, "tracking_s_per_frame": t_trk / n,
-              "frames_per_second": n / max(t_loop, 1e-12),
-              "detection_cpu_s_per_frame": c_det / n, "tracking_cpu_s_per_frame": c_trk / n,
-              "frames_per_second_cpu": n / max(c_loop, 1e-12),
-              "uncertainty_cpu_s_per_frame": c_out / n}
+    timing = {**loop.timing(),
+              "uncertainty_cpu_s_per_frame": loop.hook_cpu_s["uncertainty"] / max(n, 1)}
     metrics = None
     gt_rows = None
     if gt_all is not None:

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -486,7 +486,8 @@ class MultiTargetTracker:
 
         ``detections`` overrides the tracker's own detector for this frame. The frame runs on
         :meth:`_step_reference` (one target at a time) or on :meth:`_step_rows` (all targets
-        as rows of arrays, the same records bit for bit); :meth:`uses_rows` says which.
+        as rows of arrays, the same records bit for bit); :meth:`uses_rows` says which. Over
+        many frames, timed: :func:`pftrack.runner.run_frames`.
         """
         if detections is None and self.detector is not None:
             detections = self.detector.detect(frame)
@@ -937,9 +938,3 @@ class MultiTargetTracker:
             confidence=confidence,
             world_m=None if world is None else np.asarray(world, dtype=np.float64),
         )
-
-    def run(self, frames: Iterable[Frame]) -> Iterator[list[TrackRecord]]:
-        """Stream ``frames`` through :meth:`step`, yielding each frame's records (targets are
-        started by the track manager, or by :meth:`add_target` between frames)."""
-        for frame in frames:
-            yield self.step(frame)

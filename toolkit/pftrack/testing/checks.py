@@ -616,6 +616,7 @@ class _KitAssociator(Associator):
 
 
 def _tracks_workflow(ex: ConformanceExample, rng: np.random.Generator, run: _Run) -> None:
+    from pftrack.runner import FrameStep, run_frames
     from pftrack.tracker import ImageBoxObservation, MultiTargetTracker
 
     tracks = ex.component
@@ -636,9 +637,9 @@ def _tracks_workflow(ex: ConformanceExample, rng: np.random.Generator, run: _Run
     engine = MultiTargetTracker(parts.pop("motion"), parts.pop("likelihood"),
                                 parts.pop("observation"), tracks=tracks, rng=rng, **parts)
     rows = []
-    for f in sc.frames:
-        dets = sc.detections(f.index, extra_box=False)
-        out = engine.step(f, dets)
+
+    def check(step: FrameStep) -> None:
+        f, out = step.frame, step.records
         run.need(isinstance(out, list) and all(isinstance(r, TrackRecord) for r in out),
                  "shapes_dtypes", f"frame {f.index}: after_frame must return a list of "
                  f"TrackRecord, got {type(out).__name__}")
@@ -649,6 +650,9 @@ def _tracks_workflow(ex: ConformanceExample, rng: np.random.Generator, run: _Run
         # the engine draws from the Generator, the manager does not: outputs are compared
         # between runs, but not asked to depend on the seed
         run.outputs[f"records_{f.index}"] = np.array(rows[-len(out):] if out else [])
+
+    run_frames(engine, sc.frames, after_step={"check": check},
+               detections={f.index: sc.detections(f.index, extra_box=False) for f in sc.frames})
     run.outputs["rows"] = np.array(rows).reshape(-1, 6)
 
 
