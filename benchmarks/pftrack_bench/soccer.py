@@ -76,7 +76,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--threshold-m", type=float, default=1.0,
                         help="ground-plane match distance for MOTA/IDF1/HOTA, m (default 1)")
     parser.add_argument("--out-tracks", default=None, help="also write the tracks (MOT CSV)")
-    parser.add_argument("--quiet", action="store_true", help="no progress line on stderr")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar on stderr")
 
 
 def build_detector_for(cfg: dict[str, Any], camera: str | None) -> Any:
@@ -167,7 +167,8 @@ def track_scene(scene: Any, preset: str | dict[str, Any] = "soccer-ground", *, s
     particles : int, optional
         Overrides the preset's ``n_particles``.
     init : {"gt", "detections"}
-        Start from the first frame's ground truth, or from detections only.
+        Start from the first frame's ground truth (the players added before the first step,
+        untimed), or from detections only.
     births : bool
         Keep the preset's births (start targets for players nobody tracks).
     background_frames : int
@@ -176,6 +177,8 @@ def track_scene(scene: Any, preset: str | dict[str, Any] = "soccer-ground", *, s
         Camera file for the detector (default: the project's soccer camera).
     keep_frames : tuple of int
         Frames (1-based) whose image and particle clouds are kept.
+    progress : bool
+        A progress bar on stderr.
     """
     from pftrack.geometry.clouds import ParticleCloud
     from pftrack.pipeline import build_engine
