@@ -140,3 +140,59 @@ def test_bad_parameters_name_the_parameter(name, value):
 def test_registered_as_cloud():
     a = get_host().build("associator", {"type": "cloud", "params": {"sigma": 0.2}})
     assert isinstance(a, CloudAssociator) and a.sigma == 0.2
+
+
+def _feed(a: CloudAssociator, offsets_h: np.ndarray, h: float = 100.0) -> None:
+    """One frame per offset: a freshly matched track (tight cloud at 200, 300) and one
+    detection ``offset`` detection heights to its right (the same height)."""
+    for k, off in enumerate(offsets_h):
+        t = _target(1, (200.0, 300.0), 0.0, h=h, n=20, seed=k)
+        a.associate([t], _dets([(200.0 + off * h, 300.0)], [0.9], h=h))
+
+
+def test_the_detections_scatter_is_measured_and_blended_with_the_assumed_one():
+    a = _assoc(sigma=0.1, sigma_size=0.2, appearance_weight=0.0)
+    assert a.scatter_ == (0.1, 0.1, 0.2)
+    offs = np.random.default_rng(5).normal(0.0, 0.05, 300)
+    _feed(a, offs)
+    a.costs([], _dets([], []))  # the scatter is taken when costs are computed
+    n, prior = 300, 50
+    robust_x = 1.4826 * np.median(np.abs(offs))
+    want_x = np.sqrt((prior * 0.1 ** 2 + n * robust_x ** 2) / (prior + n))
+    sx, sy, ss = a.scatter_
+    assert sx == pytest.approx(want_x, rel=1e-9)
+    assert 0.04 < sx < 0.06
+    # exact vertical centres and heights: measured zero, blended with the assumed values
+    assert sy == pytest.approx(0.1 * np.sqrt(prior / (prior + n)), rel=1e-9)
+    assert ss == pytest.approx(0.2 * np.sqrt(prior / (prior + n)), rel=1e-9)
+    # setup starts a new run from the assumed values
+    a.setup(None)
+    assert a.scatter_ == (0.1, 0.1, 0.2)
+
+
+def test_a_tight_detector_narrows_the_gate_a_loose_one_widens_it():
+    # a detection 0.35 heights to the right of a fresh track: inside the gate while the
+    # scatter is the assumed 0.1 (cost 6.1 < 8), outside it once the detector has shown it
+    # scatters by 0.02
+    far = _dets([(235.0, 300.0)], [0.9])
+    a = _assoc(sigma=0.1, appearance_weight=0.0)
+    t = _target(1, (200.0, 300.0), 0.0, n=20)
+    assert a.associate([t], far).matches.tolist() == [[0, 0]]
+    a.setup(None)
+    _feed(a, np.random.default_rng(1).normal(0.0, 0.02, 400))
+    assert len(a.associate([t], far).matches) == 0
+    # a detector whose boxes scatter by 0.3 heights: the same pair is matched, a pair 0.6
+    # heights away too (the assumed scatter puts it at cost 18); at most twice the assumed
+    b = _assoc(sigma=0.1, appearance_weight=0.0)
+    _feed(b, np.random.default_rng(2).normal(0.0, 0.3, 400))
+    assert b.associate([t], _dets([(260.0, 300.0)], [0.9])).matches.tolist() == [[0, 0]]
+    assert b.scatter_[0] == pytest.approx(0.2, rel=1e-9)
+
+
+def test_only_pairs_of_tracks_seen_in_the_previous_frame_are_measured():
+    a = _assoc(sigma=0.1, appearance_weight=0.0)
+    for k in range(100):
+        t = _target(1, (200.0, 300.0), 0.0, n=20, seed=k, misses=3)
+        a.associate([t], _dets([(230.0, 300.0)], [0.9]))
+    a.costs([], _dets([], []))
+    assert a.scatter_ == (0.1, 0.1, 0.2)
