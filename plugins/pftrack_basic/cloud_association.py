@@ -183,8 +183,13 @@ class CloudAssociator(Associator):
         if isinstance(r, bool) or not isinstance(r, int) or r < 0:
             raise ValueError(f"associator 'cloud': recent_misses must be an integer >= 0, got "
                              f"{r!r}")
+        self._reset()
+
+    def _reset(self) -> None:
+        """Forget the measured scatter: a new run starts from the assumed values."""
         self._residuals = np.zeros((0, 3))
         self.scatter_ = (float(self.sigma), float(self.sigma), float(self.sigma_size))
+        self._scatter_now = self.scatter_
 
     def _scatter(self) -> tuple[float, float, float]:
         """The (horizontal, vertical, size) scatter in use: the assumed values, or their
@@ -194,7 +199,14 @@ class CloudAssociator(Associator):
         if r is None or not len(r):
             return (float(prior[0]), float(prior[1]), float(prior[2]))
         n = len(r)
-        measured = 1.4826 * np.median(np.abs(r), axis=0)  # robust standard deviations
+        a = np.abs(r)
+        k = n // 2
+        if n % 2:
+            med = np.partition(a, k, axis=0)[k]
+        else:
+            part = np.partition(a, (k - 1, k), axis=0)
+            med = (part[k - 1] + part[k]) / 2
+        measured = 1.4826 * med  # robust standard deviations
         var = (_PRIOR_PAIRS * prior ** 2 + n * measured ** 2) / (_PRIOR_PAIRS + n)
         s = np.clip(np.sqrt(var), prior * _SCATTER_RANGE[0], prior * _SCATTER_RANGE[1])
         return (float(s[0]), float(s[1]), float(s[2]))
@@ -207,22 +219,34 @@ class CloudAssociator(Associator):
         pairs = [(i, j) for i, j in matches if targets[i].misses == 0]
         if not pairs:
             return
-        db = detections.boxes_xywh_px[[j for _, j in pairs]]
-        rows = []
-        for (i, _), d in zip(pairs, db):
-            pb = _particle_boxes(targets[i])
-            pb = pb[np.isfinite(pb).all(axis=1)]
-            if not len(pb) or not d[3] > 0:
-                continue
-            c = (pb[:, :2] + 0.5 * pb[:, 2:]).mean(axis=0)
-            rows.append([(d[0] + 0.5 * d[2] - c[0]) / d[3], (d[1] + 0.5 * d[3] - c[1]) / d[3],
-                         np.log(d[3] / max(float(pb[:, 3].mean()), 1e-6))])
-        if rows:
-            self._residuals = np.concatenate([self._residuals, np.asarray(rows)])[-_WINDOW:]
+        d = detections.boxes_xywh_px[[j for _, j in pairs]]
+        boxes = [_particle_boxes(targets[i]) for i, _ in pairs]
+        if len({len(b) for b in boxes}) == 1 and all(np.isfinite(b).all() for b in boxes):
+            pb = np.stack(boxes)  # (P, N, 4): the common case, all at once
+            c = (pb[..., :2] + 0.5 * pb[..., 2:]).mean(axis=1)
+            h = pb[..., 3].mean(axis=1)
+        else:
+            c, h = np.full((len(pairs), 2), np.nan), np.full(len(pairs), np.nan)
+            for k, b in enumerate(boxes):
+                b = b[np.isfinite(b).all(axis=1)]
+                if len(b):
+                    c[k] = (b[:, :2] + 0.5 * b[:, 2:]).mean(axis=0)
+                    h[k] = b[:, 3].mean()
+        ok = np.isfinite(h) & (d[:, 3] > 0)
+        if not ok.any():
+            return
+        d, c, h = d[ok], c[ok], h[ok]
+        rows = np.column_stack([(d[:, 0] + 0.5 * d[:, 2] - c[:, 0]) / d[:, 3],
+                                (d[:, 1] + 0.5 * d[:, 3] - c[:, 1]) / d[:, 3],
+                                np.log(d[:, 3] / np.maximum(h, 1e-6))])
+        self._residuals = np.concatenate([self._residuals, rows])[-_WINDOW:]
+        self._scatter_now = self._scatter()
 
     def costs(self, targets: Sequence[Target], detections: Detections) -> np.ndarray:
         """The (T, K) cost matrix: :func:`cloud_cost` plus the appearance cost."""
-        sx, sy, ss = self._scatter()
+        if not hasattr(self, "_scatter_now"):
+            self._reset()
+        sx, sy, ss = self._scatter_now
         self.scatter_ = (sx, sy, ss)
         cost = cloud_cost(targets, detections, sigma=(sx, sy), sigma_size=ss)
         w = float(self.appearance_weight)
