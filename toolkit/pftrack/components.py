@@ -353,12 +353,14 @@ class Param:
                                  low_open=True)
 
     A component class that declares parameters this way and defines no ``__init__`` of its own
-    gets one that takes them as keyword arguments (those of its bases first, in declaration
-    order), stores each unchanged as an attribute of the same name and then checks every value
-    against its declaration (type, range, choices, length), raising a ``ValueError`` that names
-    the component, the parameter, the allowed values and the value given; its docstring gets a
+    gets one that takes them as arguments (those of its bases first, in declaration order; by
+    keyword, or by position in that order), stores each unchanged as an attribute of the same
+    name and then checks every value against its declaration (type, range, choices, length),
+    raising a ``ValueError`` that names the component, the parameter, the allowed values and
+    the value given; its docstring gets a
     numpydoc ``Parameters`` section built from the declarations (types from the annotations).
-    A subclass inherits its bases' declarations and may redeclare one (a new default or doc).
+    A subclass inherits its bases' declarations and may redeclare one (a new default or doc),
+    or fix one as a plain class attribute (it is then no parameter of the subclass).
     The configuration check (:func:`pftrack.config.validate_config`) and the configuration
     reference read the same declarations.
 
@@ -540,6 +542,8 @@ def _declared(cls: type) -> dict[str, Param]:
         for k, v in vars(base).items():
             if isinstance(v, Param):
                 out[k] = v  # a redeclaration keeps the base's position, with its new default
+            elif k in out:
+                del out[k]  # a subclass fixes a base's parameter as a plain class attribute
     return out
 
 
@@ -576,7 +580,14 @@ def _generated_init(cls: type, params: dict[str, Param]) -> Any:
     names = list(params)
     defaults = {k: p.default for k, p in params.items()}
 
-    def __init__(self: Any, **kwargs: Any) -> None:
+    def __init__(self: Any, *args: Any, **kwargs: Any) -> None:
+        if len(args) > len(names):
+            raise TypeError(f"{type(self).__name__}() takes {len(names)} parameters, "
+                            f"{len(args)} given")
+        for k, v in zip(names, args):
+            if k in kwargs:
+                raise TypeError(f"{type(self).__name__}() got parameter {k!r} twice")
+            kwargs[k] = v
         unknown = set(kwargs) - set(names)
         if unknown:
             raise TypeError(f"{type(self).__name__}() got unexpected parameters "
@@ -594,7 +605,7 @@ def _generated_init(cls: type, params: dict[str, Param]) -> Any:
 
     __init__.__signature__ = inspect.Signature(  # type: ignore[attr-defined]
         [inspect.Parameter("self", inspect.Parameter.POSITIONAL_OR_KEYWORD)]
-        + [inspect.Parameter(k, inspect.Parameter.KEYWORD_ONLY, default=defaults[k])
+        + [inspect.Parameter(k, inspect.Parameter.POSITIONAL_OR_KEYWORD, default=defaults[k])
            for k in names])
     __init__.__qualname__ = f"{cls.__qualname__}.__init__"
     __init__.__doc__ = f"Store the parameters of :class:`{cls.__name__}` (declared with Param)."

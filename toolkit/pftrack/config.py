@@ -10,9 +10,9 @@ names (``observation``, ``motion``, ``likelihood``, ``detector``, ``associator``
 ``births``), checks their parameters against the registered class: unknown parameters (with the
 closest known name), and each value against its declaration (the type, range, choices and
 length a :class:`pftrack.components.Param` states, or the type a hand-written ``__init__``
-keyword is annotated with): the declarations the component checks itself against when built. Every problem is
-reported at once in a :class:`ConfigError` naming the source, the key path, what was expected
-and what was given::
+keyword is annotated with): the declarations the component checks itself against when built.
+Every problem is reported at once in a :class:`ConfigError` naming the source, the key path,
+what was expected and what was given::
 
     config run.yaml: tracker.n_particles: expected an integer >= 1 (particles per target),
     got 200.7
