@@ -303,7 +303,8 @@ class GivenStartsInitiator(Initiator):
     """
 
     starts: dict[int, list[tuple[int, np.ndarray]]] | None = Param(
-        None, "Targets to start (e.g. :func:`first_boxes` of the ground truth).")
+        None, "Targets to start: {frame: [(id, box_xywh_px)]} (e.g. :func:`first_boxes` of the "
+        "ground truth).", unit="none")
 
     def scheduled(self, view: FrameView) -> list[Birth]:
         return [Birth(box_xywh_px=np.asarray(box, float), track_id=tid, supported=False)
@@ -317,7 +318,8 @@ class GivenEndsTerminator(Terminator):
     """
 
     ends: dict[int, int] | None = Param(
-        None, "Frame after which a target is stopped (e.g. :func:`last_frames`).")
+        None, "Frame after which each target is stopped: {id: frame} (e.g. "
+        ":func:`last_frames`).", unit="none")
 
     def terminate(self, view: FrameView) -> list[End]:
         ends = self.ends
@@ -397,9 +399,11 @@ class GivenBoxTracks(LifecycleTracks):
     """
 
     starts: dict[int, list[tuple[int, np.ndarray]]] | None = Param(
-        None, "Targets to start (e.g. :func:`first_boxes` of the ground truth).")
+        None, "Targets to start: {frame: [(id, box_xywh_px)]} (e.g. :func:`first_boxes` of the "
+        "ground truth).", unit="none")
     ends: dict[int, int] | None = Param(
-        None, "Frame after which a target is stopped (e.g. :func:`last_frames`).")
+        None, "Frame after which each target is stopped: {id: frame} (e.g. "
+        ":func:`last_frames`).", unit="none")
     scale_step: float | None = Param(
         None, "Per-frame scale search around the estimate (see :func:`track`).", unit="1", low=0.0)
     scale_limits: tuple[float, float] = Param(
