@@ -238,7 +238,7 @@ class CoastScene(Scene):
         None, "Clip length in frames; None: the clip's own (boat 200, car 100, multi 200, empty "
         "100). Objects move the same whatever the length (a shorter clip is the start of the "
         "clip).", unit="frames", low=1)
-    fps: float = Param(  # type: ignore[assignment]  # a parameter here, a property on Scene
+    fps: float = Param(  # a parameter here (Scene.fps is a property)
         5.0, "Frames per second of the clip (object speeds are in m/s, so fewer fps = longer "
         "steps).", unit="frames/s", low=0.0, low_open=True)
     n_training: int = Param(

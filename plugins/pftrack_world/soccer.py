@@ -453,7 +453,7 @@ class SoccerScene(Scene):
         0.0, "Clip start, seconds into the source's longest continuous run of play.",
         unit="s", low=0.0)
     duration_s: float = Param(20.0, "Clip length in seconds.", unit="s", low=0.0, low_open=True)
-    fps: float = Param(  # type: ignore[assignment]  # a parameter here, a property on Scene
+    fps: float = Param(  # a parameter here (Scene.fps is a property)
         25.0, "Video frame rate (frames per second); trajectories are interpolated to it.",
         unit="frames/s", low=0.0, low_open=True)
     seed: int = Param(

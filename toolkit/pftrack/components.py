@@ -345,7 +345,14 @@ class _Shape:
                 self.checked = False
 
 
-class Param:
+if TYPE_CHECKING:
+    # to a type checker a declaration is the value it declares: ``x: float = Param(1.0)``
+    _Declaration = Any
+else:
+    _Declaration = object
+
+
+class Param(_Declaration):
     """A declared parameter of a component (as Stone Soup's ``Property``)::
 
         class MyLikelihood(Likelihood):
@@ -630,6 +637,10 @@ class Component(ABC):
 
     kind: ClassVar[str] = "component"
     name: ClassVar[str | None] = None
+
+    if TYPE_CHECKING:
+        # the __init__ generated from Param declarations takes them by keyword or position
+        def __init__(self, *args: Any, **kwargs: Any) -> None: ...
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
