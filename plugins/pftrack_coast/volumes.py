@@ -76,6 +76,7 @@ from pftrack_coast.likelihood import _blocks_of_pixels
 
 if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera
+    from pftrack.geometry.volumes import Volume
 
 __all__ = ["InsideBoxesLikelihood", "VolumeTracks", "bhattacharyya", "cloud_box", "cuboid_box",
            "cuboid_boxes", "cuboid_corners", "footprint_size", "hsv_histogram",
@@ -432,7 +433,7 @@ class VolumeTracks(TrackManager):
         "swapped" adds ``"with"``, the track it swapped output ids with).
     """
 
-    volumes: Sequence[str | dict] | str = Param(
+    volumes: Sequence[str | dict | Volume] | str | dict | Volume = Param(
         ("near", "far"), "Detection volumes: names (built in, or defined in the shipped "
         "``calib/*.yaml``), 'FILE' (every volume of a volumes YAML) / 'FILE:NAME', or volume "
         "mappings as in a volumes file.")

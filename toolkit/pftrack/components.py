@@ -18,6 +18,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import copy
+import functools
 import inspect
 import math
 import numbers
@@ -352,6 +353,11 @@ else:
     _Declaration = object
 
 
+@functools.cache
+def _shape_of(annotation: str) -> _Shape:
+    return _Shape(annotation)
+
+
 class Param(_Declaration):
     """A declared parameter of a component (as Stone Soup's ``Property``)::
 
@@ -449,7 +455,7 @@ class Param(_Declaration):
         """Whether None is an allowed value."""
         if self._optional is not None:
             return self._optional
-        return self.default is None or _Shape(self.type_doc).none
+        return self.default is None or _shape_of(self.type_doc).none
 
     def __repr__(self) -> str:
         return f"Param({self.default!r})"
@@ -487,7 +493,7 @@ class Param(_Declaration):
         if self.choices is not None:
             text = "one of " + ", ".join(repr(c) for c in self.choices)
         else:
-            shape = _Shape(self.type_doc)
+            shape = _shape_of(self.type_doc)
             alts = [_TYPE_WORDS[t] for t in shape.scalars] if shape.checked else []
             if shape.checked and shape.seq is not None:
                 n = " or ".join(str(k) for k in self.length) if self.length else "a list of"
@@ -508,6 +514,8 @@ class Param(_Declaration):
     def problem(self, value: Any) -> str | None:
         """None when ``value`` is allowed; else what is allowed, in words (:meth:`expected`)."""
         bad = self.expected()
+        if isinstance(value, np.ndarray) and value.ndim == 0:
+            value = value.item()
         if value is None:
             return None if self.optional else bad
         if self.choices is not None:
@@ -515,7 +523,7 @@ class Param(_Declaration):
                 return None if any(value == c for c in self.choices) else bad
             except (TypeError, ValueError):
                 return bad
-        shape = _Shape(self.type_doc)
+        shape = _shape_of(self.type_doc)
         numbers_: list[Any] = []
         if isinstance(value, (list, tuple, np.ndarray)) and not isinstance(value, str):
             if shape.checked and shape.seq is None:
