@@ -8,9 +8,9 @@ A small Sphinx extension (``docs/conf.py`` loads it). On ``builder-inited`` it w
   with its type, default, unit and range (from the schema :data:`pftrack.config.CONFIG_SCHEMA`),
   every parameter of every component the plugin host registers (its signature's default, its
   ``Parameters`` docstring entry or :class:`pftrack.components.Param` declaration; the unit as
-  the declaration's
-  ``unit=`` or the description's closing ``Unit: X.`` states it, else read off the name's
-  suffix or the description), and every preset, key by key with the component's default beside
+  the declaration's ``unit=`` or the description's closing ``Unit: X.`` states it, else read
+  off the name's suffix or the description; the range, choices and length the declaration
+  allows), and every preset, key by key with the component's default beside
   it;
 * ``cli_reference.md``: every command's ``--help``;
 * ``results.md``: the latest result file of each benchmark in ``results/``
@@ -196,8 +196,10 @@ def component_params(cls: type) -> list[dict[str, Any]]:
         ``Unit: X.``; otherwise :func:`unit_of`; ``""`` for none or for ``"none"``),
         ``unit_source`` (``"stated"``, ``"name"`` for a name suffix, ``"text"`` for a unit
         word of the description, ``""``), ``doc`` (the description from the declaration or the
-        ``Parameters`` section, without its ``Unit:`` sentence) and ``numeric`` (whether the
-        type or the default is a number or numbers, booleans excluded).
+        ``Parameters`` section, without its ``Unit:`` sentence), ``numeric`` (whether the
+        type or the default is a number or numbers, booleans excluded) and ``allowed`` (what
+        a :class:`pftrack.components.Param` declaration allows, :func:`param_allowed`; ``""``
+        for a parameter of a hand-written ``__init__``).
     """
     from pftrack.components import _declared
 
@@ -227,8 +229,26 @@ def component_params(cls: type) -> list[dict[str, Any]]:
                 if unit else ""
         rows.append({"name": p.name, "type": typ, "default": p.default, "unit": unit,
                      "unit_source": source, "doc": doc,
-                     "numeric": is_numeric(typ, p.default)})
+                     "numeric": is_numeric(typ, p.default),
+                     "allowed": param_allowed(declared[p.name]) if p.name in declared else ""})
     return rows
+
+
+def param_allowed(param: Any) -> str:
+    """A :class:`pftrack.components.Param`'s choices, range, length and whether null is
+    allowed, in the words of the schema tables (``[1, ∞)``, ``(0, 1]``; ``''`` when free)."""
+    parts = []
+    if param.choices is not None:
+        parts.append("one of " + ", ".join(f"`{c}`" for c in param.choices))
+    if param.low is not None or param.high is not None:
+        lo = "(-∞" if param.low is None else f"{'(' if param.low_open else '['}{param.low:g}"
+        hi = "∞)" if param.high is None else f"{param.high:g}{')' if param.high_open else ']'}"
+        parts.append(f"{lo}, {hi}")
+    if param.length is not None:
+        parts.append("length " + " or ".join(str(n) for n in param.length))
+    if param.optional and param.default is not None:
+        parts.append("or null")
+    return "; ".join(parts)
 
 
 def _is_number(value: Any) -> bool:
@@ -249,8 +269,9 @@ def is_numeric(typ: str, default: Any) -> bool:
 def _param_table(rows: list[dict[str, Any]]) -> list[str]:
     out = ["| key | type | default | unit | description |", "|---|---|---|---|---|"]
     for r in rows:
+        desc = _md_cell(r["doc"]) + (f" Allowed: {r['allowed']}." if r.get("allowed") else "")
         out.append(f"| `{r['name']}` | {_md_cell(r['type'])} | {_code(r['default'])} | "
-                   f"{r['unit'] or '—'} | {_md_cell(r['doc']) or '—'} |")
+                   f"{r['unit'] or '—'} | {desc.strip() or '—'} |")
     return out
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from pftrack.components import Assignment, Associator, Detections, Target
+from pftrack.components import Assignment, Associator, Detections, Param, Target
 from pftrack.geometry.boxes import iou_matrix
 
 __all__ = ["GreedyIoUAssociator", "HungarianIoUAssociator", "centre_distance"]
@@ -32,11 +32,13 @@ def centre_distance(a_xywh: np.ndarray, b_xywh: np.ndarray) -> np.ndarray:
 class _BoxAssociator(Associator):
     """Shared cost matrix and gate of the two box associators."""
 
-    def __init__(self, metric: str = "iou", min_iou: float = 0.3,
-                 max_distance_px: float = 50.0) -> None:
-        self.metric = metric
-        self.min_iou = min_iou
-        self.max_distance_px = max_distance_px
+    metric: str = Param("iou", "Compare boxes by overlap (iou) or by centre distance.",
+                        choices=_METRICS)
+    min_iou: float = Param(0.3, "Gate for metric iou: pairs with IoU below are not matched.",
+                           unit="1", low=0.0, high=1.0)
+    max_distance_px: float = Param(
+        50.0, "Gate for metric distance: pairs whose centres are farther apart are not matched.",
+        unit="px", low=0.0)
 
     def cost_matrix(self, targets: Sequence[Target],
                     detections: Detections) -> tuple[np.ndarray, np.ndarray]:
@@ -46,9 +48,6 @@ class _BoxAssociator(Associator):
         ``metric="distance"``: cost = centre distance in pixels, admissible when
         ``<= max_distance_px``.
         """
-        if self.metric not in _METRICS:
-            raise ValueError(f"{type(self).__name__}: metric must be one of {_METRICS}, "
-                             f"got {self.metric!r}")
         tb = np.array([np.asarray(t.box_xywh_px, dtype=np.float64).reshape(4) for t in targets]
                       ).reshape(-1, 4)
         db = detections.boxes_xywh_px
@@ -65,15 +64,7 @@ class HungarianIoUAssociator(_BoxAssociator):
     Pairs outside the gate are never matched: they get a cost larger than any admissible
     assignment can reach, and are dropped from the optimal solution afterwards.
 
-    Parameters
-    ----------
-    metric : {"iou", "distance"}
-        Compare boxes by overlap or by centre distance.
-    min_iou : float
-        Gate for ``metric="iou"``: pairs with IoU below are not matched. Unit: 1.
-    max_distance_px : float
-        Gate for ``metric="distance"``: pairs whose centres are farther apart are not matched.
-        Unit: px.
+    {params}
     """
 
     def associate(self, targets: Sequence[Target], detections: Detections) -> Assignment:
@@ -95,14 +86,7 @@ class GreedyIoUAssociator(_BoxAssociator):
     """Greedy matching: repeatedly take the admissible pair of lowest cost (highest IoU or
     nearest centres), then remove its target and detection. Ties go to the lower indices.
 
-    Parameters
-    ----------
-    metric : {"iou", "distance"}
-        Compare boxes by overlap or by centre distance (as :class:`HungarianIoUAssociator`).
-    min_iou : float
-        Gate for ``metric="iou"``: pairs with IoU below are not matched. Unit: 1.
-    max_distance_px : float
-        As for :class:`HungarianIoUAssociator`. Unit: px.
+    {params}
     """
 
     def associate(self, targets: Sequence[Target], detections: Detections) -> Assignment:

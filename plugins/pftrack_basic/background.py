@@ -26,7 +26,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from pftrack.components import Detections, Detector, Frame, RunContext
+from pftrack.components import Detections, Detector, Frame, Param, RunContext
 
 __all__ = ["BackgroundSubtractionDetector"]
 
@@ -43,33 +43,7 @@ class BackgroundSubtractionDetector(Detector):
     The first frames of a stream only teach the background (the model has seen nothing yet, so
     everything moving or not may be foreground); ``warmup_frames`` frames return no detections.
 
-    Parameters
-    ----------
-    history : int
-        Frames of history of the MOG2 model. Unit: frames.
-    var_threshold : float
-        MOG2's squared Mahalanobis distance threshold for foreground. Unit: 1.
-    detect_shadows : bool
-        Let MOG2 mark shadows (they are then discarded rather than detected).
-    learning_rate : float
-        MOG2 learning rate; negative: automatic (1 / history). Unit: 1/frame.
-    min_area_px : int
-        Smallest blob kept, pixels. Unit: px².
-    morph_px : int
-        Side of the square structuring element of the clean-up, pixels (0 or 1: no clean-up).
-        Unit: px.
-    warmup_frames : int
-        Frames at the start of a stream that only update the background. Unit: frames.
-    person_height_m : float, optional
-        With the run's camera: turn the blobs into boxes of upright people this tall (module
-        docstring); None (default): each blob's bounding box. Unit: m.
-    person_aspect : float
-        Width / height of a person box (person boxes only). Unit: 1.
-    merge_slack : float
-        Stacked blobs merge when their span is within this many person heights (person boxes
-        only). Unit: 1.
-    split_ratio : float
-        A group wider than this many person widths is split (person boxes only). Unit: 1.
+    {params}
 
     Attributes
     ----------
@@ -79,31 +53,40 @@ class BackgroundSubtractionDetector(Detector):
         Frames given to :meth:`detect` since the last reset.
     """
 
-    def __init__(self, history: int = 500, var_threshold: float = 16.0,
-                 detect_shadows: bool = True, learning_rate: float = -1.0,
-                 min_area_px: int = 100, morph_px: int = 3, warmup_frames: int = 1,
-                 person_height_m: float | None = None, person_aspect: float = 0.4,
-                 merge_slack: float = 1.2, split_ratio: float = 1.5) -> None:
-        self.history = history
-        self.var_threshold = var_threshold
-        self.detect_shadows = detect_shadows
-        self.learning_rate = learning_rate
-        self.min_area_px = min_area_px
-        self.morph_px = morph_px
-        self.warmup_frames = warmup_frames
-        self.person_height_m = person_height_m
-        self.person_aspect = person_aspect
-        self.merge_slack = merge_slack
-        self.split_ratio = split_ratio
+    history: int = Param(500, "Frames of history of the MOG2 model.", unit="frames", low=1)
+    var_threshold: float = Param(
+        16.0, "MOG2's squared Mahalanobis distance threshold for foreground.",
+        unit="1", low=0.0, low_open=True)
+    detect_shadows: bool = Param(
+        True, "Let MOG2 mark shadows (they are then discarded rather than detected).")
+    learning_rate: float = Param(
+        -1.0, "MOG2 learning rate; negative: automatic (1 / history).", unit="1/frame", high=1.0)
+    min_area_px: int = Param(100, "Smallest blob kept, pixels.", unit="px²", low=0)
+    morph_px: int = Param(
+        3, "Side of the square structuring element of the clean-up, pixels (0 or 1: no clean-up).",
+        unit="px", low=0)
+    warmup_frames: int = Param(
+        1, "Frames at the start of a stream that only update the background.",
+        unit="frames", low=0)
+    person_height_m: float | None = Param(
+        None,
+        "With the run's camera: turn the blobs into boxes of upright people this tall (module "
+        "docstring); None (default): each blob's bounding box.", unit="m", low=0.0, low_open=True)
+    person_aspect: float = Param(
+        0.4, "Width / height of a person box (person boxes only).",
+        unit="1", low=0.0, low_open=True)
+    merge_slack: float = Param(
+        1.2,
+        "Stacked blobs merge when their span is within this many person heights (person boxes "
+        "only).", unit="1", low=0.0, low_open=True)
+    split_ratio: float = Param(
+        1.5, "A group wider than this many person widths is split (person boxes only).",
+        unit="1", low=0.0, low_open=True)
 
     def setup(self, context: RunContext) -> None:
         """Person boxes need the run's camera: keep it, or stop naming the parameter."""
         if self.person_height_m is None:
             return
-        for name in ("person_height_m", "person_aspect", "merge_slack", "split_ratio"):
-            if not float(getattr(self, name)) > 0:
-                raise ValueError(f"detector mog2: {name} must be > 0, got "
-                                 f"{getattr(self, name)!r}")
         if context.camera is None:
             raise ValueError(f"detector mog2: person_height_m={self.person_height_m} makes "
                              "person-shaped boxes through the run's camera, and the run has none "

@@ -7,10 +7,11 @@ box centre and an observed point, so it costs a few array operations per particl
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
-from pftrack.components import Detections, Frame, Likelihood, Target
+from pftrack.components import Detections, Frame, Likelihood, Param, Target
 from pftrack.filter import _jit
 
 __all__ = ["GaussianLikelihood"]
@@ -32,22 +33,16 @@ class GaussianLikelihood(Likelihood):
 
     Boxes may lie partly or wholly outside the image; only their centres are used.
 
-    Parameters
-    ----------
-    sigma_px : float
-        Standard deviation of the observation noise, pixels (> 0). Unit: px.
-    use_all_detections : bool
-        Fall back on the nearest of all the frame's detections (rule 3).
-    missing_log_likelihood : float
-        Log-likelihood of every particle when there is no observation (not NaN, not +inf).
-        Unit: log-likelihood.
+    {params}
     """
 
-    def __init__(self, sigma_px: float = 5.0, use_all_detections: bool = True,
-                 missing_log_likelihood: float = 0.0) -> None:
-        self.sigma_px = sigma_px
-        self.use_all_detections = use_all_detections
-        self.missing_log_likelihood = missing_log_likelihood
+    sigma_px: float = Param(5.0, "Standard deviation of the observation noise.", unit="px",
+                            low=0.0, low_open=True)
+    use_all_detections: bool = Param(
+        True, "Fall back on the nearest of all the frame's detections (rule 3).")
+    missing_log_likelihood: float = Param(
+        0.0, "Log-likelihood of every particle when there is no observation (-inf allowed).",
+        unit="log-likelihood", high=math.inf, high_open=True, finite=False)
 
     def begin_frame(self, frame: Frame, targets: Sequence[Target],
                     detections: Detections | None = None) -> None:
@@ -78,19 +73,12 @@ class GaussianLikelihood(Likelihood):
 
     def log_likelihood(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
         sigma = float(self.sigma_px)
-        if not np.isfinite(sigma) or sigma <= 0:
-            raise ValueError(f"GaussianLikelihood: sigma_px must be finite and > 0, got "
-                             f"{self.sigma_px!r}")
         b = np.asarray(boxes_xywh_px, dtype=np.float64)
         if b.ndim != 2 or b.shape[1] != 4:
             raise ValueError(f"GaussianLikelihood: boxes must have shape (N, 4), got {b.shape}")
         obs = self._observation(target)
         if obs is None:
-            missing = float(self.missing_log_likelihood)
-            if np.isnan(missing) or missing == np.inf:
-                raise ValueError("GaussianLikelihood: missing_log_likelihood must not be NaN or "
-                                 f"+inf, got {self.missing_log_likelihood!r}")
-            return np.full(len(b), missing)
+            return np.full(len(b), float(self.missing_log_likelihood))
         if len(obs) == 1 and _jit.use(len(b)):
             # one compiled pass, the same operations in the same order as below
             return _jit.gaussian_centre_log_likelihood(b, obs[0, 0], obs[0, 1],

@@ -27,7 +27,7 @@ import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
-from pftrack.components import MotionModel, Target
+from pftrack.components import MotionModel, Param, Target
 from pftrack.filter import _jit
 
 # below this many particles a (N, D) @ (D, D) product beats column-wise updates; above, the
@@ -158,14 +158,12 @@ class RandomWalkMotion(MotionModel):
     State ``(x, y)``: box centre in pixels. Each step adds independent ``N(0, sigma_px^2 dt)``
     noise to each coordinate; ``dt`` is in frames.
 
-    Parameters
-    ----------
-    sigma_px : float or (2,) floats
-        Noise standard deviation per frame, pixels (per axis when two values). Unit: px per √dt.
+    {params}
     """
 
-    def __init__(self, sigma_px: float | tuple[float, float] = 3.0) -> None:
-        self.sigma_px = sigma_px
+    sigma_px: float | tuple[float, float] = Param(
+        3.0, "Noise standard deviation per frame (per axis when two values).",
+        unit="px per √dt", low=0.0, length=2)
 
     @property
     def state_dim(self) -> int:
@@ -231,26 +229,19 @@ class _ConstantVelocityMotion(MotionModel):
     With ``velocity_from_displacement=False`` the velocity is carried over instead,
     ``v_t = v_{t-1} + N(0, velocity_noise^2 dt)`` (the textbook nearly-constant-velocity model).
 
-    Parameters
-    ----------
-    position_noise : float or sequence of float
-        Position noise standard deviation per unit of ``dt`` (per axis when a sequence), in the
-        position unit (pixels or metres). Unit: state units per √dt.
-    velocity_noise : float or sequence of float
-        Extra velocity noise standard deviation per unit of ``dt``; 0 follows the paper exactly.
-        Unit: state units/dt per √dt.
-    velocity_from_displacement : bool
-        The coastal paper's eq. 7: the new velocity is the displacement just made.
+    {params}
     """
 
     _ndim: int = 2
 
-    def __init__(self, position_noise: float | tuple[float, ...] = 1.0,
-                 velocity_noise: float | tuple[float, ...] = 0.0,
-                 velocity_from_displacement: bool = True) -> None:
-        self.position_noise = position_noise
-        self.velocity_noise = velocity_noise
-        self.velocity_from_displacement = velocity_from_displacement
+    position_noise: float | tuple[float, ...] = Param(
+        1.0, "Position noise standard deviation per unit of dt (per axis when a sequence), in "
+        "the position unit (pixels or metres).", unit="state units per √dt", low=0.0)
+    velocity_noise: float | tuple[float, ...] = Param(
+        0.0, "Extra velocity noise standard deviation per unit of dt (per axis when a "
+        "sequence); 0 follows the paper exactly.", unit="state units/dt per √dt", low=0.0)
+    velocity_from_displacement: bool = Param(
+        True, "The coastal paper's eq. 7: the new velocity is the displacement just made.")
 
     @property
     def state_dim(self) -> int:
@@ -354,27 +345,21 @@ class ConstantAccelerationMotion(MotionModel):
 
     each per unit of ``dt`` and scaled by ``sqrt(dt)``. Without a target, ``s = 1`` and ``n = 1``.
 
-    Parameters
-    ----------
-    position_noise : float
-        Position noise std per unit of target size (per unit of ``dt``). Unit: target sizes per √dt.
-    velocity_noise : float
-        Velocity noise std for a target tracked for one frame (per unit of ``dt``).
-        Unit: state units/dt per √dt.
-    acceleration_noise : float
-        Acceleration noise std for a target tracked for one frame (per unit of ``dt``).
-        Unit: state units/dt² per √dt.
-    max_frames_tracked : int, optional
-        Cap on ``n`` so the derivative noise never falls below ``noise / sqrt(cap)``; None (the
-        paper) lets it shrink without bound. Unit: frames.
+    {params}
     """
 
-    def __init__(self, position_noise: float = 0.1, velocity_noise: float = 0.5,
-                 acceleration_noise: float = 0.5, max_frames_tracked: int | None = None) -> None:
-        self.position_noise = position_noise
-        self.velocity_noise = velocity_noise
-        self.acceleration_noise = acceleration_noise
-        self.max_frames_tracked = max_frames_tracked
+    position_noise: float | tuple[float, float] = Param(
+        0.1, "Position noise std per unit of target size (per unit of dt; per axis when two "
+        "values).", unit="target sizes per √dt", low=0.0, length=2)
+    velocity_noise: float | tuple[float, float] = Param(
+        0.5, "Velocity noise std for a target tracked for one frame (per unit of dt; per axis "
+        "when two values).", unit="state units/dt per √dt", low=0.0, length=2)
+    acceleration_noise: float | tuple[float, float] = Param(
+        0.5, "Acceleration noise std for a target tracked for one frame (per unit of dt; per "
+        "axis when two values).", unit="state units/dt² per √dt", low=0.0, length=2)
+    max_frames_tracked: int | None = Param(
+        None, "Cap on n so the derivative noise never falls below noise / sqrt(cap); None (the "
+        "paper) lets it shrink without bound.", unit="frames", low=1)
 
     @property
     def state_dim(self) -> int:
@@ -391,9 +376,6 @@ class ConstantAccelerationMotion(MotionModel):
         size = 1.0 if target is None else float(target.size_m)
         n = 1 if target is None else max(int(target.frames_tracked), 1)
         if self.max_frames_tracked is not None:
-            if int(self.max_frames_tracked) < 1:
-                raise ValueError(f"ConstantAccelerationMotion: max_frames_tracked must be >= 1, "
-                                 f"got {self.max_frames_tracked!r}")
             n = min(n, int(self.max_frames_tracked))
         if not np.isfinite(size) or size < 0:
             raise ValueError(f"ConstantAccelerationMotion: target {getattr(target, 'id', '?')} "
@@ -412,9 +394,6 @@ class ConstantAccelerationMotion(MotionModel):
         size = np.array([float(t.size_m) for t in targets], dtype=np.float64)
         n = np.array([max(int(t.frames_tracked), 1) for t in targets], dtype=np.int64)
         if self.max_frames_tracked is not None:
-            if int(self.max_frames_tracked) < 1:
-                raise ValueError(f"ConstantAccelerationMotion: max_frames_tracked must be >= 1, "
-                                 f"got {self.max_frames_tracked!r}")
             np.minimum(n, int(self.max_frames_tracked), out=n)
         bad = ~(np.isfinite(size) & (size >= 0))
         if bad.any():

@@ -22,7 +22,12 @@ from typing import Any
 import numpy as np
 from pftrack.components import Detections, Detector, Frame, Param, RunContext
 
-from pftrack_coast.eigenspace import BlockEigenspaceModel, EigenspaceResult
+from pftrack_coast.eigenspace import (
+    FRAME_OFFSETS,
+    UNTRAINED,
+    BlockEigenspaceModel,
+    EigenspaceResult,
+)
 
 __all__ = ["EigenspaceDetector", "boxes_to_mask"]
 
@@ -60,56 +65,60 @@ class EigenspaceDetector(Detector):
         events and messages; ``guard_.model`` is the copy of ``model_`` that it re-baselines.
     """
 
-    block_size: int = Param(8, "Side of a block, pixels.", unit="px")
+    block_size: int = Param(8, "Side of a block, pixels.", unit="px", low=1)
     threshold_q: float = Param(0.8, "Cumulative contribution q(D) fixing each block's "
-                                    "eigenspace dimension D (eq. 1).", unit="1")
-    v_low: float = Param(15.0, "Threshold v_D on r_D (eq. 4) for D <= d_split.", unit="1")
-    v_high: float = Param(9.0, "Threshold v_D on r_D (eq. 4) for D > d_split.", unit="1")
-    d_split: int = Param(20, "Largest dimension D that gets v_low.", unit="count")
+                                    "eigenspace dimension D (eq. 1).", unit="1",
+                                    low=0.0, low_open=True, high=1.0)
+    v_low: float = Param(15.0, "Threshold v_D on r_D (eq. 4) for D <= d_split.", unit="1", low=0.0)
+    v_high: float = Param(9.0, "Threshold v_D on r_D (eq. 4) for D > d_split.", unit="1", low=0.0)
+    d_split: int = Param(20, "Largest dimension D that gets v_low.", unit="count", low=0)
     min_background_fraction: float = Param(
         1.0, "Training with boxes or masks: a block counts in a frame when at least this "
-             "fraction of its pixels is background.", unit="1")
+             "fraction of its pixels is background.", unit="1", low=0.0, high=1.0)
     min_samples: int = Param(
         10, "A block needs max(min_samples, D + 2) background samples; blocks with fewer are "
             "untrained (see untrained) and named in a warning; training where no block has "
-            "enough is an error.", unit="count")
+            "enough is an error.", unit="count", low=0)
     frame_offset: str = Param(
         "none", "'median' subtracts each frame's median grey level first (a thermal camera's "
-                "automatic gain or drift); 'none' is the paper's model.")
+                "automatic gain or drift); 'none' is the paper's model.", choices=FRAME_OFFSETS)
     untrained: str = Param(
         "ignore", "A block without enough background samples: 'ignore' (default) is never an "
                   "intruder; 'nearest' (not in the paper) uses the nearest trained block's "
                   "mean and eigenspace, which finds objects that stood in the block through "
                   "training but flags it in every frame where its background differs from "
-                  "the borrowed one.")
+                  "the borrowed one.", choices=UNTRAINED)
     recalibration: str = Param(
         "rebaseline", "'rebaseline' (default): watch for a camera recalibration or sudden "
                       "global change (a time gap, a level step, too many intruder blocks), "
                       "hold detections for recal_settle_frames frames and re-baseline the "
                       "model's per-pixel means on them, with a RecalibrationWarning for each "
                       "(see pftrack_coast.recalibration); 'off': the model as trained, every "
-                      "frame.")
+                      "frame.", choices=("rebaseline", "off"))
     recal_block_fraction: float = Param(
         0.25, "recalibration: an event when more than this fraction of the trained blocks "
-              "are intruders in one frame.", unit="1")
+              "are intruders in one frame.", unit="1", low=0.0, low_open=True, high=1.0)
     recal_level_step: float | None = Param(
         15.0, "recalibration: an event when the frame's median grey level moves by more than "
               "this from the previous frame's (grey levels: counts for a thermal camera); "
-              "null: not watched.", unit="grey levels")
+              "null: not watched.", unit="grey levels", low=0.0, low_open=True)
     recal_gap_s: float | None = Param(
         None, "recalibration: an event when a frame comes more than this long after the "
               "previous one (a thermal camera's flat-field correction pauses the recording "
-              "for about 1-2 s); null: not watched.", unit="s")
+              "for about 1-2 s); null: not watched.", unit="s", low=0.0, low_open=True)
     recal_adapt_rate: float = Param(
         0.02, "recalibration: after each sound frame the means of the blocks away from any "
               "intruder move this fraction of the way towards it (the drift after a "
-              "recalibration); 0: never.", unit="1")
+              "recalibration); 0: never.", unit="1", low=0.0, high=1.0,
+        high_open=True)
     recal_settle_frames: int = Param(
-        3, "recalibration: frames held after an event and re-baselined on.", unit="frames")
+        3, "recalibration: frames held after an event and re-baselined on.", unit="frames", low=1)
     box_margin_px: int = Param(0, "Training with boxes: each box is grown by this many pixels "
-                                  "per side (people's outlines are not background).", unit="px")
-    model: str | None = Param(None, "A model file written by save() (.npz), loaded on first "
-                                    "use when the detector is not fitted.")
+                                  "per side (people's outlines are not background).", unit="px",
+                                  low=0)
+    model: str | os.PathLike[str] | None = Param(
+        None, "A model file written by save() (.npz), loaded on first use when the detector is "
+        "not fitted.")
 
     def _model_params(self) -> dict[str, Any]:
         return {k: getattr(self, k) for k in (
@@ -172,9 +181,6 @@ class EigenspaceDetector(Detector):
         ignore_by_frame = ignore_by_frame or {}
         empty = np.zeros((0, 4))
         m = float(self.box_margin_px)
-        if not m >= 0:
-            raise ValueError(f"EigenspaceDetector: box_margin_px must be >= 0, got "
-                             f"{self.box_margin_px!r}")
 
         def pairs() -> Iterator[tuple[np.ndarray, np.ndarray | None]]:
             for f in frames:
@@ -229,9 +235,6 @@ class EigenspaceDetector(Detector):
         """Boxes (xywh px) of the 4-connected groups of intruder blocks, scored by their
         largest ``r_D - v_D``. With ``recalibration="rebaseline"`` no boxes while the model
         settles after a recalibration (each event is a ``RecalibrationWarning``)."""
-        if self.recalibration not in ("off", "rebaseline"):
-            raise ValueError(f"EigenspaceDetector: recalibration must be 'off' or "
-                             f"'rebaseline', got {self.recalibration!r}")
         if self.recalibration == "rebaseline":
             res = self._guard().score(frame.image, time_s=frame.time_s, frame=frame.index)
         else:

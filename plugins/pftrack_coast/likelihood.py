@@ -14,6 +14,7 @@ Without a camera (image-plane tracking), each particle's box centre pixel is use
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from typing import Any
 
@@ -75,12 +76,14 @@ class EigenspaceLikelihood(Likelihood):
         The run's camera (None: box centres are used).
     """
 
-    model: str | None = Param(None, "A model file (.npz) written by the eigenspace detector's "
-                                    "save(); None: the run's detector model "
-                                    "(pftrack run --detector-model).")
-    alpha: float = Param(1.0, "Slope of the sigmoid (eq. 12), per unit of r_D - v_D.", unit="1")
+    model: str | os.PathLike[str] | None = Param(
+        None, "A model file (.npz) written by the eigenspace detector's save(); None: the run's "
+        "detector model (pftrack run --detector-model).")
+    alpha: float = Param(1.0, "Slope of the sigmoid (eq. 12), per unit of r_D - v_D.", unit="1",
+                         low=0.0, low_open=True)
     position_dims: tuple[int, int, int] = Param(
-        (0, 1, 2), "State entries holding a particle's (x, y, z) in world metres.", unit="none")
+        (0, 1, 2), "State entries holding a particle's (x, y, z) in world metres.", unit="none",
+        low=0, length=3)
 
     def setup(self, context: RunContext) -> None:
         """The run's camera, and the run's detector model when ``model`` is not set."""
@@ -105,8 +108,6 @@ class EigenspaceLikelihood(Likelihood):
     def prepare(self) -> None:
         """The model loaded and checked; the compiled block lookup loaded."""
         self._get_model()
-        if not float(self.alpha) > 0:
-            raise ValueError(f"EigenspaceLikelihood: alpha must be > 0, got {self.alpha!r}")
         from pftrack.filter import _jit
 
         if _jit.ENABLED:
@@ -268,15 +269,18 @@ class ForegroundFractionLikelihood(Likelihood):
     {params}
     """
 
-    block_size: int = Param(8, "Block size in pixels (as the eigenspace model's).", unit="px")
-    history: int = Param(500, "MOG2's history (frames).", unit="frames")
+    block_size: int = Param(8, "Block size in pixels (as the eigenspace model's).", unit="px",
+                            low=1)
+    history: int = Param(500, "MOG2's history (frames).", unit="frames", low=1)
     var_threshold: float = Param(16.0, "MOG2's varThreshold (squared Mahalanobis distance).",
-                                 unit="1")
+                                 unit="1", low=0.0, low_open=True)
     detect_shadows: bool = Param(True, "MOG2 marks shadows (then counted as background).")
     eps: float = Param(1e-6, "Likelihood of a block without foreground (> 0: a frame without "
-                             "foreground still weights).", unit="1")
+                             "foreground still weights).", unit="1",
+                             low=0.0, low_open=True, high=1.0, high_open=True)
     position_dims: tuple[int, int, int] = Param(
-        (0, 1, 2), "State entries holding a particle's (x, y, z) in world metres.", unit="none")
+        (0, 1, 2), "State entries holding a particle's (x, y, z) in world metres.", unit="none",
+        low=0, length=3)
 
     def setup(self, context: RunContext) -> None:
         """The run's camera."""
@@ -291,11 +295,6 @@ class ForegroundFractionLikelihood(Likelihood):
         if "subtractor_" not in self.__dict__:
             import cv2
 
-            if int(self.block_size) < 1:
-                raise ValueError(f"mog2-fraction: block_size must be >= 1, got "
-                                 f"{self.block_size!r}")
-            if not 0.0 < float(self.eps) < 1.0:
-                raise ValueError(f"mog2-fraction: eps must be in (0, 1), got {self.eps!r}")
             self.subtractor_ = cv2.createBackgroundSubtractorMOG2(
                 history=int(self.history), varThreshold=float(self.var_threshold),
                 detectShadows=bool(self.detect_shadows))

@@ -70,7 +70,7 @@ from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
-from pftrack.components import Frame, Scene
+from pftrack.components import Frame, Param, Scene
 
 if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera
@@ -216,27 +216,7 @@ _FACES = (
 class CoastScene(Scene):
     """The coastal paper's coast through ``calib/coast_camera.yaml``: sea, shore, land, intruders.
 
-    Parameters
-    ----------
-    seed : int
-        Seeds everything random (site, conditions, noise): the same seed gives the same frames.
-        Unit: none.
-    clip : {"boat", "car", "multi", "empty"}
-        Which clip :meth:`frames` and :meth:`ground_truth` give (see :data:`CLIPS`).
-    n_frames : int or None
-        Clip length in frames; None: the clip's own (boat 200, car 100, multi 200, empty 100).
-        Objects move the same whatever the length (a shorter clip is the start of the clip).
-        Unit: frames.
-    fps : float
-        Frames per second of the clip (object speeds are in m/s, so fewer fps = longer steps).
-        Unit: frames/s.
-    n_training : int
-        Number of background-only training frames (:meth:`training_frames`). Unit: frames.
-    noise_std : float
-        Sensor noise, grey levels at 384 x 288. Unit: grey levels.
-    camera : str or None
-        A camera file (:func:`pftrack.geometry.formats.load_camera`) of size 768 x 576; None:
-        :func:`default_coast_camera`.
+    {params}
 
     Attributes
     ----------
@@ -248,24 +228,28 @@ class CoastScene(Scene):
         The clip's intruders.
     """
 
-    def __init__(self, seed: int = 3, clip: str = "boat", n_frames: int | None = None,
-                 fps: float = 5.0, n_training: int = 400, noise_std: float = 2.0,
-                 camera: str | None = None) -> None:
-        self.seed = seed
-        self.clip = clip
-        self.n_frames = n_frames
-        self.fps = fps
-        self.n_training = n_training
-        self.noise_std = noise_std
-        self.camera = camera
-
-    @property  # type: ignore[override]
-    def fps(self) -> float:
-        return self._fps
-
-    @fps.setter
-    def fps(self, value: float) -> None:
-        self._fps = value
+    seed: int = Param(
+        3, "Seeds everything random (site, conditions, noise): the same seed gives the same "
+        "frames.", unit="none", low=0)
+    clip: str = Param(
+        "boat", "Which clip :meth:`frames` and :meth:`ground_truth` give (see :data:`CLIPS`).",
+        choices=tuple(CLIPS))
+    n_frames: int | None = Param(
+        None, "Clip length in frames; None: the clip's own (boat 200, car 100, multi 200, empty "
+        "100). Objects move the same whatever the length (a shorter clip is the start of the "
+        "clip).", unit="frames", low=1)
+    fps: float = Param(  # a parameter here (Scene.fps is a property)
+        5.0, "Frames per second of the clip (object speeds are in m/s, so fewer fps = longer "
+        "steps).", unit="frames/s", low=0.0, low_open=True)
+    n_training: int = Param(
+        400, "Number of background-only training frames (:meth:`training_frames`).",
+        unit="frames", low=0)
+    noise_std: float = Param(
+        2.0, "Sensor noise, grey levels at 384 x 288.", unit="grey levels", low=0.0)
+    camera: str | None = Param(
+        None,
+        "A camera file (:func:`pftrack.geometry.formats.load_camera`) of size 768 x 576; None: "
+        ":func:`default_coast_camera`.")
 
     @classmethod
     def _conformance_example(cls) -> CoastScene:
@@ -284,8 +268,6 @@ class CoastScene(Scene):
         return int(_CLIP_FRAMES[name] if self.n_frames is None else self.n_frames)
 
     def _clip_name(self) -> str:
-        if self.clip not in CLIPS:
-            raise ValueError(f"coast scene: unknown clip {self.clip!r}; known: {sorted(CLIPS)}")
         return str(self.clip)
 
     def prepare(self) -> CoastScene:
@@ -297,12 +279,6 @@ class CoastScene(Scene):
             return self
         name = self._clip_name()
         n = self.clip_frames
-        if n < 1 and name != "training":
-            raise ValueError(f"coast scene: n_frames must be >= 1, got {self.n_frames!r}")
-        if not float(self.fps) > 0:
-            raise ValueError(f"coast scene: fps must be > 0, got {self.fps!r}")
-        if int(self.n_training) < 0 or not float(self.noise_std) >= 0:
-            raise ValueError("coast scene: n_training and noise_std must be >= 0")
         if self.camera is None:
             cam = default_coast_camera()
         else:

@@ -76,6 +76,7 @@ from pftrack_coast.likelihood import _blocks_of_pixels
 
 if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera
+    from pftrack.geometry.volumes import Volume
 
 __all__ = ["InsideBoxesLikelihood", "VolumeTracks", "bhattacharyya", "cloud_box", "cuboid_box",
            "cuboid_boxes", "cuboid_corners", "footprint_size", "hsv_histogram",
@@ -432,18 +433,19 @@ class VolumeTracks(TrackManager):
         "swapped" adds ``"with"``, the track it swapped output ids with).
     """
 
-    volumes: Sequence[str | dict] | str = Param(
+    volumes: Sequence[str | dict | Volume] | str | dict | Volume = Param(
         ("near", "far"), "Detection volumes: names (built in, or defined in the shipped "
         "``calib/*.yaml``), 'FILE' (every volume of a volumes YAML) / 'FILE:NAME', or volume "
         "mappings as in a volumes file.")
     entry_particles: int = Param(50, "N_m: an entry when at least this many particles of a "
-                                     "detection group have likelihood above v_pi.", unit="count")
+                                     "detection group have likelihood above v_pi.", unit="count",
+                                     low=1)
     exit_particles: int = Param(10, "N_out: a track ends when no more than this many of its "
-                                    "particles have likelihood above v_pi.", unit="count")
+                                    "particles have likelihood above v_pi.", unit="count", low=0)
     v_pi: float = Param(0.5, "Likelihood threshold in (0, 1) of the entry and exit counts.",
-                        unit="1")
+                        unit="1", low=0.0, low_open=True, high=1.0, high_open=True)
     exit_frames: int = Param(1, "Frames in a row at or below N_out before a track ends "
-                                "(1: the paper).", unit="frames")
+                                "(1: the paper).", unit="frames", low=1)
     exit_established: bool = Param(
         False, "A track is held to N_out only once it has had more than N_out particles above "
         "v_pi (its particles have gathered on its intruder); before that it ends when fewer "
@@ -451,31 +453,34 @@ class VolumeTracks(TrackManager):
         "frame (the paper), which ends a new track on an intruder smaller than its first "
         "frame's spread one frame after its entry.")
     idle_frames: int = Param(10, "A detection group without an entry for this many frames is "
-                                 "spread uniformly through its volume again.", unit="frames")
+                                 "spread uniformly through its volume again.", unit="frames", low=1)
     exclusion_margin: float = Param(0.2, "A tracked intruder's image box, enlarged by this "
                                          "fraction of its size per side, is taken away from "
-                                         "the detection groups.", unit="1")
+                                         "the detection groups.", unit="1", low=0.0)
     merge_iou: float = Param(0.5, "Two tracks whose image boxes overlap by more than this "
                                   "for merge_frames frames in a row are one intruder: the "
-                                  "younger ends.", unit="1")
+                                  "younger ends.", unit="1", low=0.0, high=1.0)
     merge_distance_m: float | None = Param(
         None, "Two tracks whose footprints are closer than this (metres) are one intruder too "
-        "(with the same merge_frames); None: only the image overlap.", unit="m")
+        "(with the same merge_frames); None: only the image overlap.", unit="m",
+        low=0.0, low_open=True)
     merge_frames: int = Param(5, "Frames in a row of overlap before two tracks merge (two "
                                  "intruders crossing overlap for a while and stay two).",
-                              unit="frames")
+                              unit="frames", low=1)
     merge_speed_m: float | None = Param(
         None, "Two tracks whose footprint velocities (over merge_speed_frames) differ by more "
         "than this (metres per frame) do not merge however close: two intruders crossing, not "
-        "one tracked twice (which moves as one). None: no velocity test.", unit="m/frame")
+        "one tracked twice (which moves as one). None: no velocity test.", unit="m/frame",
+        low=0.0, low_open=True)
     merge_speed_frames: int = Param(4, "Frames over which merge_speed_m's velocities are "
-                                       "measured.", unit="frames")
+                                       "measured.", unit="frames", low=1)
     reid_frames: int = Param(
         0, "A new track whose first output footprint lies within reid_m of where an output "
         "track ended (exit or merge) at most this many frames before takes up that track's id "
         "(a person lost in an occlusion and found again); 0: every track a new id (the "
-        "paper).", unit="frames")
-    reid_m: float = Param(1.5, "Distance on the support plane for reid_frames.", unit="m")
+        "paper).", unit="frames", low=0)
+    reid_m: float = Param(1.5, "Distance on the support plane for reid_frames.", unit="m",
+                          low=0.0, low_open=True)
     appearance: bool = Param(
         False, "Per-track appearance: an HSV histogram of each track's cuboid image region "
         "(updated while alone); two tracks that were within appearance_near_m and separate "
@@ -483,35 +488,37 @@ class VolumeTracks(TrackManager):
         "appearance_margin, and re-identification takes the best-matching ended id within "
         "reid_m (False: positions only).")
     appearance_rate: float = Param(0.1, "Template update rate per frame while a track is alone.",
-                                   unit="1")
+                                   unit="1", low=0.0, low_open=True, high=1.0)
     appearance_near_m: float = Param(
         1.0, "Tracks whose footprints are closer than this are together; a track is alone (its "
-        "template updated) with no other within twice this.", unit="m")
+        "template updated) with no other within twice this.", unit="m", low=0.0, low_open=True)
     appearance_apart: float = Param(
         1.5, "Two tracks together are apart (a swap is tested) once their footprints are "
         "farther than this times appearance_near_m and their image boxes are disjoint.",
-        unit="1")
+        unit="1", low=0.0)
     appearance_inner: float = Param(
         0.4, "Fraction of the region's width (about its centre) whose colours are counted.",
-        unit="1")
+        unit="1", low=0.0, low_open=True, high=1.0)
     appearance_margin: float = Param(
         0.05, "Bhattacharyya distance (sum over the pair) by which the swapped match must beat "
-        "the kept one.", unit="1")
+        "the kept one.", unit="1", low=0.0)
     appearance_min_frames: int = Param(
-        5, "Frames alone before a track's template is used.", unit="frames")
+        5, "Frames alone before a track's template is used.", unit="frames", low=1)
     confirm_frames: int = Param(3, "A new track is output once it has lived this many frames "
                                    "(its records from the entry on, so confirmation costs no "
                                    "frames); one that ends sooner was noise and is never "
                                    "output (1: every entry is output at once, the paper).",
-                                unit="frames")
+                                unit="frames", low=1)
     support_z_m: float = Param(0.0, "Height of the plane intruders rest on (sea level, the "
                                     "ground), metres.", unit="m")
     footprint_aspect: float = Param(1.0, "Length / width of an intruder's footprint (1: a "
-                                         "person; about 3 for boats and cars).", unit="1")
+                                         "person; about 3 for boats and cars).", unit="1",
+                                         low=0.0, low_open=True)
     min_travel_m: float = Param(2.0, "A track's heading is the direction of its footprint's "
                                      "travel over the last heading_frames once it exceeds "
-                                     "this distance (before: across the view).", unit="m")
-    heading_frames: int = Param(15, "Frames over which the heading is measured.", unit="frames")
+                                     "this distance (before: across the view).", unit="m", low=0.0)
+    heading_frames: int = Param(15, "Frames over which the heading is measured.", unit="frames",
+                                low=1)
     heading_from: str = Param(
         "footprint", "What min_travel_m's travel is measured on: 'footprint' (the footprint's "
         "centre) or 'top': the footprint's, but the travel of the particle cloud's top centre "
@@ -519,33 +526,35 @@ class VolumeTracks(TrackManager):
         "not yet travelled min_travel_m (a point at a constant height h moves there in the "
         "same direction as the object, scaled by H / (H - h); the top is not held at the "
         "volume's near face as the foot row is while an intruder is seen through the volume "
-        "from in front of it).")
+        "from in front of it).", choices=("footprint", "top"))
     min_speed: float = Param(0.3, "Before the footprint has travelled min_travel_m: the heading "
                                   "is the particles' mean horizontal velocity once faster than "
-                                  "this (metres per time step; state entries 3, 4).", unit="m/dt")
+                                  "this (metres per time step; state entries 3, 4).", unit="m/dt",
+                                  low=0.0)
     object_size_m: Sequence[float] | None = Param(
         None, "A typical intruder's size (width across the view, height, depth along it), "
         "metres: a new track's particles are jittered by half of it (so that a track started "
         "on part of an intruder soon covers all of it), and each track takes away from the "
         "detection groups at least the image box of a cuboid this size on its footprint. "
-        "None: neither.", unit="m")
+        "None: neither.", unit="m", low=0.0, low_open=True, length=3)
     gate_margin: float | None = Param(
         0.5, "With object_size_m: a track's particles live only where they project into the "
         "image boxes of a cuboid of that size on its last footprint and where its recent "
         "motion takes it next, enlarged by this fraction of the size per side (one "
-        "intruder's particles do not spread onto a neighbour). None: no gate.", unit="1")
+        "intruder's particles do not spread onto a neighbour). None: no gate.", unit="1", low=0.0)
     min_size_fraction: float = Param(
         0.5, "With object_size_m: an entry whose particles span less than this fraction of the "
         "typical width or height (on the support plane) is a fringe or noise: no new track.",
-        unit="1")
+        unit="1", low=0.0)
     gather_frames: int = Param(
         0, "With object_size_m: a detection group whose entry candidate is too small "
         "(min_size_fraction) keeps gathering on it, without being spread again, for up to this "
         "many frames (its few hits are resampled and spread over the intruder, which then "
-        "looks its size); 0: it is spread again at once.", unit="frames")
+        "looks its size); 0: it is spread again at once.", unit="frames", low=0)
     spawn_overlap: float = Param(0.5, "An entry whose particles' image box lies more than this "
                                       "fraction inside a tracked intruder's box is that "
-                                      "intruder's fringe: no new track.", unit="1")
+                                      "intruder's fringe: no new track.", unit="1",
+                                      low=0.0, high=1.0)
     footprint_inside: bool = Param(
         True, "Output a track only while its footprint (the support-plane correction) lies "
         "inside its volume's ground footprint: one view sees an intruder through the volume "
@@ -565,20 +574,21 @@ class VolumeTracks(TrackManager):
         "a neighbour's blob cannot take a track's particles where the colours say whose they "
         "are. Colour (8-bit BGR) frames only; a grey frame bars nothing.")
     colour_share_ratio: float = Param(
-        1.25, "colour_share's ratio (>= 1; chosen on PETS frames 401-600).", unit="1")
+        1.25, "colour_share's ratio (>= 1; chosen on PETS frames 401-600).", unit="1", low=1.0)
     colour_share_floor: float = Param(
         0.01, "Added to both templates' bin probabilities before colour_share's ratio (> 0): "
-        "a colour neither template holds decides nothing.", unit="1")
+        "a colour neither template holds decides nothing.", unit="1", low=0.0, low_open=True)
     colour_share_distance: float = Param(
         0.35, "colour_share only between tracks whose templates lie at least this "
         "Bhattacharyya distance apart (in [0, 1); alike templates decide nothing; chosen on "
-        "PETS frames 401-600).", unit="1")
+        "PETS frames 401-600).", unit="1", low=0.0, high=1.0, high_open=True)
     colour_share_max_barred: float = Param(
         0.7, "When colour_share would bar more than this fraction (in (0, 1]) of a track's "
-        "particles (its intruder hidden behind a neighbour), it bars none.", unit="1")
+        "particles (its intruder hidden behind a neighbour), it bars none.", unit="1",
+        low=0.0, low_open=True, high=1.0)
     blob_block_px: int = Param(8, "Cell size (pixels) of the image grid on which a new track "
                                   "takes the largest connected patch of the group's particles.",
-                               unit="px")
+                               unit="px", low=1)
 
     @classmethod
     def _conformance_example(cls) -> Any:
@@ -604,16 +614,22 @@ class VolumeTracks(TrackManager):
 
     def setup(self, context: RunContext) -> None:
         """The run's camera (else the observation model's, at the first frame) and the
-        volumes, checked."""
+        volumes, resolved."""
         if context.camera is not None:
             self.camera_ = context.camera
-        self._check()
+        self._start()
         if _kernel("region_mask") is not None:
             from pftrack_coast._kernels import warm_up
 
             warm_up()  # before the first frame
 
-    def _check(self) -> None:
+    def _check_relations(self) -> None:
+        if self.colour_share and not self.appearance:
+            raise ValueError("tracks 'volumes': colour_share needs appearance: true (it reads "
+                             "the tracks' colour templates)")
+
+    def _start(self) -> None:
+        """The volumes resolved and the per-run state made, once."""
         if "volumes_" in self.__dict__:
             return
         from pftrack.geometry.volumes import CuboidVolume, load_volumes, resolve_volume
@@ -642,55 +658,6 @@ class VolumeTracks(TrackManager):
         for name, v in vols.items():
             if not isinstance(v, CuboidVolume):
                 vols[name] = v.as_cuboid() if hasattr(v, "as_cuboid") else v
-        n_m, n_out = int(self.entry_particles), int(self.exit_particles)
-        if n_m < 1 or n_out < 0:
-            raise ValueError(f"tracks 'volumes': need entry_particles >= 1 and exit_particles "
-                             f">= 0, got {self.entry_particles!r}, {self.exit_particles!r}")
-        if not 0.0 < float(self.v_pi) < 1.0:
-            raise ValueError(f"tracks 'volumes': v_pi must be in (0, 1), got {self.v_pi!r}")
-        for k in ("exit_frames", "idle_frames", "heading_frames", "blob_block_px",
-                  "merge_frames", "confirm_frames", "merge_speed_frames"):
-            if int(getattr(self, k)) < 1:
-                raise ValueError(f"tracks 'volumes': {k} must be >= 1, got "
-                                 f"{getattr(self, k)!r}")
-        if self.merge_speed_m is not None and not float(self.merge_speed_m) > 0:
-            raise ValueError(f"tracks 'volumes': merge_speed_m must be > 0 (metres per frame) "
-                             f"or null, got {self.merge_speed_m!r}")
-        if int(self.reid_frames) < 0 or not float(self.reid_m) > 0:
-            raise ValueError(f"tracks 'volumes': need reid_frames >= 0 and reid_m > 0, got "
-                             f"{self.reid_frames!r}, {self.reid_m!r}")
-        if not 0.0 < float(self.appearance_rate) <= 1.0 or \
-                not float(self.appearance_near_m) > 0 or int(self.appearance_min_frames) < 1:
-            raise ValueError(f"tracks 'volumes': need 0 < appearance_rate <= 1, "
-                             f"appearance_near_m > 0 and appearance_min_frames >= 1, got "
-                             f"{self.appearance_rate!r}, {self.appearance_near_m!r}, "
-                             f"{self.appearance_min_frames!r}")
-        if self.colour_share and not self.appearance:
-            raise ValueError("tracks 'volumes': colour_share needs appearance: true (it reads "
-                             "the tracks' colour templates)")
-        if not float(self.colour_share_ratio) >= 1.0 or \
-                not float(self.colour_share_floor) > 0 or \
-                not 0.0 <= float(self.colour_share_distance) < 1.0 or \
-                not 0.0 < float(self.colour_share_max_barred) <= 1.0:
-            raise ValueError(f"tracks 'volumes': need colour_share_ratio >= 1, "
-                             f"colour_share_floor > 0, 0 <= colour_share_distance < 1 and 0 < "
-                             f"colour_share_max_barred <= 1, got {self.colour_share_ratio!r}, "
-                             f"{self.colour_share_floor!r}, {self.colour_share_distance!r}, "
-                             f"{self.colour_share_max_barred!r}")
-        if int(self.gather_frames) < 0:
-            raise ValueError(f"tracks 'volumes': gather_frames must be >= 0, got "
-                             f"{self.gather_frames!r}")
-        if self.heading_from not in ("footprint", "top"):
-            raise ValueError(f"tracks 'volumes': heading_from must be 'footprint' or 'top', "
-                             f"got {self.heading_from!r}")
-        if not float(self.footprint_aspect) > 0:
-            raise ValueError(f"tracks 'volumes': footprint_aspect must be > 0, got "
-                             f"{self.footprint_aspect!r}")
-        if self.object_size_m is not None:
-            size = np.asarray(self.object_size_m, dtype=np.float64).reshape(-1)
-            if size.shape != (3,) or not np.all(size > 0):
-                raise ValueError(f"tracks 'volumes': object_size_m must be 3 sizes > 0 "
-                                 f"(across, height, along; metres), got {self.object_size_m!r}")
         self.volumes_ = vols
         self.groups_: dict[int, str] = {}
         self.tracks_: dict[int, str] = {}
@@ -1090,7 +1057,7 @@ class VolumeTracks(TrackManager):
 
     def before_frame(self, engine: Any, frame: Frame, detections: Detections | None) -> None:
         """Start the detection groups on the first frame."""
-        self._check()
+        self._start()
         self._camera(engine)
         self.frame_ = frame.index
         self.image_ = frame.image

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from pftrack.components import Detections, Frame, Likelihood, Target, TrackManager
+from pftrack.components import Detections, Frame, Likelihood, Param, Target, TrackManager
 from pftrack.host import Host, get_host
 from pftrack.lifecycle import (
     Birth,
@@ -299,14 +299,12 @@ class GivenStartsInitiator(Initiator):
     """Starts targets from given boxes at given frames, with given ids (the colour paper's
     protocol: each person from its first ground-truth box), before that frame's predict step.
 
-    Parameters
-    ----------
-    starts : {frame: [(id, box_xywh_px)]}
-        Targets to start (e.g. :func:`first_boxes` of the ground truth).
+    {params}
     """
 
-    def __init__(self, starts: dict[int, list[tuple[int, np.ndarray]]] | None = None) -> None:
-        self.starts = starts
+    starts: dict[int, list[tuple[int, np.ndarray]]] | None = Param(
+        None, "Targets to start: {frame: [(id, box_xywh_px)]} (e.g. :func:`first_boxes` of the "
+        "ground truth).", unit="none")
 
     def scheduled(self, view: FrameView) -> list[Birth]:
         return [Birth(box_xywh_px=np.asarray(box, float), track_id=tid, supported=False)
@@ -316,14 +314,12 @@ class GivenStartsInitiator(Initiator):
 class GivenEndsTerminator(Terminator):
     """Ends each target after a given frame (its record of that frame is still output).
 
-    Parameters
-    ----------
-    ends : {id: frame}
-        Frame after which a target is stopped (e.g. :func:`last_frames`).
+    {params}
     """
 
-    def __init__(self, ends: dict[int, int] | None = None) -> None:
-        self.ends = ends
+    ends: dict[int, int] | None = Param(
+        None, "Frame after which each target is stopped: {id: frame} (e.g. "
+        ":func:`last_frames`).", unit="none")
 
     def terminate(self, view: FrameView) -> list[End]:
         ends = self.ends
@@ -338,14 +334,7 @@ class BoxSizeSizer(Sizer):
     (``scale_step``) and/or a perspective fit of box height against foot row
     (``perspective``), see :func:`track`.
 
-    Parameters
-    ----------
-    scale_step : float, optional
-        Per-frame scale search around the estimate (see :func:`track`). Unit: 1.
-    scale_limits : (float, float)
-        Bounds of the scale search, times the starting size. Unit: 1.
-    perspective : bool
-        Box height from a linear fit of height against foot row (see :func:`track`).
+    {params}
 
     Attributes
     ----------
@@ -357,12 +346,13 @@ class BoxSizeSizer(Sizer):
         The start boxes so far (perspective fit).
     """
 
-    def __init__(self, scale_step: float | None = None,
-                 scale_limits: tuple[float, float] = (0.6, 1.6),
-                 perspective: bool = False) -> None:
-        self.scale_step = scale_step
-        self.scale_limits = scale_limits
-        self.perspective = perspective
+    scale_step: float | None = Param(
+        None, "Per-frame scale search around the estimate (see :func:`track`).", unit="1", low=0.0)
+    scale_limits: tuple[float, float] = Param(
+        (0.6, 1.6), "Bounds of the scale search, times the starting size.",
+        unit="1", low=0.0, low_open=True, length=2)
+    perspective: bool = Param(
+        False, "Box height from a linear fit of height against foot row (see :func:`track`).")
 
     def _state(self) -> None:
         if "start_boxes_" not in self.__dict__:
@@ -405,29 +395,22 @@ class GivenBoxTracks(LifecycleTracks):
     :class:`GivenStartsInitiator`, :class:`BoxSizeSizer` (with ``scale_step`` or
     ``perspective``) and :class:`GivenEndsTerminator`.
 
-    Parameters
-    ----------
-    starts : {frame: [(id, box_xywh_px)]}
-        Targets to start (e.g. :func:`first_boxes` of the ground truth).
-    ends : {id: frame}
-        Frame after which a target is stopped (e.g. :func:`last_frames`).
-    scale_step : float, optional
-        Per-frame scale search around the estimate (see :func:`track`). Unit: 1.
-    scale_limits : (float, float)
-        Bounds of the scale search, times the starting size. Unit: 1.
-    perspective : bool
-        Box height from a linear fit of height against foot row (see :func:`track`).
+    {params}
     """
 
-    def __init__(self, starts: dict[int, list[tuple[int, np.ndarray]]] | None = None,
-                 ends: dict[int, int] | None = None, scale_step: float | None = None,
-                 scale_limits: tuple[float, float] = (0.6, 1.6),
-                 perspective: bool = False) -> None:
-        self.starts = starts
-        self.ends = ends
-        self.scale_step = scale_step
-        self.scale_limits = scale_limits
-        self.perspective = perspective
+    starts: dict[int, list[tuple[int, np.ndarray]]] | None = Param(
+        None, "Targets to start: {frame: [(id, box_xywh_px)]} (e.g. :func:`first_boxes` of the "
+        "ground truth).", unit="none")
+    ends: dict[int, int] | None = Param(
+        None, "Frame after which each target is stopped: {id: frame} (e.g. "
+        ":func:`last_frames`).", unit="none")
+    scale_step: float | None = Param(
+        None, "Per-frame scale search around the estimate (see :func:`track`).", unit="1", low=0.0)
+    scale_limits: tuple[float, float] = Param(
+        (0.6, 1.6), "Bounds of the scale search, times the starting size.",
+        unit="1", low=0.0, low_open=True, length=2)
+    perspective: bool = Param(
+        False, "Box height from a linear fit of height against foot row (see :func:`track`).")
 
     def build_stages(self) -> list[LifecycleStage]:
         stages: list[LifecycleStage] = [GivenStartsInitiator(starts=self.starts)]

@@ -63,6 +63,7 @@ from pftrack.geometry.boxes import sub_boxes
 
 from pftrack_colour import _jit
 from pftrack_colour.histograms import (
+    COLOUR_SPACES,
     ColourBins,
     ParticleRegion,
     integer_boxes,
@@ -106,41 +107,34 @@ class ColourLikelihood(Likelihood):
     needs_own_counts = False
 
     bins: int | tuple[int, int, int] = Param(8, "Bins per channel (8: 8 x 8 x 8 = 512 bins, "
-                                                "the paper).", unit="count")
+                                                "the paper).", unit="count", low=1, high=256,
+                                             length=3)
     colour_space: str = Param("rgb", 'Colour space of the histograms, one of "rgb" (the '
-                                     'paper), "hsv", "lab", "ycrcb", "bgr".')
-    eps: float = Param(1e-4, "Histogram floor (see the module docstring).", unit="1")
+                                     'paper), "hsv", "lab", "ycrcb", "bgr".',
+                              choices=tuple(COLOUR_SPACES))
+    eps: float = Param(1e-4, "Histogram floor (see the module docstring).", unit="1", low=0.0,
+                       low_open=True)
     region: tuple[float, float, float, float] | None = Param(
         None, "Part of each box the colour model reads, as fractions (fx0, fy0, fx1, fy1) of "
-              "its width and height (e.g. (0.15, 0.1, 0.85, 0.9)); None: the whole box.", unit="1")
+              "its width and height (e.g. (0.15, 0.1, 0.85, 0.9)); None: the whole box.", unit="1",
+        low=0.0, high=1.0, length=4)
     parts: int = Param(1, "Horizontal stripes of the colour box, each with its own template "
-                          "(1: the paper).", unit="count")
+                          "(1: the paper).", unit="count", low=1)
     update_rate: float = Param(0.0, "Template update q <- (1 - a) q + a p(estimate) once per "
                                     "frame, from the previous frame at the target's last "
-                                    "estimate; 0 (the paper): never.", unit="1/frame")
+                                    "estimate; 0 (the paper): never.", unit="1/frame",
+                              low=0.0, high=1.0)
 
     # -- set-up -------------------------------------------------------------------------------
 
-    def _check_params(self) -> None:
-        name = type(self).__name__
+    def _check_relations(self) -> None:
         region = self.region
         if region is not None:
             r = tuple(float(v) for v in region)
-            if len(r) != 4 or not (0 <= r[0] < r[2] <= 1 and 0 <= r[1] < r[3] <= 1):
-                raise ValueError(f"{name}: region must be fractions (fx0, fy0, fx1, fy1) with "
-                                 f"0 <= fx0 < fx1 <= 1 and 0 <= fy0 < fy1 <= 1, got {region!r}")
-        if not float(self.eps) > 0:
-            raise ValueError(f"{name}: eps must be > 0, got {self.eps!r}")
-        if not 0.0 <= float(self.update_rate) <= 1.0:
-            raise ValueError(f"{name}: update_rate must be in [0, 1], got {self.update_rate!r}")
-        if int(self.parts) != self.parts or self.parts < 1:
-            raise ValueError(f"{name}: parts must be a positive int, got {self.parts!r}")
-        lam = self.lam
-        if lam is not None and not float(lam) > 0:
-            raise ValueError(f"{name}: lam must be > 0 or None, got {lam!r}")
-        stride = getattr(self, "background_stride", 1)
-        if int(stride) != stride or stride < 1:
-            raise ValueError(f"{name}: background_stride must be a positive int, got {stride!r}")
+            if not (r[0] < r[2] and r[1] < r[3]):
+                raise ValueError(f"{type(self).__name__}: region must be fractions (fx0, fy0, "
+                                 f"fx1, fy1) with 0 <= fx0 < fx1 <= 1 and 0 <= fy0 < fy1 <= 1, "
+                                 f"got {region!r}")
 
     def _setup(self) -> ColourBins:
         """Validate the parameters and build the binner (again if they changed)."""
@@ -152,7 +146,7 @@ class ColourLikelihood(Likelihood):
         key = (self.bins if np.isscalar(self.bins) else tuple(self.bins), self.colour_space,
                self.region if self.region is None else tuple(self.region), self.parts)
         if getattr(self, "binner_", None) is None or self._setup_key != key:
-            self._check_params()
+            self._validate_params()  # attributes may have been set directly since
             self.binner_ = ColourBins(key[0], key[1])
             self._setup_key = key
             self._parts = [None] if self.parts == 1 else [(k, int(self.parts))
@@ -482,7 +476,7 @@ class BhattacharyyaLikelihood(ColourLikelihood):
     {params}
     """
 
-    lam: float = Param(20.0, "λ of eq. 9 (dimensionless).", unit="1")
+    lam: float = Param(20.0, "λ of eq. 9 (dimensionless).", unit="1", low=0.0, low_open=True)
 
     def _log_likelihood(self, region, q, target_id):
         binner = self.binner_
@@ -510,9 +504,10 @@ class BhattacharyyaBackgroundLikelihood(ColourLikelihood):
     uses_background = True
     needs_own_counts = True
 
-    lam: float = Param(20.0, "λ of eq. 23 (dimensionless).", unit="1")
+    lam: float = Param(20.0, "λ of eq. 23 (dimensionless).", unit="1", low=0.0, low_open=True)
     background_stride: int = Param(3, "The background histogram reads every "
-                                      "background_stride-th pixel in each direction.", unit="px")
+                                      "background_stride-th pixel in each direction.", unit="px",
+                                   low=1)
 
     def _log_likelihood(self, region, q, target_id):
         binner = self.binner_
@@ -552,10 +547,11 @@ class CrossEntropyLikelihood(ColourLikelihood):
     """
 
     lam: float | None = Param(None, "λ of eq. 13; None: the box's pixel count n (eq. 18).",
-                              unit="1")
+                              unit="1", low=0.0, low_open=True)
     method: str = Param("integral", '"integral" (default): O(1) per particle. "histogram": '
                                     "build each sample's histogram and take eq. 14 literally "
-                                    "(same numbers; for checking and for timing).")
+                                    "(same numbers; for checking and for timing).",
+                        choices=("integral", "histogram"))
 
     def prepare(self) -> None:
         """Validate the parameters and load the compiled kernels (compiling them on the
@@ -563,12 +559,6 @@ class CrossEntropyLikelihood(ColourLikelihood):
         self._setup()
         if self.method == "integral":
             _jit.warm_up()
-
-    def _check_params(self) -> None:
-        super()._check_params()
-        if self.method not in ("integral", "histogram"):
-            raise ValueError(f"{type(self).__name__}: method must be 'integral' or 'histogram', "
-                             f"got {self.method!r}")
 
     def _value_table(self, target_id: int) -> np.ndarray:
         """Per-bin value whose sum over a box's pixels is the log-likelihood (λ = n), one row
@@ -764,19 +754,17 @@ class CrossEntropyBackgroundLikelihood(CrossEntropyLikelihood):
     uses_background = True
 
     lam: float | None = Param(None, "λ of eq. 13; None: the box's pixel count n (eq. 18, "
-                                    "21).", unit="1")
+                                    "21).", unit="1", low=0.0, low_open=True)
     method: str = Param("integral", 'As CrossEntropyLikelihood ("histogram" needs '
-                                    'overlap="independent").')
+                                    'overlap="independent").', choices=("integral", "histogram"))
     background_stride: int = Param(3, "The background histogram reads every "
-                                      "background_stride-th pixel in each direction.", unit="px")
+                                      "background_stride-th pixel in each direction.", unit="px",
+                                   low=1)
     overlap: str = Param("mixture", 'How pixels under another target count: "mixture", '
-                                    '"product" or "independent" (above).')
+                                    '"product" or "independent" (above).', choices=_OVERLAP_MODES)
 
-    def _check_params(self) -> None:
-        super()._check_params()
-        if self.overlap not in _OVERLAP_MODES:
-            raise ValueError(f"{type(self).__name__}: overlap must be one of {_OVERLAP_MODES}, "
-                             f"got {self.overlap!r}")
+    def _check_relations(self) -> None:
+        super()._check_relations()
         if self.method == "histogram" and self.overlap != "independent":
             raise ValueError(f"{type(self).__name__}: method='histogram' computes eq. 21 "
                              "literally and needs overlap='independent'")

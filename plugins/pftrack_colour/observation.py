@@ -13,7 +13,7 @@ part of the person only (IoU below 0.5 although the person is tracked).
 from __future__ import annotations
 
 import numpy as np
-from pftrack.components import Target
+from pftrack.components import Param, Target
 from pftrack.tracker import ImageBoxObservation
 
 __all__ = ["SizedImageBoxObservation"]
@@ -23,16 +23,7 @@ class SizedImageBoxObservation(ImageBoxObservation):
     """Image-plane state (dims 0, 1: the box centre, px); each target starts with the size of
     the box it was started from and its size follows its matched detections.
 
-    Parameters
-    ----------
-    width_px, height_px : float
-        Box size of a target started without a box. Unit: px.
-    size_rate : float
-        Weight ``a`` of a matched detection's size in the running mean of the target's box
-        size, per matched frame (0: the birth size is kept, 1: the last matched detection's
-        size). Unit: 1/frame.
-    size_limits : (float, float)
-        The size stays within these factors of the target's starting size. Unit: 1.
+    {params}
 
     Attributes
     ----------
@@ -43,20 +34,21 @@ class SizedImageBoxObservation(ImageBoxObservation):
     #: always: each target starts with the size of the box it was started from
     size_from_box = True
 
-    def __init__(self, width_px: float = 30.0, height_px: float = 30.0, size_rate: float = 0.2,
-                 size_limits: tuple[float, float] = (0.5, 2.0)) -> None:
-        self.width_px = width_px
-        self.height_px = height_px
-        self.size_rate = size_rate
-        self.size_limits = size_limits
+    width_px: float = Param(
+        30.0, "Box width of a target started without a box.", unit="px", low=0.0, low_open=True)
+    height_px: float = Param(
+        30.0, "Box height of a target started without a box.", unit="px", low=0.0, low_open=True)
+    size_rate: float = Param(
+        0.2, "Weight ``a`` of a matched detection's size in the running mean of the target's box "
+        "size, per matched frame (0: the birth size is kept, 1: the last matched detection's "
+        "size).", unit="1/frame", low=0.0, high=1.0)
+    size_limits: tuple[float, float] = Param(
+        (0.5, 2.0), "The size stays within these factors of the target's starting size.",
+        unit="1", low=0.0, low_open=True, length=2)
 
-    def _check(self) -> None:
-        super()._check()
-        if not 0.0 <= float(self.size_rate) <= 1.0:
-            raise ValueError(f"image-box-sized: size_rate must be in [0, 1], got "
-                             f"{self.size_rate!r}")
+    def _check_relations(self) -> None:
         lo, hi = (float(v) for v in self.size_limits)
-        if not 0.0 < lo <= 1.0 <= hi:
+        if not lo <= 1.0 <= hi:
             raise ValueError(f"image-box-sized: size_limits must be (lo, hi) with "
                              f"0 < lo <= 1 <= hi, got {self.size_limits!r}")
 

@@ -21,7 +21,7 @@ from typing import Any
 
 import cv2
 import numpy as np
-from pftrack.components import Frame, Scene
+from pftrack.components import Frame, Param, Scene
 
 __all__ = ["TARGET_NAMES", "TORSO_COLOURS_BGR", "WalkersScene", "torso_visibility"]
 
@@ -41,17 +41,7 @@ WALK_FRAMES = 180  # the walk's length; shorter scenes show its start
 class WalkersScene(Scene):
     """Three walkers with blue, red and purple torsos (the colour paper's experiment).
 
-    Parameters
-    ----------
-    seed : int
-        Seeds ``np.random.default_rng`` for the layout, the paths and the per-frame noise.
-        Unit: none.
-    n_frames : int
-        Number of frames (the paper: 180). Fewer frames are the start of the 180-frame walk
-        (same speed); more frames stretch the walk over them (slower walkers). Unit: frames.
-    noise_sigma : float
-        Standard deviation of the per-pixel Gaussian noise added to every frame (grey levels).
-        Unit: grey levels.
+    {params}
 
     Attributes
     ----------
@@ -63,10 +53,17 @@ class WalkersScene(Scene):
     width = 360
     height = 240
 
-    def __init__(self, seed: int = 0, n_frames: int = 180, noise_sigma: float = 3.0) -> None:
-        self.seed = seed
-        self.n_frames = n_frames
-        self.noise_sigma = noise_sigma
+    seed: int = Param(
+        0, "Seeds ``np.random.default_rng`` for the layout, the paths and the per-frame noise.",
+        unit="none", low=0)
+    n_frames: int = Param(
+        180,
+        "Number of frames (the paper: 180). Fewer frames are the start of the 180-frame walk "
+        "(same speed); more frames stretch the walk over them (slower walkers).",
+        unit="frames", low=1)
+    noise_sigma: float = Param(
+        3.0, "Standard deviation of the per-pixel Gaussian noise added to every frame (grey "
+        "levels).", unit="grey levels", low=0.0)
 
     @property
     def target_names(self) -> dict[int, str]:
@@ -75,17 +72,10 @@ class WalkersScene(Scene):
 
     # -- layout ---------------------------------------------------------------------------------
 
-    def _check(self) -> None:
-        if int(self.n_frames) != self.n_frames or self.n_frames < 1:
-            raise ValueError(f"walkers: n_frames must be a positive int, got {self.n_frames!r}")
-        if not self.noise_sigma >= 0:
-            raise ValueError(f"walkers: noise_sigma must be >= 0, got {self.noise_sigma!r}")
-
     @property
     def layout(self) -> dict[str, Any]:
         key = (self.seed, self.n_frames)
         if getattr(self, "layout_", None) is None or self.layout_["key"] != key:
-            self._check()
             rng = np.random.default_rng(self.seed)
             background = _plaza(rng, self.width, self.height)
             n = int(self.n_frames)

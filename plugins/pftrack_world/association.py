@@ -37,7 +37,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from pftrack.components import Assignment, Associator, Detections, Target
+from pftrack.components import Assignment, Associator, Detections, Param, Target
 from pftrack.geometry.boxes import foot_points
 
 __all__ = ["GreedyScoreAssociator", "HungarianScoreAssociator", "greedy_max", "score_matrix"]
@@ -122,24 +122,21 @@ def greedy_max(S: np.ndarray, min_score: float) -> list[tuple[int, int]]:
 class _ScoreAssociator(Associator):
     """Shared parameters and the score matrix; subclasses choose the solver."""
 
-    def __init__(self, alpha: float = 1.0, sigma_det: float = 0.25, sigma_size: float = 0.25,
-                 max_distance: float | None = 1.0, min_score: float = 0.2,
-                 appearance_weight: float = 0.0) -> None:
-        self.alpha = alpha
-        self.sigma_det = sigma_det
-        self.sigma_size = sigma_size
-        self.max_distance = max_distance
-        self.min_score = min_score
-        self.appearance_weight = appearance_weight
+    alpha: float = Param(1.0, "Weight of the particles' proximity to the detection (eq. 3).",
+                         unit="1", low=0.0)
+    sigma_det: float = Param(0.25, "Std of p_N(det - p), in track heights.",
+                             unit="track heights", low=0.0, low_open=True)
+    sigma_size: float = Param(0.25, "Std of the size gate g (eq. 4), relative size difference.",
+                              unit="1", low=0.0, low_open=True)
+    max_distance: float | None = Param(1.0, "Distance gate in track heights (None: none).",
+                                       unit="track heights", low=0.0, low_open=True)
+    min_score: float = Param(0.2, "Pairs must score above this (the paper's threshold of eq. 6).",
+                             unit="1")
+    appearance_weight: float = Param(
+        0.0, "Weight of the track-specific appearance term (module docstring); 0: the paper's "
+        "score.", unit="1", low=0.0)
 
     def _scores(self, targets: Sequence[Target], detections: Detections) -> np.ndarray:
-        name = type(self).__name__
-        if not float(self.sigma_det) > 0 or not float(self.sigma_size) > 0:
-            raise ValueError(f"{name}: sigma_det and sigma_size must be > 0, got "
-                             f"{self.sigma_det!r}, {self.sigma_size!r}")
-        if self.max_distance is not None and not float(self.max_distance) > 0:
-            raise ValueError(f"{name}: max_distance must be > 0 or None, got "
-                             f"{self.max_distance!r}")
         S = score_matrix(targets, detections, alpha=float(self.alpha),
                          sigma_det=float(self.sigma_det), sigma_size=float(self.sigma_size),
                          max_distance=self.max_distance,
@@ -163,21 +160,7 @@ class _ScoreAssociator(Associator):
 class GreedyScoreAssociator(_ScoreAssociator):
     """The soccer paper's association (sec. 3.2): greedy on s(tr, det) of eq. 3-4.
 
-    Parameters
-    ----------
-    alpha : float
-        Weight of the particles' proximity to the detection (eq. 3). Unit: 1.
-    sigma_det : float
-        Std of ``p_N(det - p)``, in track heights. Unit: track heights.
-    sigma_size : float
-        Std of the size gate ``g`` (eq. 4), relative size difference. Unit: 1.
-    max_distance : float or None
-        Distance gate in track heights (None: none). Unit: track heights.
-    min_score : float
-        Pairs must score above this (the paper's threshold of eq. 6). Unit: 1.
-    appearance_weight : float
-        Weight of the track-specific appearance term (module docstring); 0: the paper's score.
-        Unit: 1.
+    {params}
 
     Attributes
     ----------
@@ -195,7 +178,7 @@ class HungarianScoreAssociator(_ScoreAssociator):
     """The same score matrix solved by the Hungarian method (maximum total score,
     scipy.optimize.linear_sum_assignment); pairs at or below ``min_score`` are dropped.
 
-    Parameters are those of :class:`GreedyScoreAssociator`.
+    {params}
     """
 
     def _solve(self, S: np.ndarray) -> list[tuple[int, int]]:

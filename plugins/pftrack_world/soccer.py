@@ -59,7 +59,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from pftrack.components import Detections, Detector, Frame, RunContext, Scene
+from pftrack.components import Detections, Detector, Frame, Param, RunContext, Scene
 
 if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera
@@ -427,37 +427,7 @@ _HAIR = np.array([[20, 20, 25], [30, 50, 80], [40, 80, 140], [15, 15, 15]], dtyp
 class SoccerScene(Scene):
     """A fixed camera filming 22 players who move along real tracking data on a synthetic pitch.
 
-    Parameters
-    ----------
-    source : str
-        Trajectory source, a key of :data:`SOURCES` (``"hawkeye"``: 22 players, 50 Hz, the only
-        built-in source with >= 20 s of continuous play).
-    start_s : float
-        Clip start, seconds into the source's longest continuous run of play. Unit: s.
-    duration_s : float
-        Clip length in seconds. Unit: s.
-    fps : float
-        Video frame rate (frames per second); trajectories are interpolated to it. Unit: frames/s.
-    seed : int
-        Seeds every random choice (player heights, skin tones, gait phases, grass texture,
-        sensor noise): the same seed gives the same video, bit for bit. Unit: none.
-    camera : str or path, optional
-        Camera file readable by :func:`pftrack.geometry.formats.load_camera`; default the
-        project's soccer camera in ``calib/`` (:func:`default_soccer_camera_path`).
-    volume : str
-        The pitch drawn and played on: a :class:`~pftrack.geometry.volumes.SoccerPitchVolume`
-        by name (:func:`pftrack.geometry.volumes.resolve_volume`, ``calib/volumes.yaml``), in
-        the camera's world frame.
-    image_size : (int, int)
-        Output (width, height) in pixels. When it differs from the camera's, the camera's
-        intrinsics are scaled to it. Unit: px.
-    noise_std : float
-        Standard deviation of the additive sensor noise, grey levels (0: none). Unit: grey levels.
-    max_gap_s : float
-        Largest provider-data gap bridged by interpolation (see :func:`load_pitch_tracks`). Unit: s.
-    supersample : int
-        The static background is rendered at this factor and averaged down (anti-aliased lines).
-        Unit: 1.
+    {params}
 
     Attributes
     ----------
@@ -475,30 +445,41 @@ class SoccerScene(Scene):
     memory does not grow with the clip length beyond the (T, P) trajectory arrays.
     """
 
-    def __init__(self, source: str = "hawkeye", start_s: float = 0.0, duration_s: float = 20.0,
-                 fps: float = 25.0, seed: int = 0, camera: str | None = None,
-                 volume: str = _DEFAULT_VOLUME, image_size: tuple[int, int] = (1280, 720),
-                 noise_std: float = 2.0, max_gap_s: float = 0.5, supersample: int = 2):
-        self.source = source
-        self.start_s = start_s
-        self.duration_s = duration_s
-        self.fps = fps
-        self.seed = seed
-        self.camera = camera
-        self.volume = volume
-        self.image_size = image_size
-        self.noise_std = noise_std
-        self.max_gap_s = max_gap_s
-        self.supersample = supersample
-
-    # Scene.fps is a read-only property; the scene's fps is a parameter, so give it a setter.
-    @property  # type: ignore[override]
-    def fps(self) -> float:
-        return self._fps  # stored unchanged (a parameter); a number in frames per second
-
-    @fps.setter
-    def fps(self, value: float) -> None:
-        self._fps = value
+    source: str = Param(
+        "hawkeye",
+        'Trajectory source, a key of :data:`SOURCES` (``"hawkeye"``: 22 players, 50 Hz, the '
+        "only built-in source with >= 20 s of continuous play).", choices=tuple(SOURCES))
+    start_s: float = Param(
+        0.0, "Clip start, seconds into the source's longest continuous run of play.",
+        unit="s", low=0.0)
+    duration_s: float = Param(20.0, "Clip length in seconds.", unit="s", low=0.0, low_open=True)
+    fps: float = Param(  # a parameter here (Scene.fps is a property)
+        25.0, "Video frame rate (frames per second); trajectories are interpolated to it.",
+        unit="frames/s", low=0.0, low_open=True)
+    seed: int = Param(
+        0, "Seeds every random choice (player heights, skin tones, gait phases, grass texture, "
+        "sensor noise): the same seed gives the same video, bit for bit.", unit="none", low=0)
+    camera: str | os.PathLike[str] | None = Param(
+        None, "Camera file readable by :func:`pftrack.geometry.formats.load_camera`; default the "
+        "project's soccer camera in ``calib/`` (:func:`default_soccer_camera_path`).")
+    volume: str = Param(
+        _DEFAULT_VOLUME,
+        "The pitch drawn and played on: a :class:`~pftrack.geometry.volumes.SoccerPitchVolume` "
+        "by name (:func:`pftrack.geometry.volumes.resolve_volume`, ``calib/volumes.yaml``), in "
+        "the camera's world frame.")
+    image_size: tuple[int, int] = Param(
+        (1280, 720),
+        "Output (width, height) in pixels. When it differs from the camera's, the camera's "
+        "intrinsics are scaled to it.", unit="px", low=1, length=2)
+    noise_std: float = Param(
+        2.0, "Standard deviation of the additive sensor noise, grey levels (0: none).",
+        unit="grey levels", low=0.0)
+    max_gap_s: float = Param(
+        0.5, "Largest provider-data gap bridged by interpolation (see :func:`load_pitch_tracks`).",
+        unit="s", low=0.0)
+    supersample: int = Param(
+        2, "The static background is rendered at this factor and averaged down (anti-aliased "
+        "lines).", unit="1", low=1)
 
     @classmethod
     def _conformance_example(cls) -> SoccerScene:
@@ -514,11 +495,6 @@ class SoccerScene(Scene):
         from pftrack.geometry.volumes import SoccerPitchVolume, resolve_volume
 
         w, h = (int(v) for v in self.image_size)
-        if w <= 0 or h <= 0:
-            raise ValueError(f"soccer scene: image_size must be (width, height) > 0, "
-                             f"got {self.image_size!r}")
-        if int(self.supersample) < 1:
-            raise ValueError(f"soccer scene: supersample must be >= 1, got {self.supersample}")
         tracks = getattr(self, "tracks_", None)
         if tracks is None:
             tracks = load_pitch_tracks(self.source, float(self.fps), float(self.start_s),
@@ -973,48 +949,7 @@ class PitchBlobDetector(Detector):
     blobs much smaller than that are dropped, blobs much wider are split into side-by-side
     players and blobs much taller into a near (bottom) and a far (top) player.
 
-    Parameters
-    ----------
-    camera : str or path, optional
-        Camera file; default the project's soccer camera (:func:`default_soccer_camera_path`).
-    volume : str
-        Pitch volume (camera's world frame) whose run-off bounds the search region.
-    margin_m : float
-        Extra ground margin around the volume, metres. Unit: m.
-    history : int
-        MOG2's history (frames its background model remembers). Unit: frames.
-    var_threshold : float
-        MOG2's varThreshold (squared Mahalanobis distance of a foreground pixel). Unit: 1.
-    detect_shadows : bool
-        MOG2 marks shadows (then counted as background).
-    learning_rate : float, optional
-        MOG2's learning rate. None: automatic -- OpenCV's ``1 / min(frames, history)`` while the
-        detector learns the background from the stream itself, and 0 (a frozen background) once
-        :meth:`fit` has learned it from frames of the empty pitch, so players who stand still
-        are never absorbed into the background. Unit: 1/frame.
-    height_m, width_m : float
-        Player cuboid (metres) giving the expected box at each foot point. Unit: m.
-    min_height_frac : float
-        Blobs shorter than this fraction of the expected height are dropped. Unit: 1.
-    split_factor : float
-        A blob wider (taller) than ``split_factor`` times the expected width (height) is split.
-        Unit: 1.
-    split_score : float
-        Factor on the score of the parts of a split blob (their positions are guesses), so that
-        births (``min_score``) can ignore them while the tracker still uses them. Unit: 1.
-    foot_depth_m : float
-        Ground distance from a blob's lowest point (the nearest foot, plus the anti-aliased
-        fringe) to the player's centre, away from the camera, added to ``points_world_m``.
-        0.7 m removes the mean depth bias on the soccer scene with the soccer paper's camera
-        (measured: mean error along the viewing direction -0.57 m at 0.3, ~0 at 0.7). Unit: m.
-    boxes : {"model", "blob"}
-        ``"model"``: each detection's box is the box of a ``height_m`` player standing at its
-        ``points_world_m`` (:meth:`model_boxes`), the convention of the tracker's
-        :class:`~pftrack.observation_world.CameraBoxObservation`, so foot points compare without
-        the bias of the blob's lowest pixel; ``"blob"``: the (split) blob's own bounding box.
-    warmup_frames : int
-        Frames at the start of a stream that only teach the background (unless fitted).
-        Unit: frames.
+    {params}
 
     Attributes
     ----------
@@ -1033,28 +968,59 @@ class PitchBlobDetector(Detector):
     ``split_score`` for the parts of a split blob), in (0, 1].
     """
 
-    def __init__(self, camera: str | None = None, volume: str = _DEFAULT_VOLUME,
-                 margin_m: float = 2.0, history: int = 500, var_threshold: float = 16.0,
-                 learning_rate: float | None = None, detect_shadows: bool = True,
-                 height_m: float = 1.8, width_m: float = 0.6, min_height_frac: float = 0.4,
-                 split_factor: float = 1.6, split_score: float = 0.4, foot_depth_m: float = 0.7,
-                 boxes: str = "model",
-                 warmup_frames: int = 1):
-        self.camera = camera
-        self.volume = volume
-        self.margin_m = margin_m
-        self.history = history
-        self.var_threshold = var_threshold
-        self.learning_rate = learning_rate
-        self.detect_shadows = detect_shadows
-        self.height_m = height_m
-        self.width_m = width_m
-        self.min_height_frac = min_height_frac
-        self.split_factor = split_factor
-        self.split_score = split_score
-        self.foot_depth_m = foot_depth_m
-        self.boxes = boxes
-        self.warmup_frames = warmup_frames
+    camera: str | os.PathLike[str] | None = Param(
+        None, "Camera file; default the project's soccer camera "
+        "(:func:`default_soccer_camera_path`).")
+    volume: str = Param(
+        _DEFAULT_VOLUME,
+        "Pitch volume (camera's world frame) whose run-off bounds the search region.")
+    margin_m: float = Param(
+        2.0, "Extra ground margin around the volume, metres.", unit="m", low=0.0)
+    history: int = Param(
+        500, "MOG2's history (frames its background model remembers).", unit="frames", low=1)
+    var_threshold: float = Param(
+        16.0, "MOG2's varThreshold (squared Mahalanobis distance of a foreground pixel).",
+        unit="1", low=0.0, low_open=True)
+    learning_rate: float | None = Param(
+        None,
+        "MOG2's learning rate. None: automatic -- OpenCV's ``1 / min(frames, history)`` while "
+        "the detector learns the background from the stream itself, and 0 (a frozen "
+        "background) once :meth:`fit` has learned it from frames of the empty pitch, so "
+        "players who stand still are never absorbed into the background.",
+        unit="1/frame", high=1.0)
+    detect_shadows: bool = Param(True, "MOG2 marks shadows (then counted as background).")
+    height_m: float = Param(
+        1.8, "Player height (its cuboid gives the expected box at each foot point).",
+        unit="m", low=0.0, low_open=True)
+    width_m: float = Param(
+        0.6, "Player width (its cuboid gives the expected box at each foot point).",
+        unit="m", low=0.0, low_open=True)
+    min_height_frac: float = Param(
+        0.4, "Blobs shorter than this fraction of the expected height are dropped.",
+        unit="1", low=0.0)
+    split_factor: float = Param(
+        1.6, "A blob wider (taller) than ``split_factor`` times the expected width (height) is "
+        "split.", unit="1", low=0.0, low_open=True)
+    split_score: float = Param(
+        0.4, "Factor on the score of the parts of a split blob (their positions are guesses), so "
+        "that births (``min_score``) can ignore them while the tracker still uses them.",
+        unit="1", low=0.0)
+    foot_depth_m: float = Param(
+        0.7,
+        "Ground distance from a blob's lowest point (the nearest foot, plus the anti-aliased "
+        "fringe) to the player's centre, away from the camera, added to ``points_world_m``. "
+        "0.7 m removes the mean depth bias on the soccer scene with the soccer paper's camera "
+        "(measured: mean error along the viewing direction -0.57 m at 0.3, ~0 at 0.7).", unit="m")
+    boxes: str = Param(
+        "model",
+        '``"model"``: each detection\'s box is the box of a ``height_m`` player standing at '
+        "its ``points_world_m`` (:meth:`model_boxes`), the convention of the tracker's "
+        ":class:`~pftrack.observation_world.CameraBoxObservation`, so foot points compare "
+        'without the bias of the blob\'s lowest pixel; ``"blob"``: the (split) blob\'s own '
+        "bounding box.", choices=("model", "blob"))
+    warmup_frames: int = Param(
+        1, "Frames at the start of a stream that only teach the background (unless fitted).",
+        unit="frames", low=0)
 
     _STATE = ("camera_", "band_", "region_", "subtractor_", "frames_seen_", "image_shape_")
 
@@ -1215,9 +1181,6 @@ class PitchBlobDetector(Detector):
     def detect(self, frame: Frame) -> Detections:
         import cv2
 
-        if self.boxes not in ("model", "blob"):
-            raise ValueError(f"PitchBlobDetector: boxes must be 'model' or 'blob', got "
-                             f"{self.boxes!r}")
         mask = self.foreground_mask(frame)
         if not self._fitted() and self.frames_seen_ <= int(self.warmup_frames):
             return Detections.empty()

@@ -110,6 +110,20 @@ def test_param_declarations_give_type_doc_and_unit():
     assert rows["entry_particles"]["default"] == 50 and rows["entry_particles"]["type"] == "int"
     assert rows["entry_particles"]["doc"].startswith("N_m:")
     assert rows["object_size_m"]["unit"] == "m"
+    # what a declaration allows is shown as the schema's keys show theirs
+    assert rows["v_pi"]["allowed"] == "(0, 1)"
+    assert rows["entry_particles"]["allowed"] == "[1, ∞)"
+    assert rows["heading_from"]["allowed"] == "one of `footprint`, `top`"
+    assert rows["object_size_m"]["allowed"] == "(0, ∞); length 3"
+
+
+def test_component_tables_show_what_each_declared_parameter_allows(page):
+    rows = _rows(page[page.index("(config-tracks-volumes)="):], "#### `volumes`")
+    assert rows["v_pi"][3].endswith("Allowed: (0, 1).")
+    assert rows["merge_speed_m"][3].endswith("Allowed: (0, ∞).")
+    rows = _rows(page[page.index("(config-associator-hungarian-iou)="):],
+                 "#### `hungarian-iou`")
+    assert rows["metric"][3].endswith("Allowed: one of `iou`, `distance`.")
 
 
 def test_every_preset_key_is_listed_with_its_value(page):
@@ -315,8 +329,7 @@ def test_parameters_that_had_no_description_have_one(page):
                 "associator.greedy-iou.min_iou", "scene.soccer.volume"):
         assert len(rows[key]["doc"].split()) >= 5, (key, rows[key]["doc"])
     assert rows["associator.greedy-iou.min_iou"]["unit"] == "1"
-    assert "`emd`" in page and "| `colour_space` | {\"bgr\", \"hsv\", \"lab\"} | `\"bgr\"` | — | " \
-        "Colour space" in page
+    assert "`emd`" in page and "| `colour_space` | str | `\"bgr\"` | — | Colour space" in page
 
 
 def test_preset_keys_show_their_unit(page):

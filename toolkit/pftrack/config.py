@@ -8,10 +8,11 @@ generated from it (:func:`iter_fields` walks it).
 :func:`validate_config` checks a configuration against the schema and, for the components it
 names (``observation``, ``motion``, ``likelihood``, ``detector``, ``associator``, ``tracks`` /
 ``births``), checks their parameters against the registered class: unknown parameters (with the
-closest known name), and the type of parameters annotated ``int``, ``float``, ``bool`` or ``str``
-(declared with :class:`pftrack.components.Param` or as ``__init__`` keywords). Every problem is
-reported at once in a :class:`ConfigError` naming the source, the key path, what was expected
-and what was given::
+closest known name), and each value against its declaration (the type, range, choices and
+length a :class:`pftrack.components.Param` states, or the type a hand-written ``__init__``
+keyword is annotated with): the declarations the component checks itself against when built.
+Every problem is reported at once in a :class:`ConfigError` naming the source, the key path,
+what was expected and what was given::
 
     config run.yaml: tracker.n_particles: expected an integer >= 1 (particles per target),
     got 200.7
@@ -20,7 +21,6 @@ and what was given::
 from __future__ import annotations
 
 import difflib
-import inspect
 import math
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -396,40 +396,15 @@ def _check_nested(params: Mapping[str, Any], path: str, out: list[ConfigIssue],
                                      f"{path}.{key}[{i}].{kind}", out, host)
 
 
-_SIMPLE_TYPES = {"int": _is_int, "float": _is_number, "bool": lambda x: isinstance(x, bool),
-                 "str": lambda x: isinstance(x, str)}
-_TYPE_WORDS = {"int": "an integer", "float": "a number", "bool": "true or false",
-               "str": "a string"}
-
-
-def _param_types(cls: type) -> dict[str, str]:
-    """Parameter name -> declared simple type (``int``, ``float``, ``bool``, ``str``; others
-    unchecked) from ``__init__``'s annotations (Param-declared classes included)."""
-    try:
-        sig = inspect.signature(cls.__init__)  # type: ignore[misc]  # the class's own
-    except (TypeError, ValueError):
-        return {}
-    types: dict[str, str] = {}
-    for p in sig.parameters.values():
-        if p.name == "self":
-            continue
-        ann = p.annotation
-        if ann is inspect.Parameter.empty:
-            declared = getattr(cls, p.name, None)
-            ann = getattr(declared, "type_doc", "") or ""
-        ann = ann if isinstance(ann, str) else getattr(ann, "__name__", "")
-        types[p.name] = ann.strip()
-    return types
-
-
 def component_param_issues(kind: str, name: str, params: Mapping[str, Any], path: str,
                            host: Any = None) -> list[ConfigIssue]:
     """Problems with the parameters of the registered ``kind`` component ``name``.
 
-    Unknown parameter names (with the closest known one) and values of the wrong type for
-    parameters annotated ``int``, ``float``, ``bool`` or ``str`` (a number must be finite; an
-    ``int`` is not a float or a bool). An unregistered name gives no issue here (building it
-    reports it with the registered names).
+    Unknown parameter names (with the closest known one), and values that their declarations
+    (:meth:`pftrack.components.Component.declared_params`: the :class:`~pftrack.components.Param`
+    type, range, choices and length, or a hand-written ``__init__``'s annotated type) do not
+    allow: the same check the component makes when it is built. An unregistered name gives no
+    issue here (building it reports it with the registered names).
     """
     if host is None:
         from pftrack.host import get_host
@@ -442,25 +417,21 @@ def component_param_issues(kind: str, name: str, params: Mapping[str, Any], path
     if not isinstance(cls, type):
         return []
     try:
-        names = cls._param_names()  # type: ignore[attr-defined]  # a Component, or not: except
-    except (AttributeError, TypeError):
+        declared = cls.declared_params()  # type: ignore[attr-defined]  # a Component, or not
+    except (AttributeError, TypeError, ValueError):
         return []
-    types = _param_types(cls)
+    names = list(declared)
     who = f"{kind} {name!r}"
     out = []
     for key, val in params.items():
         sub = f"{path}.{key}"
-        if key not in names:
+        if key not in declared:
             out.append(ConfigIssue(sub, f"unknown parameter of {who} (parameters: "
                                    f"{', '.join(names) or 'none'})" + _suggest(key, names)))
             continue
-        t = types.get(key, "")
-        check = _SIMPLE_TYPES.get(t)
-        if check is None or val is None:
-            continue
-        ok = check(val) and (t != "float" or math.isfinite(float(val)))
-        if not ok:
-            out.append(ConfigIssue(sub, f"{who} expects {_TYPE_WORDS[t]}, got {val!r}"))
+        why = declared[key].problem(val)
+        if why is not None:
+            out.append(ConfigIssue(sub, f"{who} expects {why}, got {val!r}"))
     return out
 
 

@@ -85,7 +85,9 @@ def load_config(spec: str | os.PathLike[str] | dict[str, Any]) -> dict[str, Any]
         ``spec`` is neither an existing file nor a registered preset (the message lists the
         presets).
     ValueError
-        The YAML does not parse or has unknown keys (the message names the file and the key).
+        The YAML does not parse; :class:`pftrack.config.ConfigError` (a ``ValueError``) when
+        it does not match the schema or its components' declared parameters (the message
+        names the file, each key at fault and what it allows).
     """
     import yaml
 
@@ -113,24 +115,10 @@ def load_config(spec: str | os.PathLike[str] | dict[str, Any]) -> dict[str, Any]
             raise ValueError(f"config {where}: expected a mapping at the top level")  # noqa: TRY004
         if isinstance(cfg.get("detections"), str) and not Path(cfg["detections"]).is_absolute():
             cfg["detections"] = str(path.parent / cfg["detections"])
-    unknown = set(cfg) - CONFIG_KEYS
-    if unknown:
-        raise ValueError(f"config {where}: unknown keys {sorted(unknown)}; known: "
-                         f"{sorted(CONFIG_KEYS)}")
-    for key in ("motion", "likelihood"):
-        if key not in cfg:
-            raise ValueError(f"config {where}: missing {key!r}")
-    if cfg.get("state", "world") not in ("world", "image"):
-        raise ValueError(f"config {where}: state must be 'world' or 'image', got "
-                         f"{cfg.get('state')!r}")
-    for key, allowed in (("tracker", TRACKER_KEYS),):
-        bad = set(cfg.get(key) or {}) - allowed if isinstance(cfg.get(key), dict) else set()
-        if bad:
-            raise ValueError(f"config {where}: unknown {key} options {sorted(bad)}; known: "
-                             f"{sorted(allowed)}")
     from pftrack.config import validate_config
 
-    validate_config(cfg, source=where)  # types, ranges, component parameters (ConfigError)
+    # keys, types, ranges, required sections and component parameters, every problem at once
+    validate_config(cfg, source=where)
     cfg["_source"] = where
     return cfg
 

@@ -59,6 +59,7 @@ from pftrack.components import (
     Likelihood,
     MotionModel,
     ObservationModel,
+    Param,
     Target,
     TrackManager,
     TrackRecord,
@@ -101,31 +102,15 @@ class ImageBoxObservation(ObservationModel):
     With ``size_from_box=True`` each target keeps the size of the box it was started from
     (``target.box_wh_px``), e.g. each person's ground-truth size at initialisation.
 
-    Parameters
-    ----------
-    width_px, height_px : float
-        The box size, pixels. Unit: px.
-    size_from_box : bool
-        Each target keeps the size of the box it was started from.
+    {params}
     """
 
-    def __init__(self, width_px: float = 30.0, height_px: float = 30.0,
-                 size_from_box: bool = False) -> None:
-        self.width_px = width_px
-        self.height_px = height_px
-        self.size_from_box = size_from_box
-
-    def setup(self, context: Any) -> None:
-        """Validate the box size (``__init__`` only stores it)."""
-        self._check()
-
-    def _check(self) -> None:
-        if not (float(self.width_px) > 0 and float(self.height_px) > 0):
-            raise ValueError(f"ImageBoxObservation: box size must be positive, got "
-                             f"{self.width_px} x {self.height_px}")
+    width_px: float = Param(30.0, "The box width.", unit="px", low=0.0, low_open=True)
+    height_px: float = Param(30.0, "The box height.", unit="px", low=0.0, low_open=True)
+    size_from_box: bool = Param(
+        False, "Each target keeps the size of the box it was started from.")
 
     def init_target(self, target: Target, box_xywh_px: np.ndarray | None) -> None:
-        self._check()
         if self.size_from_box and box_xywh_px is not None:
             target.box_wh_px = (float(box_xywh_px[2]), float(box_xywh_px[3]))
 

@@ -158,8 +158,10 @@ def test_bad_input_names_the_model_and_parameter():
         RandomWalkMotion().predict(np.zeros((3, 2)), -1.0, rng)
     with pytest.raises(ValueError, match="ConstantVelocity3DMotion: position_noise"):
         ConstantVelocity3DMotion(position_noise=(1.0, 2.0)).predict(np.zeros((3, 6)), 1.0, rng)
-    with pytest.raises(ValueError, match="RandomWalkMotion: sigma_px"):
-        RandomWalkMotion(sigma_px=-1.0).predict(np.zeros((3, 2)), 1.0, rng)
+    with pytest.raises(ValueError, match=r"RandomWalkMotion.*'sigma_px' must be .* >= 0"):
+        RandomWalkMotion(sigma_px=-1.0)
+    with pytest.raises(ValueError, match=r"ConstantAccelerationMotion.*'max_frames_tracked'"):
+        ConstantAccelerationMotion(max_frames_tracked=0)
     with pytest.raises(ValueError, match="init_states: position must have 3"):
         ConstantVelocity3DMotion().init_states(np.zeros(2), 5, rng)
     with pytest.raises(ValueError, match="init_states: spread"):

@@ -64,7 +64,7 @@ def test_same_seed_same_frames_other_seed_differs():
 
 
 def test_bad_parameters_are_refused():
-    with pytest.raises(ValueError, match="unknown clip"):
+    with pytest.raises(ValueError, match=r"'clip' must be one of .*got 'ferry'"):
         CoastScene(clip="ferry").prepare()
     with pytest.raises(ValueError, match="fps"):
         CoastScene(fps=0).prepare()

@@ -187,11 +187,11 @@ def test_volume_tracks_bad_parameters_are_named():
         VolumeTracks(volumes="nowhere").setup(ctx)
     with pytest.raises(ValueError, match="entry_particles"):
         VolumeTracks(volumes="near", entry_particles=0).setup(ctx)
-    with pytest.raises(ValueError, match="gather_frames must be >= 0"):
+    with pytest.raises(ValueError, match="'gather_frames' must be an integer >= 0"):
         VolumeTracks(volumes="near", gather_frames=-1).setup(ctx)
-    with pytest.raises(ValueError, match="merge_speed_frames must be >= 1"):
+    with pytest.raises(ValueError, match="'merge_speed_frames' must be an integer >= 1"):
         VolumeTracks(volumes="near", merge_speed_frames=0).setup(ctx)
-    with pytest.raises(ValueError, match="merge_speed_m must be > 0"):
+    with pytest.raises(ValueError, match="'merge_speed_m' must be a number > 0"):
         VolumeTracks(volumes="near", merge_speed_m=-0.1).setup(ctx)
 
 
@@ -492,7 +492,7 @@ def test_heading_from_the_cloud_top_sees_a_car_driving_along_the_view(heading_fr
 
 
 def test_heading_from_and_exit_established_are_checked():
-    with pytest.raises(ValueError, match="heading_from must be 'footprint' or 'top'"):
+    with pytest.raises(ValueError, match="'heading_from' must be one of 'footprint', 'top'"):
         VolumeTracks(volumes=["near"], heading_from="feet").setup(RunContext(camera=_camera()))
 
 
@@ -606,7 +606,7 @@ def _two_colours() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def _colour_tracks(**params) -> VolumeTracks:
     img, red, blue = _two_colours()
     tracks = VolumeTracks(volumes=["near"], appearance=True, colour_share=True, **params)
-    tracks._check()
+    tracks._start()
     tracks.frame_, tracks.image_ = 7, img
     tracks.tracks_ = {1: "near", 2: "near", 3: "near"}
     tracks.templates_ = {1: (red, 9), 2: (blue, 9), 3: (blue, 9)}
@@ -668,7 +668,7 @@ def test_colour_share_ratio_and_floor_are_the_bar():
 ])
 def test_colour_share_parameters_are_checked(params, name):
     with pytest.raises(ValueError, match=name):
-        VolumeTracks(volumes=["near"], **params)._check()
+        VolumeTracks(volumes=["near"], **params)
 
 
 def test_colour_share_in_both_region_paths(monkeypatch):

@@ -49,7 +49,7 @@ def test_sized_box_follows_matched_detections_within_limits():
 
 
 @pytest.mark.parametrize("kw, message", [
-    ({"size_rate": 1.5}, "image-box-sized: size_rate must be in"),
+    ({"size_rate": 1.5}, r"'image-box-sized'\): parameter 'size_rate' must be a number in \[0, 1"),
     ({"size_limits": (1.2, 2.0)}, "image-box-sized: size_limits must be"),
 ])
 def test_sized_box_rejects_bad_parameters(kw, message):

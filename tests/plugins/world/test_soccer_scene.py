@@ -207,7 +207,7 @@ def test_nearer_player_occludes_the_farther(near_team: int) -> None:
 def test_bad_parameters_name_the_culprit(tmp_path) -> None:
     with pytest.raises(FileNotFoundError, match="nowhere.yaml"):
         SoccerScene(camera=str(tmp_path / "nowhere.yaml"), duration_s=1).prepare()
-    with pytest.raises(ValueError, match="unknown source"):
+    with pytest.raises(ValueError, match=r"'source' must be one of .*got 'hawk'"):
         SoccerScene(source="hawk", duration_s=1).prepare()
     with pytest.raises(ValueError, match="duration_s"):
         SoccerScene(duration_s=0).prepare()

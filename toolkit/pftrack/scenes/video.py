@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pftrack.components import Frame, Scene
+from pftrack.components import Frame, Param, Scene
 
 __all__ = ["VideoScene", "write_test_clip"]
 
@@ -23,36 +23,27 @@ __all__ = ["VideoScene", "write_test_clip"]
 class VideoScene(Scene):
     """Stream a video file as :class:`~pftrack.components.Frame` objects.
 
-    Parameters
-    ----------
-    path : str
-        The video file (anything OpenCV's ``VideoCapture`` decodes).
-    gt_path : str, optional
-        A MOTChallenge ground-truth file for it.
-    first : int
-        First frame to stream, in ground-truth numbering (default 1: the video's first frame).
-        Unit: frames.
-    last : int, optional
-        Last frame to stream (inclusive); None: to the end. Unit: frames.
-    index_offset : int
-        Ground-truth frame number of the video's frame 0 (MOTChallenge: 1). Unit: frames.
-    frame_rate : float, optional
-        Frames per second; None: read from the file (25 if the file does not say). Unit: frames/s.
+    {params}
 
     Notes
     -----
     ``frames()`` never holds more than one decoded frame; call it again to stream again.
     """
 
-    def __init__(self, path: str, gt_path: str | None = None, first: int = 1,
-                 last: int | None = None, index_offset: int = 1,
-                 frame_rate: float | None = None) -> None:
-        self.path = path
-        self.gt_path = gt_path
-        self.first = first
-        self.last = last
-        self.index_offset = index_offset
-        self.frame_rate = frame_rate
+    path: str | os.PathLike[str] = Param(
+        doc="The video file (anything OpenCV's ``VideoCapture`` decodes).")
+    gt_path: str | os.PathLike[str] | None = Param(
+        None, "A MOTChallenge ground-truth file for it.")
+    first: int = Param(
+        1, "First frame to stream, in ground-truth numbering (default 1: the video's first "
+        "frame).", unit="frames")
+    last: int | None = Param(
+        None, "Last frame to stream (inclusive); None: to the end.", unit="frames")
+    index_offset: int = Param(
+        1, "Ground-truth frame number of the video's frame 0 (MOTChallenge: 1).", unit="frames")
+    frame_rate: float | None = Param(
+        None, "Frames per second; None: read from the file (25 if the file does not say).",
+        unit="frames/s", low=0.0, low_open=True)
 
     @classmethod
     def _conformance_example(cls) -> VideoScene:
@@ -77,9 +68,7 @@ class VideoScene(Scene):
             raise ValueError(f"video scene: OpenCV cannot open {p}")
         return cap
 
-    def _check(self) -> None:
-        if int(self.first) != self.first:
-            raise ValueError(f"video scene: first must be an int, got {self.first!r}")
+    def _check_relations(self) -> None:
         if self.last is not None and self.last < self.first:
             raise ValueError(f"video scene: last ({self.last}) is before first ({self.first})")
 
@@ -124,7 +113,6 @@ class VideoScene(Scene):
         in ``frame_report_``."""
         from pftrack.scenes.source import FrameSource
 
-        self._check()
         fps = self.fps
         self._open().release()  # the errors of this scene, naming the file
         source = FrameSource(self.path, self.first, self.last, int(self.index_offset))
