@@ -323,6 +323,9 @@ class PeopleCameraFit:
     distortion_k : float
         Radial lens distortion fitted with the leans (:func:`camera_from_parameters`; 0: a
         pinhole, as without leans or with ``fit_distortion=False``).
+    trust : dict or None
+        Whether the camera can be trusted to track on, with the figures behind the verdict,
+        when a caller checked it (:func:`pftrack.fresh.camera_trust`); None: not checked.
     """
 
     camera: Camera
@@ -340,6 +343,7 @@ class PeopleCameraFit:
     notes: list[str] = field(default_factory=list)
     slants_used: int = 0
     distortion_k: float = 0.0
+    trust: dict[str, Any] | None = None
 
     def summary(self) -> dict[str, Any]:
         """The figures as a JSON-ready dict."""
