@@ -5,6 +5,8 @@ estimated from people (:func:`pftrack.fresh.camera_trust`)."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from pftrack.data import data_dir
@@ -172,9 +174,7 @@ def test_camera_trust_passes_people_at_every_distance_with_the_horizon_through_t
     t = camera_trust(fit, boxes, frames, (1280, 720))
     assert t["trusted"], t["reasons"]
     assert t["above_horizon"] == 0.0 and t["spread"] < 0.1 and t["height_ratio"] < 1.2
-    # the horizon passes through the people
-    assert np.mean((boxes[:, 1] < fit.horizon_row)
-                   & (boxes[:, 1] + boxes[:, 3] > fit.horizon_row)) > 0.9
+    assert t["horizon_through_people"] > 0.9  # the horizon passes through the people
 
 
 def test_camera_trust_refuses_people_who_do_not_determine_the_camera():
@@ -211,3 +211,58 @@ def test_camera_trust_counts_a_static_box_once():
     walking = np.column_stack([np.linspace(0, 600, 30), np.full(30, 200.0), np.full(30, 30.0),
                                np.full(30, 90.0)])
     assert len(_distinct(np.concatenate([still, walking]))) == 1 + 30
+
+
+def _two_camera_people(tmp_path, n_frames: int = 40):
+    """A still 640 x 360 video of ``n_frames`` frames and a det.txt whose people in the first
+    half of the frames stand as a camera 2.7 m up sees them, in the second half as one 0.85 m
+    up does: people that no single camera explains."""
+    import cv2
+
+    rng = np.random.default_rng(3)
+    lines = []
+    half = n_frames // 2
+    for k, height in enumerate((2.7, 0.85)):
+        cam = camera_from_parameters(500.0, 0.0, 0.0, height, (640, 360))
+        for f in range(1 + k * half, 1 + (k + 1) * half):
+            ground = np.column_stack([rng.uniform(-3, 3, 6), rng.uniform(8, 20, 6),
+                                      np.zeros(6)])
+            foot = cam.project(ground)
+            head = cam.project(ground + [0.0, 0.0, 1.7])
+            h = foot[:, 1] - head[:, 1]
+            lines += [f"{f},-1,{u - 0.17 * hh:.2f},{v:.2f},{0.34 * hh:.2f},{hh:.2f},0.9\n"
+                      for u, v, hh in zip(foot[:, 0], head[:, 1], h)]
+    det = tmp_path / "det.txt"
+    det.write_text("".join(lines))
+    video = tmp_path / "still.mp4"
+    out = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"mp4v"), 10, (640, 360))
+    img = np.random.default_rng(0).integers(0, 255, (360, 640, 3), dtype=np.uint8)
+    for _ in range(n_frames):
+        out.write(img)
+    out.release()
+    return video, det
+
+
+def test_track_does_not_draw_boxes_from_a_camera_it_cannot_trust(tmp_path):
+    from pftrack.fresh import track_video
+
+    video, det = _two_camera_people(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "camera.yaml").write_text("an earlier run's estimate\n")
+    res = track_video(video, out, detections=det, report=False)
+    s = json.loads((out / "summary.json").read_text())
+    assert s["state"] == "image" and s["preset"] == "people-image"
+    assert s["camera"].startswith("not trusted: estimated from")
+    assert s["camera_trust"]["trusted"] is False and s["camera_trust"]["height_ratio"] > 2
+    assert s["camera_fit"]["camera_height_m"] > 0  # the estimate, described
+    assert any(m.startswith("no camera: the camera estimated from the people is not trusted")
+               for m in res.messages)
+    assert res.fit is None and not (out / "camera.yaml").exists()
+    assert s["tracks"] > 0
+    # asked for the ground plane: the estimate is used, with the warning
+    res2 = track_video(video, tmp_path / "out2", detections=det, report=False,
+                       preset="people-ground")
+    assert res2.summary["state"] == "world" and res2.fit is not None
+    assert any("not trusted" in m and "as --preset people-ground asks" in m
+               for m in res2.messages)

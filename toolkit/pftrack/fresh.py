@@ -56,6 +56,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FreshResult",
+    "camera_trust",
     "check_thresholds",
     "choose_detector",
     "detect_video",
@@ -445,7 +446,9 @@ def camera_trust(fit: Any, boxes_xywh: np.ndarray, frames: np.ndarray,
         ``trusted`` (bool), ``reasons`` (list of str, empty when trusted) and the figures:
         ``boxes`` (distinct usable), ``above_horizon``, ``spread``, ``halves`` (each half's
         ``boxes``, ``camera_height_m``, ``horizon_row``), ``height_ratio``,
-        ``horizon_diff_deg``.
+        ``horizon_diff_deg``, and ``horizon_through_people``: the share of the boxes that the
+        horizon row (at the image's centre column) crosses, near 1 for a camera at head or
+        waist height (not a reason to distrust it: such a camera is checked as any other).
     """
     from pftrack.geometry.people import _clean_boxes, predicted_box_heights
 
@@ -470,7 +473,9 @@ def camera_trust(fit: Any, boxes_xywh: np.ndarray, frames: np.ndarray,
     r = r[np.isfinite(r)]
     spread = (float(1.4826 * np.median(np.abs(r - np.median(r)))) if len(r) >= 3
               else float("inf"))
-    out.update(above_horizon=above, spread=spread)
+    hz = float(fit.horizon_row)
+    through = float(np.mean((b[:, 1] < hz) & (feet[:, 1] > hz)))
+    out.update(above_horizon=above, spread=spread, horizon_through_people=through)
     if above > TRUST_MAX_ABOVE_HORIZON:
         reasons.append(f"{above:.0%} of the people's feet are on or above its horizon (at "
                        f"most {TRUST_MAX_ABOVE_HORIZON:.0%})")
@@ -479,25 +484,29 @@ def camera_trust(fit: Any, boxes_xywh: np.ndarray, frames: np.ndarray,
                        f"height-row relation (at most {TRUST_MAX_SPREAD:g})")
     rng = np.random.default_rng(seed)
     mid = float(np.median(fr))
-    halves = []
+    halves: list[dict[str, Any]] = []
+    heights: list[float] = []
+    horizons: list[float] = []
     for part in (fr <= mid, fr > mid):
         line = (_height_row_line(feet[part], b[part, 3], rng)
                 if part.sum() >= TRUST_MIN_HALF else None)
+        if line is not None:
+            heights.append(float(fit.person_height_m) / line[0])
+            horizons.append(-line[1] / line[0])
         halves.append({"boxes": int(part.sum()),
-                       "camera_height_m": None if line is None
-                       else fit.person_height_m / line[0],
-                       "horizon_row": None if line is None else -line[1] / line[0]})
+                       "camera_height_m": None if line is None else heights[-1],
+                       "horizon_row": None if line is None else horizons[-1]})
     out["halves"] = halves
-    if any(hf["camera_height_m"] is None for hf in halves):
+    if len(heights) < 2:
         n = min(hf["boxes"] for hf in halves)
         out.update(height_ratio=None, horizon_diff_deg=None)
         reasons.append(f"the two halves of the frames could not be checked against each other "
                        f"(a half has {n} distinct boxes, at least {TRUST_MIN_HALF} needed, or "
                        "its people do not grow below a horizon)")
     else:
-        h1, h2 = halves[0]["camera_height_m"], halves[1]["camera_height_m"]
+        h1, h2 = heights
         ratio = max(h1, h2) / min(h1, h2)
-        dv = abs(halves[0]["horizon_row"] - halves[1]["horizon_row"])
+        dv = abs(horizons[0] - horizons[1])
         deg = float(np.degrees(np.arctan2(dv, fit.focal_px)))
         out.update(height_ratio=float(ratio), horizon_diff_deg=deg)
         if ratio > TRUST_MAX_HEIGHT_RATIO:
@@ -728,7 +737,7 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
 
         out = Path(out_dir)
         summary["tracks_file"] = str(out / "tracks.txt")
-        if fit is not None and cam is fit.camera:
+        if fit is not None and cam is not None and cam is fit.camera:
             from pftrack.geometry.formats import save_camera
 
             save_camera(fit.camera, out / "camera.yaml")
