@@ -266,3 +266,21 @@ def test_track_does_not_draw_boxes_from_a_camera_it_cannot_trust(tmp_path):
     assert res2.summary["state"] == "world" and res2.fit is not None
     assert any("not trusted" in m and "as --preset people-ground asks" in m
                for m in res2.messages)
+
+
+def test_detections_above_the_horizon_are_written_without_nan(tmp_path):
+    from pftrack.components import Detections
+    from pftrack.io.detections import read_detections, write_detections
+
+    cam = waist_camera(distortion_k=0.0, roll_deg=0.0)
+    det = tmp_path / "det.txt"
+    det.write_text("1,-1,300,200,40,120,0.9\n1,-1,400,40,40,100,0.8\n")
+    dets = read_detections(det, camera=cam)
+    pts = dets[1].points_world_m
+    assert np.isfinite(pts[0]).all() and np.isnan(pts[1]).all()  # the second: above
+    out = tmp_path / "again.txt"
+    write_detections(out, {1: Detections(dets[1].boxes_xywh_px, dets[1].scores, pts)})
+    assert "nan" not in out.read_text().lower()
+    rows = np.loadtxt(out, delimiter=",")
+    np.testing.assert_array_equal(rows[1, 7:10], [-1.0, -1.0, -1.0])
+    np.testing.assert_allclose(rows[0, 7:10], pts[0], rtol=1e-5)

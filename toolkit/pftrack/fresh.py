@@ -337,7 +337,10 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
         return None, f"the camera could not be estimated from {len(b)} person boxes: {exc}"
     if not (np.isfinite(fit.camera_height_m) and fit.camera_height_m > 0):
         return None, f"the estimated camera height {fit.camera_height_m} is not usable"
-    fit.trust = camera_trust(fit, b, fr, image_size, seed=seed)
+    try:
+        fit.trust = camera_trust(fit, b, fr, image_size, seed=seed)
+    except (ValueError, np.linalg.LinAlgError) as exc:  # not checkable: not trusted
+        fit.trust = {"trusted": False, "reasons": [f"the camera could not be checked: {exc}"]}
     lean = ""
     if getattr(fit, "slants_used", 0):
         lean = (", focal length from their lean" if fit.focal_identified else
@@ -520,7 +523,11 @@ def camera_trust(fit: Any, boxes_xywh: np.ndarray, frames: np.ndarray,
 
 def with_ground_points(detections: dict[int, Detections], camera: Camera
                        ) -> dict[int, Detections]:
-    """The same detections with their foot points back-projected to the ground (z = 0)."""
+    """The same detections with their foot points back-projected to the ground (z = 0); NaN
+    for a foot point on or above the camera's horizon, which cannot be placed on the ground:
+    such a detection starts no track and proposes no particles, but a track matched to it in
+    the image still takes it in its likelihood
+    (:meth:`~pftrack.observation_world.CameraBoxObservation.position_from_box`)."""
     out = {}
     for f, d in detections.items():
         b = d.boxes_xywh_px
