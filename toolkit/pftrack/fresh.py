@@ -338,7 +338,9 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
     if not (np.isfinite(fit.camera_height_m) and fit.camera_height_m > 0):
         return None, f"the estimated camera height {fit.camera_height_m} is not usable"
     try:
-        fit.trust = camera_trust(fit, b, fr, image_size, seed=seed)
+        fitted = getattr(fit, "boxes_xywh", None)  # with silhouettes: their rows
+        fit.trust = camera_trust(fit, fitted if fitted is not None and len(fitted) == len(b)
+                                 else b, fr, image_size, seed=seed)
     except (ValueError, np.linalg.LinAlgError) as exc:  # not checkable: not trusted
         fit.trust = {"trusted": False, "reasons": [f"the camera could not be checked: {exc}"]}
     lean = ""
@@ -362,9 +364,12 @@ TRUST_MAX_ABOVE_HORIZON = 0.05
 #: The people of the first and of the second half of the frames are two samples of the same
 #: scene; each half's own height-row line (``h = a v + c``, RANSAC then least squares on its
 #: distinct boxes) gives a camera height ``person_height / a`` and a horizon row ``-c / a``.
-#: Most ratio of the two camera heights: every ground distance scales with the camera height,
-#: so two halves that disagree by more than this factor leave the ground distances uncertain
-#: by as much. Unit: 1.
+#: Most ratio of the largest to the smallest of three camera heights: the estimate's and the
+#: two halves'. Every ground distance scales with the camera height, so estimates that
+#: disagree by more than this factor leave the ground distances uncertain by as much. (The
+#: straight line ignores the camera's tilt and lens, which alone moves its camera height some
+#: tens of per cent from the full fit's on a camera looking down: the factor leaves room for
+#: that. Measured: docs/decisions/camera-trust.md.) Unit: 1.
 TRUST_MAX_HEIGHT_RATIO = 1.5
 #: Most robust spread (1.4826 MAD) of ``log(box height / predicted height)`` over the distinct
 #: usable boxes: people's heights spread by about 4 % and box errors add a few more; a spread
@@ -422,11 +427,13 @@ def camera_trust(fit: Any, boxes_xywh: np.ndarray, frames: np.ndarray,
     * ``spread`` <= :data:`TRUST_MAX_SPREAD`: the boxes' heights follow the camera's
       height-row relation;
     * split-half agreement: the people of the first and of the second half of the frames,
-      fitted apart by the height-row line, give camera heights within a factor
-      :data:`TRUST_MAX_HEIGHT_RATIO` (``height_ratio``). When the people do not determine
-      the camera (all of them at one distance, their feet cut by the frame, a few static
-      things) the two halves disagree; where they do -- including a camera at head or waist
-      height whose horizon passes through the people -- they agree. Each half needs
+      each fitted on its own by the straight height-row line, give camera heights within a
+      factor :data:`TRUST_MAX_HEIGHT_RATIO` of each other and of the estimate's
+      (``height_ratio``: the largest of the three over the smallest). When the people do not
+      determine the camera (all of them at one distance, their feet cut by the frame, a few
+      static things) the halves disagree with each other or the estimate wandered off where
+      both halves agree; where they do determine it -- including a camera at head or waist
+      height whose horizon passes through the people -- all three agree. Each half needs
       :data:`TRUST_MIN_HALF` distinct boxes. The halves' horizons are compared too, as the
       angle between them at the camera (``horizon_diff_deg``), but reported only: that angle
       leans on the focal length, which people often leave unidentified.
@@ -508,14 +515,15 @@ def camera_trust(fit: Any, boxes_xywh: np.ndarray, frames: np.ndarray,
                        "its people do not grow below a horizon)")
     else:
         h1, h2 = heights
-        ratio = max(h1, h2) / min(h1, h2)
+        h0 = float(fit.camera_height_m)
+        ratio = max(h0, h1, h2) / min(h0, h1, h2)
         dv = abs(horizons[0] - horizons[1])
         deg = float(np.degrees(np.arctan2(dv, fit.focal_px)))
         out.update(height_ratio=float(ratio), horizon_diff_deg=deg)
         if ratio > TRUST_MAX_HEIGHT_RATIO:
-            reasons.append(f"the people of the first and second half of the frames give "
-                           f"camera heights {h1:.2f} m and {h2:.2f} m (a factor {ratio:.2f}, at "
-                           f"most {TRUST_MAX_HEIGHT_RATIO:g})")
+            reasons.append(f"it puts the camera {h0:.2f} m up, the people of the first and "
+                           f"second half of the frames {h1:.2f} m and {h2:.2f} m (a factor "
+                           f"{ratio:.2f}, at most {TRUST_MAX_HEIGHT_RATIO:g})")
     out["trusted"] = not reasons
     out["reasons"] = reasons
     return out
