@@ -154,6 +154,35 @@ def test_people_ground_on_a_squeezed_waist_height_street_writes_no_nan(tmp_path)
         assert np.isfinite(unc[name]).all(), name
 
 
+@needs_mot
+def test_the_python_api_on_a_squeezed_waist_height_street_gives_no_nan(tmp_path):
+    """The same slice frame by frame through :class:`pftrack.Tracker`: every track's box, its
+    spread and its ground position finite."""
+    import cv2
+    import pftrack
+    from pftrack.io.detections import read_detections
+
+    video, det = _squeezed_slice(tmp_path, 12)
+    dets = read_detections(det)
+    tracker = pftrack.Tracker("people-ground", camera=waist_camera(), fps=30, seed=0)
+    cap = cv2.VideoCapture(str(video))
+    rows = []
+    try:
+        for f in range(1, 13):
+            ok, img = cap.read()
+            assert ok
+            out = tracker.update(dets[f], frame=img)
+            rows.append(out)
+            if out.confirmed_earlier is not None:
+                rows.append(out.confirmed_earlier)
+    finally:
+        cap.release()
+    tracks = pftrack.Tracks.concat(rows)
+    assert len(np.unique(tracks.tracker_id)) >= 5
+    for name in ("xyxy", "xyxy_sd", "confidence", "world_m", "world_cov"):
+        assert np.isfinite(getattr(tracks, name)).all(), name
+
+
 def test_camera_trust_passes_people_at_every_distance_with_the_horizon_through_them():
     from pftrack.fresh import camera_trust
     from pftrack.geometry.people import estimate_camera_from_people

@@ -632,6 +632,8 @@ class Camera:
             Pixels; NaN only for points at or behind the camera's centre plane.
         """
         px = self.project(points_world_m)
+        if np.isfinite(px.sum()):  # (one reduction: the common case, every pixel finite)
+            return px
         bad = ~np.isfinite(px).all(axis=1)
         if not bad.any():
             return px
