@@ -313,3 +313,27 @@ def test_detections_above_the_horizon_are_written_without_nan(tmp_path):
     rows = np.loadtxt(out, delimiter=",")
     np.testing.assert_array_equal(rows[1, 7:10], [-1.0, -1.0, -1.0])
     np.testing.assert_allclose(rows[0, 7:10], pts[0], rtol=1e-5)
+
+
+def test_particles_without_a_box_have_zero_likelihood():
+    """people-ground's likelihood: a particle the camera has no box for (behind it) weighs
+    nothing, in the one-target and the rows call alike; the others are as before."""
+    import pftrack
+    from pftrack.components import Detections, Frame
+
+    tracker = pftrack.Tracker("people-ground", camera=waist_camera(), fps=30, seed=0)
+    image = np.random.default_rng(0).integers(0, 255, (480, 640, 3), dtype=np.uint8)
+    tracker.update(np.array([[300.0, 150, 340, 300, 0.9]]), frame=image)
+    engine = tracker.engines[0]
+    target = engine.targets[0]
+    boxes = target.particle_boxes_xywh_px.copy()
+    like = engine.likelihood
+    like.begin_frame(Frame(2, image), [target], Detections(boxes[:1].copy(), np.array([0.9])))
+    before = like.log_likelihood(boxes, target)
+    assert np.isfinite(before).all()
+    boxes[:5] = np.nan
+    one = like.log_likelihood(boxes, target)
+    rows = like.log_likelihood_rows(boxes[None], [target])[0]
+    np.testing.assert_array_equal(one, rows)
+    assert np.all(one[:5] == -np.inf)
+    np.testing.assert_array_equal(one[5:], before[5:])

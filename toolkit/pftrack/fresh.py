@@ -17,8 +17,8 @@ What ``pftrack track VIDEO --out DIR`` does (:func:`track_video`):
    a fit that fails) the run falls back to the image plane (preset ``people-image``) and says so.
    An estimate is also checked before it is used (:func:`camera_trust`, the summary's
    ``camera_trust``): the people's feet below its horizon, their heights following it, and the
-   people of the first and second half of the frames agreeing on the camera's height and
-   horizon. When the people do not determine the camera (all at one distance, their feet cut
+   estimate and the people of the first and of the second half of the frames agreeing on the
+   camera's height. When the people do not determine the camera (all at one distance, their feet cut
    by the frame, static things outvoting them) the run tracks in the image plane instead of
    drawing boxes from a wrong camera, and says why (stderr and the summary's ``camera``);
    ``--preset`` keeps the estimate, with the warning.
@@ -688,7 +688,8 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
         else:
             cam = fit.camera
             cam_source = why
-            if trust is not None and not trust["trusted"]:
+            if (trust is not None and not trust["trusted"]
+                    and cfg_ground.get("state", "world") == "world"):
                 messages.append(f"the camera estimated from the people is not trusted "
                                 f"({'; '.join(trust['reasons'])}); tracking with it as "
                                 f"--preset {preset} asks")

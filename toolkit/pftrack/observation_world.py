@@ -213,12 +213,12 @@ class CameraBoxObservation(ObservationModel):
 
         A state whose foot or head lies at or behind the camera's centre plane (a person
         beside or behind a camera at head or waist height: the ground there is not in the
-        picture) has no image box: its row is NaN, all four numbers. The tracker reads a NaN
-        box as zero likelihood (:func:`pftrack.filter.core.normalize_log_weights` and the
-        composite likelihood turn NaN log-weights into -inf) and :meth:`in_view` as not in
-        view, so such particles are never resampled and a track whose estimate goes there
-        ends; no NaN box reaches a track record. Every state in front of the camera gets a
-        finite box (:meth:`foot_head_px`).
+        picture) has no image box: its row is NaN, all four numbers. The composite likelihood
+        (``people-ground``'s) gives such a particle zero likelihood (-inf), the filter turns
+        any NaN log-weight into -inf too (:func:`pftrack.filter.core.normalize_log_weights`),
+        and :meth:`in_view` reads it as not in view: such particles are never resampled and a
+        track whose estimate goes there ends, so no NaN box reaches a track record. Every state
+        in front of the camera gets a finite box (:meth:`foot_head_px`).
         """
         foot, head = self.foot_head_px(states, self.height_of(target))
         h = np.hypot(foot[:, 0] - head[:, 0], foot[:, 1] - head[:, 1])
