@@ -560,6 +560,14 @@ _MIXES = ("sum", "product")
 _SYMBOLIC = ("beta", "1-beta")
 
 
+def _no_box_no_weight(boxes_xywh_px: np.ndarray, logl: np.ndarray) -> np.ndarray:
+    """``logl`` (...) with -inf where the box (..., 4) has a NaN (no box: a state the camera
+    cannot see, behind it); ``logl`` itself when every box is finite."""
+    if np.isfinite(boxes_xywh_px.sum()):  # (one reduction: the common case)
+        return logl
+    return np.where(np.isnan(boxes_xywh_px).any(axis=-1), -np.inf, logl)
+
+
 class CompositeLikelihood(Likelihood):
     """Weighted combination of likelihood plugins (the soccer paper's eq. 5 with eq. 9).
 
@@ -691,11 +699,14 @@ class CompositeLikelihood(Likelihood):
         return np.log(np.maximum(1.0 - np.exp(-0.5 * d2 / r2), 1e-6)).sum(axis=1)
 
     def log_likelihood(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
+        """log-likelihoods (N,) of the boxes (N, 4); -inf (zero likelihood) for a particle
+        with no box (a NaN row: the observation model has none for a state behind the
+        camera), whatever its terms make of it."""
         out = self._mixed(boxes_xywh_px, target)
         ex = self._exclusion(target)
         if ex is not None and len(ex) == len(out):  # boxes are the target's own particles
             out = out + ex
-        return out
+        return _no_box_no_weight(np.asarray(boxes_xywh_px, dtype=np.float64), out)
 
     def offers_rows(self) -> bool:
         """True: the mix runs over every target at once; a term without its own rows method
@@ -714,7 +725,7 @@ class CompositeLikelihood(Likelihood):
                 ex = self._exclusion(t)
                 if ex is not None and len(ex) == out.shape[1]:
                     out[i] = out[i] + ex
-        return out
+        return _no_box_no_weight(b, out)
 
     def _mixed_rows(self, boxes_xywh_px: np.ndarray,
                     targets: Sequence[Target]) -> np.ndarray:

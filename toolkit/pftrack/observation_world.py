@@ -155,12 +155,19 @@ class CameraBoxObservation(ObservationModel):
 
     def foot_head_px(self, states: np.ndarray, height_m: float | None = None
                      ) -> tuple[np.ndarray, np.ndarray]:
-        """Projected foot and head points, each (N, 2) pixels (NaN behind the camera)."""
+        """Projected foot and head points, each (N, 2) pixels.
+
+        A point in front of the camera always has a pixel, also beyond the field where the
+        lens model has a value (:meth:`~pftrack.geometry.camera.Camera.project_beyond_lens`:
+        outside the image, continuing the lens outward), so that a person partly out of the
+        frame -- the head of someone taller than the picture, a particle beside the image --
+        still has a finite box. Only a point at or behind the camera's centre plane is NaN.
+        """
         g = self.ground_points(states)
         n = len(g)
         pts = np.concatenate([g, g])
         pts[n:, 2] = float(self.height_m) if height_m is None else height_m
-        px = self._cam().project(pts)
+        px = self._cam().project_beyond_lens(pts)
         return px[:n], px[n:]
 
     def init_target(self, target: Target, box_xywh_px: np.ndarray | None) -> None:
@@ -202,8 +209,16 @@ class CameraBoxObservation(ObservationModel):
         """States (N, D) -> boxes (N, 4) (left, top, width, height) in pixels.
 
         The box's bottom centre is the projected foot point; its height is the image distance
-        from foot to head (the target's own height with ``adapt_height``). States behind the
-        camera give NaN boxes.
+        from foot to head (the target's own height with ``adapt_height``).
+
+        A state whose foot or head lies at or behind the camera's centre plane (a person
+        beside or behind a camera at head or waist height: the ground there is not in the
+        picture) has no image box: its row is NaN, all four numbers. The composite likelihood
+        (``people-ground``'s) gives such a particle zero likelihood (-inf), the filter turns
+        any NaN log-weight into -inf too (:func:`pftrack.filter.core.normalize_log_weights`),
+        and :meth:`in_view` reads it as not in view: such particles are never resampled and a
+        track whose estimate goes there ends, so no NaN box reaches a track record. Every state
+        in front of the camera gets a finite box (:meth:`foot_head_px`).
         """
         foot, head = self.foot_head_px(states, self.height_of(target))
         h = np.hypot(foot[:, 0] - head[:, 0], foot[:, 1] - head[:, 1])
@@ -217,7 +232,16 @@ class CameraBoxObservation(ObservationModel):
 
     def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:
         """Ground position (p_x, p_y) in metres under a box's foot point (bottom centre);
-        NaN when the foot point's ray does not meet the ground in front of the camera."""
+        NaN when the foot point's ray does not meet the ground in front of the camera (a foot
+        point on or above the horizon: a sign, a reflection, a person whose feet the camera
+        puts above its horizon).
+
+        Such a box cannot be placed on the ground, and the callers leave it out of what needs
+        a ground position rather than guess one (a guess would put a track metres or
+        kilometres away): it starts no track (the birth initiators skip non-finite positions)
+        and proposes no particles (the detection proposal skips it), while a track it matches
+        in the image still takes it in its image likelihood. A finite position is what every
+        caller gets or nothing."""
         b = np.asarray(box_xywh_px, dtype=np.float64).reshape(4)
         g = self._cam().image_to_ground(foot_points(b)[None])[0]
         return g[:2].copy()

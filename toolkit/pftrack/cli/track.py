@@ -68,7 +68,7 @@ def handler(args: argparse.Namespace) -> int:
     if not args.quiet:
         s = res.summary
         keys = ("tracks_file", "frames", "tracks", "preset", "detector", "detector_choice",
-                "camera",
+                "camera", "camera_trust",
                 "camera_file", "frames_per_second", "frames_per_second_cpu", "metrics")
         print(json.dumps({k: s[k] for k in keys if k in s}, indent=2, default=float))
         sys.stdout.flush()

@@ -608,6 +608,61 @@ class Camera:
         px[~front] = np.nan
         return px
 
+    def project_beyond_lens(self, points_world_m: Any) -> np.ndarray:
+        """:meth:`project`, with a pixel also for the points in front of the camera that lie
+        beyond the field where the lens model has a value (where :meth:`project` gives NaN
+        though the point is in front: Tsai's ``kappa1 < 0`` or a polynomial lens folding back).
+
+        Such a point keeps its pinhole direction from the principal point and its pinhole
+        radius, times the lens's radial scale at the edge of the lens model's field along that
+        direction (found by a vectorised bisection): continuous where the model ends and rising
+        outward beyond it, so the point lands outside the image, further out the further out
+        it is. A lens model fitted to an image covers the image, so these pixels only ever
+        describe things outside the picture: the head of a tall person cut by the frame's top,
+        a particle beside the image. Points at or behind the camera's centre plane stay NaN.
+
+        Parameters
+        ----------
+        points_world_m : array_like, shape (N, 3)
+            World points, metres.
+
+        Returns
+        -------
+        ndarray, shape (N, 2)
+            Pixels; NaN only for points at or behind the camera's centre plane.
+        """
+        px = self.project(points_world_m)
+        if np.isfinite(px.sum()):  # (one reduction: the common case, every pixel finite)
+            return px
+        bad = ~np.isfinite(px).all(axis=1)
+        if not bad.any():
+            return px
+        pc = self.world_to_camera(points_world_m)[bad]
+        front = pc[:, 2] > 1e-9
+        if not front.any():
+            return px
+        xy = pc[front, :2] / pc[front, 2:3]
+        d = self.distortion
+        lo = np.zeros(len(xy))
+        hi = np.ones(len(xy))
+        for _ in range(40):  # the largest fraction of the ray's radius the lens model maps
+            mid = 0.5 * (lo + hi)
+            ok = np.isfinite(d.distort(xy * mid[:, None])).all(axis=1)
+            lo = np.where(ok, mid, lo)
+            hi = np.where(ok, hi, mid)
+        edge = xy * lo[:, None]
+        xd_edge = d.distort(edge)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            scale = np.hypot(xd_edge[:, 0], xd_edge[:, 1]) / np.hypot(edge[:, 0], edge[:, 1])
+        scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
+        xd = xy * scale[:, None]
+        u = self.K[0, 0] * xd[:, 0] + self.K[0, 1] * xd[:, 1] + self.K[0, 2]
+        v = self.K[1, 1] * xd[:, 1] + self.K[1, 2]
+        rows = np.flatnonzero(bad)[front]
+        px[rows, 0] = u
+        px[rows, 1] = v
+        return px
+
     def project_rows(self, points_world_m: Any) -> np.ndarray:
         """:meth:`project` of T sets of points at once: (T, N, 3) metres -> (T, N, 2) pixels,
         row ``t`` equal bit for bit to ``project(points_world_m[t])`` (Tsai's Newton

@@ -323,6 +323,13 @@ class PeopleCameraFit:
     distortion_k : float
         Radial lens distortion fitted with the leans (:func:`camera_from_parameters`; 0: a
         pinhole, as without leans or with ``fit_distortion=False``).
+    trust : dict or None
+        Whether the camera can be trusted to track on, with the figures behind the verdict,
+        when a caller checked it (:func:`pftrack.fresh.camera_trust`); None: not checked.
+    boxes_xywh : ndarray (N, 4) or None
+        The boxes as fitted (``x, y, w, h`` pixels, one row per input box, in their order):
+        with silhouettes (:func:`estimate_camera_from_video`), their top and bottom rows
+        from the silhouettes.
     """
 
     camera: Camera
@@ -340,6 +347,8 @@ class PeopleCameraFit:
     notes: list[str] = field(default_factory=list)
     slants_used: int = 0
     distortion_k: float = 0.0
+    trust: dict[str, Any] | None = None
+    boxes_xywh: np.ndarray | None = field(default=None, repr=False)
 
     def summary(self) -> dict[str, Any]:
         """The figures as a JSON-ready dict."""
@@ -795,7 +804,7 @@ def estimate_camera_from_people(boxes_xywh: Any, image_size: tuple[int, int],
                            uncertainty=unc, inliers=mask, person_height_m=float(person_height_m),
                            residual_sd=rsd, uncertainty_method=method, notes=notes,
                            slants_used=n_slants if sl_in is not None else 0,
-                           distortion_k=float(figs[5]))
+                           distortion_k=float(figs[5]), boxes_xywh=boxes.copy())
     # the file written from this camera records how it was made
     cam.metadata["people_fit"] = {k: v for k, v in fit.summary().items()}
     return fit

@@ -33,7 +33,10 @@ def read_detections(path: str | os.PathLike[str], camera: Camera | None = None,
         The file (``frame,id,left,top,width,height,conf[,x,y,z]``).
     camera : Camera, optional
         With a ground-plane camera, each detection's foot point (bottom centre) is
-        back-projected to z = 0 (``points_world_m``), as the built-in detectors do.
+        back-projected to z = 0 (``points_world_m``), as the built-in detectors do; NaN for a
+        foot point on or above the camera's horizon (no ground under it: such a detection
+        starts no track, see
+        :meth:`~pftrack.observation_world.CameraBoxObservation.position_from_box`).
     min_score : float, optional
         Rows whose ``conf`` is below this are dropped.
 
@@ -77,7 +80,9 @@ def read_detections(path: str | os.PathLike[str], camera: Camera | None = None,
 
 def detections_to_mot(detections: dict[int, Detections]) -> np.ndarray:
     """MOT rows (M, 10) of per-frame detections (id -1, conf = score, world columns the
-    ground points or -1): what :func:`read_detections` reads back."""
+    ground points or -1): what :func:`read_detections` reads back. A detection without a
+    ground point (none given, or its foot point above the camera's horizon: NaN) gets -1 in
+    all three world columns, never NaN."""
     parts = []
     for f in sorted(detections):
         d = detections[f]
@@ -89,7 +94,8 @@ def detections_to_mot(detections: dict[int, Detections]) -> np.ndarray:
         r[:, 2:6] = d.boxes_xywh_px
         r[:, 6] = d.scores
         if d.points_world_m is not None:
-            r[:, 7:10] = d.points_world_m
+            pts = np.asarray(d.points_world_m, dtype=np.float64)
+            r[:, 7:10] = np.where(np.isfinite(pts).all(axis=1, keepdims=True), pts, -1.0)
         parts.append(r)
     return np.concatenate(parts) if parts else np.zeros((0, 10))
 
