@@ -360,6 +360,16 @@ class ConstantAccelerationMotion(MotionModel):
     max_frames_tracked: int | None = Param(
         None, "Cap on n so the derivative noise never falls below noise / sqrt(cap); None (the "
         "paper) lets it shrink without bound.", unit="frames", low=1)
+    acceleration_time: float | None = Param(
+        None, "How long an acceleration lasts (Singer's manoeuvre time constant): each step "
+        "keeps exp(-dt / acceleration_time) of it, so a target that goes unobserved is "
+        "predicted to stop speeding up or turning after about this long instead of "
+        "accelerating for ever; None keeps it constant (the paper).", unit="dt",
+        low=0.0, low_open=True)
+    velocity_time: float | None = Param(
+        None, "How long a velocity lasts: each step keeps exp(-dt / velocity_time) of it, so "
+        "an unobserved target is predicted to slow down over about this long (people stop, "
+        "turn back, wait); None keeps it.", unit="dt", low=0.0, low_open=True)
 
     @property
     def state_dim(self) -> int:
@@ -406,12 +416,23 @@ class ConstantAccelerationMotion(MotionModel):
         std[:, 4:6] = _axis_std(self, "acceleration_noise", 2)[None, :] * root
         return std
 
-    @staticmethod
-    def transition_matrix(dt: float) -> np.ndarray:
-        """C of eq. 2 for a step ``dt``, shape (6, 6)."""
+    def _damped(self) -> bool:
+        return self.acceleration_time is not None or self.velocity_time is not None
+
+    def transition_matrix(self, dt: float) -> np.ndarray:
+        """C of eq. 2 for a step ``dt``, shape (6, 6); with ``velocity_time`` (``T_v``) or
+        ``acceleration_time`` (``T_a``) the velocity row is scaled by ``exp(-dt / T_v)`` and
+        the acceleration's by ``exp(-dt / T_a)``::
+
+            p' = p + dt v + dt^2/2 a,   v' = r_v (v + dt a),   a' = r_a a
+        """
         c = np.eye(6)
         c[0, 2] = c[1, 3] = c[2, 4] = c[3, 5] = dt
         c[0, 4] = c[1, 5] = 0.5 * dt * dt
+        if self.velocity_time is not None:
+            c[2:4] *= math.exp(-dt / float(self.velocity_time))
+        if self.acceleration_time is not None:
+            c[4:6] *= math.exp(-dt / float(self.acceleration_time))
         return c
 
     def predict(self, states: np.ndarray, dt: float, rng: np.random.Generator,
@@ -419,8 +440,9 @@ class ConstantAccelerationMotion(MotionModel):
         s = _check_states(self, states)
         std = self.noise_std(dt, target)
         dt = float(dt)
-        if len(s) <= _SMALL_N:
-            # one small matrix product: cheapest in per-call overhead
+        if len(s) <= _SMALL_N or self._damped():
+            # one small matrix product: cheapest in per-call overhead (the compiled and the
+            # blocked updates below write out the undamped C)
             out = rng.standard_normal(s.shape)
             out *= std
             out += s @ self.transition_matrix(dt).T
@@ -453,7 +475,8 @@ class ConstantAccelerationMotion(MotionModel):
         if s.ndim != 3 or s.shape[2] != 6 or len(s) != len(targets):
             raise ValueError(f"ConstantAccelerationMotion.predict_rows: states must have shape "
                              f"(T, N, 6) with T = {len(targets)} targets, got {s.shape}")
-        if s.shape[1] > _SMALL_N:  # large clouds: each target's compiled or blocked update
+        if s.shape[1] > _SMALL_N and not self._damped():
+            # large clouds: each target's compiled or blocked update
             return super().predict_rows(s, dt, rng, targets)
         std = self.noise_std_rows(dt, targets)
         # the compiled ziggurat (numpy's numbers) only once the engine loaded it: the T

@@ -175,7 +175,7 @@ def _explicit_stages(cfg: dict) -> dict:
 @pytest.mark.slow
 @pytest.mark.skipif(not (_DATA / "vtest.avi").is_file(), reason="PETS 2009 data not found")
 @pytest.mark.parametrize(("preset", "n_rows", "sha"), [
-    ("people-image", 160, "d1bdf01e7504f55f528c2cceb80743b33e1ffd86e95eac824f2ff2bb52ca5695"),
+    ("people-image", 160, "151467fee14733132885501e16f302c5bfba1d6cc04275fcd3bb384ff013cdf5"),
     ("people-ground", 150, "704f667d8e41dfac8a7bf837b8872c0463dae915319c606eaf6eafffcb350a27"),
 ])
 def test_presets_track_pets_as_their_explicit_stages(preset, n_rows, sha, tmp_path):
