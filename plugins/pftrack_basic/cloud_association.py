@@ -147,42 +147,30 @@ class CloudAssociator(Associator):
                          "predicted particle's box centre, in detection heights: the "
                          "detector's own scatter (the cloud's spread adds to it), as assumed "
                          "before the run has measured it (see the class docstring).",
-                         unit="1")
+                         unit="1", low=0.0, low_open=True)
     sigma_size: float = Param(0.2, "Standard deviation of the log ratio of a detection's "
                               "height to the track's mean particle box height, as assumed "
-                              "before the run has measured it.", unit="1")
+                              "before the run has measured it.", unit="1",
+                              low=0.0, low_open=True)
     max_cost: float = Param(8.0, "Gate: a pair whose cost (negative log predicted "
                             "likelihood, appearance included) exceeds this is never matched. "
                             "8 admits a detection about 4 sigma from a tight cloud.",
-                            unit="1")
+                            unit="1", low=0.0, low_open=True)
     high_score: float = Param(0.6, "Detections at least this confident are matched first, "
                               "against every track; the others only in a second pass, to "
                               "tracks seen recently (recent_misses). On the detector's score "
                               "scale (a probability for calibrated detectors).",
-                              unit="1")
+                              unit="1", low=0.0)
     recent_misses: int = Param(2, "A track may take a less confident detection in the second "
                                "pass only if it went at most this many frames without a "
-                               "match.", unit="frames")
+                               "match.", unit="frames", low=0)
     appearance_weight: float = Param(1.0, "Weight of the appearance cost "
                                      "-log(Target.appearance_scores), when the track "
                                      "management sets them (0: motion only). NaN scores bar "
-                                     "the pair.", unit="1")
+                                     "the pair.", unit="1", low=0.0)
 
     def setup(self, context: object) -> None:
-        """Check the parameters, naming the one at fault."""
-        for name in ("sigma", "sigma_size", "max_cost"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
-                raise ValueError(f"associator 'cloud': {name} must be a number > 0, got {v!r}")
-        for name in ("high_score", "appearance_weight"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
-                raise ValueError(f"associator 'cloud': {name} must be a number >= 0, got "
-                                 f"{v!r}")
-        r = self.recent_misses
-        if isinstance(r, bool) or not isinstance(r, int) or r < 0:
-            raise ValueError(f"associator 'cloud': recent_misses must be an integer >= 0, got "
-                             f"{r!r}")
+        """Start a run: the scatter is the assumed one until this run's pairs measure it."""
         self._reset()
 
     def _reset(self) -> None:

@@ -196,3 +196,11 @@ def test_only_pairs_of_tracks_seen_in_the_previous_frame_are_measured():
         a.associate([t], _dets([(230.0, 300.0)], [0.9]))
     a.costs([], _dets([], []))
     assert a.scatter_ == (0.1, 0.1, 0.2)
+
+
+@pytest.mark.parametrize(("name", "value"), [("sigma", 0.0), ("sigma_size", -1.0),
+                                             ("max_cost", 0.0), ("high_score", -0.1),
+                                             ("recent_misses", -1), ("appearance_weight", -1.0)])
+def test_a_bad_parameter_is_named(name, value):
+    with pytest.raises(ValueError, match=name):
+        CloudAssociator(**{name: value})
