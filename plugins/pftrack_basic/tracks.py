@@ -16,8 +16,7 @@ Stages (plugin kind ``stage``; :mod:`pftrack.lifecycle` says in which order the 
   positions closer than ``merge_distance_m`` with a world frame, else boxes overlapping by more
   than ``merge_iou``): the younger ends.
 * ``colour-reid`` (reidentifier): each track keeps a colour model (Breitenstein et al.'s
-  track-specific appearance) that the associator reads as ``Target.appearance_scores``; a
-  hidden track may take only a detection that looks most like it.
+  track-specific appearance) that the associator reads as ``Target.appearance_scores``.
 * ``output-boxes`` (reporter): hides tracks that have gone a while without a detection, and
   moves output boxes towards matched detections.
 
@@ -32,7 +31,6 @@ Named track managers, each a fixed list of these stages built from its parameter
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 from pftrack.components import Param, RunContext
@@ -61,11 +59,6 @@ __all__ = ["BorderTerminator", "ColourReidentifier", "ConfirmedTracks", "Detecti
            "UnmatchedBirthInitiator"]
 
 APPEARANCE_KEYS = {"bins", "sigma", "update_rate", "region"}
-
-
-def _fraction(value: Any, what: str) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= 1.0:
-        raise ValueError(f"{what} must be a number in [0, 1], got {value!r}")
 
 
 # --------------------------------------------------------------------------------------------
@@ -331,13 +324,6 @@ class ColourReidentifier(Reidentifier):
     region: tuple = Param((0.15, 0.1, 0.85, 0.9), "The part of a box whose pixels are counted: "
                           "(left, top, right, bottom) as fractions of its width and height.",
                           unit="1")
-    hidden_after_misses: int | None = Param(
-        None, "A track that has gone more than this many frames without a detection may take a "
-        "detection only if the detection looks more like it than like any other track with a "
-        "colour model, so a person returning is re-identified by colour and someone else "
-        "walking where a hidden track waits starts a track of their own (the barred pairs get "
-        "appearance score NaN: no match). None: no pair is barred.", unit="frames")
-
     @property
     def models_(self) -> dict[int, np.ndarray]:
         return self.__dict__.setdefault("_models", {})
@@ -379,22 +365,8 @@ class ColourReidentifier(Reidentifier):
             dist = np.abs(cdf - np.cumsum(model, axis=-1)[None]).sum(axis=-1).mean(axis=1)
             dist /= bins - 1
             out[t.id] = np.exp(-0.5 * (dist / sigma) ** 2)
-        if self.hidden_after_misses is not None:
-            self._bar_hidden(view, out)
         self.hists_ = hists
         return AppearanceScores(out)
-
-    def _bar_hidden(self, view: FrameView, scores: dict[int, np.ndarray | None]) -> None:
-        """NaN in a hidden track's scores where another track looks more like the detection."""
-        scored = [t for t in view.tracks if scores[t.id] is not None]
-        hide = int(self.hidden_after_misses)  # type: ignore[arg-type]
-        hidden = [k for k, t in enumerate(scored) if t.misses > hide]
-        if not hidden or len(scored) < 2:
-            return
-        A = np.array([scores[t.id] for t in scored])  # (T, K)
-        best = A.max(axis=0)
-        for k in hidden:
-            scores[scored[k].id] = np.where(A[k] < best, np.nan, A[k])
 
     def observe(self, view: FrameView) -> None:
         hists = self.__dict__.get("hists_")
@@ -432,16 +404,12 @@ class OutputBoxReporter(Reporter):
         "box + w * detection's box (0: the estimate's box alone). Only the output box; the "
         "state and what the next frame predicts are the filter's own. A projected estimate's "
         "box carries the model's errors (the assumed height and width ratio, the camera's "
-        "tilt); the detector's box follows the person's own outline.", unit="1")
+        "tilt); the detector's box follows the person's own outline.", unit="1", low=0.0,
+        high=1.0)
     box_min_iou: float = Param(
         0.3, "box_from_detection moves a box only towards a detection that overlaps it by at "
         "least this intersection over union: a detection the associator matched from further "
-        "away (it gates by distance) may be someone else's.", unit="1")
-
-    def setup(self, context: RunContext) -> None:
-        """Validate the parameters (``__init__`` only stores them)."""
-        _fraction(self.box_from_detection, "tracks.box_from_detection")
-        _fraction(self.box_min_iou, "tracks.box_min_iou")
+        "away (it gates by distance) may be someone else's.", unit="1", low=0.0, high=1.0)
 
     def report(self, view: FrameView) -> list[OutputBox | Hide]:
         out: list[OutputBox | Hide] = []
@@ -471,14 +439,11 @@ class DetectionBirthTracks(LifecycleTracks):
     """Every unmatched detection scoring at least ``min_score`` starts a target (in detection
     order), output from its first frame on: the stage ``unmatched-births`` alone.
 
-    Parameters
-    ----------
-    min_score : float
-        Least detector score c(det) of a detection that starts a target. Unit: detector score.
+    {params}
     """
 
-    def __init__(self, min_score: float = 0.5) -> None:
-        self.min_score = min_score
+    min_score: float = Param(0.5, "Least detector score of a detection that starts a "
+                             "target.", unit="1", low=0.0)
 
     def build_stages(self) -> list[LifecycleStage]:
         return [UnmatchedBirthInitiator(min_score=self.min_score)]
@@ -491,89 +456,48 @@ class ConfirmedTracks(LifecycleTracks):
     ``duplicate-merge`` and ``detection-births``, built from the parameters below (see the
     stages for what each does).
 
-    Parameters
-    ----------
-    min_score : float
-        Least detector score c(det) of a detection that may start a target. Unit: detector score.
-    max_iou : float
-        A detection overlapping a live target's box by more than this starts nothing. Unit: 1.
-    confirm_hits : int
-        A tentative target is confirmed after ``confirm_hits`` matched detections within its
-        first ``confirm_window`` frames (birth frame included), else dropped. Unit: count.
-    confirm_window : int
-        The frames, from its birth frame on, in which a tentative target must reach
-        ``confirm_hits`` matched detections. Unit: frames.
-    merge_iou : float
-        Confirmed targets overlapping by more than this: the younger is removed (1 or more: no
-        merging by overlap). Unit: 1.
-    merge_distance_m : float, optional
-        With a ground-plane observation model: confirmed targets whose ground positions are
-        closer than this (metres) are one object tracked twice and the younger is removed;
-        ``merge_iou`` is then not used. Unit: m.
-    hide_after_misses : int, optional
-        A live target is not output in frames where it has gone more than this many frames
-        without a matched detection (it keeps being tracked and reappears when matched again).
-        Unit: frames.
-    end_at_border : bool
-        A confirmed target that has missed its detection ends at once when its box, or the box
-        it would have walking on at its last matched velocity, is not wholly inside the image
-        (the stage ``border-exit``). False: only the engine's ``max_misses`` and out-of-view
-        tests end a target.
-    hidden_reid : bool
-        With ``appearance`` and ``hide_after_misses``: a hidden target (more than
-        ``hide_after_misses`` misses) may take a detection only if the detection looks more like
-        it than like any other target with a colour model.
-    box_from_detection : float
-        Weight ``w`` (0-1) of a target's matched detection in its output box: ``(1 - w) *
-        estimate's box + w * detection's box``. Unit: 1.
-    box_min_iou : float
-        ``box_from_detection`` moves a box only towards a detection that overlaps it by at
-        least this intersection over union. Unit: 1.
-    appearance : dict, optional
-        ``{bins, sigma, update_rate, region}``: keep a colour model per target (the stage
-        ``colour-reid`` with these parameters).
+    {params}
 
     Births happen only where the engine's ``valid_region`` (if any) holds.
     """
 
-    def __init__(self, min_score: float = 0.2, max_iou: float = 0.3, confirm_hits: int = 3,
-                 confirm_window: int = 5, merge_iou: float = 0.6,
-                 merge_distance_m: float | None = None, hide_after_misses: int | None = None,
-                 end_at_border: bool = False, hidden_reid: bool = False,
-                 appearance: dict[str, Any] | None = None,
-                 box_from_detection: float = 0.0, box_min_iou: float = 0.3) -> None:
-        self.min_score = min_score
-        self.max_iou = max_iou
-        self.confirm_hits = confirm_hits
-        self.confirm_window = confirm_window
-        self.merge_iou = merge_iou
-        self.merge_distance_m = merge_distance_m
-        self.hide_after_misses = hide_after_misses
-        self.end_at_border = end_at_border
-        self.hidden_reid = hidden_reid
-        self.appearance = appearance
-        self.box_from_detection = box_from_detection
-        self.box_min_iou = box_min_iou
+    min_score: float = Param(0.2, "Least detector score of a detection that may start a "
+                             "target.", unit="1", low=0.0)
+    max_iou: float = Param(0.3, "A detection overlapping a live target's box by more than "
+                           "this starts nothing.", unit="1", low=0.0, high=1.0)
+    confirm_hits: int = Param(3, "Matched detections within confirm_window that confirm a "
+                              "tentative target.", unit="count", low=1)
+    confirm_window: int = Param(5, "Frames from its birth in which a tentative target must "
+                                "reach confirm_hits.", unit="frames", low=1)
+    merge_iou: float = Param(0.6, "Confirmed targets overlapping by more than this: the "
+                             "younger is removed (1 or more: never).", unit="1", low=0.0)
+    merge_distance_m: float | None = Param(None, "With a ground-plane observation: targets "
+                                           "closer than this on the ground are one; "
+                                           "merge_iou is then not used.", unit="m", low=0.0,
+                                           low_open=True)
+    hide_after_misses: int | None = Param(None, "Frames without a detection after which a "
+                                          "live target is not output.", unit="frames", low=0)
+    end_at_border: bool = Param(False, "End a target that missed its detection when its box "
+                                "leaves the image (stage border-exit).")
+    appearance: dict | None = Param(None, "{bins, sigma, update_rate, region}: a colour model "
+                                    "per target (stage colour-reid).")
+    box_from_detection: float = Param(0.0, "Weight of the matched detection in the output "
+                                      "box.", unit="1", low=0.0, high=1.0)
+    box_min_iou: float = Param(0.3, "box_from_detection moves a box only towards a detection "
+                               "overlapping it by at least this.", unit="1", low=0.0,
+                               high=1.0)
 
-    def _check(self) -> None:
-        if self.hidden_reid and (self.appearance is None or self.hide_after_misses is None):
-            raise ValueError("tracks.hidden_reid needs tracks.appearance and "
-                             "tracks.hide_after_misses")
+    def _check_relations(self) -> None:
         if self.appearance is not None:
             bad = set(self.appearance) - APPEARANCE_KEYS
             if bad:
                 raise ValueError(f"tracks.appearance: unknown options {sorted(bad)}; known: "
                                  f"{sorted(APPEARANCE_KEYS)}")
-        _fraction(self.box_from_detection, "tracks.box_from_detection")
-        _fraction(self.box_min_iou, "tracks.box_min_iou")
 
     def build_stages(self) -> list[LifecycleStage]:
-        self._check()
         stages: list[LifecycleStage] = []
         if self.appearance is not None:
-            stages.append(ColourReidentifier(
-                **self.appearance,
-                hidden_after_misses=self.hide_after_misses if self.hidden_reid else None))
+            stages.append(ColourReidentifier(**self.appearance))
         if self.hide_after_misses is not None or self.box_from_detection != 0.0:
             stages.append(OutputBoxReporter(hide_after_misses=self.hide_after_misses,
                                             box_from_detection=self.box_from_detection,

@@ -28,8 +28,7 @@ appearance similarity the caller puts in ``target.appearance_scores`` (one value
 detection; the pipeline's session uses ``exp(-d^2 / (2 sigma^2))`` of the per-channel colour
 EMD between the track's and the detection's histograms). Targets without it get ``a = 0``. A
 NaN in ``appearance_scores`` bars that pair (score 0, never matched), whatever
-``appearance_weight``: the track management's re-identification of hidden targets
-(``tracks.hidden_reid``).
+``appearance_weight``: a lifecycle stage that rules a pair out says so this way.
 """
 
 from __future__ import annotations

@@ -185,8 +185,6 @@ HAND_WRITTEN = {
     "pftrack.lifecycle.StagedTracks": "module not yet converted (stages: a list of specs)",
     "pftrack.observation_world.CameraBoxObservation": "module not yet converted",
     "pftrack.observation_world.CameraVolumeObservation": "module not yet converted",
-    "pftrack_basic.tracks.DetectionBirthTracks": "module not yet converted",
-    "pftrack_basic.tracks.ConfirmedTracks": "module not yet converted",
     "pftrack_basic.tracks.BorderTerminator":
         "an __init__ without parameters; module not yet converted",
 }

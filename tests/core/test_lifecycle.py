@@ -34,11 +34,11 @@ from pftrack_basic.tracks import ConfirmedTracks, DetectionBirthTracks
 #: every option of ``confirmed`` that acts on this small scene (merging, output boxes,
 #: confirmation, the birth overlap test), and the colour model and border test beside them
 CONFIRMED = dict(min_score=0.0, max_iou=0.2, confirm_hits=2, confirm_window=3, merge_iou=0.3,
-                 hide_after_misses=1, end_at_border=True, hidden_reid=True,
+                 hide_after_misses=1, end_at_border=True,
                  appearance={"bins": 8, "sigma": 0.2}, box_from_detection=0.5, box_min_iou=0.1)
 #: the same as an explicit list of stages
 STAGES = [
-    {"type": "colour-reid", "params": {"bins": 8, "sigma": 0.2, "hidden_after_misses": 1}},
+    {"type": "colour-reid", "params": {"bins": 8, "sigma": 0.2}},
     {"type": "output-boxes", "params": {"hide_after_misses": 1, "box_from_detection": 0.5,
                                         "box_min_iou": 0.1}},
     {"type": "hit-confirmation", "params": {"confirm_hits": 2, "confirm_window": 3}},

@@ -108,42 +108,20 @@ def test_end_at_border_keeps_a_matched_target_at_the_border():
     assert ids[-1] == ids[2] and len(ids[-1]) == 1
 
 
-# -- hidden_reid: a hidden target is re-identified by colour -------------------------------------
+# -- a NaN appearance score bars a pair ------------------------------------------------------
 
 
 def _reid_engine(seed: int = 0):
     sc = synthetic_scene(seed=seed, n_frames=8)
     dets = {i: Detections(b, np.full(len(b), 0.9)) for i, b in sc.boxes_by_frame.items()}
-    cfg = _cfg(hidden_reid=True, appearance={"bins": 8, "sigma": 0.1}, confirm_hits=1,
-               confirm_window=1)
+    cfg = _cfg(appearance={"bins": 8, "sigma": 0.1}, confirm_hits=1, confirm_window=1)
     engine = build_engine(cfg, fps=25.0, seed=seed)
     for f in sc.frames[:5]:
         engine.step(f, dets[f.index])
     return sc, dets, engine
 
 
-def test_hidden_reid_bars_a_hidden_target_from_other_objects_detections():
-    sc, dets, engine = _reid_engine()
-    targets = sorted(engine.targets, key=lambda t: t.id)
-    assert len(targets) == 3
-    own = [int(np.argmin(np.abs(dets[6].boxes_xywh_px[:, :2] - t.box_xywh_px[:2]).sum(axis=1)))
-           for t in targets]
-    assert sorted(own) == [0, 1, 2]
-    hidden = targets[0]
-    hidden.misses = 3  # hide_after_misses = 2: hidden
-    engine.tracks.before_frame(engine, sc.frames[5], dets[6])
-    a = hidden.appearance_scores
-    # its own object's detection stays open, the two others' (each looks more like its own
-    # target) are barred; the visible targets' scores are untouched (all finite)
-    assert np.isfinite(a[own[0]]) and np.isnan(a[own[1]]) and np.isnan(a[own[2]])
-    assert all(np.all(np.isfinite(t.appearance_scores)) for t in targets[1:])
-    # not hidden: nothing barred
-    hidden.misses = 2
-    engine.tracks.before_frame(engine, sc.frames[5], dets[6])
-    assert np.all(np.isfinite(hidden.appearance_scores))
-
-
-def test_barred_pairs_score_zero_and_hidden_reid_needs_its_options():
+def test_barred_pairs_score_zero():
     from pftrack_world.association import score_matrix
     sc, dets, engine = _reid_engine()
     t = sorted(engine.targets, key=lambda t: t.id)[0]
@@ -152,6 +130,3 @@ def test_barred_pairs_score_zero_and_hidden_reid_needs_its_options():
     assert S[0, 0] == 0.0 and np.all(S[1:, 0] > 0)
     t.appearance_scores = np.array([1.0, 1.0, 1.0])
     assert score_matrix([t], dets[6], max_distance=None)[0, 0] > 0.5
-    cfg = _cfg(hidden_reid=True)
-    with pytest.raises(ValueError, match="hidden_reid needs tracks.appearance"):
-        build_engine(cfg, fps=25.0, seed=0).step(sc.frames[0], dets[1])
