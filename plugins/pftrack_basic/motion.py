@@ -420,11 +420,12 @@ class ConstantAccelerationMotion(MotionModel):
         return self.acceleration_time is not None or self.velocity_time is not None
 
     def transition_matrix(self, dt: float) -> np.ndarray:
-        """C of eq. 2 for a step ``dt``, shape (6, 6); with ``velocity_time`` (``T_v``) or
-        ``acceleration_time`` (``T_a``) the velocity row is scaled by ``exp(-dt / T_v)`` and
-        the acceleration's by ``exp(-dt / T_a)``::
+        """C of eq. 2 for a step ``dt``, shape (6, 6).
 
-            p' = p + dt v + dt^2/2 a,   v' = r_v (v + dt a),   a' = r_a a
+        With ``velocity_time`` ``T_v`` or ``acceleration_time`` ``T_a``, the factors
+        ``r_v = exp(-dt / T_v)`` and ``r_a = exp(-dt / T_a)`` scale the velocity's and the
+        acceleration's rows: ``p' = p + dt v + dt^2/2 a``, ``v' = r_v (v + dt a)``,
+        ``a' = r_a a``.
         """
         c = np.eye(6)
         c[0, 2] = c[1, 3] = c[2, 4] = c[3, 5] = dt
