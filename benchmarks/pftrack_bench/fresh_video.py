@@ -1,10 +1,10 @@
 """Someone else's video: PETS 2009 S2.L1 tracked with nothing learnt from its labels or camera.
 
 ``pftrack bench fresh-video --json`` does what ``pftrack track VIDEO`` does for a new user
-(:mod:`pftrack.fresh`), on PETS 2009 S2.L1, and scores it:
+(:mod:`pftrack.workflows.track`), on PETS 2009 S2.L1, and scores it:
 
 * the built-in ``hog-people`` detector (OpenCV's INRIA people model, no training), run once;
-* a camera estimated from those detections alone (:func:`pftrack.fresh.estimate_camera`:
+* a camera estimated from those detections alone (:func:`pftrack.workflows.track.estimate_camera`:
   :func:`pftrack.geometry.people.estimate_camera_from_people` on every 2nd of the first 600
   frames' confident detections, mean person height 1.7 m, their top and bottom rows and the
   focal length and the lens's radial distortion from their silhouettes' lean in the moving
@@ -168,7 +168,7 @@ def norfair_tracks(detections: dict, frames: range, min_score: float, *,
 def run(args: argparse.Namespace) -> dict[str, Any]:
     import warnings
 
-    from pftrack.pipeline import GroundTruthFrameWarning
+    from pftrack.workflows.pipeline import GroundTruthFrameWarning
 
     with warnings.catch_warnings():
         # the ground truth is carried into the estimated camera's frame by run_pipeline; the
@@ -179,22 +179,22 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
 def _run(args: argparse.Namespace) -> dict[str, Any]:
     import cv2
-    from pftrack.data import pets09_files
-    from pftrack.fresh import (
+    from pftrack.geometry.formats import load_camera
+    from pftrack.geometry.people import compare_with_reference
+    from pftrack.io.data import pets09_files
+    from pftrack.io.frames import parse_frames
+    from pftrack.workflows.pipeline import (
+        evaluate_tracks,
+        load_config,
+        read_ground_truth,
+        run_pipeline,
+    )
+    from pftrack.workflows.track import (
         choose_detector,
         detect_video,
         estimate_camera,
         with_detector,
         with_ground_points,
-    )
-    from pftrack.geometry.formats import load_camera
-    from pftrack.geometry.people import compare_with_reference
-    from pftrack.pipeline import (
-        evaluate_tracks,
-        load_config,
-        parse_frames,
-        read_ground_truth,
-        run_pipeline,
     )
 
     frames = checked_frames("fresh-video", PROTOCOL, args)

@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pytest
-from pftrack.data import data_path
 from pftrack.geometry.formats import load_camera
 from pftrack.geometry.people import (
     PRIOR_HFOV_DEG,
@@ -18,6 +17,7 @@ from pftrack.geometry.people import (
     predicted_box_heights,
     rigid_align_2d,
 )
+from pftrack.io.data import data_path
 
 SIZE = (768, 576)
 
@@ -425,7 +425,7 @@ def test_cli_people_hog_detections_on_pets(capsys, tmp_path):
 
 def test_detect_people_uses_a_registered_hog_people_detector(tmp_path):
     from pftrack import hookimpl
-    from pftrack.components import Detections, Detector
+    from pftrack.contracts.components import Detections, Detector
     from pftrack.geometry.people import detect_people
     from pftrack.host import Host
     from pftrack.scenes.video import write_test_clip
@@ -609,8 +609,8 @@ def test_pftrack_track_camera_on_pets_frames_1_200_is_within_half_a_metre():
     # Measured: f 1202 px, 0.10-0.16 m, horizon 1-2 px (every frame); see
     # docs/decisions/camera-from-people.md
     import cv2
-    from pftrack.fresh import detect_video, estimate_camera
-    from pftrack.pipeline import load_config
+    from pftrack.workflows.pipeline import load_config
+    from pftrack.workflows.track import detect_video, estimate_camera
 
     video = data_path("pets09", "vtest.avi")
     threads = cv2.getNumThreads()

@@ -294,7 +294,7 @@ def _people(args: argparse.Namespace) -> int:
     import numpy as np
 
     from pftrack.geometry import people as pp
-    from pftrack.pipeline import parse_frames
+    from pftrack.io.frames import parse_frames
 
     first, last = parse_frames(args.frames)
     if args.video:

@@ -999,7 +999,7 @@ def detect_people(video: Any, first: int = 1, last: int | None = None, stride: i
     """
     import cv2
 
-    from pftrack.pipeline import iter_frames
+    from pftrack.workflows.pipeline import iter_frames
 
     if stride < 1:
         raise ValueError(f"detect_people: stride must be >= 1, got {stride}")
@@ -1012,7 +1012,7 @@ def detect_people(video: Any, first: int = 1, last: int | None = None, stride: i
 
         host = get_host()
     if "hog-people" in host.names("detector"):
-        from pftrack.components import RunContext
+        from pftrack.contracts.components import RunContext
 
         det = host.build("detector", "hog-people")
         det.setup(RunContext(host=host))
@@ -1095,7 +1095,7 @@ def measure_slants(video: Any, boxes_xywh: Any, frames: Any, *, warmup: int = 20
     """
     import cv2
 
-    from pftrack.pipeline import iter_frames
+    from pftrack.workflows.pipeline import iter_frames
 
     b = np.asarray(boxes_xywh, dtype=np.float64).reshape(-1, np.shape(boxes_xywh)[-1])[:, :4]
     fr = np.asarray(frames, dtype=np.int64).reshape(-1)
@@ -1217,7 +1217,7 @@ def measure_silhouettes(video: Any, boxes_xywh: Any, frames: Any, *, warmup: int
     """
     import cv2
 
-    from pftrack.pipeline import iter_frames
+    from pftrack.workflows.pipeline import iter_frames
 
     b = np.asarray(boxes_xywh, dtype=np.float64).reshape(-1, np.shape(boxes_xywh)[-1])[:, :4]
     fr = np.asarray(frames, dtype=np.int64).reshape(-1)

@@ -1,5 +1,5 @@
 """Detections from elsewhere: MOTChallenge ``det.txt`` files -> per-frame
-:class:`~pftrack.components.Detections`.
+:class:`~pftrack.contracts.components.Detections`.
 
 A ``det.txt`` has one detection per line, ``frame,id,left,top,width,height,conf[,x,y,z]``
 (MOTChallenge: ``id`` is -1, ``conf`` the detector's score; frames numbered from 1 as the
@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pftrack.components import Detections
+from pftrack.contracts.components import Detections
 
 if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera
