@@ -61,10 +61,6 @@ CALL_TIME_UPWARD: dict[tuple[str, str], str] = {
         "RunContext.get_host: a context built without a host uses the process-wide one",
     ("pftrack.geometry.volumes", "pftrack.host"):
         "volume files shipped by plugins (pftrack_register_volumes)",
-    ("pftrack.geometry.people", "pftrack.host"):
-        "calibration from a video builds the configured detector",
-    ("pftrack.geometry.people", "pftrack.workflows.pipeline"):
-        "calibration from a video reads its frames through iter_frames",
 }
 
 

@@ -12,7 +12,7 @@ What ``pftrack track VIDEO --out DIR`` does (:func:`track_video`):
 2. **A camera from the people** (when ``--camera`` is not given):
    :func:`pftrack.geometry.people.estimate_camera_from_people` on the confident detections
    (score >= ``calib_min_score``) assuming a mean person height, with each person's lean
-   (:func:`~pftrack.geometry.people.measure_slants`) for the focal length. It is written to
+   (:func:`~pftrack.workflows.calibrate.measure_slants`) for the focal length. It is written to
    ``DIR/camera.yaml`` (reusable as ``--camera``). When it cannot be estimated (too few people,
    a fit that fails) the run falls back to the image plane (preset ``people-image``) and says so.
    An estimate is also checked before it is used (:func:`camera_trust`, the summary's
@@ -290,7 +290,7 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
 
     Uses the detections scoring at least ``min_score`` (at least ``min_boxes`` of them). With
     ``video`` (the one the detections come from), each person's silhouette is measured in the
-    moving pixels (:func:`pftrack.geometry.people.measure_silhouettes`, one more pass over the
+    moving pixels (:func:`pftrack.workflows.calibrate.measure_silhouettes`, one more pass over the
     frames with a background subtractor): the camera is fitted from the silhouettes' top and
     bottom rows (the detector's box heights are coarse) and the focal length from the people's
     lean (the vertical vanishing point) instead of the prior, with the lens's radial
@@ -305,7 +305,8 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
     Returns ``(PeopleCameraFit, description)`` or ``(None, reason)``; the fit's ``trust`` is
     :func:`camera_trust`'s verdict on the same boxes (whether to track on its ground plane).
     """
-    from pftrack.geometry.people import estimate_camera_from_people, estimate_camera_from_video
+    from pftrack.geometry.people import estimate_camera_from_people
+    from pftrack.workflows.calibrate import estimate_camera_from_video
 
     boxes, frames = [], []
     use = sorted(detections)
