@@ -36,7 +36,7 @@ def read_detections(path: str | os.PathLike[str], camera: Camera | None = None,
         back-projected to z = 0 (``points_world_m``), as the built-in detectors do; NaN for a
         foot point on or above the camera's horizon (no ground under it: such a detection
         starts no track, see
-        :meth:`~pftrack.observation_world.CameraBoxObservation.position_from_box`).
+        :meth:`~pftrack.builtin.world_observation.CameraBoxObservation.position_from_box`).
     min_score : float, optional
         Rows whose ``conf`` is below this are dropped.
 
