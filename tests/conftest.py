@@ -10,7 +10,7 @@ from typing import Any
 import cv2
 import numpy as np
 import pytest
-from pftrack.components import MotionModel
+from pftrack.contracts.components import MotionModel
 
 pytest_plugins = ["pytester"]  # the conformance kit's parametrize helper is run in a sandbox
 

@@ -596,7 +596,7 @@ def _thermal(args: argparse.Namespace, root: Path, methods: list[str], bs: int,
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
     import cv2
-    from pftrack.data import data_dir
+    from pftrack.io.data import data_dir
 
     # a Namespace built by hand (a notebook, a script) gets the command's defaults for the
     # options it leaves out

@@ -12,7 +12,7 @@ numbering) to a jobs file and runs them, in each round:
 * ``speedup``: ``serial_s / parallel_s``: what a user gains by giving the command two workers;
   both sides pay the same start-up costs once per process they start;
 * ``in_process_serial_s``, ``in_process_parallel_s``, ``in_process_speedup``: the figures as
-  in-process variant: :func:`pftrack.batch.run_batch` called in this process, serially
+  in-process variant: :func:`pftrack.workflows.batch.run_batch` called in this process, serially
   after one untimed 5-frame job (so imports and compilation are *not* counted on the serial
   side), and on a ``LocalCluster`` started for the batch (where the workers' imports and
   compilation *are* counted). The asymmetry holds this speed-up 1-3 % below the command's;
@@ -112,7 +112,7 @@ def _round(jobs: list[Any], jobs_file: Path, tmp: Any, args: argparse.Namespace,
            ) -> dict[str, Any]:
     """The two commands (serial, then parallel), then the in-process serial run and one cold and
     one warm run on a fresh local cluster."""
-    from pftrack.batch import local_cluster, require_dask, run_batch
+    from pftrack.workflows.batch import local_cluster, require_dask, run_batch
 
     distributed = require_dask()
     n = len(jobs)
@@ -159,9 +159,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     import tempfile
 
     import yaml
-    from pftrack.batch import cpu_count, parse_jobs, require_dask, run_batch
-    from pftrack.data import pets09_files
-    from pftrack.pipeline import load_config, train_detector
+    from pftrack.io.data import pets09_files
+    from pftrack.workflows.batch import cpu_count, parse_jobs, require_dask, run_batch
+    from pftrack.workflows.pipeline import load_config, train_detector
 
     if args.jobs < 1 or args.frames_per_job < 1 or args.workers < 2 or args.repeats < 1:
         raise ValueError("--jobs, --frames-per-job and --repeats must be >= 1, --workers >= 2")

@@ -106,7 +106,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "'none' skips it")
     parser.add_argument("--workers", type=int, default=1,
                         help="Table 3's cells on a local Dask cluster of this many worker "
-                             "processes (pftrack.batch.local_cluster; default 1: in this "
+                             "processes (pftrack.workflows.batch.local_cluster; default 1: in this "
                              "process, no Dask)")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
                         help="Table 3's cells on the Dask scheduler at ADDRESS instead")
@@ -249,7 +249,7 @@ def _table3(grid: list[tuple[int, int]], args: argparse.Namespace, epc: float,
             say(f"camera-network: table3 C_d={cd} S={s} ARI {out[-1]['ari_mean']:.3f} "
                 f"({out[-1]['seconds']:.1f} s)")
         return out
-    from pftrack.batch import local_cluster, require_dask
+    from pftrack.workflows.batch import local_cluster, require_dask
 
     distributed = require_dask()
     cluster = None if scheduler is not None else local_cluster(workers)

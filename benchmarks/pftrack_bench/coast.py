@@ -122,8 +122,8 @@ def track_frames(cfg: dict[str, Any], frames: list[Any], camera: Camera, seed: i
     """Run the configuration over ``frames``: MOT rows, the track manager, timings
     (``fit_frames``: images the likelihood's ``fit`` is shown first, untimed; ``snapshot``:
     ``(frame, f(engine, frame))`` called after that frame, its time not counted)."""
-    from pftrack.pipeline import build_engine
-    from pftrack.runner import FrameStep, run_frames
+    from pftrack.engine.runner import FrameStep, run_frames
+    from pftrack.workflows.pipeline import build_engine
 
     engine = build_engine(cfg, camera=camera, fps=7.0, seed=seed, detector_model=model)
     if fit_frames is not None:
@@ -284,13 +284,13 @@ def score_pets(gt: np.ndarray, run: dict[str, Any], volume: Any) -> dict[str, An
 def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
     import tempfile
 
-    from pftrack.data import pets09_files
     from pftrack.geometry.formats import load_camera
     from pftrack.geometry.volumes import resolve_volume
-    from pftrack.pipeline import (
+    from pftrack.io.data import pets09_files
+    from pftrack.io.frames import parse_frames
+    from pftrack.workflows.pipeline import (
         iter_frames,
         load_config,
-        parse_frames,
         read_ground_truth,
         train_detector,
     )
@@ -438,7 +438,7 @@ def _coast(args: argparse.Namespace, say: Any) -> dict[str, Any]:
     import warnings
 
     from pftrack.metrics import evaluate
-    from pftrack.pipeline import load_config
+    from pftrack.workflows.pipeline import load_config
     from pftrack_coast.eigenspace import BlockEigenspaceModel
     from pftrack_coast.scene import CoastScene
 
@@ -505,7 +505,7 @@ def _coast(args: argparse.Namespace, say: Any) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
-    from pftrack.data import data_dir
+    from pftrack.io.data import data_dir
 
     if int(args.speed_runs) < 1:
         raise ValueError(f"pftrack bench coast: --speed-runs must be >= 1, got "

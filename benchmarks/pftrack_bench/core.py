@@ -4,8 +4,8 @@ For each particle count N the benchmark times, on one target:
 
 * ``step_s``: pftrack's step as the tracker runs it: 6-D constant-acceleration predict
   (:class:`pftrack_basic.motion.ConstantAccelerationMotion`), states -> image boxes
-  (:class:`pftrack.tracker.ImageBoxObservation`), Gaussian log-likelihood of the box centre
-  (:class:`pftrack_basic.gaussian.GaussianLikelihood`), weight normalisation, weighted-mean
+  (:class:`pftrack.builtin.image_box.ImageBoxObservation`), Gaussian log-likelihood of the box
+  centre (:class:`pftrack_basic.gaussian.GaussianLikelihood`), weight normalisation, weighted-mean
   estimate, systematic resampling and the gather ``particles.take(idx, axis=0)`` (as the
   tracker gathers; the same rows as ``particles[idx]``, in about half the time);
 * ``stonesoup_step_s``: the same step with Stone Soup's ``ParticlePredictor`` (a
@@ -99,9 +99,9 @@ def _median_time(fn: Callable[[], Any], repeats: int, setup: Callable[[], Any] |
 
 def _pftrack_step(n: int, seed: int) -> tuple[Callable[[Any], Any], Callable[[], Any],
                                                Callable[[], np.ndarray]]:
-    from pftrack.components import Target
+    from pftrack.builtin.image_box import ImageBoxObservation
+    from pftrack.contracts.components import Target
     from pftrack.filter import normalize_log_weights, systematic_resample, weighted_mean
-    from pftrack.tracker import ImageBoxObservation
     from pftrack_basic.gaussian import GaussianLikelihood
     from pftrack_basic.motion import ConstantAccelerationMotion
 

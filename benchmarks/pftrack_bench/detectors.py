@@ -231,7 +231,7 @@ def fit_logistic(z: np.ndarray, y: np.ndarray) -> tuple[float, float]:
 
 
 def _videos(data: str | None) -> dict[str, tuple[Path, Path]]:
-    from pftrack.data import data_dir, pets09_files
+    from pftrack.io.data import data_dir, pets09_files
 
     video, gt, _ = pets09_files(data)
     root = Path(data) if data is not None else data_dir()
@@ -264,8 +264,8 @@ def _make(spec: str, low: bool) -> Any:
     """A fresh detector from ``spec`` (:func:`parse_spec`; unnamed parameters at their
     defaults; ``low``: reporting down to :data:`LOW_SCORE`, for thresholds applied
     afterwards)."""
-    from pftrack.components import RunContext
-    from pftrack.pipeline import build_detector
+    from pftrack.contracts.components import RunContext
+    from pftrack.workflows.pipeline import build_detector
 
     name, params = parse_spec(spec)
     det = build_detector({"detector": {"type": name, "params": params}})
@@ -285,7 +285,7 @@ def _read_mot(path: Path) -> np.ndarray:
 def run_detectors(names: list[str], videos: dict[str, tuple[Path, Path]], every: int,
                   quiet: bool) -> dict[str, dict[str, dict[int, tuple[np.ndarray, np.ndarray]]]]:
     """{detector: {video: {frame: (boxes, scores)}}} on every ``every``-th frame (from 1)."""
-    from pftrack.pipeline import iter_frames
+    from pftrack.workflows.pipeline import iter_frames
 
     out: dict[str, dict[str, dict[int, tuple[np.ndarray, np.ndarray]]]] = {n: {} for n in names}
     for vname, (video, _) in videos.items():
@@ -311,8 +311,8 @@ def time_detectors(names: list[str], videos: dict[str, tuple[Path, Path]], n_fra
     """CPU ms per frame of each detector at each of :data:`SPEED_SIZES`, and ratios to the
     first detector."""
     import cv2
-    from pftrack.components import Frame
-    from pftrack.pipeline import iter_frames
+    from pftrack.contracts.components import Frame
+    from pftrack.workflows.pipeline import iter_frames
 
     rows = []
     for W, H in SPEED_SIZES:

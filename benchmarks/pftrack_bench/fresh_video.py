@@ -1,14 +1,14 @@
 """Someone else's video: PETS 2009 S2.L1 tracked with nothing learnt from its labels or camera.
 
 ``pftrack bench fresh-video --json`` does what ``pftrack track VIDEO`` does for a new user
-(:mod:`pftrack.fresh`), on PETS 2009 S2.L1, and scores it:
+(:mod:`pftrack.workflows.track`), on PETS 2009 S2.L1, and scores it:
 
 * the built-in ``hog-people`` detector (OpenCV's INRIA people model, no training), run once;
-* a camera estimated from those detections alone (:func:`pftrack.fresh.estimate_camera`:
+* a camera estimated from those detections alone (:func:`pftrack.workflows.track.estimate_camera`:
   :func:`pftrack.geometry.people.estimate_camera_from_people` on every 2nd of the first 600
   frames' confident detections, mean person height 1.7 m, their top and bottom rows and the
   focal length and the lens's radial distortion from their silhouettes' lean in the moving
-  pixels, :func:`~pftrack.geometry.people.measure_silhouettes`);
+  pixels, :func:`~pftrack.workflows.calibrate.measure_silhouettes`);
 * the ``people-ground`` preset on the same detections, their ground points through that camera;
 * the same detections (score >= the detector's threshold) tracked by a peer a user would pick:
   norfair (``norfair-enough``, the ``bench`` extra) with IoU distance, its constant-velocity
@@ -26,7 +26,7 @@ Figures (test frames, default 201-795; ground-truth numbering):
   (the real Tsai camera ``View_001.xml``'s world), after the best 2-D rigid alignment (the
   estimated camera's world frame is arbitrary up to one; no scale fitted): the median distance;
   ``horizon_error_px``: the horizon rows at the centre column of the estimated and the real
-  camera (:func:`pftrack.geometry.people.compare_with_reference`). The real camera is used for
+  camera (:func:`pftrack.geometry.alignment.compare_with_reference`). The real camera is used for
   these two figures only;
 * ``seeds``: the tracking alone (same detections, same camera) run with ``--seeds`` seeds from
   ``--seed``: each seed's MOTA, IDF1, HOTA and their mean. One seed's IDF1 moves by up to 0.04
@@ -168,7 +168,7 @@ def norfair_tracks(detections: dict, frames: range, min_score: float, *,
 def run(args: argparse.Namespace) -> dict[str, Any]:
     import warnings
 
-    from pftrack.pipeline import GroundTruthFrameWarning
+    from pftrack.workflows.pipeline import GroundTruthFrameWarning
 
     with warnings.catch_warnings():
         # the ground truth is carried into the estimated camera's frame by run_pipeline; the
@@ -179,22 +179,22 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
 def _run(args: argparse.Namespace) -> dict[str, Any]:
     import cv2
-    from pftrack.data import pets09_files
-    from pftrack.fresh import (
+    from pftrack.geometry.alignment import compare_with_reference
+    from pftrack.geometry.formats import load_camera
+    from pftrack.io.data import pets09_files
+    from pftrack.io.frames import parse_frames
+    from pftrack.workflows.pipeline import (
+        evaluate_tracks,
+        load_config,
+        read_ground_truth,
+        run_pipeline,
+    )
+    from pftrack.workflows.track import (
         choose_detector,
         detect_video,
         estimate_camera,
         with_detector,
         with_ground_points,
-    )
-    from pftrack.geometry.formats import load_camera
-    from pftrack.geometry.people import compare_with_reference
-    from pftrack.pipeline import (
-        evaluate_tracks,
-        load_config,
-        parse_frames,
-        read_ground_truth,
-        run_pipeline,
     )
 
     frames = checked_frames("fresh-video", PROTOCOL, args)

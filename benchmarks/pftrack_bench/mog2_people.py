@@ -44,10 +44,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
     import cv2
-    from pftrack.components import Detections
-    from pftrack.data import pets09_files
+    from pftrack.contracts.components import Detections
     from pftrack.geometry.formats import load_camera
-    from pftrack.pipeline import iter_frames, parse_frames, read_ground_truth
+    from pftrack.io.data import pets09_files
+    from pftrack.io.frames import parse_frames
+    from pftrack.workflows.pipeline import iter_frames, read_ground_truth
     from pftrack_basic.background import BackgroundSubtractionDetector, person_boxes
 
     from pftrack_bench.fresh_video import detector_recall_precision

@@ -37,8 +37,9 @@ asked for, and its JSON says which part was reported and which part chose the se
   frame, as it would for a user) and cached on disk.
 
 **Trackers** (:func:`default_trackers`; ``--trackers``): pftrack's presets that take detections,
-``people-image`` through :func:`pftrack.pipeline.run_pipeline` (what ``pftrack run people-image
---detections det.txt`` runs) and ``track`` through :func:`pftrack.fresh.track_video` (what
+``people-image`` through :func:`pftrack.workflows.pipeline.run_pipeline` (what ``pftrack run
+people-image
+--detections det.txt`` runs) and ``track`` through :func:`pftrack.workflows.track.track_video` (what
 ``pftrack track VIDEO --detections det.txt`` runs: a camera estimated from the detections, then
 ground-plane tracking); the peers with their documented defaults: norfair (IoU distance), and
 roboflow ``trackers``' ByteTrack, SORT, OC-SORT and BoT-SORT (camera-motion compensation on, no
@@ -48,14 +49,14 @@ camera, a NaN in its output) gives a failure row with its message, not a crash.
 
 **Figures**: HOTA, IDF1, MOTA, IDSW and Frag per tracker, video and level; for the simulated
 levels the mean and the min-max over seeds. Time per frame: CPU seconds spent in the tracker's
-own update calls (pftrack: its engine steps, :attr:`pftrack.pipeline.RunResult.timing`), with
-the detections given and the video's decoding excluded, and its ratio to ByteTrack's in the same
-run. Each tracker first runs once on the first cell's first :data:`WARM_UP_FRAMES` frames,
+own update calls (pftrack: its engine steps, :attr:`pftrack.workflows.pipeline.RunResult.timing`),
+with the detections given and the video's decoding excluded, and its ratio to ByteTrack's in the
+same run. Each tracker first runs once on the first cell's first :data:`WARM_UP_FRAMES` frames,
 untimed and discarded (imports, compiled kernels).
 
 From Python, e.g. a modified preset against the peers on the tune part::
 
-    from pftrack.pipeline import load_config
+    from pftrack.workflows.pipeline import load_config
     from pftrack_bench import own_detections as bod
 
     cfg = load_config("people-image")
@@ -227,8 +228,8 @@ def protocol() -> dict[str, Any]:
 
 def data_files(name: str, data: str | os.PathLike[str] | None = None) -> tuple[Path, Path]:
     """(video, ground truth) of a benchmark video in ``data`` (default
-    :func:`pftrack.data.data_dir`); FileNotFoundError naming the missing file."""
-    from pftrack.data import data_dir
+    :func:`pftrack.io.data.data_dir`); FileNotFoundError naming the missing file."""
+    from pftrack.io.data import data_dir
 
     spec = video_spec(name)
     root = Path(data) if data is not None else data_dir()
@@ -407,10 +408,10 @@ def hog_detections(video: str | os.PathLike[str], frames: str | tuple[int, int |
         ``frame, -1, left, top, width, height, score``.
     """
     import cv2
-    from pftrack.fresh import detect_video
     from pftrack.io.atomic import atomic_write_text
     from pftrack.io.detections import write_detections
     from pftrack.io.mot import read_mot
+    from pftrack.workflows.track import detect_video
 
     video = Path(video)
     if not video.is_file():
@@ -442,7 +443,8 @@ def hog_timing(video: str | os.PathLike[str], frames: Any = None,
 def _hog_cache(video: Path, frames: Any, cache_dir: str | os.PathLike[str] | None,
                config: str | dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any], Path, Path]:
     """(configuration, cache key, det file, its key-and-timing file) of a hog run."""
-    from pftrack.pipeline import load_config, parse_frames
+    from pftrack.io.frames import parse_frames
+    from pftrack.workflows.pipeline import load_config
 
     cfg = load_config(config)
     if not cfg.get("detector"):
@@ -533,7 +535,7 @@ def _pftrack_run(config: str | os.PathLike[str] | dict[str, Any], inp: TrackInpu
     call, with its engine-step time."""
     import warnings
 
-    from pftrack.pipeline import FrameWarning, run_pipeline
+    from pftrack.workflows.pipeline import FrameWarning, run_pipeline
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", FrameWarning)
@@ -556,7 +558,8 @@ def run_pftrack_config(config: str | os.PathLike[str] | dict[str, Any],
                        video: str | os.PathLike[str], frames: tuple[int, int],
                        det_rows: np.ndarray, seed: int = 0) -> np.ndarray:
     """pftrack with ``config`` (a preset name, a YAML path or a configuration dict, e.g. a
-    preset loaded with :func:`pftrack.pipeline.load_config` and modified) on given detections.
+    preset loaded with :func:`pftrack.workflows.pipeline.load_config` and modified) on given
+    detections.
 
     ``det_rows`` (N, 7) are written to a temporary ``det.txt`` and tracked as ``pftrack run
     CONFIG --video VIDEO --detections det.txt --frames A:B --seed SEED`` does. Returns the MOT
@@ -564,7 +567,7 @@ def run_pftrack_config(config: str | os.PathLike[str] | dict[str, Any],
     """
     import tempfile
 
-    from pftrack.pipeline import video_fps
+    from pftrack.workflows.pipeline import video_fps
 
     first, last = int(frames[0]), int(frames[1])
     with tempfile.TemporaryDirectory() as tmp:
@@ -579,7 +582,7 @@ def run_pftrack_config(config: str | os.PathLike[str] | dict[str, Any],
 def pftrack_config_entry(name: str, config: str | os.PathLike[str] | dict[str, Any]
                          ) -> TrackerEntry:
     """A tracker entry running pftrack with ``config`` (see :func:`run_pftrack_config`)."""
-    from pftrack.pipeline import load_config
+    from pftrack.workflows.pipeline import load_config
 
     cfg = load_config(config)  # checked now, not after the first cell
     src = str(config) if not isinstance(config, dict) else cfg.get("_source", "dict")
@@ -592,8 +595,8 @@ def _pftrack_track(inp: TrackInput) -> TrackResult:
     from the detections, then ``people-ground``); engine-step time only (not the camera fit)."""
     import warnings
 
-    from pftrack.fresh import track_video
-    from pftrack.pipeline import FrameWarning
+    from pftrack.workflows.pipeline import FrameWarning
+    from pftrack.workflows.track import track_video
 
     try:
         with warnings.catch_warnings():
@@ -646,7 +649,7 @@ def _roboflow(cls_name: str, needs_frame: bool = False) -> Callable[[TrackInput]
         first, last = inp.frames
         images: Any = None
         if needs_frame:
-            from pftrack.pipeline import iter_frames
+            from pftrack.workflows.pipeline import iter_frames
 
             images = iter_frames(inp.video, first, last)
         rows: list[np.ndarray] = []
@@ -981,7 +984,7 @@ def run_benchmark(*, videos: Sequence[str] = tuple(VIDEOS),
     """
     import tempfile
 
-    from pftrack.pipeline import video_fps
+    from pftrack.workflows.pipeline import video_fps
 
     say = log or (lambda s: None)
     commit = _git_commit()  # the code that runs: read before, not after, a long run
@@ -1132,7 +1135,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         if not sep or v not in videos:
             raise ValueError(f"own-detections: --frames {item!r}: expected VIDEO=A:B with VIDEO "
                              f"one of {', '.join(videos)}")
-        from pftrack.pipeline import parse_frames
+        from pftrack.io.frames import parse_frames
 
         a, b = parse_frames(rng)
         frames[v] = (a, b if b is not None else part_frames(v, part)[1])

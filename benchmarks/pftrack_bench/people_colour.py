@@ -5,7 +5,7 @@ detections.
 ``pftrack bench people-colour --json`` runs the registered ``hog-people`` detector once over the
 frames (or reads ``--detections det.txt``), then tracks them with each configuration for each
 seed (``--seeds``, default 0,1,2) and scores MOTA, IDF1, HOTA (IoU 0.5,
-:func:`pftrack.pipeline.evaluate_tracks`); each row is the mean over the seeds, with the
+:func:`pftrack.workflows.pipeline.evaluate_tracks`); each row is the mean over the seeds, with the
 per-seed figures under ``runs``. ``--frames`` default 201:795: the presets were tuned on frames
 1-200. Tracking frames per second exclude detection and include decoding.
 """
@@ -63,10 +63,11 @@ def _no_colour(cfg: dict[str, Any]) -> dict[str, Any]:
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
     import cv2
-    from pftrack.data import pets09_files
-    from pftrack.fresh import detect_video
+    from pftrack.io.data import pets09_files
     from pftrack.io.detections import read_detections
-    from pftrack.pipeline import load_config, parse_frames, run_pipeline
+    from pftrack.io.frames import parse_frames
+    from pftrack.workflows.pipeline import load_config, run_pipeline
+    from pftrack.workflows.track import detect_video
 
     frames = checked_frames("people-colour", PROTOCOL, args)
     video, gt, _ = pets09_files(args.data)

@@ -147,8 +147,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     import tempfile
 
     import cv2
-    from pftrack.data import pets09_files
-    from pftrack.pipeline import load_config, run_pipeline, train_detector
+    from pftrack.io.data import pets09_files
+    from pftrack.workflows.pipeline import load_config, run_pipeline, train_detector
 
     test_frames = checked_frames("pets09-ground", PROTOCOL, args)
     if args.train_frames is not None:  # a detector trained on a reported frame is refused too

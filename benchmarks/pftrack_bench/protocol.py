@@ -104,7 +104,7 @@ def part_frames(bench: str, protocol: Protocol, part: str, frames: str | None = 
         outside the part (a report never includes a frame that chose the settings; those are
         run only with ``--part tune``). The message names the benchmark.
     """
-    from pftrack.pipeline import parse_frames
+    from pftrack.io.frames import parse_frames
 
     if part not in PARTS:
         raise ValueError(f"{bench}: --part must be one of {', '.join(PARTS)}, got {part!r}")
@@ -140,7 +140,7 @@ def checked_frames(bench: str, protocol: Protocol, args: argparse.Namespace,
 
 
 def benchmark(module: ModuleType) -> Any:
-    """The :class:`pftrack.extensions.Benchmark` of a module of this package, its result
+    """The :class:`pftrack.contracts.extensions.Benchmark` of a module of this package, its result
     carrying the module's ``PROTOCOL`` (``"protocol"``, and ``"part"`` for a frame split).
 
     Raises
@@ -148,7 +148,7 @@ def benchmark(module: ModuleType) -> Any:
     TypeError
         The module declares no ``PROTOCOL`` of type :class:`Protocol`.
     """
-    from pftrack.extensions import Benchmark
+    from pftrack.contracts.extensions import Benchmark
 
     protocol = getattr(module, "PROTOCOL", None)
     if not isinstance(protocol, Protocol):

@@ -6,9 +6,9 @@ seconds with the ``soccer-ground`` preset (the soccer paper's ground-plane parti
 reports:
 
 * ``MOTA``, ``IDF1``, ``HOTA``, ``median_error_m``, ``p90_error_m``: exactly as
-  ``pets09-ground`` reports them (:func:`pftrack.pipeline.evaluate_tracks`): image boxes matched
-  at IoU 0.5, and the ground-plane distance (metres) of IoU-matched pairs. The players are only
-  ~8-14 px tall, so IoU 0.5 is a pixel-level criterion here;
+  ``pets09-ground`` reports them (:func:`pftrack.workflows.pipeline.evaluate_tracks`): image boxes
+  matched at IoU 0.5, and the ground-plane distance (metres) of IoU-matched pairs. The players are
+  only ~8-14 px tall, so IoU 0.5 is a pixel-level criterion here;
 * ``MOTA_world``, ``IDF1_world``, ``HOTA_world``: the same scores on the ground plane, a match
   within ``--threshold-m`` metres (default 1 m, TrackEval's position-only convention; with this
   camera one pixel of foot height is 0.5-1.8 m of depth, so 1 m is strict at the far side);
@@ -83,7 +83,7 @@ def build_detector_for(cfg: dict[str, Any], camera: str | None) -> Any:
     """The preset's detector (``pitch-blob`` falls back to the soccer module's class when no
     plugin registered that name)."""
     from pftrack.host import UnknownComponentError, get_host
-    from pftrack.pipeline import build_detector
+    from pftrack.workflows.pipeline import build_detector
 
     spec = cfg.get("detector")
     if not spec:
@@ -108,7 +108,7 @@ def _load_preset(spec: str) -> dict[str, Any]:
     plugin registered that name."""
     from importlib import resources
 
-    from pftrack.pipeline import load_config
+    from pftrack.workflows.pipeline import load_config
 
     try:
         return load_config(spec)
@@ -180,9 +180,9 @@ def track_scene(scene: Any, preset: str | dict[str, Any] = "soccer-ground", *, s
     progress : bool
         A progress bar on stderr.
     """
+    from pftrack.engine.runner import FrameStep, run_frames
     from pftrack.geometry.clouds import ParticleCloud
-    from pftrack.pipeline import build_engine
-    from pftrack.runner import FrameStep, run_frames
+    from pftrack.workflows.pipeline import build_engine
 
     if init not in ("gt", "detections"):
         raise ValueError(f"init must be 'gt' or 'detections', got {init!r}")
@@ -259,7 +259,7 @@ def score_run(run: SoccerRun, threshold_m: float = 1.0) -> dict[str, Any]:
     """The bench's figures for a :class:`SoccerRun` (see the module docstring)."""
     import numpy as np
     from pftrack.metrics import evaluate
-    from pftrack.pipeline import evaluate_tracks
+    from pftrack.workflows.pipeline import evaluate_tracks
 
     gt, rows = run.gt, run.rows
     world = evaluate(gt, rows, metric="world", threshold=threshold_m)

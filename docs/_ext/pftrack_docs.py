@@ -5,13 +5,13 @@ A small Sphinx extension (``docs/conf.py`` loads it). On ``builder-inited`` it w
 
 * ``config_keys.md``, ``config_components.md``, ``config_presets.md``: the configuration
   reference in three pages (:func:`split_config_reference`): every key of a run configuration
-  with its type, default, unit and range (from the schema :data:`pftrack.config.CONFIG_SCHEMA`),
-  every parameter of every component the plugin host registers (its signature's default, its
-  ``Parameters`` docstring entry or :class:`pftrack.components.Param` declaration; the unit as
-  the declaration's ``unit=`` or the description's closing ``Unit: X.`` states it, else read
-  off the name's suffix or the description; the range, choices and length the declaration
-  allows), and every preset, key by key with the component's default beside
-  it;
+  with its type, default, unit and range (from the schema
+  :data:`pftrack.host.config.CONFIG_SCHEMA`), every parameter of every component the plugin host
+  registers (its signature's default, its ``Parameters`` docstring entry or
+  :class:`pftrack.contracts.components.Param` declaration; the unit as the declaration's ``unit=``
+  or the description's closing ``Unit: X.`` states it, else read off the name's suffix or the
+  description; the range, choices and length the declaration allows), and every preset, key by key
+  with the component's default beside it;
 * ``cli_reference.md``: every command's ``--help``;
 * ``results.md``: the latest result file of each benchmark in ``results/``
   (``pftrack_results.results_page``);
@@ -192,16 +192,16 @@ def component_params(cls: type) -> list[dict[str, Any]]:
     list of dict
         One per parameter in signature order: ``name``, ``type``, ``default`` (the signature's;
         ``inspect.Parameter.empty`` when required), ``unit`` (the stated one, from a
-        :class:`pftrack.components.Param` declaration's ``unit`` or the description's closing
-        ``Unit: X.``; otherwise :func:`unit_of`; ``""`` for none or for ``"none"``),
+        :class:`pftrack.contracts.components.Param` declaration's ``unit`` or the description's
+        closing ``Unit: X.``; otherwise :func:`unit_of`; ``""`` for none or for ``"none"``),
         ``unit_source`` (``"stated"``, ``"name"`` for a name suffix, ``"text"`` for a unit
         word of the description, ``""``), ``doc`` (the description from the declaration or the
         ``Parameters`` section, without its ``Unit:`` sentence), ``numeric`` (whether the
         type or the default is a number or numbers, booleans excluded) and ``allowed`` (what
-        a :class:`pftrack.components.Param` declaration allows, :func:`param_allowed`; ``""``
-        for a parameter of a hand-written ``__init__``).
+        a :class:`pftrack.contracts.components.Param` declaration allows, :func:`param_allowed`;
+        ``""`` for a parameter of a hand-written ``__init__``).
     """
-    from pftrack.components import _declared
+    from pftrack.contracts.components import _declared
 
     declared = _declared(cls)
     documented = _doc_params(cls)
@@ -235,7 +235,7 @@ def component_params(cls: type) -> list[dict[str, Any]]:
 
 
 def param_allowed(param: Any) -> str:
-    """A :class:`pftrack.components.Param`'s choices, range, length and whether null is
+    """A :class:`pftrack.contracts.components.Param`'s choices, range, length and whether null is
     allowed, in the words of the schema tables (``[1, ∞)``, ``(0, 1]``; ``''`` when free)."""
     parts = []
     if param.choices is not None:
@@ -308,7 +308,7 @@ def preset_defaults(cfg: dict[str, Any], host: Any) -> dict[str, Any]:
 
 def preset_units(cfg: dict[str, Any], host: Any) -> dict[str, str]:
     """``{dotted.path: unit}`` of the keys a preset may set: the schema's keys (their
-    :class:`pftrack.config.Field` unit) and its sections' component parameters (the unit the
+    :class:`pftrack.host.config.Field` unit) and its sections' component parameters (the unit the
     component states, :func:`component_params`); ``""``: not a quantity or not known."""
     out = {path: f.unit for path, f in schema_fields()}
     for key in COMPONENT_KINDS:
@@ -326,8 +326,8 @@ def preset_units(cfg: dict[str, Any], host: Any) -> dict[str, str]:
 
 def schema_fields(field: Any = None) -> list[tuple[str, Any]]:
     """``(dotted key, Field)`` of the direct children of ``field`` (default: the top level of
-    :data:`pftrack.config.CONFIG_SCHEMA`) and of their children, in schema order."""
-    from pftrack.config import CONFIG_SCHEMA, iter_fields
+    :data:`pftrack.host.config.CONFIG_SCHEMA`) and of their children, in schema order."""
+    from pftrack.host.config import CONFIG_SCHEMA, iter_fields
 
     return list(iter_fields(CONFIG_SCHEMA if field is None else field))
 
@@ -386,7 +386,7 @@ def config_reference() -> str:
         "## Top-level keys",
         "",
         "A run configuration is a YAML mapping with these keys, from the schema "
-        "{data}`pftrack.config.CONFIG_SCHEMA` that `pftrack run` validates against (any other "
+        "{data}`pftrack.host.config.CONFIG_SCHEMA` that `pftrack run` validates against (any other "
         "key is an error naming the file and the key). Each component section is `{type: NAME, "
         "params: {...}}`: `NAME` is a registered name (below), `params` its constructor's "
         "keyword arguments; a parameter left out takes its default.",

@@ -12,16 +12,16 @@ Components (registered name -> class):
 * associator: ``hungarian-iou`` :class:`~pftrack_basic.association.HungarianIoUAssociator`,
   ``greedy-iou`` :class:`~pftrack_basic.association.GreedyIoUAssociator`;
 * detector: ``mog2`` :class:`~pftrack_basic.background.BackgroundSubtractionDetector`;
-* observation: ``image-box`` :class:`pftrack.tracker.ImageBoxObservation` (image-plane box
-  centre), ``camera-box`` :class:`pftrack.observation_world.CameraBoxObservation` (ground-plane
-  position through the run's camera), ``camera-volume``
-  :class:`pftrack.observation_world.CameraVolumeObservation` (3-D points in a volume, the coastal
-  paper);
-* tracks: ``manual`` :class:`pftrack.lifecycle.ManualTracks` (targets added by the caller),
-  ``stages`` :class:`pftrack.lifecycle.StagedTracks` (an explicit list of lifecycle stages),
+* observation: ``image-box`` :class:`pftrack.builtin.image_box.ImageBoxObservation` (image-plane box
+  centre), ``camera-box`` :class:`pftrack.builtin.world_observation.CameraBoxObservation`
+  (ground-plane position through the run's camera), ``camera-volume``
+  :class:`pftrack.builtin.world_observation.CameraVolumeObservation` (3-D points in a volume, the
+  coastal paper);
+* tracks: ``manual`` :class:`pftrack.engine.lifecycle.ManualTracks` (targets added by the caller),
+  ``stages`` :class:`pftrack.engine.lifecycle.StagedTracks` (an explicit list of lifecycle stages),
   ``births`` :class:`~pftrack_basic.tracks.DetectionBirthTracks`, ``confirmed``
   :class:`~pftrack_basic.tracks.ConfirmedTracks` (tentative -> confirmed, merging, appearance);
-* stage (:mod:`pftrack.lifecycle`): ``unmatched-births`` and ``detection-births``
+* stage (:mod:`pftrack.engine.lifecycle`): ``unmatched-births`` and ``detection-births``
   (initiators), ``hit-confirmation`` (confirmer), ``border-exit`` (terminator),
   ``duplicate-merge`` (merger), ``colour-reid`` (reidentifier), ``output-boxes`` (reporter),
   all in :mod:`pftrack_basic.tracks`;
@@ -82,8 +82,8 @@ def pftrack_register_detectors(register):
 
 @hookimpl
 def pftrack_register_observation_models(register):
-    from pftrack.observation_world import CameraBoxObservation, CameraVolumeObservation
-    from pftrack.tracker import ImageBoxObservation
+    from pftrack.builtin.image_box import ImageBoxObservation
+    from pftrack.builtin.world_observation import CameraBoxObservation, CameraVolumeObservation
 
     register("image-box", ImageBoxObservation)
     register("camera-box", CameraBoxObservation)
@@ -92,7 +92,7 @@ def pftrack_register_observation_models(register):
 
 @hookimpl
 def pftrack_register_track_managers(register):
-    from pftrack.lifecycle import ManualTracks, StagedTracks
+    from pftrack.engine.lifecycle import ManualTracks, StagedTracks
 
     from pftrack_basic.tracks import ConfirmedTracks, DetectionBirthTracks
 
@@ -117,7 +117,7 @@ def pftrack_register_lifecycle_stages(register):
 
 @hookimpl
 def pftrack_register_report_writers(register):
-    from pftrack.extensions import ReportWriter
+    from pftrack.contracts.extensions import ReportWriter
     from pftrack.render.report import write_report
 
     register("tracks", ReportWriter(

@@ -2,9 +2,9 @@
 and greedy.
 
 Both compare each live target's current box estimate (``Target.box_xywh_px``) with every
-detection box, gate implausible pairs, and return an :class:`~pftrack.components.Assignment` in
-which each target and each detection is used at most once. (The score-based association of seed
-001, eq. 3-4, lives in the ``world`` plugin.)
+detection box, gate implausible pairs, and return an
+:class:`~pftrack.contracts.components.Assignment` in which each target and each detection is used
+at most once. (The score-based association of seed 001, eq. 3-4, lives in the ``world`` plugin.)
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from pftrack.components import Assignment, Associator, Detections, Param, Target
+from pftrack.contracts.components import Assignment, Associator, Detections, Param, Target
 from pftrack.geometry.boxes import iou_matrix
 
 __all__ = ["GreedyIoUAssociator", "HungarianIoUAssociator", "centre_distance"]

@@ -3,8 +3,8 @@ blobs, each blob's bounding box a detection.
 
 A cheap, learning-free detector for a fixed camera (PETS09, the coastal paper's coast). It keeps the
 background model of the stream it is watching, so one instance serves one video; call
-:meth:`BackgroundSubtractionDetector.reset` (or :meth:`~pftrack.components.Component.clone`)
-before another.
+:meth:`BackgroundSubtractionDetector.reset` (or
+:meth:`~pftrack.contracts.components.Component.clone`) before another.
 
 Person boxes (``person_height_m`` set, with the run's camera): a blob's box is not a person's
 (people come out in fragments, and two people walking side by side are one blob). Through the
@@ -26,7 +26,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from pftrack.components import Detections, Detector, Frame, Param, RunContext
+from pftrack.contracts.components import Detections, Detector, Frame, Param, RunContext
 
 __all__ = ["BackgroundSubtractionDetector"]
 

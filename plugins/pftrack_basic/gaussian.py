@@ -11,7 +11,7 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from pftrack.components import Detections, Frame, Likelihood, Param, Target
+from pftrack.contracts.components import Detections, Frame, Likelihood, Param, Target
 from pftrack.filter import _jit
 
 __all__ = ["GaussianLikelihood"]

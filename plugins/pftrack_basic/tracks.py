@@ -1,6 +1,6 @@
 """Lifecycle stages for detection-driven runs, and the named track managers built from them.
 
-Stages (plugin kind ``stage``; :mod:`pftrack.lifecycle` says in which order the roles run):
+Stages (plugin kind ``stage``; :mod:`pftrack.engine.lifecycle` says in which order the roles run):
 
 * ``unmatched-births`` (initiator): every detection the associator left unmatched, at least
   ``min_score`` confident, starts a track, in detection order.
@@ -33,9 +33,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from pftrack.components import Param, RunContext
-from pftrack.geometry.boxes import box_iou, iou_matrix
-from pftrack.lifecycle import (
+from pftrack.contracts.components import Param, RunContext
+from pftrack.contracts.stages import (
     AppearanceScores,
     Birth,
     Confirm,
@@ -45,7 +44,6 @@ from pftrack.lifecycle import (
     Hide,
     Initiator,
     LifecycleStage,
-    LifecycleTracks,
     Merger,
     OutputBox,
     Reidentifier,
@@ -53,6 +51,8 @@ from pftrack.lifecycle import (
     Terminator,
     TrackView,
 )
+from pftrack.engine.lifecycle import LifecycleTracks
+from pftrack.geometry.boxes import box_iou, iou_matrix
 
 __all__ = ["BorderTerminator", "ColourReidentifier", "ConfirmedTracks", "DetectionBirthInitiator",
            "DetectionBirthTracks", "DuplicateMerger", "HitConfirmer", "OutputBoxReporter",

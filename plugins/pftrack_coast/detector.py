@@ -1,5 +1,5 @@
 """Eigenspace intruder detector (the coastal paper sec. 2): the block eigenspace background model of
-:mod:`pftrack_coast.eigenspace` as a pftrack :class:`~pftrack.components.Detector`.
+:mod:`pftrack_coast.eigenspace` as a pftrack :class:`~pftrack.contracts.components.Detector`.
 
 Per frame: every block's relative variation r_D (eq. 3) against its background eigenspace,
 intruder blocks where ``r_D - v_D > 0`` (eq. 4), 4-connected groups of intruder blocks -> their
@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pftrack.components import Detections, Detector, Frame, Param, RunContext
+from pftrack.contracts.components import Detections, Detector, Frame, Param, RunContext
 
 from pftrack_coast.eigenspace import (
     FRAME_OFFSETS,

@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from pftrack.components import Detections, Frame, Likelihood, Param, RunContext, Target
+from pftrack.contracts.components import Detections, Frame, Likelihood, Param, RunContext, Target
 
 from pftrack_coast.eigenspace import BlockEigenspaceModel
 

@@ -70,7 +70,7 @@ from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
-from pftrack.components import Frame, Param, Scene
+from pftrack.contracts.components import Frame, Param, Scene
 
 if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera

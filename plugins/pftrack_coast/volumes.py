@@ -2,7 +2,7 @@
 once).
 
 :class:`VolumeTracks` (track manager ``volumes``) runs the coastal paper's detection scheme inside
-the one engine (:class:`pftrack.tracker.MultiTargetTracker`):
+the one engine (:class:`pftrack.engine.tracker.MultiTargetTracker`):
 
 * one **detection group** per volume: particles spread uniformly through the cuboid (velocity
   0); a particle outside its volume gets likelihood 0 (``Target.valid_region``); the group is
@@ -30,7 +30,7 @@ track takes up the ended id whose template it matches best; with ``colour_share`
 whose gates overlap share the image by colour: a track's particle on a pixel whose colour the
 neighbour's template explains ``colour_share_ratio`` times better than its own gets likelihood 0.
 
-Estimates per frame (each output :class:`~pftrack.components.TrackRecord`):
+Estimates per frame (each output :class:`~pftrack.contracts.components.TrackRecord`):
 
 * the paper's (eq. 8-10): centre = weighted mean of the particles, size l = 2 sqrt(weighted
   variance) -- kept in :attr:`VolumeTracks.estimates_` as ``centre_raw_m`` and ``size_raw_m``,
@@ -59,7 +59,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from pftrack.components import (
+from pftrack.contracts.components import (
     Detections,
     Frame,
     Likelihood,
@@ -594,9 +594,9 @@ class VolumeTracks(TrackManager):
     def _conformance_example(cls) -> Any:
         """For :mod:`pftrack.testing`: a camera 20 m up over a 60 x 60 x 2 m volume, the kit's
         synthetic scene's boxes as a perfect foreground (:class:`InsideBoxesLikelihood`)."""
+        from pftrack.builtin.world_observation import CameraVolumeObservation
         from pftrack.geometry.camera import Camera
         from pftrack.geometry.volumes import CuboidVolume
-        from pftrack.observation_world import CameraVolumeObservation
         from pftrack.testing import ConformanceExample
         from pftrack_basic.motion import ConstantVelocity3DMotion
 

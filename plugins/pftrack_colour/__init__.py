@@ -51,7 +51,7 @@ def pftrack_register_scenes(register):
 
 @hookimpl
 def pftrack_register_demos(register):
-    from pftrack.extensions import Demo
+    from pftrack.contracts.extensions import Demo
 
     from pftrack_colour import demo
 

@@ -15,22 +15,23 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from pftrack.components import Detections, Frame, Likelihood, Param, Target, TrackManager
-from pftrack.host import Host, get_host
-from pftrack.lifecycle import (
+from pftrack.builtin.image_box import ImageBoxObservation
+from pftrack.contracts.components import Detections, Frame, Likelihood, Param, Target, TrackManager
+from pftrack.contracts.stages import (
     Birth,
     End,
     FrameView,
     Initiator,
     LifecycleStage,
-    LifecycleTracks,
     Resize,
     Sizer,
     Terminator,
     TrackView,
 )
-from pftrack.runner import FrameStep, run_frames
-from pftrack.tracker import ImageBoxObservation, MultiTargetTracker, records_to_mot
+from pftrack.engine.lifecycle import LifecycleTracks
+from pftrack.engine.runner import FrameStep, run_frames
+from pftrack.engine.tracker import MultiTargetTracker, records_to_mot
+from pftrack.host import Host, get_host
 
 from pftrack_colour import _jit
 

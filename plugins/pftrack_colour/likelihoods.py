@@ -58,7 +58,7 @@ from typing import Any, NamedTuple
 
 import cv2
 import numpy as np
-from pftrack.components import Detections, Frame, Likelihood, Param, Target
+from pftrack.contracts.components import Detections, Frame, Likelihood, Param, Target
 from pftrack.geometry.boxes import sub_boxes
 
 from pftrack_colour import _jit
@@ -85,9 +85,10 @@ _NO_MASKS = np.zeros(0, dtype=np.int64)  # no sets of stripes (writable: the ker
 class ColourLikelihood(Likelihood):
     """Shared machinery: binning, templates, per-frame background; not registered itself.
 
-    Declares the parameters every colour likelihood shares (:class:`pftrack.components.Param`);
-    subclasses declare their own the same way (their ``__init__`` and the ``Parameters`` section
-    of their docstring are generated) and implement :meth:`_log_likelihood`.
+    Declares the parameters every colour likelihood shares
+    (:class:`pftrack.contracts.components.Param`); subclasses declare their own the same way (their
+    ``__init__`` and the ``Parameters`` section of their docstring are generated) and implement
+    :meth:`_log_likelihood`.
 
     Attributes
     ----------

@@ -1,7 +1,7 @@
 """Image-plane boxes whose size follows the matched detections (``image-box-sized``).
 
 The colour tracker of a user's own boxes (preset ``people-colour``) keeps each target's box
-size as a per-target parameter, as :class:`pftrack.tracker.ImageBoxObservation` with
+size as a per-target parameter, as :class:`pftrack.builtin.image_box.ImageBoxObservation` with
 ``size_from_box=True`` does, but lets it follow the detections: after every frame in which the
 target matched a detection, ``(w, h) <- (1 - a) (w, h) + a (w_det, h_det)`` with ``a`` =
 ``size_rate``, the new size bounded to ``size_limits`` times the starting size. Without it the
@@ -13,8 +13,8 @@ part of the person only (IoU below 0.5 although the person is tracked).
 from __future__ import annotations
 
 import numpy as np
-from pftrack.components import Param, Target
-from pftrack.tracker import ImageBoxObservation
+from pftrack.builtin.image_box import ImageBoxObservation
+from pftrack.contracts.components import Param, Target
 
 __all__ = ["SizedImageBoxObservation"]
 

@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pftrack.components import Frame
+from pftrack.contracts.components import Frame
 from pftrack.geometry.boxes import box_iou
 
 from pftrack_colour.experiment import (
@@ -80,7 +80,7 @@ PETS_TRACKER: dict[str, Any] = {"n_particles": 300, "sigma_px": 6.0, "box_size_p
 def pets_scene(frames: tuple[int, int] | None = None, data: str | Path | None = None):
     """The PETS 2009 S2.L1 video scene (``vtest.avi`` + ``gt.txt``), optionally a frame slice
     ``(first, last)`` in ground-truth numbering (1..795)."""
-    from pftrack.data import data_dir
+    from pftrack.io.data import data_dir
     from pftrack.scenes.video import VideoScene
 
     folder = Path(data) if data is not None else data_dir() / "pets09"

@@ -261,7 +261,7 @@ def frames_montage(frames, gt_rows: np.ndarray, indices, *, names=None, colours=
 def likelihood_maps(likelihood, frame, boxes: Mapping[int, np.ndarray]) -> np.ndarray:
     """:func:`likelihood_map` of each target started from ``boxes`` ({id: xywh px}) in
     ``frame``, side by side (the likelihood is set up on that frame)."""
-    from pftrack.components import Target
+    from pftrack.contracts.components import Target
 
     targets = [Target(id=int(tid), state=np.asarray(b[:2], float) + np.asarray(b[2:], float) / 2,
                       box_xywh_px=np.asarray(b, float)) for tid, b in boxes.items()]

@@ -21,7 +21,7 @@ from typing import Any
 
 import cv2
 import numpy as np
-from pftrack.components import Frame, Param, Scene
+from pftrack.contracts.components import Frame, Param, Scene
 
 __all__ = ["TARGET_NAMES", "TORSO_COLOURS_BGR", "WalkersScene", "torso_visibility"]
 

@@ -9,8 +9,8 @@ interface is :meth:`TrackletLinker.link` (tracklets -> labels) and
 one by subclassing :class:`TrackletLinker`; the built-ins are listed in :data:`LINKERS`.
 
 Why not pftrack's ``associator`` kind: an associator matches the targets of one frame to that
-frame's detections (:meth:`pftrack.components.Associator.associate`); a linker partitions a
-whole set of tracklets offline, with a network and no targets, so it has its own small base
+frame's detections (:meth:`pftrack.contracts.components.Associator.associate`); a linker partitions
+a whole set of tracklets offline, with a network and no targets, so it has its own small base
 class here rather than a contorted associator.
 
 Costs (both linkers): a link i -> j costs ``-log S[i, j]`` (S the similarity of eq. 6, 1/s),

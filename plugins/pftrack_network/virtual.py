@@ -83,10 +83,10 @@ def load_caviar4reid(folder: str | os.PathLike[str] | None = None
     Parameters
     ----------
     folder : path, optional
-        Default: ``reid/caviar4reid`` under :func:`pftrack.data.data_dir`.
+        Default: ``reid/caviar4reid`` under :func:`pftrack.io.data.data_dir`.
     """
     if folder is None:
-        from pftrack.data import data_dir
+        from pftrack.io.data import data_dir
 
         folder = data_dir() / "reid" / "caviar4reid"
     return _caviar(str(Path(folder).resolve()))

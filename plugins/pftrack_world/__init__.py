@@ -29,7 +29,7 @@ The paper's benchmarks (``pftrack bench pets09-ground``, ``soccer``, ``fresh-vid
 ``pftrack_bench``, not in this plugin.
 
 The ground-plane observation model (particles -> image boxes through the camera) is core:
-:class:`pftrack.observation_world.CameraBoxObservation`.
+:class:`pftrack.builtin.world_observation.CameraBoxObservation`.
 
 Registered through the ``pftrack`` entry-point group exactly as a third-party plugin is; the
 component modules are imported only when the host calls these hooks.

@@ -36,7 +36,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from pftrack.components import Assignment, Associator, Detections, Param, Target
+from pftrack.contracts.components import Assignment, Associator, Detections, Param, Target
 from pftrack.geometry.boxes import foot_points
 
 __all__ = ["GreedyScoreAssociator", "HungarianScoreAssociator", "greedy_max", "score_matrix"]

@@ -40,7 +40,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from pftrack.components import Detections, Detector, Frame, Param, RunContext
+from pftrack.contracts.components import Detections, Detector, Frame, Param, RunContext
 from pftrack.geometry.boxes import foot_points, iou_matrix, nms
 
 if TYPE_CHECKING:
@@ -122,8 +122,9 @@ class SVMModel:
 
 def detections_on_ground(boxes_xywh_px: np.ndarray, scores: np.ndarray,
                          camera: Camera | None) -> Detections:
-    """A detector's boxes and scores as :class:`~pftrack.components.Detections`, each box's
-    foot point (bottom centre) back-projected to the ground (metres) when there is a camera."""
+    """A detector's boxes and scores as :class:`~pftrack.contracts.components.Detections`, each
+    box's foot point (bottom centre) back-projected to the ground (metres) when there is a
+    camera."""
     points = None
     if camera is not None:
         feet = foot_points(boxes_xywh_px)

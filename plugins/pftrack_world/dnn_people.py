@@ -54,7 +54,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pftrack.components import Detections, Detector, Frame, Param, RunContext
+from pftrack.contracts.components import Detections, Detector, Frame, Param, RunContext
 
 __all__ = ["INSTALL_HINT", "SSDLitePeopleDetector", "complete_at_edges", "model_path",
            "ssd_anchors", "suppress", "text_graph"]

@@ -58,9 +58,9 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from pftrack.components import Detections, Frame, Likelihood, Param, RunContext, Target
+from pftrack.contracts.components import Detections, Frame, Likelihood, Param, RunContext, Target
+from pftrack.engine.tracker import ComponentOutputError, component_label
 from pftrack.geometry.boxes import foot_points, sub_boxes
-from pftrack.tracker import ComponentOutputError, component_label
 
 from pftrack_world.regions import (
     cell_means,

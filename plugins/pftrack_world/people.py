@@ -47,7 +47,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from pftrack.components import Detections, Frame, Param, RunContext
+from pftrack.contracts.components import Detections, Frame, Param, RunContext
 from pftrack.geometry.boxes import foot_points, nms
 
 if TYPE_CHECKING:
@@ -398,7 +398,7 @@ def measure_margin(video: str, gt: str, frames: tuple[int, int] = (1, 200), ever
         ``n_boxes``.
     """
     import cv2
-    from pftrack.pipeline import iter_frames, read_ground_truth
+    from pftrack.workflows.pipeline import iter_frames, read_ground_truth
 
     a, b = frames
     g = read_ground_truth(gt, a, b)

@@ -15,7 +15,7 @@ Data flow::
       -> regular time grid at ``fps`` (linear interpolation between provider samples)
       -> per frame: static background (grass, mowing stripes, markings, goals; drawn once)
          + players as projected 3D figures, far to near (painter's order by camera depth)
-      -> :class:`pftrack.components.Frame` (BGR uint8) and MOTChallenge ground truth.
+      -> :class:`pftrack.contracts.components.Frame` (BGR uint8) and MOTChallenge ground truth.
 
 Sources (``source=``)
 ---------------------
@@ -59,7 +59,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from pftrack.components import Detections, Detector, Frame, Param, RunContext, Scene
+from pftrack.contracts.components import Detections, Detector, Frame, Param, RunContext, Scene
 
 if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera
@@ -1015,7 +1015,7 @@ class PitchBlobDetector(Detector):
         "model",
         '``"model"``: each detection\'s box is the box of a ``height_m`` player standing at '
         "its ``points_world_m`` (:meth:`model_boxes`), the convention of the tracker's "
-        ":class:`~pftrack.observation_world.CameraBoxObservation`, so foot points compare "
+        ":class:`~pftrack.builtin.world_observation.CameraBoxObservation`, so foot points compare "
         'without the bias of the blob\'s lowest pixel; ``"blob"``: the (split) blob\'s own '
         "bounding box.", choices=("model", "blob"))
     warmup_frames: int = Param(
@@ -1239,7 +1239,8 @@ class PitchBlobDetector(Detector):
     def model_boxes(self, points_world_m: np.ndarray) -> np.ndarray:
         """Boxes (K, 4) of ``height_m`` players standing at ground points (K, 3): bottom centre
         at the projected point, top at the projected head, width ``width_m / height_m`` of the
-        height (the convention of :class:`pftrack.observation_world.CameraBoxObservation`)."""
+        height (the convention of
+        :class:`pftrack.builtin.world_observation.CameraBoxObservation`)."""
         g = np.asarray(points_world_m, dtype=np.float64).reshape(-1, 3).copy()
         g[:, 2] = 0.0
         head = g.copy()

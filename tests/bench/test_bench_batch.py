@@ -8,8 +8,8 @@ import argparse
 import json
 
 import pytest
-from pftrack.data import data_dir
 from pftrack.host import get_host
+from pftrack.io.data import data_dir
 
 PETS = data_dir() / "pets09"
 
@@ -18,7 +18,7 @@ PETS = data_dir() / "pets09"
 @pytest.mark.skipif(not (PETS / "gt.txt").is_file(), reason="PETS 2009 not found")
 def test_batch_bench_times_both_commands_and_keeps_the_old_figures(tmp_path):
     pytest.importorskip("distributed")
-    from pftrack.pipeline import load_config, train_detector
+    from pftrack.workflows.pipeline import load_config, train_detector
 
     model = tmp_path / "svm60.npz"
     train_detector(PETS / "vtest.avi", PETS / "gt.txt", "1:60", out=model,

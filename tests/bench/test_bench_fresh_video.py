@@ -7,7 +7,7 @@ import argparse
 import json
 
 import pytest
-from pftrack.data import data_dir
+from pftrack.io.data import data_dir
 
 PETS = data_dir() / "pets09"
 

@@ -7,8 +7,8 @@ import argparse
 import json
 
 import pytest
-from pftrack.data import data_dir
 from pftrack.host import get_host
+from pftrack.io.data import data_dir
 
 PETS = data_dir() / "pets09"
 

@@ -8,7 +8,7 @@ import json
 
 import numpy as np
 import pytest
-from pftrack.data import data_dir
+from pftrack.io.data import data_dir
 from pftrack_bench import own_detections as bod
 
 PETS = data_dir() / "pets09"
@@ -240,8 +240,8 @@ def test_goals_against_the_best_peer_per_figure_and_merged_runs():
 
 @needs_pets
 def test_hog_detections_are_computed_once_and_keyed_by_the_detector(tmp_path, monkeypatch):
-    import pftrack.fresh
-    from pftrack.pipeline import load_config
+    import pftrack.workflows.track
+    from pftrack.workflows.pipeline import load_config
 
     video = PETS / "vtest.avi"
     a = bod.hog_detections(video, "1:3", tmp_path)
@@ -255,7 +255,7 @@ def test_hog_detections_are_computed_once_and_keyed_by_the_detector(tmp_path, mo
     def no_detector(*args, **kwargs):
         raise AssertionError("the detector ran again")
 
-    monkeypatch.setattr(pftrack.fresh, "detect_video", no_detector)
+    monkeypatch.setattr(pftrack.workflows.track, "detect_video", no_detector)
     assert np.array_equal(bod.hog_detections(video, "1:3", tmp_path), a)
     # other detector parameters: another file, computed
     cfg = load_config("people-image")

@@ -9,8 +9,8 @@ import json
 
 import numpy as np
 import pytest
-from pftrack.data import data_dir
 from pftrack.host import get_host
+from pftrack.io.data import data_dir
 
 PETS = data_dir() / "pets09"
 

@@ -10,7 +10,7 @@ import types
 
 import pftrack_bench
 import pytest
-from pftrack.extensions import Benchmark
+from pftrack.contracts.extensions import Benchmark
 from pftrack.host import Host
 from pftrack_bench.protocol import (
     REPORT_PART,

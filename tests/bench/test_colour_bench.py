@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 from pftrack.cli import main
-from pftrack.data import data_dir
+from pftrack.io.data import data_dir
 
 
 def test_colour_bench_small(tmp_path, capsys):

@@ -11,7 +11,7 @@ from collections import Counter
 
 import numpy as np
 import pytest
-from pftrack.data import data_dir
+from pftrack.io.data import data_dir
 
 CAVIAR = data_dir() / "reid" / "caviar4reid"
 pytestmark = pytest.mark.skipif(not CAVIAR.is_dir(), reason="no CAVIAR4REID data")
@@ -19,7 +19,7 @@ pytestmark = pytest.mark.skipif(not CAVIAR.is_dir(), reason="no CAVIAR4REID data
 
 def test_plugin_registers_the_benchmark_through_a_host():
     import pftrack_bench
-    from pftrack.extensions import Benchmark
+    from pftrack.contracts.extensions import Benchmark
     from pftrack.host import Host
 
     host = Host(load_entry_points=False, plugins=[("bench", pftrack_bench)])

@@ -18,10 +18,11 @@ import argparse
 import time
 
 import numpy as np
-from pftrack.api import Tracker
-from pftrack.data import data_dir
+from pftrack.io.data import data_dir
+from pftrack.io.frames import parse_frames
 from pftrack.io.mot import read_mot
-from pftrack.pipeline import iter_frames, parse_frames
+from pftrack.workflows.pipeline import iter_frames
+from pftrack.workflows.stream import Tracker
 
 
 def measure(config: str, frames: list, gt: np.ndarray, camera: str | None) -> tuple[float, float]:

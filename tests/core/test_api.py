@@ -11,10 +11,10 @@ import re
 import numpy as np
 import pftrack
 import pytest
-from pftrack.api import Tracker, Tracks, image_readers
-from pftrack.components import Detections, Likelihood
-from pftrack.data import data_dir
+from pftrack.contracts.components import Detections, Likelihood
 from pftrack.host import UnknownComponentError
+from pftrack.io.data import data_dir
+from pftrack.workflows.stream import Tracker, Tracks, image_readers
 
 PETS = data_dir() / "pets09"
 
@@ -292,7 +292,7 @@ def test_own_component_from_python():
 
 
 def test_component_names():
-    from pftrack.api import component_name
+    from pftrack.workflows.stream import component_name
 
     assert component_name(CentreLikelihood) == "centre-likelihood"
     assert component_name(type("HOGLikelihood", (CentreLikelihood,), {})) == "hog-likelihood"
@@ -312,7 +312,7 @@ def pets_slice():
     if not (PETS / "vtest.avi").is_file():
         pytest.skip("PETS 2009 data not found (PFTRACK_DATA)")
     from pftrack.io.mot import read_mot
-    from pftrack.pipeline import iter_frames
+    from pftrack.workflows.pipeline import iter_frames
 
     gt = read_mot(PETS / "gt.txt")
     gt = gt[(gt[:, 0] <= 40) & (gt[:, 6] != 0)]
@@ -327,7 +327,7 @@ def test_same_tracks_as_the_cli(pets_slice, tmp_path):
     numpy xyxy and as the file's MOT rows: the same tracks."""
     from pftrack.io.detections import read_detections, write_detections
     from pftrack.io.mot import read_mot
-    from pftrack.pipeline import run_pipeline
+    from pftrack.workflows.pipeline import run_pipeline
 
     frames, gt = pets_slice
     det_rows = gt.copy()

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pftrack.data import data_dir
+from pftrack.io.data import data_dir
 
 PAGE = Path(__file__).resolve().parents[2] / "docs" / "tasks" / "own-detector.md"
 PETS = data_dir() / "pets09"
@@ -25,7 +25,7 @@ def clip(tmp_path_factory):
     if not (PETS / "vtest.avi").is_file():
         pytest.skip("PETS 2009 data not found (PFTRACK_DATA)")
     import cv2
-    from pftrack.pipeline import iter_frames
+    from pftrack.workflows.pipeline import iter_frames
 
     path = tmp_path_factory.mktemp("clip") / "clip.avi"
     writer = None

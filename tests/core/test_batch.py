@@ -1,5 +1,5 @@
-"""``pftrack batch`` and :mod:`pftrack.batch`: jobs files, the table, faults, resume, and the
-same bits serial, on a local Dask cluster and on a scheduler with workers started apart (one of
+"""``pftrack batch`` and :mod:`pftrack.workflows.batch`: jobs files, the table, faults, resume, and
+the same bits serial, on a local Dask cluster and on a scheduler with workers started apart (one of
 them killed mid-batch). Real PETS 2009 slices and walkers runs; no mocks."""
 
 from __future__ import annotations
@@ -16,9 +16,9 @@ from pathlib import Path
 
 import pytest
 import yaml
-from pftrack.batch import WORKER_CONFIG, load_jobs, local_cluster, parse_jobs, run_batch
 from pftrack.cli import main
-from pftrack.data import data_dir
+from pftrack.io.data import data_dir
+from pftrack.workflows.batch import WORKER_CONFIG, load_jobs, local_cluster, parse_jobs, run_batch
 
 PETS = data_dir() / "pets09"
 WALKERS = {"name": "walkers", "demo": "walkers",
@@ -28,7 +28,7 @@ WALKERS = {"name": "walkers", "demo": "walkers",
 @pytest.fixture(scope="module")
 def svm(tmp_path_factory) -> Path:
     """A PETS detector trained on 60 frames (seconds; the figures are not the point here)."""
-    from pftrack.pipeline import load_config, train_detector
+    from pftrack.workflows.pipeline import load_config, train_detector
 
     out = tmp_path_factory.mktemp("svm") / "svm60.npz"
     train_detector(PETS / "vtest.avi", PETS / "gt.txt", "1:60", out=out,
@@ -154,7 +154,7 @@ def test_a_bad_job_fails_alone_and_resume_skips_the_complete_ones(tmp_path, caps
 def test_a_job_run_twice_is_written_once(tmp_path):
     """What a rerun after a worker died past its rename meets: the folder is kept as it is and
     the recorded row comes back."""
-    from pftrack.batch import execute_job
+    from pftrack.workflows.batch import execute_job
 
     job = parse_jobs({"jobs": [{**WALKERS, "args": ["--frames", "5", "--particles", "20",
                                                     "--no-baseline"]}]})[0]
@@ -209,7 +209,7 @@ def test_a_local_cluster_gives_the_serial_bits(tmp_path, svm):
         assert want[0] is False and dask.config.get("distributed.worker.profile.enabled")
         if sys.platform.startswith("linux"):  # forked after this process imported the pipeline
             assert WORKER_CONFIG["distributed.worker.multiprocessing-method"] == "fork"
-            assert set(client.run(lambda: "pftrack.pipeline" in __import__("sys").modules
+            assert set(client.run(lambda: "pftrack.workflows.pipeline" in __import__("sys").modules
                                   ).values()) == {True}  # before any job ran there
         par = run_batch(jobs, tmp_path / "dask", client=client, progress=False)
         assert client.status == "running"  # the caller's client is left open

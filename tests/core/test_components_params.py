@@ -1,5 +1,6 @@
-"""Declared parameters (pftrack.components.Param): the generated __init__, signature, docstring,
-inheritance and redeclaration, and the scikit-learn conventions the conformance kit checks."""
+"""Declared parameters (pftrack.contracts.components.Param): the generated __init__, signature,
+docstring, inheritance and redeclaration, and the scikit-learn conventions the conformance kit
+checks."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import inspect
 
 import numpy as np
 import pytest
-from pftrack.components import Likelihood, Param
+from pftrack.contracts.components import Likelihood, Param
 from pftrack.testing import check_component
 
 
@@ -158,8 +159,8 @@ def test_a_plain_class_attribute_removes_an_inherited_parameter():
 def test_the_docstring_and_the_configuration_read_the_declarations():
     assert "Allowed: > 0. Unit: px." in _Ranged.__doc__
     assert "Allowed: one of 'a', 'b'." in _Ranged.__doc__
-    from pftrack.config import component_param_issues
     from pftrack.host import Host
+    from pftrack.host.config import component_param_issues
 
     class _Registered(_Ranged):
         pass
@@ -181,17 +182,18 @@ def test_the_docstring_and_the_configuration_read_the_declarations():
 #: values are then checked only by annotated type, in a configuration), with why. This list
 #: only shrinks: a class converted to Param must leave it (the test below says so).
 HAND_WRITTEN = {
-    "pftrack.lifecycle.ManualTracks": "an __init__ without parameters; module not yet converted",
-    "pftrack.lifecycle.StagedTracks": "module not yet converted (stages: a list of specs)",
-    "pftrack.observation_world.CameraBoxObservation": "module not yet converted",
-    "pftrack.observation_world.CameraVolumeObservation": "module not yet converted",
+    "pftrack.engine.lifecycle.ManualTracks":
+        "an __init__ without parameters; module not yet converted",
+    "pftrack.engine.lifecycle.StagedTracks": "module not yet converted (stages: a list of specs)",
+    "pftrack.builtin.world_observation.CameraBoxObservation": "module not yet converted",
+    "pftrack.builtin.world_observation.CameraVolumeObservation": "module not yet converted",
     "pftrack_basic.tracks.BorderTerminator":
         "an __init__ without parameters; module not yet converted",
 }
 
 
 def _registered_classes():
-    from pftrack.components import Component
+    from pftrack.contracts.components import Component
     from pftrack.host import get_host
 
     host = get_host()
@@ -205,7 +207,7 @@ def _registered_classes():
 
 
 def test_every_registered_component_declares_its_parameters_with_param():
-    from pftrack.components import _declared
+    from pftrack.contracts.components import _declared
 
     classes = _registered_classes()
     hand_written, n_params = [], 0

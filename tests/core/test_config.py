@@ -1,4 +1,4 @@
-"""The configuration schema (pftrack.config) and its validation."""
+"""The configuration schema (pftrack.host.config) and its validation."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 import yaml
-from pftrack.config import CONFIG_SCHEMA, ConfigError, Field, iter_fields, validate_config
 from pftrack.host import get_host
-from pftrack.pipeline import CONFIG_KEYS, TRACKER_KEYS, load_config
+from pftrack.host.config import CONFIG_SCHEMA, ConfigError, Field, iter_fields, validate_config
+from pftrack.workflows.pipeline import CONFIG_KEYS, TRACKER_KEYS, load_config
 
 
 @pytest.fixture(scope="module")

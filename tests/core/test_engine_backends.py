@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pftrack.components import Detections
-from pftrack.tracker import MultiTargetTracker, records_to_mot
+from pftrack.contracts.components import Detections
+from pftrack.engine.tracker import MultiTargetTracker, records_to_mot
 
 from tests.core.test_tracker import _record_bytes
 
@@ -55,7 +55,7 @@ def _pets_detections(tmp_path, camera=None):
 
 
 def _pets_frames():
-    from pftrack.pipeline import iter_frames
+    from pftrack.workflows.pipeline import iter_frames
 
     return list(iter_frames(PETS / "vtest.avi", 401, 440))
 
@@ -68,7 +68,7 @@ def test_presets_on_pets_give_the_same_records_on_both_backends(tmp_path, preset
     pets09-ground adds the camera, the ground-plane state, the EMD and NCC terms weighted by
     beta, the exclusion prior and the valid region."""
     from pftrack.geometry.formats import load_camera
-    from pftrack.pipeline import build_engine, load_config
+    from pftrack.workflows.pipeline import build_engine, load_config
 
     camera = load_camera(PETS / "View_001.xml") if preset == "pets09-ground" else None
     dets = _pets_detections(tmp_path, camera)
@@ -100,8 +100,8 @@ def test_the_colour_scene_gives_the_same_records_on_both_backends(mix):
     caller: a colour likelihood alone (rows of its own), a composite of two colour terms (one
     without rows: called per target inside the composite's rows), and the engine's own
     random-walk noise with a compiled kernel."""
+    from pftrack.builtin.image_box import ImageBoxObservation
     from pftrack.host import get_host
-    from pftrack.tracker import ImageBoxObservation
     from pftrack_basic.motion import ConstantAccelerationMotion, RandomWalkMotion
 
     host = get_host()
@@ -132,9 +132,9 @@ def test_the_default_backend_follows_one_rule():
     """Rows where every per-frame component offers its rows and the filter resamples
     systematically every frame; the reference otherwise; forcing rows on a filter that
     does not resample that way is refused."""
-    from pftrack.components import MotionModel
+    from pftrack.builtin.image_box import ImageBoxObservation
+    from pftrack.contracts.components import MotionModel
     from pftrack.host import get_host
-    from pftrack.tracker import ImageBoxObservation
     from pftrack_basic.motion import RandomWalkMotion
 
     lik = get_host().build("likelihood", "cross-entropy")
@@ -169,7 +169,7 @@ def test_the_default_backend_follows_one_rule():
 def test_people_image_rows_are_used_and_equal_the_mot_rows(tmp_path):
     """people-image through the public runner: MOT rows of the rows backend equal the
     reference's (the records above, as written to tracks.txt)."""
-    from pftrack.pipeline import build_engine, load_config
+    from pftrack.workflows.pipeline import build_engine, load_config
 
     dets = _pets_detections(tmp_path)
     frames = _pets_frames()[:20]

@@ -1,5 +1,5 @@
-"""``pftrack track VIDEO``: one command from a video to tracks (pftrack.fresh), the image-plane
-fallback said aloud, and the reasons a run gives when nothing came out."""
+"""``pftrack track VIDEO``: one command from a video to tracks (pftrack.workflows.track), the
+image-plane fallback said aloud, and the reasons a run gives when nothing came out."""
 
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ import json
 
 import numpy as np
 import pytest
-from pftrack.components import Detections
-from pftrack.data import data_dir
-from pftrack.fresh import check_thresholds, explain_no_tracks, track_video
-from pftrack.pipeline import load_config
+from pftrack.contracts.components import Detections
+from pftrack.io.data import data_dir
+from pftrack.workflows.pipeline import load_config
+from pftrack.workflows.track import check_thresholds, explain_no_tracks, track_video
 
 PETS = data_dir() / "pets09"
 needs_pets = pytest.mark.skipif(not (PETS / "gt.txt").is_file(), reason="PETS 2009 not found")
@@ -20,7 +20,7 @@ NO_ROWS = np.zeros((0, 10))
 def test_ground_truth_in_the_camera_frame_is_its_feet_on_that_cameras_ground():
     from pftrack.geometry.boxes import foot_points
     from pftrack.geometry.camera import Camera
-    from pftrack.pipeline import ground_truth_in_camera_frame
+    from pftrack.workflows.pipeline import ground_truth_in_camera_frame
 
     cam = Camera.look_at((0.0, -10.0, 6.0), (0.0, 5.0, 0.0), (640, 480), fx=800.0)
     feet = cam.project(np.array([[1.0, 3.0, 0.0], [-2.0, 8.0, 0.0]]))
@@ -132,7 +132,7 @@ def test_an_earlier_camera_does_not_stay_beside_image_plane_tracks(tmp_path):
 
 @needs_pets
 def test_track_checks_its_outputs_before_detecting(tmp_path, monkeypatch):
-    import pftrack.fresh as fresh
+    import pftrack.workflows.track as fresh
 
     def no_detection(*a, **k):
         raise AssertionError("the detector ran before --out was checked")
@@ -169,7 +169,7 @@ def test_run_with_a_camera_made_from_people_carries_the_ground_truth(people_fit,
     ground truth's world columns are taken into its frame, and the run says so; with any other
     camera (here PETS's own, whose frame is the ground truth's) they are used as they are."""
     from pftrack.geometry.formats import load_camera
-    from pftrack.pipeline import GroundTruthFrameWarning, read_ground_truth, run_pipeline
+    from pftrack.workflows.pipeline import GroundTruthFrameWarning, read_ground_truth, run_pipeline
 
     cam = load_camera(PETS / "View_001.xml")
     if people_fit:

@@ -83,8 +83,9 @@ import json
 import numpy as np
 from pftrack.host import get_host
 from pftrack.testing import check_component
-from pftrack.tracker import ImageBoxObservation, MultiTargetTracker
-from pftrack.components import Frame
+from pftrack.builtin.image_box import ImageBoxObservation
+from pftrack.engine.tracker import MultiTargetTracker
+from pftrack.contracts.components import Frame
 
 h = get_host()
 m = h.build("motion", {"type": "sample-drift", "params": {"velocity_px": [2.0, -1.0],
@@ -120,10 +121,10 @@ def test_installed_plugin_builds_runs_and_conforms(sample_site):
 _RUN_SAMPLE_STAGE = r"""
 import json
 import numpy as np
-from pftrack.components import Detections
+from pftrack.contracts.components import Detections
 from pftrack.host import get_host
 from pftrack.testing import check_component
-from pftrack.tracker import MultiTargetTracker
+from pftrack.engine.tracker import MultiTargetTracker
 
 h = get_host()
 scene = h.build("scene", {"type": "sample-dots", "params": {"n_frames": 12}})

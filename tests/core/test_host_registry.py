@@ -14,7 +14,7 @@ import pftrack.host as host_mod
 import pytest
 from conftest import SampleWalk
 from pftrack import hookimpl
-from pftrack.components import Likelihood
+from pftrack.contracts.components import Likelihood
 from pftrack.host import Host, PluginLoadWarning, RegistrationError, UnknownComponentError
 
 
@@ -170,7 +170,7 @@ def test_host_is_created_lazily_and_shared():
 
 def test_nothing_is_loaded_at_import():
     code = (
-        "import sys, pftrack, pftrack.components, pftrack.host, pftrack.testing\n"
+        "import sys, pftrack, pftrack.contracts.components, pftrack.host, pftrack.testing\n"
         "heavy = [m for m in ('pftrack_basic', 'pftrack_colour', 'pftrack_world', 'cv2',"
         " 'open3d', 'pyvista', 'scipy', 'sklearn', 'stonesoup') if m in sys.modules]\n"
         "print(repr(heavy), pftrack.host._HOST is None)\n"

@@ -1,4 +1,4 @@
-"""The track lifecycle as stages (:mod:`pftrack.lifecycle`): the named track managers equal
+"""The track lifecycle as stages (:mod:`pftrack.engine.lifecycle`): the named track managers equal
 their explicit stage lists and the rows they gave as single track managers; stages see tracks
 read-only and run in the documented order."""
 
@@ -10,8 +10,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pftrack.components import RunContext
-from pftrack.lifecycle import (
+from pftrack.builtin.image_box import ImageBoxObservation
+from pftrack.contracts.components import RunContext
+from pftrack.contracts.stages import (
     ROLES,
     Birth,
     Confirm,
@@ -23,12 +24,12 @@ from pftrack.lifecycle import (
     Reidentifier,
     Reporter,
     Sizer,
-    StagedTracks,
     Terminator,
 )
+from pftrack.engine.lifecycle import StagedTracks
+from pftrack.engine.tracker import MultiTargetTracker
 from pftrack.testing.checks import _KitAssociator, _KitNearest, _KitWalk
 from pftrack.testing.synthetic import synthetic_scene
-from pftrack.tracker import ImageBoxObservation, MultiTargetTracker
 from pftrack_basic.tracks import ConfirmedTracks, DetectionBirthTracks
 
 #: every option of ``confirmed`` that acts on this small scene (merging, output boxes,
@@ -183,7 +184,7 @@ def test_presets_track_pets_as_their_explicit_stages(preset, n_rows, sha, tmp_pa
     presets' ``confirmed`` tracks and the same written as their explicit stages give the same
     rows, and those rows (rounded to 1e-6) are the ones measured when this was written."""
     from pftrack.io.detections import read_detections
-    from pftrack.pipeline import load_config, run_pipeline
+    from pftrack.workflows.pipeline import load_config, run_pipeline
     from pftrack_bench.own_detections import simulate_detections
 
     gt = np.loadtxt(_DATA / "gt.txt", delimiter=",")
@@ -203,8 +204,8 @@ def test_presets_track_pets_as_their_explicit_stages(preset, n_rows, sha, tmp_pa
 def test_a_stage_list_reads_pixels_only_through_its_stages():
     from types import SimpleNamespace
 
-    from pftrack.api import image_readers
     from pftrack.host import get_host
+    from pftrack.workflows.stream import image_readers
 
     lik = get_host().build("likelihood", "gaussian")
 

@@ -1,5 +1,6 @@
-"""The one frame loop (pftrack.runner.run_frames): records as stepping by hand, detections from a
-detector or given, hooks before and after the step and their time left out of the figures."""
+"""The one frame loop (pftrack.engine.runner.run_frames): records as stepping by hand, detections
+from a detector or given, hooks before and after the step and their time left out of the
+figures."""
 
 from __future__ import annotations
 
@@ -8,9 +9,10 @@ import time
 import numpy as np
 import pytest
 from conftest import SampleWalk
-from pftrack.components import Detections
-from pftrack.runner import run_frames
-from pftrack.tracker import ImageBoxObservation, MultiTargetTracker
+from pftrack.builtin.image_box import ImageBoxObservation
+from pftrack.contracts.components import Detections
+from pftrack.engine.runner import run_frames
+from pftrack.engine.tracker import MultiTargetTracker
 from pftrack_basic.tracks import DetectionBirthTracks
 
 from tests.core.test_tracker import (

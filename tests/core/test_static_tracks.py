@@ -1,12 +1,12 @@
-"""Static things are not people (pftrack.static_tracks): still tracks with a fixed look are
-flagged; moving ones, short ones and still ones whose pixels change (a person waiting) are
+"""Static things are not people (pftrack.workflows.static_tracks): still tracks with a fixed look
+are flagged; moving ones, short ones and still ones whose pixels change (a person waiting) are
 not."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack.static_tracks import (
+from pftrack.workflows.static_tracks import (
     StaticRule,
     flag_static_tracks,
     patch_similarity,

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import SampleWalk
-from pftrack.components import Detections, Detector, Frame, Likelihood, Target
-from pftrack.tracker import ImageBoxObservation, MultiTargetTracker, records_to_mot
+from pftrack.builtin.image_box import ImageBoxObservation
+from pftrack.contracts.components import Detections, Detector, Frame, Likelihood, Target
+from pftrack.engine.tracker import MultiTargetTracker, records_to_mot
 from pftrack_basic.motion import RandomWalkMotion
 from pftrack_basic.tracks import DetectionBirthTracks
 
@@ -87,7 +88,7 @@ class _NearestAssociator:
     kind = "associator"
 
     def associate(self, targets, detections):
-        from pftrack.components import Assignment
+        from pftrack.contracts.components import Assignment
 
         m = []
         used = set()
@@ -268,7 +269,7 @@ def test_a_composite_likelihood_prepares_its_terms(monkeypatch):
 
 
 def test_image_boxes_of_every_target_in_one_call_equal_one_target_at_a_time():
-    from pftrack.components import ObservationModel
+    from pftrack.contracts.components import ObservationModel
 
     obs = ImageBoxObservation(30.0, 20.0, size_from_box=True)
     targets = [Target(id=i, state=np.zeros(2), box_xywh_px=np.zeros(4)) for i in (1, 2, 3)]
@@ -330,7 +331,7 @@ def test_a_nan_from_one_of_several_targets_stops_the_run_naming_that_target(vect
     """All targets' log-likelihoods are checked once as the stacked (T, N) array; the error
     still names the likelihood, the frame and the target at fault, as the per-target check
     does (which runs where a valid region masks a row)."""
-    from pftrack.tracker import ComponentOutputError
+    from pftrack.engine.tracker import ComponentOutputError
 
     lik = _NaNForOne()
     lik.truth_ = {i: (lambda k, i=i: np.array([30.0 * i, 50.0])) for i in (1, 2, 3)}
@@ -432,7 +433,7 @@ class _RowsWrongShape(_RowsTruth):
 
 
 def test_errors_from_the_rows_method_name_the_likelihood_and_the_target():
-    from pftrack.tracker import ComponentOutputError
+    from pftrack.engine.tracker import ComponentOutputError
 
     with pytest.raises(ComponentOutputError,
                        match=r"_RowsNaN.*returned 1 NaN or \+inf log-likelihood\(s\) of 200 "

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack.data import data_dir
-from pftrack.observation_world import CameraBoxObservation
+from pftrack.builtin.world_observation import CameraBoxObservation
+from pftrack.io.data import data_dir
 
 PETS = data_dir() / "pets09"
 
@@ -87,7 +87,7 @@ def test_loads_a_camera_path_and_validates():
     with pytest.raises(ValueError, match="no camera"):
         CameraBoxObservation().to_boxes(states)
     # the run's camera, through the context
-    from pftrack.components import RunContext
+    from pftrack.contracts.components import RunContext
 
     late = CameraBoxObservation()
     late.setup(RunContext(camera=obs.get_camera()))
@@ -95,9 +95,9 @@ def test_loads_a_camera_path_and_validates():
 
 
 def test_camera_volume_boxes_enclose_the_projected_cuboid_and_births_rest_on_the_support():
-    from pftrack.components import RunContext
+    from pftrack.builtin.world_observation import CameraVolumeObservation
+    from pftrack.contracts.components import RunContext
     from pftrack.geometry.camera import Camera
-    from pftrack.observation_world import CameraVolumeObservation
 
     cam = Camera.look_at((0.0, -40.0, 20.0), (0.0, 0.0, 0.0), (640, 480), fx=600.0)
     obs = CameraVolumeObservation(size_m=(4.0, 2.0, 3.0), support_z_m=0.0)

@@ -8,10 +8,11 @@ import json
 
 import numpy as np
 import pytest
-from pftrack.components import Detections
-from pftrack.data import data_dir
-from pftrack.pipeline import build_engine, load_config, parse_frames
+from pftrack.contracts.components import Detections
+from pftrack.io.data import data_dir
+from pftrack.io.frames import parse_frames
 from pftrack.testing import synthetic_scene
+from pftrack.workflows.pipeline import build_engine, load_config
 
 PETS = data_dir() / "pets09"
 
@@ -146,7 +147,7 @@ def test_world_duplicates_are_told_by_ground_distance_not_image_overlap():
     """Two people 0.9 m apart, one behind the other: their boxes overlap (IoU > 0.6) yet
     both stay with merge_distance_m; a second track 0.1 m from a person is removed (the
     younger). With image overlap alone (merge_iou) the hidden person would be removed."""
-    from pftrack.components import Frame
+    from pftrack.contracts.components import Frame
     from pftrack.geometry.boxes import iou_matrix
     from pftrack.geometry.formats import load_camera
 
@@ -176,7 +177,7 @@ def test_world_duplicates_are_told_by_ground_distance_not_image_overlap():
 
 def test_empty_result_writes_an_empty_mot_file(tmp_path):
     from pftrack.io.mot import read_mot
-    from pftrack.pipeline import RunResult, write_outputs
+    from pftrack.workflows.pipeline import RunResult, write_outputs
 
     res = RunResult(np.zeros((0, 10)), {}, {})
     write_outputs(tmp_path, {"name": "x"}, res, {}, None)
@@ -188,7 +189,7 @@ def test_empty_result_writes_an_empty_mot_file(tmp_path):
 def test_pets_run_writes_tracks_metrics_and_report(tmp_path):
     """Train on frames 1-200, track frames 401-460 on the ground plane."""
     from pftrack.io.mot import read_mot
-    from pftrack.pipeline import run_pipeline, train_detector
+    from pftrack.workflows.pipeline import run_pipeline, train_detector
 
     cfg = load_config("pets09-ground")
     model = tmp_path / "svm.npz"
@@ -214,7 +215,7 @@ def test_pets_run_writes_tracks_metrics_and_report(tmp_path):
 @pytest.mark.skipif(not (PETS / "vtest.avi").is_file(), reason="PETS 2009 data not found")
 def test_an_unknown_report_writer_stops_the_run_before_it_tracks(tmp_path):
     from pftrack.host import UnknownComponentError
-    from pftrack.pipeline import run_pipeline
+    from pftrack.workflows.pipeline import run_pipeline
 
     cfg = load_config("pets09-ground")
     cfg["report"] = {"writer": "nope"}

@@ -1,7 +1,7 @@
 """Ground-plane tracking where the geometry is hard: a camera at waist height whose horizon
 passes through the people, people taller than the picture and cut by its edge, boxes whose feet
 are above the horizon, states beside or behind the camera; and the trust test of a camera
-estimated from people (:func:`pftrack.fresh.camera_trust`)."""
+estimated from people (:func:`pftrack.workflows.track.camera_trust`)."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import json
 
 import numpy as np
 import pytest
-from pftrack.data import data_dir
+from pftrack.builtin.world_observation import CameraBoxObservation
 from pftrack.geometry.people import camera_from_parameters
-from pftrack.observation_world import CameraBoxObservation
+from pftrack.io.data import data_dir
 
 MOT = data_dir() / "mot17-09"
 needs_mot = pytest.mark.skipif(not (MOT / "MOT17-09.mp4").is_file(),
@@ -184,8 +184,8 @@ def test_the_python_api_on_a_squeezed_waist_height_street_gives_no_nan(tmp_path)
 
 
 def test_camera_trust_passes_people_at_every_distance_with_the_horizon_through_them():
-    from pftrack.fresh import camera_trust
     from pftrack.geometry.people import estimate_camera_from_people
+    from pftrack.workflows.track import camera_trust
 
     rng = np.random.default_rng(1)
     cam = camera_from_parameters(1000.0, 0.0, 0.0, 0.9, (1280, 720))
@@ -210,8 +210,8 @@ def test_camera_trust_refuses_people_who_do_not_determine_the_camera():
     """The people of the first half of the frames stand as a camera 2.7 m up would see them,
     those of the second as one 0.85 m up would (one distance band each, as in a frame cut
     below the people's feet): no single camera explains both."""
-    from pftrack.fresh import camera_trust
     from pftrack.geometry.people import estimate_camera_from_people
+    from pftrack.workflows.track import camera_trust
 
     rng = np.random.default_rng(2)
     parts = []
@@ -234,7 +234,7 @@ def test_camera_trust_refuses_people_who_do_not_determine_the_camera():
 
 
 def test_camera_trust_counts_a_static_box_once():
-    from pftrack.fresh import _distinct
+    from pftrack.workflows.track import _distinct
 
     still = np.tile([[100.0, 50.0, 30.0, 90.0]], (300, 1))
     walking = np.column_stack([np.linspace(0, 600, 30), np.full(30, 200.0), np.full(30, 30.0),
@@ -273,7 +273,7 @@ def _two_camera_people(tmp_path, n_frames: int = 40):
 
 
 def test_track_does_not_draw_boxes_from_a_camera_it_cannot_trust(tmp_path):
-    from pftrack.fresh import track_video
+    from pftrack.workflows.track import track_video
 
     video, det = _two_camera_people(tmp_path)
     out = tmp_path / "out"
@@ -298,7 +298,7 @@ def test_track_does_not_draw_boxes_from_a_camera_it_cannot_trust(tmp_path):
 
 
 def test_detections_above_the_horizon_are_written_without_nan(tmp_path):
-    from pftrack.components import Detections
+    from pftrack.contracts.components import Detections
     from pftrack.io.detections import read_detections, write_detections
 
     cam = waist_camera(distortion_k=0.0, roll_deg=0.0)
@@ -319,7 +319,7 @@ def test_particles_without_a_box_have_zero_likelihood():
     """people-ground's likelihood: a particle the camera has no box for (behind it) weighs
     nothing, in the one-target and the rows call alike; the others are as before."""
     import pftrack
-    from pftrack.components import Detections, Frame
+    from pftrack.contracts.components import Detections, Frame
 
     tracker = pftrack.Tracker("people-ground", camera=waist_camera(), fps=30, seed=0)
     image = np.random.default_rng(0).integers(0, 255, (480, 640, 3), dtype=np.uint8)

@@ -47,8 +47,8 @@ def test_the_configuration_reference_names_the_plugins_of_components_only(page):
 
 
 def test_every_schema_key_is_on_the_page_with_its_default_and_unit(page):
-    from pftrack.config import CONFIG_SCHEMA, iter_fields
-    from pftrack.pipeline import CONFIG_KEYS, TRACKER_KEYS
+    from pftrack.host.config import CONFIG_SCHEMA, iter_fields
+    from pftrack.workflows.pipeline import CONFIG_KEYS, TRACKER_KEYS
 
     top = _rows(page, "## Top-level keys")
     assert set(top) == set(CONFIG_KEYS) == {f.name for f in CONFIG_SCHEMA.children}
@@ -193,10 +193,10 @@ def test_gallery_runs_every_notebook_as_its_test_does():
 
 def test_api_pages_cover_the_public_modules(tmp_path):
     mods = pftrack_docs.write_api_pages(tmp_path)
-    assert "pftrack.pipeline" in mods and "pftrack_coast.volumes" in mods
+    assert "pftrack.workflows.pipeline" in mods and "pftrack_coast.volumes" in mods
     assert not [m for m in mods if m.startswith("pftrack.cli.") or "._" in m]
-    text = (tmp_path / "pftrack.tracker.md").read_text()
-    assert ".. automodule:: pftrack.tracker" in text
+    text = (tmp_path / "pftrack.engine.tracker.md").read_text()
+    assert ".. automodule:: pftrack.engine.tracker" in text
     # the benchmarks are not the product's API: pages of their own, under their own heading
     assert not [m for m in mods if m.startswith("pftrack_bench")]
     bench = pftrack_docs.write_api_pages(tmp_path / "bench", bases=("benchmarks",))
@@ -209,8 +209,8 @@ def test_api_pages_cover_the_public_modules(tmp_path):
 
 
 def test_image_plane_example_builds_without_a_camera_and_tracks_in_pixels(tmp_path):
-    from pftrack.data import data_dir
-    from pftrack.pipeline import build_engine, load_config, run_pipeline
+    from pftrack.io.data import data_dir
+    from pftrack.workflows.pipeline import build_engine, load_config, run_pipeline
 
     example = ROOT / "docs" / "examples" / "image-plane.yaml"
     cfg = load_config(example)  # validated against the schema
@@ -360,7 +360,7 @@ def test_preset_keys_show_their_unit(page):
 
 
 def test_param_unit_reaches_the_docstring_and_the_reference():
-    from pftrack.components import Likelihood, Param
+    from pftrack.contracts.components import Likelihood, Param
 
     class _Units(Likelihood):
         """A test likelihood.

@@ -112,7 +112,7 @@ def test_page_commands_name_real_commands_and_options(page, parser):
 def test_readme_python_names_exist():
     """The README's Python blocks import what exists and call hooks that exist."""
     import pftrack
-    from pftrack import hookspecs
+    from pftrack.contracts import hookspecs
 
     text = README.read_text()
     blocks = _blocks(text, ("python",))

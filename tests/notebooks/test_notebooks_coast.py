@@ -9,7 +9,7 @@ from conftest import execute_notebook, pngs
 
 @pytest.mark.slow
 def test_block_eigenspace_notebook_runs():
-    from pftrack.data import data_dir
+    from pftrack.io.data import data_dir
 
     if not (data_dir() / "water" / "zodiac").is_dir():
         pytest.skip("water data not found (set PFTRACK_DATA)")

@@ -9,7 +9,7 @@ from conftest import execute_notebook, pngs
 
 @pytest.mark.slow
 def test_geometry_notebook_runs():
-    from pftrack.data import data_dir
+    from pftrack.io.data import data_dir
 
     if not (data_dir() / "pets09" / "vtest.avi").is_file():
         pytest.skip("PETS 2009 data not found (set PFTRACK_DATA)")

@@ -11,7 +11,7 @@ from conftest import execute_notebook, pngs
 
 @pytest.mark.slow
 def test_camera_network_notebook_runs():
-    from pftrack.data import data_dir
+    from pftrack.io.data import data_dir
 
     if not (data_dir() / "reid" / "caviar4reid").is_dir():
         pytest.skip("CAVIAR4REID data not found (set PFTRACK_DATA)")

@@ -11,7 +11,7 @@ from conftest import code_outputs, fat_cells, markdown, pngs, run_notebook
 
 @pytest.mark.slow
 def test_pets_ground_plane_notebook_runs(tmp_path, monkeypatch):
-    from pftrack.data import data_dir
+    from pftrack.io.data import data_dir
 
     if not (data_dir() / "pets09" / "vtest.avi").is_file():
         pytest.skip("PETS 2009 data not found (set PFTRACK_DATA)")

@@ -10,7 +10,7 @@ from conftest import execute_notebook, pngs
 
 @pytest.mark.slow
 def test_coastal_volumes_notebook_runs():
-    from pftrack.data import data_dir
+    from pftrack.io.data import data_dir
 
     if not (data_dir() / "pets09" / "vtest.avi").is_file():
         pytest.skip("PETS data not found (set PFTRACK_DATA)")

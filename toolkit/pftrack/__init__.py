@@ -9,8 +9,8 @@ The names a notebook needs are here::
     pftrack.evaluate(pftrack.read_mot("gt.txt"), tracker.to_mot())
 
 * :class:`Tracker`, :class:`Tracks`: track your own detections frame by frame
-  (:mod:`pftrack.api`);
-* :class:`Detections`, :class:`Frame`: the exchange types (:mod:`pftrack.components`);
+  (:mod:`pftrack.workflows.stream`);
+* :class:`Detections`, :class:`Frame`: the exchange types (:mod:`pftrack.contracts.components`);
 * :func:`read_mot`, :func:`write_mot`: MOTChallenge files; :func:`read_detections`: a
   ``det.txt`` as per-frame :class:`Detections`;
 * :func:`evaluate`: MOTA, IDF1, HOTA of tracks against ground truth;
@@ -28,31 +28,31 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-from pftrack.hookspecs import hookimpl
+from pftrack.contracts.hookspecs import hookimpl
 
 if TYPE_CHECKING:
-    from pftrack.api import Tracker, Tracks
-    from pftrack.components import Detections, Frame
+    from pftrack.contracts.components import Detections, Frame
     from pftrack.host import list_plugins
     from pftrack.io.detections import read_detections
     from pftrack.io.mot import read_mot, write_mot
     from pftrack.metrics.mot import evaluate
-    from pftrack.pipeline import iter_frames, load_config, run_pipeline
+    from pftrack.workflows.pipeline import iter_frames, load_config, run_pipeline
+    from pftrack.workflows.stream import Tracker, Tracks
 
 __version__ = "0.1.0"
 
 _LAZY = {
-    "Tracker": "pftrack.api",
-    "Tracks": "pftrack.api",
-    "Detections": "pftrack.components",
-    "Frame": "pftrack.components",
+    "Tracker": "pftrack.workflows.stream",
+    "Tracks": "pftrack.workflows.stream",
+    "Detections": "pftrack.contracts.components",
+    "Frame": "pftrack.contracts.components",
     "read_mot": "pftrack.io.mot",
     "write_mot": "pftrack.io.mot",
     "read_detections": "pftrack.io.detections",
     "evaluate": "pftrack.metrics.mot",
-    "load_config": "pftrack.pipeline",
-    "run_pipeline": "pftrack.pipeline",
-    "iter_frames": "pftrack.pipeline",
+    "load_config": "pftrack.workflows.pipeline",
+    "run_pipeline": "pftrack.workflows.pipeline",
+    "iter_frames": "pftrack.workflows.pipeline",
     "list_plugins": "pftrack.host",
 }
 

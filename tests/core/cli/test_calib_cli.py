@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from conftest import ROOT
 from pftrack.cli import main
-from pftrack.data import data_dir, data_path
 from pftrack.geometry.calibration import rotation_angle_deg, soccer_pitch_keypoints
 from pftrack.geometry.formats import load_camera
+from pftrack.io.data import data_dir, data_path
 
 PETS_XML = str(data_path("pets09", "View_001.xml"))
 PETS_GT = str(data_path("pets09", "gt.txt"))

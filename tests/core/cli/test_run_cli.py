@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import yaml
 from pftrack.cli import main
-from pftrack.data import data_dir
+from pftrack.io.data import data_dir
 
 PETS = data_dir() / "pets09"
 

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 from bad_inputs._catalogue import CONFIG  # the smallest runnable configuration
 from pftrack.cli import main
-from pftrack.pipeline import run_pipeline
+from pftrack.workflows.pipeline import run_pipeline
 
 ROOT = Path(__file__).resolve().parents[3]
 W, H, SIDE = 96, 72, 14
@@ -163,7 +163,7 @@ def test_focal_length_messages_agree_with_what_was_fitted():
 
 
 def test_the_track_video_page_says_which_frames_fit_the_camera():
-    from pftrack.fresh import estimate_camera, track_video
+    from pftrack.workflows.track import estimate_camera, track_video
 
     est = inspect.signature(estimate_camera).parameters
     every, first_n = est["every"].default, est["max_frames"].default

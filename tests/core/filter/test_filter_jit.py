@@ -10,7 +10,7 @@ import sys
 
 import numpy as np
 import pytest
-from pftrack.components import Target
+from pftrack.contracts.components import Target
 from pftrack.filter import (
     _jit,
     normalize_log_weights,
@@ -152,7 +152,7 @@ def test_gaussian_likelihood_equals_the_numpy_path(numpy_path, n):
 @pytest.mark.parametrize("layout", ["c", "fortran", "strided"])
 @pytest.mark.parametrize("size_from_target", [False, True])
 def test_image_boxes_equal_the_numpy_path(numpy_path, n, layout, size_from_target):
-    from pftrack.tracker import ImageBoxObservation
+    from pftrack.builtin.image_box import ImageBoxObservation
 
     rng = np.random.default_rng(4)
     states = rng.normal(180.0, 60.0, (n, 6))
@@ -401,7 +401,7 @@ def test_the_fused_step_reports_nan_and_rows_without_a_finite_weight():
 
 @pytest.mark.parametrize("n", [1, 300])
 def test_image_boxes_of_rows_equal_the_numpy_path(numpy_path, monkeypatch, n):
-    from pftrack.tracker import ImageBoxObservation
+    from pftrack.builtin.image_box import ImageBoxObservation
 
     monkeypatch.setattr(_jit, "_small_warm", True)  # as once a likelihood imported numba
     obs = ImageBoxObservation(12.0, 20.0)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import ROOT
-from pftrack.data import data_dir
 from pftrack.geometry.calibration import (
     calibrate_chessboard,
     calibrate_points,
@@ -17,6 +16,7 @@ from pftrack.geometry.calibration import (
 )
 from pftrack.geometry.camera import Camera, OpenCVDistortion, TsaiDistortion
 from pftrack.geometry.formats import load_camera
+from pftrack.io.data import data_dir
 
 CALIB = ROOT / "calib"
 

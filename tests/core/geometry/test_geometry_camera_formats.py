@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import ROOT
-from pftrack.data import data_path
 from pftrack.geometry.calibration import check_against_mot, read_mot_world
 from pftrack.geometry.camera import Camera, NoDistortion, OpenCVDistortion, TsaiDistortion
 from pftrack.geometry.formats import (
@@ -16,6 +15,7 @@ from pftrack.geometry.formats import (
     pixel_grid,
     save_camera,
 )
+from pftrack.io.data import data_path
 
 PETS_XML = data_path("pets09", "View_001.xml")
 PETS_GT = data_path("pets09", "gt.txt")

@@ -6,18 +6,17 @@ import math
 
 import numpy as np
 import pytest
-from pftrack.data import data_path
+from pftrack.geometry.alignment import compare_with_reference, rigid_align_2d
 from pftrack.geometry.formats import load_camera
 from pftrack.geometry.people import (
     PRIOR_HFOV_DEG,
     camera_from_parameters,
-    compare_with_reference,
     estimate_camera_from_people,
     horizon_row,
-    measure_slants,
     predicted_box_heights,
-    rigid_align_2d,
 )
+from pftrack.io.data import data_path
+from pftrack.workflows.calibrate import measure_slants
 
 SIZE = (768, 576)
 
@@ -425,10 +424,10 @@ def test_cli_people_hog_detections_on_pets(capsys, tmp_path):
 
 def test_detect_people_uses_a_registered_hog_people_detector(tmp_path):
     from pftrack import hookimpl
-    from pftrack.components import Detections, Detector
-    from pftrack.geometry.people import detect_people
+    from pftrack.contracts.components import Detections, Detector
     from pftrack.host import Host
     from pftrack.scenes.video import write_test_clip
+    from pftrack.workflows.calibrate import detect_people
 
     class _Fixed(Detector):
         def __init__(self, score: float = 2.0) -> None:
@@ -462,7 +461,7 @@ def test_detect_people_uses_a_registered_hog_people_detector(tmp_path):
 
 
 def test_estimate_camera_from_video_with_given_boxes():
-    from pftrack.geometry.people import estimate_camera_from_video
+    from pftrack.workflows.calibrate import estimate_camera_from_video
 
     gt = _pets_gt(1, 60)
     video = data_path("pets09", "vtest.avi")
@@ -512,7 +511,8 @@ def _leaning_people_clip(path, n_frames=40, size=(320, 240)):
 
 
 def test_measure_silhouettes_gives_heights_and_leans_of_a_synthetic_clip(tmp_path):
-    from pftrack.geometry.people import measure_silhouettes, refine_boxes_by_silhouettes
+    from pftrack.geometry.people_boxes import refine_boxes_by_silhouettes
+    from pftrack.workflows.calibrate import measure_silhouettes
 
     video = tmp_path / "lean.avi"
     truth = _leaning_people_clip(video)
@@ -549,7 +549,7 @@ def test_measure_silhouettes_gives_heights_and_leans_of_a_synthetic_clip(tmp_pat
 
 
 def test_link_boxes_follows_people_over_frames():
-    from pftrack.geometry.people import link_boxes
+    from pftrack.geometry.people_boxes import link_boxes
 
     # two people moving 3 px a frame, listed in a shuffled order; frame 5 is missing
     rows = []
@@ -609,8 +609,8 @@ def test_pftrack_track_camera_on_pets_frames_1_200_is_within_half_a_metre():
     # Measured: f 1202 px, 0.10-0.16 m, horizon 1-2 px (every frame); see
     # docs/decisions/camera-from-people.md
     import cv2
-    from pftrack.fresh import detect_video, estimate_camera
-    from pftrack.pipeline import load_config
+    from pftrack.workflows.pipeline import load_config
+    from pftrack.workflows.track import detect_video, estimate_camera
 
     video = data_path("pets09", "vtest.avi")
     threads = cv2.getNumThreads()

@@ -7,8 +7,8 @@ import json
 
 import numpy as np
 import pytest
-from pftrack.components import Detections
-from pftrack.data import data_dir
+from pftrack.contracts.components import Detections
+from pftrack.io.data import data_dir
 from pftrack.io.detections import detections_to_mot, read_detections, write_detections
 
 PETS = data_dir() / "pets09"
@@ -71,7 +71,7 @@ def test_run_tracks_a_det_file_from_the_cli_and_from_yaml(tmp_path):
     ``detections:`` is relative to it; both give the same tracks, close to the truth."""
     from pftrack.cli import main
     from pftrack.io.mot import read_mot
-    from pftrack.pipeline import read_ground_truth
+    from pftrack.workflows.pipeline import read_ground_truth
 
     gt = read_ground_truth(PETS / "gt.txt", 1, 40)
     vis = gt[gt[:, 6] == 1]
@@ -86,7 +86,7 @@ def test_run_tracks_a_det_file_from_the_cli_and_from_yaml(tmp_path):
     assert m["MOTA"] > 0.7 and m["IDF1"] > 0.7, m
     assert m["detection_s_per_frame"] < 0.01  # no detector ran
     import yaml
-    from pftrack.pipeline import load_config
+    from pftrack.workflows.pipeline import load_config
 
     cfg = load_config("people-image")
     cfg.pop("_source")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack.data import data_path
+from pftrack.io.data import data_path
 from pftrack.io.mot import (
     CONF,
     MotTable,

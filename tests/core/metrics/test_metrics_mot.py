@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from pftrack.cli import main
-from pftrack.data import data_path
+from pftrack.io.data import data_path
 from pftrack.io.mot import CONF, ID, LEFT, X, Y, read_mot, write_mot
 from pftrack.metrics import (
     clear_metrics,

@@ -100,7 +100,7 @@ def test_overlay_needs_camera_for_world_layers():
 # ---- PETS 2009 ------------------------------------------------------------------------------
 
 def _pets(name: str) -> Path:
-    from pftrack.data import data_dir
+    from pftrack.io.data import data_dir
 
     p = data_dir() / "pets09" / name
     if not p.is_file():

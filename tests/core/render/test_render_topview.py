@@ -102,7 +102,7 @@ def test_topview_rejects_non_png(tmp_path):
 
 
 def _pets_gt() -> Path:
-    from pftrack.data import data_dir
+    from pftrack.io.data import data_dir
 
     p = data_dir() / "pets09" / "gt.txt"
     if not p.is_file():

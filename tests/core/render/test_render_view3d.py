@@ -39,8 +39,8 @@ def test_view3d_needs_something():
 
 
 def test_view3d_camera_frustum_on_pets(tmp_path):
-    from pftrack.data import data_dir
     from pftrack.geometry.formats import load_camera
+    from pftrack.io.data import data_dir
     from pftrack.io.mot import read_mot
     from pftrack.render.tracks import tracks_from_mot
     from pftrack.render.view3d import CAMERA_RGB, camera_frustum

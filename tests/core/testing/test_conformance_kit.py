@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from conftest import ROOT
 from conftest import SampleWalk as _Walk
-from pftrack.components import (
+from pftrack.contracts.components import (
     Assignment,
     Associator,
     Likelihood,

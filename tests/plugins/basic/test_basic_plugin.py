@@ -7,9 +7,9 @@ import pickle
 
 import numpy as np
 import pytest
-from pftrack.components import DetectionMatch, Detections, Frame, Target
-from pftrack.data import data_dir
+from pftrack.contracts.components import DetectionMatch, Detections, Frame, Target
 from pftrack.geometry.boxes import iou_matrix
+from pftrack.io.data import data_dir
 from pftrack_basic.association import (
     GreedyIoUAssociator,
     HungarianIoUAssociator,

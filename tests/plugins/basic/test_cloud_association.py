@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack.components import Detections, Target
+from pftrack.contracts.components import Detections, Target
 from pftrack.host import get_host
 from pftrack_basic.cloud_association import CloudAssociator, cloud_cost
 

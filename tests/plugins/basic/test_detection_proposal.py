@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack.components import Detections
-from pftrack.pipeline import build_engine
+from pftrack.contracts.components import Detections
 from pftrack.testing import synthetic_scene
+from pftrack.workflows.pipeline import build_engine
 
 BOX = np.array([60.0, 40.0, 22.0, 36.0])  # one person-like box (px)
 
@@ -65,7 +65,7 @@ def test_the_proposal_is_seeded_and_zero_draws_nothing(monkeypatch):
     c, _ = _drifted(0.0, seed=4)
     assert not np.array_equal(a.state, c.state)
     # 0: the proposal is never entered (no draw: every other preset's tracks unchanged)
-    from pftrack.tracker import MultiTargetTracker
+    from pftrack.engine.tracker import MultiTargetTracker
 
     def never(self, targets):
         raise AssertionError("proposal entered with detection_proposal 0")

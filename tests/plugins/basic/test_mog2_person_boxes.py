@@ -6,11 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack.components import Frame, RunContext
-from pftrack.data import data_dir
+from pftrack.contracts.components import Frame, RunContext
 from pftrack.geometry.boxes import iou_matrix
 from pftrack.geometry.people import camera_from_parameters, predicted_box_heights
-from pftrack.pipeline import iter_frames, read_ground_truth
+from pftrack.io.data import data_dir
+from pftrack.workflows.pipeline import iter_frames, read_ground_truth
 from pftrack_basic.background import BackgroundSubtractionDetector, merge_stacked, person_boxes
 
 PETS = data_dir() / "pets09"

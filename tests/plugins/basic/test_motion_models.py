@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack.components import Target
+from pftrack.contracts.components import Target
 from pftrack_basic.motion import (
     ConstantAccelerationMotion,
     ConstantVelocity2DMotion,
@@ -210,7 +210,7 @@ def test_bad_input_names_the_model_and_parameter():
 def test_random_walk_predict_rows_equals_row_by_row_bit_for_bit():
     """The engine predicts every target in one call; the numbers are those of one predict per
     target in order (the default of every model, the override of the random walk)."""
-    from pftrack.components import MotionModel
+    from pftrack.contracts.components import MotionModel
 
     m = RandomWalkMotion(sigma_px=(2.0, 3.0))
     states = np.random.default_rng(1).normal(size=(3, 50, 2)) * 40

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack.components import Detections
-from pftrack.pipeline import build_engine
+from pftrack.contracts.components import Detections
 from pftrack.testing import synthetic_scene
+from pftrack.workflows.pipeline import build_engine
 
 W, H = 160, 120  # the synthetic scene's size (px)
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
-from pftrack.components import Frame, RunContext, TrackRecord
+from pftrack.contracts.components import Frame, RunContext, TrackRecord
 from pftrack.geometry.camera import Camera
 from pftrack_coast.volumes import VolumeTracks, bhattacharyya, hsv_histogram
 

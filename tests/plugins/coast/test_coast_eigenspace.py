@@ -10,9 +10,9 @@ import warnings
 import numpy as np
 import pftrack_coast
 import pytest
-from pftrack.components import Frame, RunContext, Target
-from pftrack.data import data_dir
+from pftrack.contracts.components import Frame, RunContext, Target
 from pftrack.host import Host
+from pftrack.io.data import data_dir
 from pftrack.testing import check_component, synthetic_scene
 from pftrack_coast.detector import EigenspaceDetector, boxes_to_mask
 from pftrack_coast.eigenspace import BlockEigenspaceModel, block_fractions, blocks_of

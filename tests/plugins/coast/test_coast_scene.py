@@ -13,7 +13,7 @@ import warnings
 import cv2
 import numpy as np
 import pytest
-from pftrack.components import Frame
+from pftrack.contracts.components import Frame
 from pftrack.geometry.volumes import coast_volumes
 from pftrack_coast.eigenspace import BlockEigenspaceModel
 from pftrack_coast.scene import CoastScene

@@ -143,7 +143,7 @@ def test_block_scores_from_the_integer_grey_and_the_compiled_gather_equal_numpy(
     numbers of the float64 frame through numpy's gather; the likelihood's values do not
     depend on which path scored the blocks."""
     import cv2
-    from pftrack.components import Frame
+    from pftrack.contracts.components import Frame
     from pftrack.filter import _jit
     from pftrack_coast.likelihood import EigenspaceLikelihood
 
@@ -171,7 +171,7 @@ def test_eigenspace_rows_equal_the_per_target_calls_bit_for_bit(monkeypatch):
     """log_likelihood_rows scores every group in one lookup: each row equals what successive
     log_likelihood calls give, also when a later row scores the whole frame after an earlier
     row scored a few blocks by gathering (the blocks are scored row by row, in order)."""
-    from pftrack.components import Frame, Target
+    from pftrack.contracts.components import Frame, Target
     from pftrack.filter import _jit
     from pftrack_coast.likelihood import EigenspaceLikelihood
 

@@ -10,8 +10,8 @@ import warnings
 
 import numpy as np
 import pytest
-from pftrack.components import Frame
-from pftrack.data import data_dir
+from pftrack.contracts.components import Frame
+from pftrack.io.data import data_dir
 from pftrack_bench import background as bb
 from pftrack_coast.detector import EigenspaceDetector
 from pftrack_coast.eigenspace import BlockEigenspaceModel, untrained_picture

@@ -13,12 +13,12 @@ import math
 
 import numpy as np
 import pytest
-from pftrack.components import Detections, Frame, RunContext
+from pftrack.builtin.world_observation import CameraVolumeObservation
+from pftrack.contracts.components import Detections, Frame, RunContext
+from pftrack.engine.tracker import MultiTargetTracker, records_to_mot
 from pftrack.geometry.camera import Camera
 from pftrack.geometry.volumes import CuboidVolume
 from pftrack.metrics import evaluate
-from pftrack.observation_world import CameraVolumeObservation
-from pftrack.tracker import MultiTargetTracker, records_to_mot
 from pftrack_basic.motion import ConstantVelocity3DMotion
 from pftrack_coast.volumes import (
     InsideBoxesLikelihood,
@@ -221,7 +221,7 @@ def test_pets09_volume_preset_trains_and_runs_from_the_command_line(tmp_path, ca
     import json
 
     from pftrack.cli import main
-    from pftrack.data import data_dir
+    from pftrack.io.data import data_dir
     from pftrack.io.mot import read_mot
 
     pets = data_dir() / "pets09"
@@ -266,7 +266,7 @@ def test_coast_boat_is_found_and_its_depth_corrected(tmp_path):
     import itertools
     import warnings
 
-    from pftrack.pipeline import build_engine, load_config
+    from pftrack.workflows.pipeline import build_engine, load_config
     from pftrack_coast.eigenspace import BlockEigenspaceModel
     from pftrack_coast.scene import CoastScene
 
@@ -368,10 +368,15 @@ def test_pets09_gathering_exit_hysteresis_and_reid_keep_identities(tmp_path):
     off: these four rules are the comparison here (colour_share's figures are the bench's)."""
     import copy
 
-    from pftrack.data import pets09_files
     from pftrack.geometry.formats import load_camera
     from pftrack.geometry.volumes import resolve_volume
-    from pftrack.pipeline import iter_frames, load_config, read_ground_truth, train_detector
+    from pftrack.io.data import pets09_files
+    from pftrack.workflows.pipeline import (
+        iter_frames,
+        load_config,
+        read_ground_truth,
+        train_detector,
+    )
     from pftrack_bench.coast import score_pets, track_frames
 
     video, gt_path, cam_path = pets09_files()
@@ -554,7 +559,7 @@ def test_coast_car_along_the_view_is_one_track_with_its_length_along_it(tmp_path
     import itertools
     import warnings
 
-    from pftrack.pipeline import build_engine, load_config
+    from pftrack.workflows.pipeline import build_engine, load_config
     from pftrack_coast.eigenspace import BlockEigenspaceModel
     from pftrack_coast.scene import CoastScene
 

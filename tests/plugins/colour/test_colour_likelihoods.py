@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack.components import Frame, Target
+from pftrack.contracts.components import Frame, Target
 from pftrack.testing import check_component
 from pftrack_colour.histograms import ColourBins, ParticleRegion, normalise_histogram
 from pftrack_colour.likelihoods import (

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack.data import data_dir
+from pftrack.io.data import data_dir
 from pftrack.scenes.video import VideoScene, write_test_clip
 from pftrack.testing import check_component
 

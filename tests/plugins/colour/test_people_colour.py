@@ -10,10 +10,10 @@ import json
 
 import numpy as np
 import pytest
-from pftrack.components import Detections, Frame, RunContext, Target
-from pftrack.data import data_dir
+from pftrack.contracts.components import Detections, Frame, RunContext, Target
 from pftrack.geometry.boxes import box_iou
-from pftrack.pipeline import build_engine, load_config
+from pftrack.io.data import data_dir
+from pftrack.workflows.pipeline import build_engine, load_config
 from pftrack_colour.observation import SizedImageBoxObservation
 
 PETS = data_dir() / "pets09"

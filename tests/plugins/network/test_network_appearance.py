@@ -9,7 +9,7 @@ import argparse
 
 import numpy as np
 import pytest
-from pftrack.data import data_dir
+from pftrack.io.data import data_dir
 from pftrack_network.linkers import GreedyLinker, MinCostFlowLinker, TrajectoryEnsemble
 from pftrack_network.network import CameraNetwork, Tracklet
 from pftrack_network.similarity import (

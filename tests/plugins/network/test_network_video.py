@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack.data import data_dir
+from pftrack.io.data import data_dir
 from pftrack.io.mot import read_mot
 from pftrack_network.similarity import appearance_matrix
 from pftrack_network.video import tracklets_from_tracks

@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack.components import RunContext
-from pftrack.data import data_dir
+from pftrack.contracts.components import RunContext
 from pftrack.host import get_host
-from pftrack.pipeline import iter_frames, read_ground_truth
+from pftrack.io.data import data_dir
+from pftrack.workflows.pipeline import iter_frames, read_ground_truth
 
 PETS = data_dir() / "pets09"
 needs_pets = pytest.mark.skipif(not (PETS / "gt.txt").is_file(), reason="PETS 2009 not found")
@@ -192,8 +192,8 @@ def test_people_cut_by_the_left_or_right_edge_are_widened_outwards():
 
 
 def test_with_detector_replaces_the_preset_detector():
-    from pftrack.fresh import with_detector
-    from pftrack.pipeline import load_config
+    from pftrack.workflows.pipeline import load_config
+    from pftrack.workflows.track import with_detector
 
     cfg = load_config("people-ground")
     out = with_detector(cfg, "ssdlite-people")
@@ -207,7 +207,7 @@ def test_with_detector_replaces_the_preset_detector():
 
 @needs_pets
 def test_track_refuses_a_detector_and_detections_together(tmp_path):
-    from pftrack.fresh import track_video
+    from pftrack.workflows.track import track_video
 
     with pytest.raises(ValueError, match="--detector ssdlite-people and --detections"):
         track_video(PETS / "vtest.avi", tmp_path / "o", detections={}, frames="1:5",
@@ -218,7 +218,7 @@ def test_track_refuses_a_detector_and_detections_together(tmp_path):
 @needs_pets
 @pytest.mark.slow
 def test_track_says_which_detector_ran(tmp_path):
-    from pftrack.fresh import track_video
+    from pftrack.workflows.track import track_video
 
     res = track_video(PETS / "vtest.avi", tmp_path / "o", frames="1:40", report=False,
                       detector="ssdlite-people")
@@ -236,7 +236,7 @@ MOT17 = data_dir() / "mot17-09" / "MOT17-09.mp4"
 def test_track_chooses_the_detector_by_the_peoples_size_in_the_frame():
     """PETS's people are about 0.13 of the frame's height (small: hog-people), MOT17-09's
     about 0.39 (large: ssdlite-people); the reason names the median."""
-    from pftrack.fresh import PROBE_MIN_HEIGHT_FRACTION, choose_detector
+    from pftrack.workflows.track import PROBE_MIN_HEIGHT_FRACTION, choose_detector
 
     name, why = choose_detector(PETS / "vtest.avi")
     assert name == "hog-people" and "small" in why
@@ -250,7 +250,7 @@ def test_track_chooses_the_detector_by_the_peoples_size_in_the_frame():
 def test_track_falls_back_to_hog_people_without_the_weights(monkeypatch):
     import importlib.util
 
-    from pftrack.fresh import choose_detector
+    from pftrack.workflows.track import choose_detector
     from pftrack_world import dnn_people
 
     real = importlib.util.find_spec

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack.components import Frame
+from pftrack.contracts.components import Frame
 from pftrack.testing import assert_conforms
 from pftrack_world.soccer import PitchBlobDetector, SoccerScene
 from scipy.optimize import linear_sum_assignment

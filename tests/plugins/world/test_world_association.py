@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack.components import Detections, Target
+from pftrack.contracts.components import Detections, Target
 from pftrack_world.association import (
     GreedyScoreAssociator,
     HungarianScoreAssociator,

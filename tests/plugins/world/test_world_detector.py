@@ -6,9 +6,9 @@ import json
 
 import numpy as np
 import pytest
-from pftrack.components import Frame
-from pftrack.data import data_dir
+from pftrack.contracts.components import Frame
 from pftrack.geometry.boxes import iou_matrix, nms
+from pftrack.io.data import data_dir
 from pftrack.testing import synthetic_scene
 from pftrack_world.detector import (
     ScaleBand,
@@ -92,7 +92,7 @@ def test_heights_learnt_from_boxes_match_the_camera_on_pets():
     """The affine foot -> height law fitted to PETS ground-truth boxes (frames 1-400) predicts
     the camera's expected heights, and the scale plan it gives scans the same bands."""
     from pftrack.geometry.formats import load_camera
-    from pftrack.pipeline import read_ground_truth
+    from pftrack.workflows.pipeline import read_ground_truth
     from pftrack_world.detector import expected_heights_px
 
     # exact on boxes that follow an affine law; NaN above the "horizon" (h <= 0)
@@ -208,7 +208,7 @@ def test_detect_without_a_model_names_the_fix():
 @pytest.mark.slow
 def test_trained_on_pets_detects_people_in_unseen_frames(tmp_path):
     """Train on 120 PETS frames (HOG, 32 x 64 windows), detect on frames 401-440."""
-    from pftrack.pipeline import iter_frames, read_ground_truth, train_detector
+    from pftrack.workflows.pipeline import iter_frames, read_ground_truth, train_detector
 
     cfg = {"detector": {"type": "svm", "params": {"min_height_px": 48},
                         "train": {"params": {"window_wh": [32, 64], "C": 0.01}}}}

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pftrack.components import DetectionMatch, Detections, Frame, Likelihood, Target
+from pftrack.contracts.components import DetectionMatch, Detections, Frame, Likelihood, Target
 from pftrack_world.likelihoods import (
     CompositeLikelihood,
     DetectionLikelihood,

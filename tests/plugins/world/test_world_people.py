@@ -9,9 +9,9 @@ import warnings
 
 import numpy as np
 import pytest
-from pftrack.data import data_dir
 from pftrack.host import get_host
-from pftrack.pipeline import iter_frames, load_config, read_ground_truth, train_detector
+from pftrack.io.data import data_dir
+from pftrack.workflows.pipeline import iter_frames, load_config, read_ground_truth, train_detector
 
 PETS = data_dir() / "pets09"
 needs_pets = pytest.mark.skipif(not (PETS / "gt.txt").is_file(), reason="PETS 2009 not found")
@@ -48,7 +48,7 @@ def test_registered_and_scores_are_calibrated():
 
 
 def test_bad_threshold_and_model_name_the_parameter():
-    from pftrack.components import RunContext
+    from pftrack.contracts.components import RunContext
 
     with pytest.raises(ValueError, match=r"'hog-people'\): parameter 'threshold' must be a number "
                        r"in \(0, 1\)"):

@@ -3,7 +3,7 @@
 Each sub-command lives in its own module of this package and exposes
 ``register(subparsers)``, which adds its parser and sets ``func=handler(args) -> int``.
 Modules are found by scanning this package, so adding a command never edits a shared list.
-Plugins add their own commands (:class:`pftrack.extensions.Command`, hook
+Plugins add their own commands (:class:`pftrack.contracts.extensions.Command`, hook
 ``pftrack_register_commands``); one whose name a core command has is refused with a warning
 naming the plugin.
 Heavy imports (OpenCV, Open3D, pyvista) happen inside the handlers, not at parser build time.

@@ -99,9 +99,9 @@ def handle(command: str | None, exc: BaseException, debug: bool, inputs: str = "
 
 
 def _is_component_fault(exc: BaseException) -> bool:
-    """A component broke its contract (:class:`pftrack.tracker.ComponentOutputError`)."""
+    """A component broke its contract (:class:`pftrack.engine.tracker.ComponentOutputError`)."""
     try:
-        from pftrack.tracker import ComponentOutputError
+        from pftrack.engine.tracker import ComponentOutputError
     except Exception:  # noqa: BLE001 - an engine that does not import: an internal error
         return False
     return isinstance(exc, ComponentOutputError)

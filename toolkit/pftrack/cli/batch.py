@@ -2,7 +2,7 @@
 
 JOBS lists ``pftrack run`` jobs (a configuration or preset, the video, camera, frames, seed,
 ground truth), registered demos and benchmarks with their arguments, and matrices of them (seeds
-x parameters x inputs); :mod:`pftrack.batch` describes the format. Each job writes into
+x parameters x inputs); :mod:`pftrack.workflows.batch` describes the format. Each job writes into
 ``DIR/NAME`` atomically; ``DIR/summary.csv``, ``DIR/aggregates.csv`` and ``DIR/summary.json``
 (one row per job: status, figures, time; mean and spread per group over seeds) are rewritten as
 jobs finish. Without ``--scheduler`` a local Dask cluster of ``--workers`` processes (default:
@@ -22,7 +22,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "batch", help="run many jobs (runs, demos, benchmarks, seed sweeps) on Dask",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("jobs", metavar="JOBS", help="jobs file (YAML; see pftrack.batch)")
+    p.add_argument("jobs", metavar="JOBS", help="jobs file (YAML; see pftrack.workflows.batch)")
     p.add_argument("--out", required=True, metavar="DIR", help="batch output folder")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--scheduler", metavar="ADDRESS",
@@ -40,7 +40,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def handler(args: argparse.Namespace) -> int:
-    from pftrack.batch import load_jobs, run_batch
+    from pftrack.workflows.batch import load_jobs, run_batch
 
     jobs = load_jobs(args.jobs)
     try:

@@ -1,6 +1,6 @@
 """``pftrack bench NAME``: benchmarks that measure and report (never timed tests).
 
-A benchmark is a :class:`pftrack.extensions.Benchmark` that a plugin registered through
+A benchmark is a :class:`pftrack.contracts.extensions.Benchmark` that a plugin registered through
 ``pftrack_register_benchmarks``. pftrack itself ships none: the papers' benchmarks (``core``,
 ``colour``, ``pets09-ground``, ``soccer``, ...) are the repository's package ``pftrack_bench``
 (``benchmarks/``, installed by ``./dev``), a plugin like any third party's. Its result dict is
@@ -15,7 +15,7 @@ import json
 import sys
 
 from pftrack.cli import _args
-from pftrack.extensions import Benchmark
+from pftrack.contracts.extensions import Benchmark
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -293,8 +293,11 @@ def _show(args: argparse.Namespace) -> int:
 def _people(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from pftrack.geometry import people as pp
-    from pftrack.pipeline import parse_frames
+    from pftrack.geometry.alignment import compare_with_reference
+    from pftrack.geometry.people import estimate_camera_from_people
+    from pftrack.io.box_files import read_boxes_csv, read_detection_boxes
+    from pftrack.io.frames import parse_frames
+    from pftrack.workflows.calibrate import estimate_camera_from_video
 
     first, last = parse_frames(args.frames)
     if args.video:
@@ -323,14 +326,14 @@ def _people(args: argparse.Namespace) -> int:
     if args.reference and not args.gt:
         raise ValueError("calib people: --reference needs --gt (world positions to compare)")
     if args.boxes:
-        rows = pp.read_boxes_csv(args.boxes)
+        rows = read_boxes_csv(args.boxes)
         if args.frames is not None and np.any(rows[:, 4] > 0):
             keep = (rows[:, 4] >= first) & ((rows[:, 4] <= last) if last else True)
             rows = rows[keep]
         rows = np.column_stack([rows, np.ones(len(rows))])
         source = f"boxes {args.boxes}"
     elif args.detections:
-        rows = pp.read_detection_boxes(args.detections, first, last, args.min_score)
+        rows = read_detection_boxes(args.detections, first, last, args.min_score)
         source = f"detections {args.detections}"
     else:
         if not args.video:
@@ -344,7 +347,7 @@ def _people(args: argparse.Namespace) -> int:
     rng = np.random.default_rng(args.seed)
     if args.video and (rows is None or np.all(rows[:, 4] >= 1)):
         # detection (when no boxes), the people's lean and the fit, as a library call
-        fit, rows, found = pp.estimate_camera_from_video(
+        fit, rows, found = estimate_camera_from_video(
             args.video, rows, first, last, args.stride, args.person_height, rng,
             lean=not args.no_lean, silhouettes=args.silhouettes,
             min_score=args.min_score or 0.0, **fit_kw)
@@ -352,7 +355,7 @@ def _people(args: argparse.Namespace) -> int:
     else:
         if rows is None:
             raise ValueError("calib people: give --video, or --boxes / --detections")
-        fit = pp.estimate_camera_from_people(rows[:, :4], size, args.person_height, rng,
+        fit = estimate_camera_from_people(rows[:, :4], size, args.person_height, rng,
                                              **fit_kw)
     if rows is None:  # (estimate_camera_from_video returns the rows it found)
         raise RuntimeError("calib people: no person boxes")
@@ -380,7 +383,7 @@ def _people(args: argparse.Namespace) -> int:
         if not np.all(np.isfinite(gt[:, 7:9])) or np.all(gt[:, 7:9] == -1):
             raise ValueError(f"--gt {args.gt}: no world x,y columns (8-9) to compare with")
         out["reference"] = {"camera": args.reference, "gt": args.gt,
-                            **pp.compare_with_reference(fit, ref, gt[:, 2:6], gt[:, 7:9])}
+                            **compare_with_reference(fit, ref, gt[:, 2:6], gt[:, 7:9])}
     u = fit.uncertainty
     lines = [(f"{fit.inliers.sum()} of {len(rows)} boxes used ({source}), "
              f"person height {fit.person_height_m:g} m"),

@@ -1,6 +1,6 @@
 """``pftrack demo [NAME] --out DIR``: the first thing to run.
 
-Runs a demo a plugin registered (:class:`pftrack.extensions.Demo`, hook
+Runs a demo a plugin registered (:class:`pftrack.contracts.extensions.Demo`, hook
 ``pftrack_register_demos``). Without NAME, the default one: the built-in ``walkers`` demo of the
 colour plugin (the colour paper: three synthetic walkers tracked with cross entropy + background
 beside the paper's Bhattacharyya baseline; tracks, metrics and report pictures).
@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 
 from pftrack.cli import _args
-from pftrack.extensions import Demo
+from pftrack.contracts.extensions import Demo
 
 
 def _default(demos: dict[str, Demo]) -> str | None:

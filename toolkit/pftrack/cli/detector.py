@@ -47,7 +47,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def train_handler(args: argparse.Namespace) -> int:
-    from pftrack.pipeline import load_config, train_detector
+    from pftrack.workflows.pipeline import load_config, train_detector
 
     cfg = load_config(args.config)
     det = cfg.get("detector") or {}
@@ -70,7 +70,7 @@ def train_handler(args: argparse.Namespace) -> int:
 def info_handler(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from pftrack.pipeline import build_detector, load_config
+    from pftrack.workflows.pipeline import build_detector, load_config
 
     if not Path(args.model).is_file():
         raise FileNotFoundError(f"detector model {args.model} not found")

@@ -26,7 +26,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def preset_listing() -> list[dict[str, str]]:
     """``[{"name", "plugin", "state", "path", "description"}]`` for every registered preset
     (``state``: the configuration's, ``world`` when it does not say, as
-    :func:`pftrack.pipeline.load_config` reads it; ``?`` when the file cannot be read)."""
+    :func:`pftrack.workflows.pipeline.load_config` reads it; ``?`` when the file cannot be read)."""
     import yaml
 
     from pftrack.host import get_host

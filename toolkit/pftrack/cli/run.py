@@ -46,7 +46,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def handler(args: argparse.Namespace) -> int:
-    from pftrack.pipeline import run_pipeline
+    from pftrack.workflows.pipeline import run_pipeline
 
     result = run_pipeline(args.config, video=args.video, camera=args.camera, out_dir=args.out,
                           gt=args.gt, frames=args.frames, detector_model=args.detector_model,
@@ -69,8 +69,8 @@ def handler(args: argparse.Namespace) -> int:
 
 def _say_why(args: argparse.Namespace, result) -> None:
     """A run with no track says why and which parameter to change (stderr)."""
-    from pftrack.fresh import explain_no_tracks
-    from pftrack.pipeline import load_config
+    from pftrack.workflows.pipeline import load_config
+    from pftrack.workflows.track import explain_no_tracks
 
     cfg = load_config(args.config)
     dets = result.detections if (result.detections or cfg.get("detector")

@@ -6,7 +6,7 @@ No training, no calibration, no ground truth: a built-in detector chosen from th
 estimated from the people (or the image plane, said aloud, when none can be), the ``people-*``
 presets. Writes ``DIR/tracks.txt`` (MOTChallenge, the video's frame numbers from 1),
 ``DIR/report/*.png``, ``DIR/summary.json`` and, when estimated, ``DIR/camera.yaml``. See
-:mod:`pftrack.fresh`.
+:mod:`pftrack.workflows.track`.
 """
 
 from __future__ import annotations
@@ -55,7 +55,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def handler(args: argparse.Namespace) -> int:
-    from pftrack.fresh import track_video
+    from pftrack.workflows.track import track_video
 
     res = track_video(args.video, args.out, camera=args.camera, detections=args.detections,
                       preset=args.preset, frames=args.frames, seed=args.seed,

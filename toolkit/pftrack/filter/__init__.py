@@ -1,7 +1,7 @@
 """The particle-filter core: weights, resampling and estimates, vectorised over particles.
 
 Weights are carried as log-weights. Every function here is a pure numpy function of arrays and a
-``numpy.random.Generator``; the tracker (:mod:`pftrack.tracker`) composes them.
+``numpy.random.Generator``; the tracker (:mod:`pftrack.engine.tracker`) composes them.
 """
 
 from pftrack.filter.core import (

@@ -15,7 +15,7 @@ bit for bit:
 * :func:`constant_velocity_update`: the deterministic part of
   :class:`pftrack_basic.motion.ConstantVelocity3DMotion`'s (and 2-D's) step, all targets' rows
   in one pass (``predict_rows``);
-* :func:`centre_boxes`: the (N, 4) boxes of :class:`pftrack.tracker.ImageBoxObservation`
+* :func:`centre_boxes`: the (N, 4) boxes of :class:`pftrack.builtin.image_box.ImageBoxObservation`
   (centre minus half the size, then the size), one row at a time;
 * :func:`gaussian_centre_log_likelihood`: the box-centre Gaussian of
   :class:`pftrack_basic.gaussian.GaussianLikelihood` for one observed point;
@@ -265,8 +265,8 @@ def gaussian_centre_log_likelihood(boxes: np.ndarray, ox: float, oy: float,
 
 def centre_boxes(states: np.ndarray, w: float, h: float) -> np.ndarray:
     """(N, 4) boxes ``(x - 0.5 w, y - 0.5 h, w, h)`` of the states' first two columns (the box
-    centres), as :meth:`pftrack.tracker.ImageBoxObservation.to_boxes` computes them with numpy,
-    in one pass instead of four strided ones."""
+    centres), as :meth:`pftrack.builtin.image_box.ImageBoxObservation.to_boxes` computes them with
+    numpy, in one pass instead of four strided ones."""
     s = np.asarray(states, dtype=np.float64)
     out = np.empty((len(s), 4))
     w, h = float(w), float(h)
@@ -362,7 +362,7 @@ def estimate_resample_rows(vals: np.ndarray, pos: np.ndarray, p: np.ndarray, u: 
 def centre_boxes_rows(states: np.ndarray, half: np.ndarray, wh: np.ndarray) -> np.ndarray:
     """(T, N, 4) boxes ``(x - half_w, y - half_h, w, h)`` of C-contiguous float64 ``states``
     (T, N, D), row ``t`` with ``half[t]`` and ``wh[t]`` ((T, 2) float64): the numbers of
-    :meth:`pftrack.tracker.ImageBoxObservation.to_boxes_rows`'s numpy path in one pass."""
+    :meth:`pftrack.builtin.image_box.ImageBoxObservation.to_boxes_rows`'s numpy path in one pass."""
     out = np.empty(states.shape[:2] + (4,))
     _k().centre_boxes_rows(states, half, wh, out)
     return out

@@ -180,7 +180,7 @@ def gaussian_centre_log_likelihood(boxes, ox, oy, scale, out):  # pragma: no cov
 @njit(**_JIT)  # type: ignore[call-overload]
 def centre_boxes(states, hw, hh, w, h, out):  # pragma: no cover - compiled
     """``out[i] = (s0 - hw, s1 - hh, w, h)`` per state row: the boxes of
-    :meth:`pftrack.tracker.ImageBoxObservation.to_boxes` (``hw = 0.5 w``, ``hh = 0.5 h``),
+    :meth:`pftrack.builtin.image_box.ImageBoxObservation.to_boxes` (``hw = 0.5 w``, ``hh = 0.5 h``),
     written row by row in one pass."""
     n = states.shape[0]
     for i in range(n):

@@ -26,17 +26,17 @@ difference of the two rows. The parameters fitted are
   within 2 %. What does carry it is the people's **lean**: upright people lean towards the
   vertical vanishing point, a few pixels over their height at the image's sides, and that point
   with the horizon fixes the focal length (``f^2 = d(p, horizon) d(p, vanishing point)`` for the
-  principal point p). Given ``slants`` (each box's ``du/dv`` from :func:`measure_slants`, which
-  fits a line to the moving pixels' row centroids in the box) the focal length is fitted from
-  the leans and the heights together. Without them it is a documented **prior**: a horizontal
-  field of view of :data:`PRIOR_HFOV_DEG` degrees (a 6 mm lens on a 1/3" sensor, the middle of
-  common surveillance lenses), 1-sigma :data:`PRIOR_LOG_FOCAL_SD` in log focal length (a factor
-  1.5), whose spread is propagated into the other figures' uncertainties; ``fit_focal=True``
-  fits it from the heights alone with that prior as a regulariser (for undistorted images and
-  tight boxes), and ``focal_px=`` fixes a known one. ``fit.focal_identified``,
-  ``fit.slants_used`` and ``fit.notes`` say which. On PETS 2009 S2.L1 the leans with a pinhole
-  gave 1237-1429 px against the true 1185 px: 4-21 % high, a bias the bootstrap 1-sigma
-  (20-110 px) does not include,
+  principal point p). Given ``slants`` (each box's ``du/dv`` from
+  :func:`~pftrack.workflows.calibrate.measure_slants`, which fits a line to the moving pixels' row
+  centroids in the box) the focal length is fitted from the leans and the heights together. Without
+  them it is a documented **prior**: a horizontal field of view of :data:`PRIOR_HFOV_DEG` degrees
+  (a 6 mm lens on a 1/3" sensor, the middle of common surveillance lenses), 1-sigma
+  :data:`PRIOR_LOG_FOCAL_SD` in log focal length (a factor 1.5), whose spread is propagated into
+  the other figures' uncertainties; ``fit_focal=True`` fits it from the heights alone with that
+  prior as a regulariser (for undistorted images and tight boxes), and ``focal_px=`` fixes a known
+  one. ``fit.focal_identified``, ``fit.slants_used`` and ``fit.notes`` say which. On PETS 2009
+  S2.L1 the leans with a pinhole gave 1237-1429 px against the true 1185 px: 4-21 % high, a bias
+  the bootstrap 1-sigma (20-110 px) does not include,
 * with the leans, a one-coefficient **radial lens distortion** ``k`` (the relative displacement
   at the image corner, :func:`camera_from_parameters`), zero-mean prior
   :data:`PRIOR_DISTORTION_SD` (``fit_distortion``). Barrel distortion pulls the image's sides
@@ -65,20 +65,24 @@ uncertainties come from a bootstrap over the inlier boxes (``n_bootstrap`` refit
 World frame of the result: metres, z up, the ground is z = 0, the camera centre is at
 ``(0, 0, camera_height_m)`` and its optical axis points along +y (seen from above). Any other
 frame differs from it by a rigid motion in the ground plane: compare ground positions after a 2-D
-rigid alignment (:func:`rigid_align_2d`, :func:`compare_with_reference`).
+rigid alignment (:func:`~pftrack.geometry.alignment.rigid_align_2d`,
+:func:`~pftrack.geometry.alignment.compare_with_reference`).
 
 Silhouettes: a detector's box heights are coarse (a scale pyramid's steps) and biased with the
-person's size, which bends the height-row relation: :func:`measure_silhouettes` finds each
-person's top and bottom rows and lean in the moving pixels (MOG2), and
-:func:`refine_boxes_by_silhouettes` puts those rows into the boxes (on PETS 2009 S2.L1's
-``hog-people`` boxes the horizon error falls from 60-70 px to 1-25 px and the camera height from
-8.3-8.5 m to 6.6-7.2 m, real 7.07 m). :func:`link_boxes` links boxes into people for a bootstrap
-over people (``groups``), whose 1-sigma is the honest one (a person's boxes share errors).
+person's size, which bends the height-row relation:
+:func:`~pftrack.workflows.calibrate.measure_silhouettes` finds each person's top and bottom rows
+and lean in the moving pixels (MOG2), and
+:func:`~pftrack.geometry.people_boxes.refine_boxes_by_silhouettes` puts those rows into the boxes
+(on PETS 2009 S2.L1's ``hog-people`` boxes the horizon error falls from 60-70 px to 1-25 px and the
+camera height from 8.3-8.5 m to 6.6-7.2 m, real 7.07 m).
+:func:`~pftrack.geometry.people_boxes.link_boxes` links boxes into people for a bootstrap over
+people (``groups``), whose 1-sigma is the honest one (a person's boxes share errors).
 
-Where the boxes come from: :func:`read_boxes_csv` (a user's clicked boxes),
-:func:`read_detection_boxes` (a MOTChallenge ``det.txt``), :func:`detect_people` (a registered
-``hog-people`` detector, else OpenCV's HOG people detector); :func:`estimate_camera_from_video`
-does detection, leans and fit in one call (``pftrack calib people``).
+Where the boxes come from: :func:`~pftrack.io.box_files.read_boxes_csv` (a user's clicked boxes),
+:func:`~pftrack.io.box_files.read_detection_boxes` (a MOTChallenge ``det.txt``),
+:func:`~pftrack.workflows.calibrate.detect_people` (a registered ``hog-people`` detector, else
+OpenCV's HOG people detector); :func:`~pftrack.workflows.calibrate.estimate_camera_from_video` does
+detection, leans and fit in one call (``pftrack calib people``).
 """
 
 from __future__ import annotations
@@ -89,32 +93,19 @@ from typing import Any
 
 import numpy as np
 
-from pftrack.geometry.boxes import foot_points, nms
+from pftrack.geometry.boxes import foot_points
 from pftrack.geometry.camera import Camera
 
 __all__ = [
-    "HOG_MARGIN_X",
-    "HOG_MARGIN_Y",
     "PRIOR_DISTORTION_SD",
     "PRIOR_HFOV_DEG",
     "PRIOR_LOG_FOCAL_SD",
     "PRIOR_ROLL_SD_DEG",
     "PeopleCameraFit",
     "camera_from_parameters",
-    "compare_with_reference",
-    "detect_people",
     "estimate_camera_from_people",
-    "estimate_camera_from_video",
-    "ground_error_after_alignment",
     "horizon_row",
-    "link_boxes",
-    "measure_silhouettes",
-    "measure_slants",
     "predicted_box_heights",
-    "read_boxes_csv",
-    "read_detection_boxes",
-    "refine_boxes_by_silhouettes",
-    "rigid_align_2d",
 ]
 
 #: Horizontal field of view (degrees) of the focal-length prior: a typical surveillance lens.
@@ -133,7 +124,8 @@ PRIOR_ROLL_SD_DEG = 5.0
 #: show barrel distortion of a few per cent at the corner.
 PRIOR_DISTORTION_SD = 0.1
 
-#: Fraction of a box, from its top, whose rows :func:`measure_slants` uses (the legs swing).
+#: Fraction of a box, from its top, whose rows
+#: :func:`~pftrack.workflows.calibrate.measure_slants` uses (the legs swing).
 SLANT_TOP_FRACTION = 0.7
 
 # base rotation: camera looks along world +y, image down is world -z, image right is world +x
@@ -325,11 +317,11 @@ class PeopleCameraFit:
         pinhole, as without leans or with ``fit_distortion=False``).
     trust : dict or None
         Whether the camera can be trusted to track on, with the figures behind the verdict,
-        when a caller checked it (:func:`pftrack.fresh.camera_trust`); None: not checked.
+        when a caller checked it (:func:`pftrack.workflows.track.camera_trust`); None: not checked.
     boxes_xywh : ndarray (N, 4) or None
         The boxes as fitted (``x, y, w, h`` pixels, one row per input box, in their order):
-        with silhouettes (:func:`estimate_camera_from_video`), their top and bottom rows
-        from the silhouettes.
+        with silhouettes (:func:`~pftrack.workflows.calibrate.estimate_camera_from_video`),
+        their top and bottom rows from the silhouettes.
     """
 
     camera: Camera
@@ -425,7 +417,8 @@ def _init_from_linear(feet: np.ndarray, hgt: np.ndarray, centre: np.ndarray, f0:
 def _predict_slants(params: np.ndarray, feet: np.ndarray, hgt: np.ndarray,
                     centre: np.ndarray, top_fraction: float = SLANT_TOP_FRACTION) -> np.ndarray:
     """``du/dv`` of upright people's axes under ``params`` (towards the vertical vanishing
-    point ``K R e_z``), at the middle of the rows :func:`measure_slants` uses."""
+    point ``K R e_z``), at the middle of the rows
+    :func:`~pftrack.workflows.calibrate.measure_slants` uses."""
     f = math.exp(params[0])
     R = _rotation(params[1], params[2])
     rz = R[:, 2]
@@ -564,24 +557,25 @@ def estimate_camera_from_people(boxes_xywh: Any, image_size: tuple[int, int],
     border_px : float
         Boxes this close to the top or bottom border are dropped.
     slants : array_like, shape (N,), optional
-        Each box's lean ``du/dv`` (:func:`measure_slants`; NaN: not measured). Upright people
-        lean towards the vertical vanishing point, which with the horizon fixes the focal length:
-        when at least ``min_slants`` of the inlier boxes have one (and ``focal_px`` is not
-        given) the focal length is fitted from them and the box heights together, the prior
-        kept as a weak regulariser.
+        Each box's lean ``du/dv`` (:func:`~pftrack.workflows.calibrate.measure_slants`; NaN: not
+        measured). Upright people lean towards the vertical vanishing point, which with the horizon
+        fixes the focal length: when at least ``min_slants`` of the inlier boxes have one (and
+        ``focal_px`` is not given) the focal length is fitted from them and the box heights
+        together, the prior kept as a weak regulariser.
     min_slants : int
         Fewest measured slants for that.
     groups : array_like of int, shape (N,), optional
-        Which person each box is (e.g. :func:`link_boxes`; boxes of one person in consecutive
-        frames share a number). A person's boxes over many frames are not independent
-        measurements (a height, a posture, a bag, a direction of walking): with ``groups`` the
-        bootstrap resamples people, with all their boxes, rather than boxes, and its 1-sigma
-        values are the wider, honest ones. (Weighing each person's leans as one lean was
+        Which person each box is (e.g. :func:`~pftrack.geometry.people_boxes.link_boxes`; boxes of
+        one person in consecutive frames share a number). A person's boxes over many frames are not
+        independent measurements (a height, a posture, a bag, a direction of walking): with
+        ``groups`` the bootstrap resamples people, with all their boxes, rather than boxes, and its
+        1-sigma values are the wider, honest ones. (Weighing each person's leans as one lean was
         tried on PETS 2009 S2.L1 and made the focal length less stable across stretches: short
         fragments of people weigh as much as long tracks.)
     slant_top_fraction : float
         The part of the person, from the top, whose rows gave each lean (as measured:
-        :func:`measure_slants` 0.7, :func:`measure_silhouettes` its ``top_fraction``). Unit: 1.
+        :func:`~pftrack.workflows.calibrate.measure_slants` 0.7,
+        :func:`~pftrack.workflows.calibrate.measure_silhouettes` its ``top_fraction``). Unit: 1.
     fit_distortion : bool, optional
         Fit a one-coefficient radial lens distortion ``k`` (see :func:`camera_from_parameters`)
         with the focal length, from the leans and the heights, with a zero-mean prior of 1-sigma
@@ -808,674 +802,3 @@ def estimate_camera_from_people(boxes_xywh: Any, image_size: tuple[int, int],
     # the file written from this camera records how it was made
     cam.metadata["people_fit"] = {k: v for k, v in fit.summary().items()}
     return fit
-
-
-# --------------------------------------------------------------------------------------------
-# Comparing an estimated camera with a reference (world frames differ by a ground rigid motion)
-# --------------------------------------------------------------------------------------------
-
-
-def rigid_align_2d(source: Any, target: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Best rotation and translation (no scale, no reflection) taking 2-D ``source`` points onto
-    ``target`` in the least-squares sense (Kabsch / Procrustes).
-
-    Returns
-    -------
-    R : ndarray, shape (2, 2)
-    t : ndarray, shape (2,)
-        ``target ~ source @ R.T + t``.
-    """
-    s = np.asarray(source, dtype=np.float64).reshape(-1, 2)
-    t = np.asarray(target, dtype=np.float64).reshape(-1, 2)
-    if len(s) != len(t) or len(s) < 2:
-        raise ValueError(f"rigid_align_2d: need >= 2 matching points, got {len(s)} and {len(t)}")
-    ms, mt = s.mean(axis=0), t.mean(axis=0)
-    H = (s - ms).T @ (t - mt)
-    U, _, Vt = np.linalg.svd(H)
-    d = np.sign(np.linalg.det(Vt.T @ U.T))
-    R = Vt.T @ np.diag([1.0, d]) @ U.T
-    return R, mt - ms @ R.T
-
-
-def ground_error_after_alignment(camera: Camera, feet_px: Any, world_xy_m: Any
-                                 ) -> dict[str, float]:
-    """Back-project foot pixels with ``camera`` onto z = 0, align the result to the reference
-    ground positions ``world_xy_m`` with the best 2-D rigid motion (:func:`rigid_align_2d`, no
-    scale) and measure the distances.
-
-    Returns
-    -------
-    dict
-        ``median_m``, ``p90_m``, ``mean_m``, ``points`` (used: those whose ray met the ground),
-        ``missed`` (rays above the horizon), ``rotation_deg`` of the alignment.
-    """
-    feet = np.asarray(feet_px, dtype=np.float64).reshape(-1, 2)
-    ref = np.asarray(world_xy_m, dtype=np.float64).reshape(-1, 2)
-    g = camera.image_to_ground(feet)[:, :2]
-    ok = np.all(np.isfinite(g), axis=1)
-    if ok.sum() < 2:
-        raise ValueError(f"ground_error_after_alignment: only {int(ok.sum())} foot points meet "
-                         "the ground through this camera")
-    R, t = rigid_align_2d(g[ok], ref[ok])
-    err = np.linalg.norm(g[ok] @ R.T + t - ref[ok], axis=1)
-    return {"median_m": float(np.median(err)), "p90_m": float(np.percentile(err, 90)),
-            "mean_m": float(err.mean()), "points": int(ok.sum()), "missed": int((~ok).sum()),
-            "rotation_deg": float(math.degrees(math.atan2(R[1, 0], R[0, 0])))}
-
-
-def compare_with_reference(camera_or_fit: Any, reference: Camera, boxes_xywh: Any,
-                           world_xy_m: Any) -> dict[str, float]:
-    """How far an estimated camera is from a reference (e.g. a surveyed) one.
-
-    Parameters
-    ----------
-    camera_or_fit : Camera or PeopleCameraFit
-        The estimated camera.
-    reference : Camera
-        The reference camera (lens distortion allowed).
-    boxes_xywh : array_like, shape (N, >=4)
-        Ground-truth person boxes; their foot points (bottom centre) are back-projected.
-    world_xy_m : array_like, shape (N, 2)
-        The same people's ground positions in the reference's world frame, metres.
-
-    Returns
-    -------
-    dict
-        ``median_error_m``, ``p90_error_m`` (after the best 2-D rigid alignment of the
-        estimated ground positions onto ``world_xy_m``: the estimated camera's world frame is
-        arbitrary up to a ground-plane rigid motion; no scale is fitted), ``points``,
-        ``horizon_error_px`` (absolute difference of the horizon rows at the image's centre
-        column, the reference's pinhole part), ``horizon_row_px``, ``reference_horizon_row_px``,
-        ``camera_height_m``, ``reference_camera_height_m``.
-    """
-    cam = getattr(camera_or_fit, "camera", camera_or_fit)
-    b = np.asarray(boxes_xywh, dtype=np.float64)
-    feet = foot_points(b)
-    g = ground_error_after_alignment(cam, feet, world_xy_m)
-    col = (cam.width - 1) / 2
-    hz, hz_ref = horizon_row(cam, col), horizon_row(reference, col)
-    return {"median_error_m": g["median_m"], "p90_error_m": g["p90_m"], "points": g["points"],
-            "horizon_error_px": abs(hz - hz_ref), "horizon_row_px": hz,
-            "reference_horizon_row_px": hz_ref, "camera_height_m": float(cam.center_m[2]),
-            "reference_camera_height_m": float(reference.center_m[2])}
-
-
-# --------------------------------------------------------------------------------------------
-# Person boxes for the estimate: a user's CSV, a MOTChallenge det file, or a detector
-# --------------------------------------------------------------------------------------------
-
-#: OpenCV's default people detector (Dalal and Triggs 2005) was trained on 64 x 128 windows with
-#: about 16 px of margin around the person on every side (their paper, sec. 3): its boxes are
-#: shrunk by these fractions of the window (left/right 16/64, top/bottom 16/128) to hug the person.
-HOG_MARGIN_X = 16.0 / 64.0
-HOG_MARGIN_Y = 16.0 / 128.0
-
-
-def read_boxes_csv(path: Any) -> np.ndarray:
-    """Boxes a user clicked: a CSV of ``x,y,w,h[,frame]`` per line (pixels; an optional header
-    line of names is skipped; ``#`` starts a comment).
-
-    Returns
-    -------
-    ndarray, shape (N, 5)
-        ``x, y, w, h, frame`` (frame 0 when the file has no such column).
-
-    Raises
-    ------
-    ValueError
-        Naming the file and line of a malformed row.
-    """
-    from pathlib import Path
-
-    p = Path(path)
-    if not p.is_file():
-        raise FileNotFoundError(f"boxes CSV not found: {p}")
-    rows: list[list[float]] = []
-    for lineno, text in enumerate(p.read_text(encoding="utf-8-sig").splitlines(), start=1):
-        text = text.split("#", 1)[0].strip()
-        if not text:
-            continue
-        parts = [t.strip() for t in text.replace(";", ",").split(",")]
-        try:
-            vals = [float(t) for t in parts]
-        except ValueError:
-            if not rows and lineno == 1 or all(not t[:1].isdigit() for t in parts):
-                continue  # a header
-            raise ValueError(f"{p}, line {lineno}: expected numbers x,y,w,h[,frame], got "
-                             f"{text!r}") from None
-        if len(vals) not in (4, 5):
-            raise ValueError(f"{p}, line {lineno}: expected 4 or 5 columns x,y,w,h[,frame], got "
-                             f"{len(vals)}")
-        if vals[2] <= 0 or vals[3] <= 0:
-            raise ValueError(f"{p}, line {lineno}: width and height must be > 0, got {text!r}")
-        rows.append(vals if len(vals) == 5 else [*vals, 0.0])
-    if not rows:
-        raise ValueError(f"{p}: no boxes (expected lines x,y,w,h[,frame])")
-    return np.asarray(rows, dtype=np.float64)
-
-
-def read_detection_boxes(path: Any, first: int = 1, last: int | None = None,
-                         min_score: float | None = None) -> np.ndarray:
-    """Boxes of a MOTChallenge ``det.txt`` in frames ``first..last`` (and score >= min_score).
-
-    Returns
-    -------
-    ndarray, shape (N, 6)
-        ``x, y, w, h, frame, score``.
-    """
-    from pftrack.io.mot import read_mot
-
-    rows = read_mot(path, check_unique=False)
-    keep = rows[:, 0] >= first
-    if last is not None:
-        keep &= rows[:, 0] <= last
-    if min_score is not None:
-        keep &= rows[:, 6] >= min_score
-    r = rows[keep]
-    return np.column_stack([r[:, 2:6], r[:, 0], r[:, 6]])
-
-
-def detect_people(video: Any, first: int = 1, last: int | None = None, stride: int = 1, *,
-                  host: Any = None, min_score: float = 0.0, upscale: float = 2.0,
-                  progress: Any = None) -> tuple[np.ndarray, str]:
-    """Person boxes found over a video's frames ``first..last`` (every ``stride``-th).
-
-    The detector: a registered detector named ``hog-people`` when the host has one (built with
-    its defaults, no camera), otherwise OpenCV's HOG people detector
-    (``cv2.HOGDescriptor_getDefaultPeopleDetector``, ``detectMultiScale`` with an 8 px stride, 8 px
-    padding, scale step 1.05) on the frame enlarged ``upscale`` times, whose boxes are shrunk by
-    the training margins :data:`HOG_MARGIN_X`, :data:`HOG_MARGIN_Y` and thinned by non-maximum
-    suppression (IoU 0.4). Its smallest window holds a person 96 px tall, so without enlarging
-    the frame smaller people are missed or reported at the smallest size, which would flatten
-    the height-row relation; boxes within 10 % of that floor (``96 / upscale`` px) are dropped
-    for the same reason.
-
-    Returns
-    -------
-    boxes : ndarray, shape (N, 6)
-        ``x, y, w, h, frame, score`` (frames numbered from 1 as in MOTChallenge).
-    name : str
-        Which detector ran.
-    """
-    import cv2
-
-    from pftrack.pipeline import iter_frames
-
-    if stride < 1:
-        raise ValueError(f"detect_people: stride must be >= 1, got {stride}")
-    if not upscale > 0:
-        raise ValueError(f"detect_people: upscale must be > 0, got {upscale}")
-    floor_px = 1.1 * 128 * (1 - 2 * HOG_MARGIN_Y) / upscale
-    det = None
-    if host is None:
-        from pftrack.host import get_host
-
-        host = get_host()
-    if "hog-people" in host.names("detector"):
-        from pftrack.components import RunContext
-
-        det = host.build("detector", "hog-people")
-        det.setup(RunContext(host=host))
-        name = "hog-people (registered detector)"
-    else:
-        hog = cv2.HOGDescriptor()
-        hog.setSVMDetector(cv2.HOGDescriptor_getDefaultPeopleDetector())  # type: ignore[attr-defined]
-        name = "OpenCV HOG default people detector"
-    out: list[np.ndarray] = []
-    for frame in iter_frames(video, first, last):
-        if (frame.index - first) % stride:
-            continue
-        if det is not None:
-            d = det.detect(frame)
-            boxes, scores = d.boxes_xywh_px, d.scores
-        else:
-            img = frame.image if upscale == 1 else cv2.resize(
-                frame.image, None, fx=upscale, fy=upscale, interpolation=cv2.INTER_LINEAR)
-            if img.shape[0] < 128 or img.shape[1] < 64:
-                # OpenCV's HOG crashes (segfault) on images smaller than its window
-                raise ValueError(f"detect_people: {video}: frames of {frame.size_wh[0]}x"
-                                 f"{frame.size_wh[1]} px are smaller than the HOG window "
-                                 f"(64x128) even enlarged {upscale:g} times; raise upscale")
-            b, s = hog.detectMultiScale(img, winStride=(8, 8), padding=(8, 8), scale=1.05)
-            boxes = np.asarray(b, dtype=np.float64).reshape(-1, 4) / upscale
-            scores = np.asarray(s, dtype=np.float64).reshape(-1)
-            if len(boxes):
-                sel = scores >= min_score
-                boxes, scores = boxes[sel], scores[sel]
-                keep = nms(boxes, scores, 0.4)
-                boxes, scores = boxes[keep], scores[keep]
-                boxes = np.column_stack([boxes[:, 0] + HOG_MARGIN_X * boxes[:, 2],
-                                         boxes[:, 1] + HOG_MARGIN_Y * boxes[:, 3],
-                                         boxes[:, 2] * (1 - 2 * HOG_MARGIN_X),
-                                         boxes[:, 3] * (1 - 2 * HOG_MARGIN_Y)])
-                big = boxes[:, 3] >= floor_px
-                boxes, scores = boxes[big], scores[big]
-        ok = scores >= min_score
-        if ok.any():
-            out.append(np.column_stack([boxes[ok], np.full(ok.sum(), frame.index),
-                                        scores[ok]]))
-        if progress is not None:
-            progress(frame.index)
-    rows = np.concatenate(out) if out else np.zeros((0, 6))
-    return rows, name
-
-
-def measure_slants(video: Any, boxes_xywh: Any, frames: Any, *, warmup: int = 20,
-                   min_fill: float = 0.2, top_fraction: float = SLANT_TOP_FRACTION
-                   ) -> np.ndarray:
-    """The lean of each person in the image, ``du/dv`` of their axis, from moving pixels.
-
-    Upright people lean towards the vertical vanishing point, by a few pixels over their height
-    at the image's sides; with the horizon that point gives the focal length, which box heights
-    cannot (see :func:`estimate_camera_from_people`'s ``slants``). For every box the foreground
-    of OpenCV's MOG2 background subtractor (shadows excluded) is taken inside the box, the
-    centroid column of each row of the top ``top_fraction`` of the box (head and body; the legs
-    swing) is computed, and a straight line ``u = a + s v`` is fitted to them.
-
-    Parameters
-    ----------
-    video : path
-        The video the boxes come from.
-    boxes_xywh : array_like, shape (N, >=4)
-        Boxes in pixels.
-    frames : array_like, shape (N,)
-        Frame of each box (1-based, as MOTChallenge numbers them).
-    warmup : int
-        Frames the background model learns before the first measurement (streamed from
-        ``warmup`` frames before the first box's frame, or from frame 1).
-    min_fill : float
-        Boxes whose foreground covers less than this fraction are not measured.
-    top_fraction : float
-        The part of the box, from the top, whose rows are used.
-
-    Returns
-    -------
-    ndarray, shape (N,)
-        ``s = du/dv`` (dimensionless); NaN where it could not be measured.
-    """
-    import cv2
-
-    from pftrack.pipeline import iter_frames
-
-    b = np.asarray(boxes_xywh, dtype=np.float64).reshape(-1, np.shape(boxes_xywh)[-1])[:, :4]
-    fr = np.asarray(frames, dtype=np.int64).reshape(-1)
-    if len(fr) != len(b):
-        raise ValueError(f"measure_slants: {len(b)} boxes but {len(fr)} frames")
-    out = np.full(len(b), np.nan)
-    if not len(b):
-        return out
-    first, last = int(fr.min()), int(fr.max())
-    mog = cv2.createBackgroundSubtractorMOG2(history=200, varThreshold=16, detectShadows=True)
-    order = np.argsort(fr, kind="stable")
-    starts = np.searchsorted(fr[order], np.arange(first, last + 2))
-    for frame in iter_frames(video, max(1, first - warmup), last):
-        fg = mog.apply(frame.image) == 255
-        if frame.index < first:
-            continue
-        k = frame.index - first
-        H, W = fg.shape
-        for i in order[starts[k]:starts[k + 1]]:
-            x, y, w, h = b[i]
-            x0, y0 = max(round(x), 0), max(round(y), 0)
-            x1, y1 = min(round(x + w), W), min(round(y + h), H)
-            sub = fg[y0:y1, x0:x1]
-            if sub.size == 0 or sub.mean() < min_fill:
-                continue
-            n_top = int((y1 - y0) * top_fraction)
-            cnt = sub[:n_top].sum(axis=1)
-            ok = cnt >= 3
-            if ok.sum() < max(10, 0.5 * n_top):
-                continue
-            cols = (sub[:n_top] @ np.arange(x1 - x0, dtype=np.float64))[ok] / cnt[ok]
-            rows = np.arange(n_top, dtype=np.float64)[ok]
-            rc = rows - rows.mean()
-            out[i] = float(rc @ (cols - cols.mean()) / (rc @ rc))
-    return out
-
-
-#: Silhouette heights further than this factor from their box's height are not trusted
-#: (:func:`refine_boxes_by_silhouettes`): a merged, cut or shadowed silhouette.
-SILHOUETTE_HEIGHT_RANGE = (0.75, 1.3)
-
-#: Fraction of a silhouette, from its top, whose rows give its lean
-#: (:func:`measure_silhouettes`): head and body, not the feet of a long stride.
-SILHOUETTE_TOP_FRACTION = 0.85
-
-
-def _silhouette_run(rows: np.ndarray, centre: int, gap: int) -> tuple[int, int, int]:
-    """The run of foreground ``rows`` (sorted) nearest ``centre``, gaps of at most ``gap`` rows
-    bridged: ``(first, last, distance of centre from the run)``."""
-    cuts = np.flatnonzero(np.diff(rows) > gap)
-    starts = rows[np.r_[0, cuts + 1]]
-    ends = rows[np.r_[cuts, len(rows) - 1]]
-    dist = np.maximum(np.maximum(starts - centre, centre - ends), 0)
-    k = int(np.argmin(dist))
-    return int(starts[k]), int(ends[k]), int(dist[k])
-
-
-def measure_silhouettes(video: Any, boxes_xywh: Any, frames: Any, *, warmup: int = 20,
-                        min_row_fill: float = 0.2, search_pad: float = 0.3,
-                        side_pad: float = 0.5, top_fraction: float = SILHOUETTE_TOP_FRACTION,
-                        min_fill: float = 0.2, every: int = 1, scale: float = 1.0
-                        ) -> np.ndarray:
-    """Each person's silhouette in the moving pixels: its top and bottom rows and its lean.
-
-    A detector's box height is coarse (a scale pyramid quantises it, 20 % steps for
-    ``hog-people``) and its errors depend on the person's size, which bends the height-row
-    relation the camera is fitted from: on PETS 2009 S2.L1 the horizon came out 50-70 px too
-    high and the camera height 12 % too large from ``hog-people`` boxes, 2-30 px and within 10 %
-    from their silhouettes (frames 1-200, 201-400, 401-600, 601-795; true focal length).
-    The foreground of OpenCV's MOG2 background subtractor (shadows excluded) is taken in the
-    middle half of each box's columns, from ``search_pad`` box heights above the box to as much
-    below; rows at least ``min_row_fill`` full form runs (gaps up to 6 % of the height bridged)
-    and the run through (or within 10 % of the height of) the box's centre row is the person.
-    Runs that reach the searched window's top or bottom (a person above or below, or the image
-    border) are not measured. The lean is the slope ``du/dv`` of a line fitted to the row
-    centroids of the person's foreground over the silhouette's top ``top_fraction``, in the
-    box's columns widened by ``side_pad`` of its width on each side (a box cut to the person
-    clips a leaning body's centroids towards its middle); the person's foreground there is the
-    8-connected component with most pixels in the middle half of the box's columns (another
-    person's or noise pixels in the window would pull the centroids towards its middle, which
-    also flattens the lean and lengthens the focal length fitted from it).
-
-    Parameters
-    ----------
-    video : path
-        The video the boxes come from.
-    boxes_xywh : array_like, shape (N, >=4)
-        Boxes in pixels.
-    frames : array_like, shape (N,)
-        Frame of each box (1-based, as MOTChallenge numbers them).
-    warmup : int
-        Frames the background model learns before the first measurement.
-    min_row_fill : float
-        A row belongs to the silhouette when this fraction of the middle columns is foreground.
-        Unit: 1.
-    search_pad : float
-        Rows searched above and below the box, in box heights. Unit: 1.
-    side_pad : float
-        Columns added on each side for the lean, in box widths. Unit: 1.
-    top_fraction : float
-        The part of the silhouette, from its top, whose rows give the lean. Unit: 1.
-    min_fill : float
-        Boxes whose foreground covers less than this fraction are not measured. Unit: 1.
-    every : int
-        The background model sees every ``every``-th frame from the first box's frame (and the
-        warm-up frames at the same spacing); boxes in other frames are not measured. The cost
-        is the background model's, per frame it sees: ``every=2`` over 400 frames costs what
-        every frame of 200 does and sees more people.
-    scale : float
-        The background model runs on the frames resized by this factor (its mask is resized
-        back, nearest neighbour): its cost, most of this function's, falls with the square.
-        Unit: 1.
-
-    Returns
-    -------
-    ndarray, shape (N, 3)
-        ``slant`` (du/dv, dimensionless), ``top`` and ``bottom`` rows of the silhouette (pixels,
-        the bottom exclusive: the height is ``bottom - top``); NaN where not measured.
-    """
-    import cv2
-
-    from pftrack.pipeline import iter_frames
-
-    b = np.asarray(boxes_xywh, dtype=np.float64).reshape(-1, np.shape(boxes_xywh)[-1])[:, :4]
-    fr = np.asarray(frames, dtype=np.int64).reshape(-1)
-    if len(fr) != len(b):
-        raise ValueError(f"measure_silhouettes: {len(b)} boxes but {len(fr)} frames")
-    if int(every) < 1:
-        raise ValueError(f"measure_silhouettes: every must be >= 1, got {every}")
-    if not 0 < scale <= 1:
-        raise ValueError(f"measure_silhouettes: scale must be in (0, 1], got {scale}")
-    out = np.full((len(b), 3), np.nan)
-    if not len(b):
-        return out
-    first, last = int(fr.min()), int(fr.max())
-    mog = cv2.createBackgroundSubtractorMOG2(history=200, varThreshold=16, detectShadows=True)
-    order = np.argsort(fr, kind="stable")
-    starts = np.searchsorted(fr[order], np.arange(first, last + 2))
-    for frame in iter_frames(video, max(1, first - warmup * every), last):
-        if (frame.index - first) % every:
-            continue
-        if scale == 1:
-            fg = mog.apply(frame.image) == 255
-        else:
-            small = mog.apply(cv2.resize(frame.image, None, fx=scale, fy=scale,
-                                         interpolation=cv2.INTER_AREA))
-            fg = cv2.resize(small, frame.image.shape[1::-1],
-                            interpolation=cv2.INTER_NEAREST) == 255
-        if frame.index < first:
-            continue
-        k = frame.index - first
-        H, W = fg.shape
-        for i in order[starts[k]:starts[k + 1]]:
-            x, y, w, h = b[i]
-            xa, xb = max(round(x + 0.25 * w), 0), min(round(x + 0.75 * w), W)
-            ya, yb = max(round(y - search_pad * h), 0), min(round(y + (1 + search_pad) * h), H)
-            if xb - xa < 3 or yb - ya < 10:
-                continue
-            win = fg[ya:yb, xa:xb]
-            if win.mean() < min_fill * h / (yb - ya):
-                continue
-            rows = np.flatnonzero(win.mean(axis=1) >= min_row_fill)
-            if len(rows) < 5:
-                continue
-            r0, r1, dist = _silhouette_run(rows, round(y + 0.5 * h) - ya, max(2, int(0.06 * h)))
-            if dist > 0.1 * h or r0 == 0 or r1 == yb - ya - 1:
-                continue
-            top, bottom = ya + r0, ya + r1 + 1
-            out[i, 1:] = top, bottom
-            x0, x1 = max(round(x - side_pad * w), 0), min(round(x + (1 + side_pad) * w), W)
-            sub = np.ascontiguousarray(fg[top:top + int(top_fraction * (bottom - top)), x0:x1],
-                                       dtype=np.uint8)
-            if sub.shape[0] < 10 or sub.shape[1] < 3:
-                continue  # (OpenCV's labelling crashes on an empty image)
-            n_lab, lab = cv2.connectedComponents(sub, connectivity=8)
-            mid = np.bincount(lab[:, xa - x0:xb - x0].ravel(), minlength=n_lab)
-            mid[0] = 0
-            if n_lab < 2 or not mid.any():
-                continue
-            sub = (lab == int(np.argmax(mid))).astype(np.float64)
-            cnt = sub.sum(axis=1)
-            ok = cnt >= 3
-            if ok.sum() < max(10, 0.5 * len(cnt)):
-                continue
-            cols = (sub @ np.arange(x1 - x0, dtype=np.float64))[ok] / cnt[ok]
-            rr = np.flatnonzero(ok).astype(np.float64)
-            rc = rr - rr.mean()
-            out[i, 0] = float(rc @ (cols - cols.mean()) / (rc @ rc))
-    return out
-
-
-def link_boxes(boxes_xywh: Any, frames: Any, min_iou: float = 0.3, max_gap: int = 1
-               ) -> np.ndarray:
-    """Which person each box is: boxes in consecutive frames linked greedily by overlap.
-
-    A minimal tracker for the camera fit (no camera yet): in every frame, pairs of a box of the
-    previous frame and one of this frame are taken in decreasing IoU while the IoU is at least
-    ``min_iou``, each box at most once; an unlinked box starts a new person, and a gap of more
-    than ``max_gap`` frames without boxes ends everyone.
-
-    Parameters
-    ----------
-    boxes_xywh : array_like, shape (N, >=4)
-        Boxes in pixels.
-    frames : array_like, shape (N,)
-        Frame of each box.
-    min_iou : float
-        Least overlap of a link. Unit: 1.
-    max_gap : int
-        Frames from one frame with boxes to the next that still link (1: consecutive frames;
-        2 for boxes of every other frame). Unit: frames.
-
-    Returns
-    -------
-    ndarray of int, shape (N,)
-        A person number per box, from 0.
-    """
-    from pftrack.geometry.boxes import iou_matrix
-
-    b = np.asarray(boxes_xywh, dtype=np.float64).reshape(-1, np.shape(boxes_xywh)[-1])[:, :4]
-    fr = np.asarray(frames, dtype=np.int64).reshape(-1)
-    if len(fr) != len(b):
-        raise ValueError(f"link_boxes: {len(b)} boxes but {len(fr)} frames")
-    ids = np.full(len(b), -1, dtype=np.int64)
-    order = np.argsort(fr, kind="stable")
-    uniq, starts = np.unique(fr[order], return_index=True)
-    bounds = np.r_[starts, len(order)]
-    prev = np.zeros(0, dtype=np.int64)
-    prev_frame = None
-    n_people = 0
-    for j, f in enumerate(uniq):
-        cur = order[bounds[j]:bounds[j + 1]]
-        if len(prev) and prev_frame is not None and f - prev_frame <= max_gap:
-            iou = iou_matrix(b[prev], b[cur])
-            flat = np.argsort(-iou, axis=None, kind="stable")
-            flat = flat[iou.ravel()[flat] >= min_iou]
-            free_p = np.ones(len(prev), dtype=bool)
-            free_c = np.ones(len(cur), dtype=bool)
-            for i, k in zip(*np.divmod(flat, len(cur)), strict=True):
-                if free_p[i] and free_c[k]:
-                    ids[cur[k]] = ids[prev[i]]
-                    free_p[i] = free_c[k] = False
-        new = cur[ids[cur] < 0]
-        ids[new] = np.arange(n_people, n_people + len(new))
-        n_people += len(new)
-        prev, prev_frame = cur, f
-    return ids
-
-
-def refine_boxes_by_silhouettes(boxes_xywh: Any, silhouettes: Any,
-                                height_range: tuple[float, float] = SILHOUETTE_HEIGHT_RANGE
-                                ) -> tuple[np.ndarray, np.ndarray]:
-    """Boxes whose top and bottom rows are their silhouettes' (:func:`measure_silhouettes`).
-
-    Parameters
-    ----------
-    boxes_xywh : array_like, shape (N, >=4)
-        The detector's boxes, pixels.
-    silhouettes : array_like, shape (N, 3)
-        ``slant, top, bottom`` of each box.
-    height_range : (float, float)
-        A silhouette is used when its height is within these factors of the box's (else it is
-        merged with another person, cut by an occluder, or a shadow). Unit: 1.
-
-    Returns
-    -------
-    boxes : ndarray, shape (N, 4)
-        ``x, y, w, h``: the columns are the box's, the rows the silhouette's where used.
-    used : ndarray of bool, shape (N,)
-        Which boxes were refined.
-    """
-    b = np.asarray(boxes_xywh, dtype=np.float64).reshape(-1, np.shape(boxes_xywh)[-1])[:, :4]
-    s = np.asarray(silhouettes, dtype=np.float64).reshape(-1, 3)
-    if len(s) != len(b):
-        raise ValueError(f"refine_boxes_by_silhouettes: {len(b)} boxes but {len(s)} "
-                         "silhouettes")
-    with np.errstate(invalid="ignore"):
-        ratio = (s[:, 2] - s[:, 1]) / b[:, 3]
-        used = (ratio >= height_range[0]) & (ratio <= height_range[1])
-    out = b.copy()
-    out[used, 1] = s[used, 1]
-    out[used, 3] = s[used, 2] - s[used, 1]
-    return out, used
-
-
-def estimate_camera_from_video(video: Any, boxes: Any = None, first: int = 1,
-                               last: int | None = None, stride: int = 4,
-                               person_height_m: float = 1.7,
-                               rng: np.random.Generator | int | None = None, *,
-                               lean: bool = True, silhouettes: bool | None = None,
-                               silhouette_every: int = 1, silhouette_scale: float = 1.0,
-                               min_score: float = 0.0, host: Any = None,
-                               **fit_kw: Any) -> tuple[PeopleCameraFit, np.ndarray, str]:
-    """A camera from a video alone: people detected (or given), their lean measured, the fit.
-
-    What ``pftrack calib people`` does, for callers such as a one-command tracker.
-
-    Parameters
-    ----------
-    video : path
-        The video.
-    boxes : array_like, shape (N, >=5), optional
-        ``x, y, w, h, frame[, score]`` person boxes (frames from 1); None: detect them with
-        :func:`detect_people` over frames ``first..last`` every ``stride``-th frame.
-    first, last, stride : int
-        Frames to detect in (``last`` None: to the end).
-    person_height_m : float
-        Mean person height, metres.
-    rng : numpy.random.Generator or int or None
-        As for :func:`estimate_camera_from_people`.
-    lean : bool
-        Use the people's lean for the focal length; skipped when ``focal_px`` is given in
-        ``fit_kw``.
-    silhouettes : bool, optional
-        Measure each person's silhouette in the moving pixels (:func:`measure_silhouettes`, one
-        pass over the frames) and fit the camera from the silhouettes' top and bottom rows where
-        they agree with the box (:func:`refine_boxes_by_silhouettes`), the lean from the
-        silhouette too, and resample people (:func:`link_boxes`) in the bootstrap; False: the
-        boxes as given, the lean from :func:`measure_slants`. Default: True for boxes a
-        detector finds here (coarse heights), False for given boxes (a user's clicks or
-        ground truth hug the person already; pass True for another detector's boxes).
-    silhouette_every : int
-        :func:`measure_silhouettes`' ``every``: the background model sees every so many
-        frames, and only boxes in those frames are measured.
-    silhouette_scale : float
-        :func:`measure_silhouettes`' ``scale``.
-    min_score : float
-        Detections scoring below are dropped (detection only).
-    host : pftrack.host.Host, optional
-        Where to look for a registered ``hog-people`` detector.
-    **fit_kw
-        Passed to :func:`estimate_camera_from_people` (``focal_px``, ``n_bootstrap``, ...).
-
-    Returns
-    -------
-    fit : PeopleCameraFit
-    rows : ndarray, shape (N, 6)
-        The boxes used as input: ``x, y, w, h, frame, score``.
-    source : str
-        Where the boxes came from.
-    """
-    from pftrack.scenes.video import VideoScene
-
-    frame = next(iter(VideoScene(str(video), first=first, last=first).frames()), None)
-    if frame is None:
-        raise ValueError(f"estimate_camera_from_video: {video}: no frame {first} could be read")
-    size = frame.size_wh
-    if boxes is None:
-        rows, name = detect_people(video, first, last, stride, host=host, min_score=min_score)
-        source = f"{name} over frames {first}..{last or 'end'} every {stride}"
-    else:
-        b = np.asarray(boxes, dtype=np.float64)
-        if b.ndim != 2 or b.shape[1] < 5:
-            raise ValueError(f"estimate_camera_from_video: boxes must have shape (N, >=5) "
-                             f"(x, y, w, h, frame[, score]), got {b.shape}")
-        rows = np.column_stack([b[:, :5], b[:, 5] if b.shape[1] > 5 else np.ones(len(b))])
-        source = f"{len(rows)} given boxes"
-    if len(rows) == 0:
-        raise ValueError(f"estimate_camera_from_video: no person boxes from {source}; lower "
-                         "min_score, widen the frames or give boxes")
-    slants = None
-    fit_boxes = rows[:, :4]
-    if silhouettes is None:
-        silhouettes = boxes is None
-    use_lean = lean and fit_kw.get("focal_px") is None
-    if np.all(rows[:, 4] >= 1):
-        if silhouettes:
-            sil = measure_silhouettes(video, rows[:, :4], rows[:, 4], every=silhouette_every,
-                                      scale=silhouette_scale)
-            fit_boxes, refined = refine_boxes_by_silhouettes(rows[:, :4], sil)
-            slants = sil[:, 0] if use_lean else None
-            source += f"; {int(refined.sum())} of {len(rows)} boxes' rows from silhouettes"
-        elif use_lean:
-            slants = measure_slants(video, rows[:, :4], rows[:, 4])
-    if silhouettes and slants is not None:
-        # boxes of every k-th frame (--stride, every) link across k frames
-        step = np.diff(np.unique(rows[:, 4]))
-        gap = max(int(silhouette_every), int(np.median(step)) if len(step) else 1)
-        fit_kw.setdefault("groups", link_boxes(rows[:, :4], rows[:, 4], max_gap=gap))
-        fit_kw.setdefault("slant_top_fraction", SILHOUETTE_TOP_FRACTION)
-    fit = estimate_camera_from_people(fit_boxes, size, person_height_m, rng, slants=slants,
-                                      **fit_kw)
-    return fit, rows, source

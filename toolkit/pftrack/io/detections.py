@@ -1,5 +1,5 @@
 """Detections from elsewhere: MOTChallenge ``det.txt`` files -> per-frame
-:class:`~pftrack.components.Detections`.
+:class:`~pftrack.contracts.components.Detections`.
 
 A ``det.txt`` has one detection per line, ``frame,id,left,top,width,height,conf[,x,y,z]``
 (MOTChallenge: ``id`` is -1, ``conf`` the detector's score; frames numbered from 1 as the
@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pftrack.components import Detections
+from pftrack.contracts.components import Detections
 
 if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera
@@ -36,7 +36,7 @@ def read_detections(path: str | os.PathLike[str], camera: Camera | None = None,
         back-projected to z = 0 (``points_world_m``), as the built-in detectors do; NaN for a
         foot point on or above the camera's horizon (no ground under it: such a detection
         starts no track, see
-        :meth:`~pftrack.observation_world.CameraBoxObservation.position_from_box`).
+        :meth:`~pftrack.builtin.world_observation.CameraBoxObservation.position_from_box`).
     min_score : float, optional
         Rows whose ``conf`` is below this are dropped.
 

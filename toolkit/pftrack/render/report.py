@@ -42,7 +42,8 @@ def draw_overlay(image_bgr: np.ndarray, rows: np.ndarray, frame: int, *,
         The frame ``image_bgr`` shows (ground-truth numbering).
     uncertainty : ndarray, shape (M, 9), optional
         ``tracks_uncertainty.csv``'s rows, one per row of ``rows``
-        (:func:`pftrack.tracker.records_uncertainty`): each box centre's 2-sd ellipse is drawn.
+        (:func:`pftrack.engine.tracker.records_uncertainty`): each box centre's 2-sd ellipse is
+        drawn.
 
     Returns
     -------

@@ -28,7 +28,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from pftrack.components import Frame
+from pftrack.contracts.components import Frame
 
 __all__ = ["FrameReport", "FrameSource"]
 

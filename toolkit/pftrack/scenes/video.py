@@ -15,13 +15,13 @@ from pathlib import Path
 
 import numpy as np
 
-from pftrack.components import Frame, Param, Scene
+from pftrack.contracts.components import Frame, Param, Scene
 
 __all__ = ["VideoScene", "write_test_clip"]
 
 
 class VideoScene(Scene):
-    """Stream a video file as :class:`~pftrack.components.Frame` objects.
+    """Stream a video file as :class:`~pftrack.contracts.components.Frame` objects.
 
     {params}
 

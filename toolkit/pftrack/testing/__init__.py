@@ -1,7 +1,7 @@
 """Conformance kit for pftrack components, in the spirit of scikit-learn's ``check_estimator``.
 
 A plugin author runs it on a component and learns at once whether it honours the contract of
-:mod:`pftrack.components`::
+:mod:`pftrack.contracts.components`::
 
     from pftrack.testing import assert_conforms
 
@@ -38,9 +38,9 @@ The checks (:data:`CHECKS`)
     Per kind: a motion model maps (N, D) to a new (N, D) float64 array, leaves its input alone,
     accepts N = 0 and centres ``init_states`` on the position; a likelihood maps (N, 4) boxes to
     (N,) float64 log-weights, never NaN or +inf, also for boxes partly or wholly outside the image
-    and for N = 0; a detector returns :class:`~pftrack.components.Detections` with consistent
-    shapes, also on a blank frame; an associator returns a valid
-    :class:`~pftrack.components.Assignment` (each target and detection used at most once,
+    and for N = 0; a detector returns :class:`~pftrack.contracts.components.Detections` with
+    consistent shapes, also on a blank frame; an associator returns a valid
+    :class:`~pftrack.contracts.components.Assignment` (each target and detection used at most once,
     unmatched lists the exact complement), also with no targets or no detections; a scene yields
     uint8 BGR frames and (M, 10) float64 ground truth.
 ``deterministic_same_seed``, ``different_seeds_differ``

@@ -1,10 +1,11 @@
 """The conformance checks behind :func:`pftrack.testing.check_component`.
 
-Every check exercises the component through its public contract (see :mod:`pftrack.components`)
-on a small seeded synthetic scene, or on the context its ``_conformance_example()`` returns. A run
-of the component's *workflow* (all the calls a tracker would make, for its kind) gives a dict of
-output arrays; the checks compare such runs: twice with one seed, with two seeds, after
-``clone()``, after a pickle round trip, after rebuilding from ``to_config()``.
+Every check exercises the component through its public contract (see
+:mod:`pftrack.contracts.components`) on a small seeded synthetic scene, or on the context its
+``_conformance_example()`` returns. A run of the component's *workflow* (all the calls a tracker
+would make, for its kind) gives a dict of output arrays; the checks compare such runs: twice with
+one seed, with two seeds, after ``clone()``, after a pickle round trip, after rebuilding from
+``to_config()``.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from pftrack.components import (
+from pftrack.contracts.components import (
     Assignment,
     Associator,
     Component,
@@ -38,7 +39,8 @@ from pftrack.components import (
     _plain,
     _unvalidated,
 )
-from pftrack.lifecycle import Birth, FrameView, Initiator, LifecycleStage, StagedTracks
+from pftrack.contracts.stages import Birth, FrameView, Initiator, LifecycleStage
+from pftrack.engine.lifecycle import StagedTracks
 from pftrack.testing.synthetic import SyntheticScene, synthetic_scene, target_from_box
 
 __all__ = [
@@ -617,13 +619,14 @@ class _KitAssociator(Associator):
 
 
 def _tracks_workflow(ex: ConformanceExample, rng: np.random.Generator, run: _Run) -> None:
-    from pftrack.runner import FrameStep, run_frames
-    from pftrack.tracker import ImageBoxObservation, MultiTargetTracker
+    from pftrack.builtin.image_box import ImageBoxObservation
+    from pftrack.engine.runner import FrameStep, run_frames
+    from pftrack.engine.tracker import MultiTargetTracker
 
     tracks = ex.component
     assert isinstance(tracks, TrackManager)
     sc = synthetic_scene(seed=1, n_frames=8) if ex.frames is None else _scene(ex)
-    from pftrack.components import RunContext
+    from pftrack.contracts.components import RunContext
 
     context = ex.context if ex.context is not None else RunContext()
     tracks.setup(context)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pftrack.components import DetectionMatch, Detections, Frame, Target
+from pftrack.contracts.components import DetectionMatch, Detections, Frame, Target
 
 __all__ = ["SyntheticScene", "synthetic_scene", "target_from_box"]
 

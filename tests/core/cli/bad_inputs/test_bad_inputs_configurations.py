@@ -196,7 +196,7 @@ def test_every_problem_reported_at_once(work, cli):
 @pytest.mark.parametrize("preset", ["pets09-ground", "soccer-ground", "pets09-volume",
                                     "coast-volumes"])
 def test_presets_pass_the_schema(preset):
-    from pftrack.pipeline import load_config
+    from pftrack.workflows.pipeline import load_config
 
     assert load_config(preset)["name"] == preset
 

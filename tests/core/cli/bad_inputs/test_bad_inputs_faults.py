@@ -28,7 +28,7 @@ import numpy as np
 marker, stage = pathlib.Path(sys.argv[1]), sys.argv[2]
 import pftrack.host as hm
 from pftrack import hookimpl
-from pftrack.extensions import ReportWriter
+from pftrack.contracts.extensions import ReportWriter
 from pftrack_basic.gaussian import GaussianLikelihood
 
 def hold():

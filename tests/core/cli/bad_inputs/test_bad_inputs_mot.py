@@ -71,7 +71,7 @@ def test_bad_tracks_in_eval(tmp_path, cli, text, expect):
 @pytest.mark.parametrize(("text", "expect"), [c[1:] for c in CASES[1::4]],
                          ids=[c[0] for c in CASES[1::4]])
 def test_bad_ground_truth_stops_a_run_before_tracking(work, cli, monkeypatch, text, expect):
-    from pftrack import pipeline
+    from pftrack.workflows import pipeline
 
     bad = work.dir / "gt.txt"
     bad.write_text(text)
@@ -90,7 +90,7 @@ def test_bad_ground_truth_stops_a_run_before_tracking(work, cli, monkeypatch, te
 def test_ground_truth_path_checked_before_tracking(work, cli, monkeypatch, what):
     import os
 
-    from pftrack import pipeline
+    from pftrack.workflows import pipeline
 
     gt = work.dir / "gt.txt"
     if what == "folder":

@@ -12,7 +12,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from pftrack import pipeline
+from pftrack.workflows import pipeline
 
 from ._catalogue import assert_untouched, one_line, snapshot
 
@@ -138,7 +138,7 @@ class _BrokenWriter:
 
 def test_failure_while_writing_leaves_the_previous_outputs(work, cli, plugin_host):
     from pftrack import hookimpl
-    from pftrack.extensions import ReportWriter
+    from pftrack.contracts.extensions import ReportWriter
 
     class P:
         @hookimpl

@@ -17,7 +17,7 @@ import pftrack.host as host_mod
 import pytest
 import yaml
 from pftrack import hookimpl
-from pftrack.components import Likelihood
+from pftrack.contracts.components import Likelihood
 from pftrack.host import Host, PluginLoadWarning, PluginSettingWarning, RegistrationError
 
 from ._catalogue import CONFIG, assert_untouched, one_line, snapshot
@@ -249,7 +249,7 @@ def test_bad_component_parameters_name_the_plugin(work, cli, plugin_host):
 
 def test_tracker_checks_are_per_call_and_cheap():
     """The checks run on every call and name the target; a valid float64 array passes as is."""
-    from pftrack.tracker import ComponentOutputError, MultiTargetTracker
+    from pftrack.engine.tracker import ComponentOutputError, MultiTargetTracker
 
     assert issubclass(ComponentOutputError, RuntimeError)
     t = copy.copy(MultiTargetTracker.__new__(MultiTargetTracker))

@@ -10,8 +10,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import yaml
-from pftrack.components import Likelihood
-from pftrack.pipeline import parse_frames, run_pipeline
+from pftrack.contracts.components import Likelihood
+from pftrack.io.frames import parse_frames
+from pftrack.workflows.pipeline import run_pipeline
 
 from ._catalogue import CONFIG, assert_untouched, one_line, snapshot
 from .test_bad_inputs_plugins import _Registers

@@ -118,7 +118,7 @@ def test_black_frames_scored_only_where_tracked(work, cli, recwarn):
 
 
 def test_complete_video_is_verified(work, cli, recwarn):
-    from pftrack.pipeline import FrameWarning
+    from pftrack.workflows.pipeline import FrameWarning
 
     r = _run(cli, work, work.video, "--gt", work.gt)
     assert r.rc == 0 and not [w for w in recwarn if issubclass(w.category, FrameWarning)]
@@ -246,7 +246,7 @@ def test_untrusted_report_says_so():
 
 def test_training_frames_short_read_is_warned(work):
     """A detector trained on a truncated file said nothing: the frame stream warns."""
-    from pftrack.pipeline import FrameWarning, iter_frames
+    from pftrack.workflows.pipeline import FrameWarning, iter_frames
 
     data = work.video.read_bytes()
     trunc = work.dir / "t.avi"
@@ -258,7 +258,7 @@ def test_training_frames_short_read_is_warned(work):
 
 def test_run_detections_file_missing(work, cli, monkeypatch):
     # checked before the first frame: no tracking, nothing written
-    from pftrack import pipeline
+    from pftrack.workflows import pipeline
 
     def no_engine(*a, **k):
         raise AssertionError("the engine was built before --detections was checked")

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pftrack.components import ObservationModel, RunContext, Target
+from pftrack.contracts.components import ObservationModel, RunContext, Target
 from pftrack.geometry.boxes import foot_points
 
 if TYPE_CHECKING:
@@ -42,7 +42,7 @@ class CameraBoxObservation(ObservationModel):
         A :class:`pftrack.geometry.camera.Camera` (world metres, z up) or a camera file path
         (anything :func:`pftrack.geometry.formats.load_camera` reads, e.g. PETS Tsai XML).
         None: the run's camera (:meth:`setup` takes it from the
-        :class:`~pftrack.components.RunContext`; ``pftrack run --camera``).
+        :class:`~pftrack.contracts.components.RunContext`; ``pftrack run --camera``).
     height_m : float
         Height of the tracked objects in metres (about 1.75 m for people). Unit: m.
     width_m : float, optional

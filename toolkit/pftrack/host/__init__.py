@@ -1,5 +1,6 @@
 """The plugin host: discovers plugins through the ``pftrack`` entry-point group and keeps a typed
-registry of their components.
+registry of their components. Its sub-module :mod:`pftrack.host.config` checks a run
+configuration against the schema and the registered components' parameters.
 
 Environment variables
 ---------------------
@@ -31,9 +32,10 @@ from typing import Any
 
 import pluggy
 
-from pftrack import hookspecs
-from pftrack.components import KINDS, Component
-from pftrack.extensions import Benchmark, Command, Demo, ReportWriter
+from pftrack.contracts import hookspecs
+from pftrack.contracts.components import Component
+from pftrack.contracts.extensions import Benchmark, Command, Demo, ReportWriter
+from pftrack.contracts.kinds import KINDS
 
 ENTRY_POINT_GROUP = "pftrack"
 ENV_DISABLE = "PFTRACK_DISABLE_PLUGINS"

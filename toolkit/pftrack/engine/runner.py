@@ -19,8 +19,8 @@ checks on the side does not change its speed.
 Example::
 
     from pftrack.io.detections import read_detections
-    from pftrack.pipeline import build_engine, iter_frames, load_config
-    from pftrack.runner import run_frames
+    from pftrack.workflows.pipeline import build_engine, iter_frames, load_config
+    from pftrack.engine.runner import run_frames
 
     engine = build_engine(load_config("people-image"), fps=7.0, seed=0)
     run = run_frames(engine, iter_frames("vtest.avi", 1, 80),
@@ -39,10 +39,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pftrack.components import Detections, Detector, Frame
+from pftrack.contracts.components import Detections, Detector, Frame
 
 if TYPE_CHECKING:
-    from pftrack.tracker import MultiTargetTracker, TrackRecord
+    from pftrack.engine.tracker import MultiTargetTracker, TrackRecord
 
 __all__ = ["FrameHook", "FrameRun", "FrameStep", "run_frames"]
 
@@ -117,9 +117,9 @@ class FrameRun:
     hook_cpu_s: dict[str, float]
 
     def rows(self) -> np.ndarray:
-        """The records as MOTChallenge rows (:func:`pftrack.tracker.records_to_mot`), sorted by
-        frame, then id."""
-        from pftrack.tracker import records_to_mot
+        """The records as MOTChallenge rows (:func:`pftrack.engine.tracker.records_to_mot`), sorted
+        by frame, then id."""
+        from pftrack.engine.tracker import records_to_mot
 
         rows = records_to_mot(self.records)
         if len(rows):
@@ -167,10 +167,10 @@ def run_frames(engine: MultiTargetTracker, frames: Iterable[Frame], *,
     Parameters
     ----------
     engine : MultiTargetTracker
-        Built and ready (:func:`pftrack.pipeline.build_engine`); its targets carry over from
-        any earlier frames.
+        Built and ready (:func:`pftrack.workflows.pipeline.build_engine`); its targets carry over
+        from any earlier frames.
     frames : iterable of Frame
-        In order (a list, :func:`pftrack.pipeline.iter_frames`, a generator drawing them).
+        In order (a list, :func:`pftrack.workflows.pipeline.iter_frames`, a generator drawing them).
     detector : Detector, optional
         Run on each frame, timed as detection.
     detections : mapping {frame: Detections}, optional

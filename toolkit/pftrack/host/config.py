@@ -1,15 +1,15 @@
 """The run configuration's schema and its validation.
 
 :data:`CONFIG_SCHEMA` declares every key of a run configuration (what ``pftrack run CONFIG``
-reads; see :mod:`pftrack.pipeline`) as a tree of :class:`Field`: its type, default, unit, range
-or choices and a one-line doc. It is plain data, so that the configuration reference can be
+reads; see :mod:`pftrack.workflows.pipeline`) as a tree of :class:`Field`: its type, default, unit,
+range or choices and a one-line doc. It is plain data, so that the configuration reference can be
 generated from it (:func:`iter_fields` walks it).
 
 :func:`validate_config` checks a configuration against the schema and, for the components it
 names (``observation``, ``motion``, ``likelihood``, ``detector``, ``associator``, ``tracks`` /
 ``births``), checks their parameters against the registered class: unknown parameters (with the
 closest known name), and each value against its declaration (the type, range, choices and
-length a :class:`pftrack.components.Param` states, or the type a hand-written ``__init__``
+length a :class:`pftrack.contracts.components.Param` states, or the type a hand-written ``__init__``
 keyword is annotated with): the declarations the component checks itself against when built.
 Every problem is reported at once in a :class:`ConfigError` naming the source, the key path,
 what was expected and what was given::
@@ -124,7 +124,8 @@ def _component(name: str, kind: str, doc: str, default: Any = None) -> Field:
     return Field(name, "component", default=default, kind=kind, doc=doc, nullable=True)
 
 
-_TRACKER = Field("tracker", "mapping", doc="Engine options (pftrack.tracker.MultiTargetTracker).",
+_TRACKER = Field("tracker", "mapping",
+                 doc="Engine options (pftrack.engine.tracker.MultiTargetTracker).",
                  nullable=True, children=(
     Field("n_particles", "int", 500, "particles per target", "Particles per target.",
           range=(1, None)),
@@ -306,7 +307,7 @@ def _check_value(f: Field, v: Any, path: str, out: list[ConfigIssue], host: Any)
         if not isinstance(v, str):
             out.append(bad)
             return
-        from pftrack.pipeline import parse_frames
+        from pftrack.io.frames import parse_frames
 
         try:
             parse_frames(v)
@@ -401,10 +402,11 @@ def component_param_issues(kind: str, name: str, params: Mapping[str, Any], path
     """Problems with the parameters of the registered ``kind`` component ``name``.
 
     Unknown parameter names (with the closest known one), and values that their declarations
-    (:meth:`pftrack.components.Component.declared_params`: the :class:`~pftrack.components.Param`
-    type, range, choices and length, or a hand-written ``__init__``'s annotated type) do not
-    allow: the same check the component makes when it is built. An unregistered name gives no
-    issue here (building it reports it with the registered names).
+    (:meth:`pftrack.contracts.components.Component.declared_params`: the
+    :class:`~pftrack.contracts.components.Param` type, range, choices and length, or a hand-written
+    ``__init__``'s annotated type) do not allow: the same check the component makes when it is
+    built. An unregistered name gives no issue here (building it reports it with the registered
+    names).
     """
     if host is None:
         from pftrack.host import get_host

@@ -12,7 +12,7 @@ What ``pftrack track VIDEO --out DIR`` does (:func:`track_video`):
 2. **A camera from the people** (when ``--camera`` is not given):
    :func:`pftrack.geometry.people.estimate_camera_from_people` on the confident detections
    (score >= ``calib_min_score``) assuming a mean person height, with each person's lean
-   (:func:`~pftrack.geometry.people.measure_slants`) for the focal length. It is written to
+   (:func:`~pftrack.workflows.calibrate.measure_slants`) for the focal length. It is written to
    ``DIR/camera.yaml`` (reusable as ``--camera``). When it cannot be estimated (too few people,
    a fit that fails) the run falls back to the image plane (preset ``people-image``) and says so.
    An estimate is also checked before it is used (:func:`camera_trust`, the summary's
@@ -23,13 +23,14 @@ What ``pftrack track VIDEO --out DIR`` does (:func:`track_video`):
    drawing boxes from a wrong camera, and says why (stderr and the summary's ``camera``);
    ``--preset`` keeps the estimate, with the warning.
 3. **Track** the same detections (given their ground points through the camera) with
-   ``people-ground`` (or ``--preset``) through :func:`pftrack.pipeline.run_pipeline`, which
-   writes ``DIR/tracks.txt`` (MOTChallenge, the video's frame numbers from 1) and report images
-   ``DIR/report/*.png``.
+   ``people-ground`` (or ``--preset``) through :func:`pftrack.workflows.pipeline.run_pipeline`,
+   which writes ``DIR/tracks.txt`` (MOTChallenge, the video's frame numbers from 1) and report
+   images ``DIR/report/*.png``.
 4. **Static things are not people**: a track that stays at one place with one look for many
-   seconds (:mod:`pftrack.static_tracks`, its rule in :class:`~pftrack.static_tracks.
-   StaticRule`) is listed in the summary's ``static_tracks`` with the reason, and its records
-   are left out of ``tracks.txt``, the metrics and the report (``keep_static``: kept).
+   seconds (:mod:`pftrack.workflows.static_tracks`, its rule in
+   :class:`~pftrack.workflows.static_tracks.StaticRule`) is listed in the summary's
+   ``static_tracks`` with the reason, and its records are left out of ``tracks.txt``, the metrics
+   and the report (``keep_static``: kept).
 5. **Summarise** in ``DIR/summary.json`` (frames, tracks, the camera and how it was obtained, the
    time per frame) and **say why** when nothing came out (:func:`explain_no_tracks`).
 
@@ -47,12 +48,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pftrack.components import Detections
+from pftrack.contracts.components import Detections
 from pftrack.geometry.boxes import foot_points
 
 if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera, CameraSpec
-    from pftrack.static_tracks import StaticRule
+    from pftrack.workflows.static_tracks import StaticRule
 
 __all__ = [
     "FreshResult",
@@ -110,10 +111,11 @@ def choose_detector(video: str | os.PathLike[str], frames: Any = None) -> tuple[
     """
     import cv2
 
-    from pftrack.components import Frame, RunContext
+    from pftrack.contracts.components import Frame, RunContext
     from pftrack.host import get_host
-    from pftrack.pipeline import build_detector, parse_frames
+    from pftrack.io.frames import parse_frames
     from pftrack.scenes.source import FrameSource
+    from pftrack.workflows.pipeline import build_detector
 
     if "ssdlite-people" not in get_host().names("detector"):
         return "hog-people", "hog-people (no ssdlite-people detector plugin is registered)"
@@ -253,8 +255,9 @@ def detect_video(video: str | os.PathLike[str], cfg: dict[str, Any], frames: Any
     timing : dict
         ``wall_s``, ``cpu_s``, ``frames``.
     """
-    from pftrack.components import RunContext
-    from pftrack.pipeline import _load_camera, build_detector, iter_frames, parse_frames
+    from pftrack.contracts.components import RunContext
+    from pftrack.io.frames import parse_frames
+    from pftrack.workflows.pipeline import _load_camera, build_detector, iter_frames
 
     first, last = parse_frames(frames)
     det = build_detector(cfg, RunContext(camera=_load_camera(camera)))
@@ -287,7 +290,7 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
 
     Uses the detections scoring at least ``min_score`` (at least ``min_boxes`` of them). With
     ``video`` (the one the detections come from), each person's silhouette is measured in the
-    moving pixels (:func:`pftrack.geometry.people.measure_silhouettes`, one more pass over the
+    moving pixels (:func:`pftrack.workflows.calibrate.measure_silhouettes`, one more pass over the
     frames with a background subtractor): the camera is fitted from the silhouettes' top and
     bottom rows (the detector's box heights are coarse) and the focal length from the people's
     lean (the vertical vanishing point) instead of the prior, with the lens's radial
@@ -302,7 +305,8 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
     Returns ``(PeopleCameraFit, description)`` or ``(None, reason)``; the fit's ``trust`` is
     :func:`camera_trust`'s verdict on the same boxes (whether to track on its ground plane).
     """
-    from pftrack.geometry.people import estimate_camera_from_people, estimate_camera_from_video
+    from pftrack.geometry.people import estimate_camera_from_people
+    from pftrack.workflows.calibrate import estimate_camera_from_video
 
     boxes, frames = [], []
     use = sorted(detections)
@@ -535,7 +539,7 @@ def with_ground_points(detections: dict[int, Detections], camera: Camera
     for a foot point on or above the camera's horizon, which cannot be placed on the ground:
     such a detection starts no track and proposes no particles, but a track matched to it in
     the image still takes it in its likelihood
-    (:meth:`~pftrack.observation_world.CameraBoxObservation.position_from_box`)."""
+    (:meth:`~pftrack.builtin.world_observation.CameraBoxObservation.position_from_box`)."""
     out = {}
     for f, d in detections.items():
         b = d.boxes_xywh_px
@@ -547,7 +551,7 @@ def with_ground_points(detections: dict[int, Detections], camera: Camera
 
 class _StaticFilter:
     """The pipeline's ``keep_rows``: flags the static tracks of the rows
-    (:func:`pftrack.static_tracks.flag_static_tracks`, kept in :attr:`flagged`) and leaves
+    (:func:`pftrack.workflows.static_tracks.flag_static_tracks`, kept in :attr:`flagged`) and leaves
     their rows out unless ``keep``."""
 
     def __init__(self, video: str | os.PathLike[str], rule: StaticRule | None,
@@ -556,7 +560,7 @@ class _StaticFilter:
         self.flagged: list[dict[str, Any]] = []
 
     def keep_rows(self, rows: np.ndarray, fps: float) -> np.ndarray:
-        from pftrack.static_tracks import flag_static_tracks
+        from pftrack.workflows.static_tracks import flag_static_tracks
 
         self.flagged = flag_static_tracks(rows, fps, self.rule, video=self.video)
         if self.keep or not self.flagged:
@@ -567,8 +571,8 @@ class _StaticFilter:
 @dataclass
 class FreshResult:
     """What :func:`track_video` did: ``summary`` (also in ``DIR/summary.json``), the
-    pipeline's :class:`~pftrack.pipeline.RunResult`, the camera fit the tracks are on (None
-    when none was estimated, or the estimate was not trusted and the run tracked in the image
+    pipeline's :class:`~pftrack.workflows.pipeline.RunResult`, the camera fit the tracks are on
+    (None when none was estimated, or the estimate was not trusted and the run tracked in the image
     plane: the summary's ``camera_fit`` and ``camera_trust`` still describe it) and the
     messages printed."""
 
@@ -618,11 +622,12 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
     keep_static : bool
         Report the tracks found static too (they are listed in the summary either way).
     static_rule : StaticRule, optional
-        When a track is static (default :class:`~pftrack.static_tracks.StaticRule`'s).
+        When a track is static (default :class:`~pftrack.workflows.static_tracks.StaticRule`'s).
     """
     from pftrack.io.detections import read_detections
+    from pftrack.io.frames import parse_frames
     from pftrack.io.outputs import check_input_file, check_output_tree
-    from pftrack.pipeline import _load_camera, load_config, parse_frames, run_pipeline
+    from pftrack.workflows.pipeline import _load_camera, load_config, run_pipeline
 
     # everything that can be checked is checked before the detector's pass over the video
     parse_frames(frames)
@@ -708,7 +713,7 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
     # 3. track
     import warnings
 
-    from pftrack.pipeline import GroundTruthFrameWarning
+    from pftrack.workflows.pipeline import GroundTruthFrameWarning
 
     with warnings.catch_warnings(record=True) as said:
         # the ground truth carried into a people-made camera's frame: said in the messages

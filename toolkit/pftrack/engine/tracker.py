@@ -29,11 +29,12 @@ systematic resampling of all rows at once). The rows backend runs wherever every
 component offers its rows method and the filter resamples systematically every frame; the
 reference otherwise (:meth:`MultiTargetTracker.uses_rows`).
 
-The observation model (:class:`pftrack.components.ObservationModel`) and the track management
-(:class:`pftrack.components.TrackManager`) are plugin kinds; :class:`ImageBoxObservation` and
-:class:`ManualTracks` (targets added by the caller, every estimate output) are the defaults.
-Track management is written as lifecycle stages (:mod:`pftrack.lifecycle`) that return
-decisions; their runner applies them through the engine's public methods below.
+The observation model (:class:`pftrack.contracts.components.ObservationModel`) and the track
+management (:class:`pftrack.contracts.components.TrackManager`) are plugin kinds;
+:class:`ManualTracks` (targets added by the caller, every estimate output) is the default (the
+built-in observation models are in :mod:`pftrack.builtin`). Track management is written as
+lifecycle stages (:mod:`pftrack.engine.lifecycle`) that return decisions; their runner applies them
+through the engine's public methods below.
 
 The engine streams: it keeps only the live targets, so memory does not grow with video length.
 All randomness comes from one ``numpy.random.Generator``; the same seed gives bit-identical tracks.
@@ -50,7 +51,7 @@ from typing import Any
 import numpy as np
 from scipy.special import expit
 
-from pftrack.components import (
+from pftrack.contracts.components import (
     Associator,
     DetectionMatch,
     Detections,
@@ -59,11 +60,11 @@ from pftrack.components import (
     Likelihood,
     MotionModel,
     ObservationModel,
-    Param,
     Target,
     TrackManager,
     TrackRecord,
 )
+from pftrack.engine.lifecycle import ManualTracks
 from pftrack.filter import (
     RESAMPLERS,
     _jit,
@@ -75,7 +76,6 @@ from pftrack.filter import (
     weighted_mean,
 )
 from pftrack.filter.core import _EXP_ZERO_BELOW
-from pftrack.lifecycle import ManualTracks
 
 log = logging.getLogger(__name__)
 
@@ -85,7 +85,6 @@ _BACKENDS = ("auto", "rows", "reference")  # MultiTargetTracker(backend=...)
 
 __all__ = [
     "ComponentOutputError",
-    "ImageBoxObservation",
     "ManualTracks",
     "MultiTargetTracker",
     "ObservationModel",
@@ -93,75 +92,6 @@ __all__ = [
     "records_to_mot",
     "records_uncertainty",
 ]
-
-
-class ImageBoxObservation(ObservationModel):
-    """Image-plane state: dims 0 and 1 are the box centre in pixels; the box has a fixed size
-    (the colour paper uses 30 x 30 px).
-
-    With ``size_from_box=True`` each target keeps the size of the box it was started from
-    (``target.box_wh_px``), e.g. each person's ground-truth size at initialisation.
-
-    {params}
-    """
-
-    width_px: float = Param(30.0, "The box width.", unit="px", low=0.0, low_open=True)
-    height_px: float = Param(30.0, "The box height.", unit="px", low=0.0, low_open=True)
-    size_from_box: bool = Param(
-        False, "Each target keeps the size of the box it was started from.")
-
-    def init_target(self, target: Target, box_xywh_px: np.ndarray | None) -> None:
-        if self.size_from_box and box_xywh_px is not None:
-            target.box_wh_px = (float(box_xywh_px[2]), float(box_xywh_px[3]))
-
-    def to_boxes(self, states: np.ndarray, target: Target | None = None) -> np.ndarray:
-        s = np.asarray(states, dtype=np.float64)
-        w, h = float(self.width_px), float(self.height_px)
-        if target is not None and target.box_wh_px is not None:
-            w, h = target.box_wh_px
-        if len(s) == 1:  # an estimate: Python floats are the same IEEE doubles, and faster
-            x, y = s[0, :2].tolist()
-            return np.array([[x - 0.5 * w, y - 0.5 * h, w, h]])
-        if _jit.use(len(s)) and s.ndim == 2 and s.shape[1] >= 2:
-            return _jit.centre_boxes(s, w, h)  # one compiled pass: the same numbers as below
-        out = np.empty((len(s), 4))
-        out[:, 0] = s[:, 0] - 0.5 * w
-        out[:, 1] = s[:, 1] - 0.5 * h
-        out[:, 2] = w
-        out[:, 3] = h
-        return out
-
-    def to_boxes_rows(self, states: np.ndarray, targets: Sequence[Target]) -> np.ndarray:
-        """(T, N, D) -> (T, N, 4) in one pass, each row's size its target's."""
-        s = np.asarray(states, dtype=np.float64)
-        wh, half = self._row_sizes(targets)
-        if (_jit.small_ready() and s.ndim == 3 and s.shape[2] >= 2 and s.flags.c_contiguous
-                and wh.shape == (len(s), 2)):
-            return _jit.centre_boxes_rows(s, half, wh)  # one compiled pass, same numbers
-        out = np.empty(s.shape[:2] + (4,))
-        # column by column: inner loops run over the N particles, not over the 2 axes
-        for k in range(2):
-            np.subtract(s[:, :, k], half[:, k:k + 1], out=out[:, :, k])
-            out[:, :, 2 + k] = wh[:, k:k + 1]
-        return out
-
-    def _row_sizes(self, targets: Sequence[Target]) -> tuple[np.ndarray, np.ndarray]:
-        """Each target's box size (T, 2) and half of it, kept while the sizes do not change
-        (the engine asks twice a frame: particles and estimates); read, never written."""
-        size = (float(self.width_px), float(self.height_px))
-        sizes = [size if t.box_wh_px is None else t.box_wh_px for t in targets]
-        hit = self.__dict__.get("_sizes_rows")
-        if hit is not None and len(hit[0]) == len(sizes) and all(
-                type(a) is tuple and a == b for a, b in zip(sizes, hit[0])):
-            return hit[1], hit[2]
-        wh = np.array(sizes, dtype=np.float64)
-        half = 0.5 * wh
-        self._sizes_rows = ([tuple(v) for v in sizes], wh, half)
-        return wh, half
-
-    def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:
-        b = np.asarray(box_xywh_px, dtype=np.float64)
-        return np.array([b[0] + 0.5 * b[2], b[1] + 0.5 * b[3]])
 
 
 def records_to_mot(records: Iterable[TrackRecord]) -> np.ndarray:
@@ -183,7 +113,7 @@ def records_uncertainty(records: Iterable[TrackRecord]) -> np.ndarray:
     :func:`records_to_mot`'s: frame, id, the standard deviations of the box's x1, y1, x2, y2
     (pixels) and the ground covariance's var_x, cov_xy, var_y (m^2); NaN where a record has
     none (``TrackRecord.xyxy_sd``, ``TrackRecord.world_cov``: filled by
-    :class:`pftrack.api.RecordSpread`). Written beside ``tracks.txt`` as
+    :class:`pftrack.workflows.spread.RecordSpread`). Written beside ``tracks.txt`` as
     ``tracks_uncertainty.csv`` (:func:`pftrack.io.outputs.write_track_uncertainty`)."""
     rows = []
     nan4 = (math.nan,) * 4
@@ -254,7 +184,8 @@ class MultiTargetTracker:
         non-finite (defaults to ``5 * init_spread``).
     detector, associator : optional
         When given, detections are computed each frame and matched to targets; the match is put
-        in ``target.detection`` (:class:`~pftrack.components.DetectionMatch`) for likelihoods.
+        in ``target.detection`` (:class:`~pftrack.contracts.components.DetectionMatch`) for
+        likelihoods.
     detection_driven : bool, optional
         Whether only a matched detection supports a target (then a frame without detections
         counts as a miss for every target). Default (None): when there is a detector, or
@@ -472,7 +403,7 @@ class MultiTargetTracker:
         ``detections`` overrides the tracker's own detector for this frame. The frame runs on
         :meth:`_step_reference` (one target at a time) or on :meth:`_step_rows` (all targets
         as rows of arrays, the same records bit for bit); :meth:`uses_rows` says which. Over
-        many frames, timed: :func:`pftrack.runner.run_frames`.
+        many frames, timed: :func:`pftrack.engine.runner.run_frames`.
         """
         if detections is None and self.detector is not None:
             detections = self.detector.detect(frame)
@@ -500,9 +431,9 @@ class MultiTargetTracker:
 
         ``backend="auto"`` (the default): when every per-frame component does its work for all
         targets in one vectorised call -- the motion model overrides
-        :meth:`~pftrack.components.MotionModel.predict_rows`, the observation model
-        :meth:`~pftrack.components.ObservationModel.to_boxes_rows`, the likelihood
-        :meth:`~pftrack.components.Likelihood.offers_rows` -- and the filter resamples
+        :meth:`~pftrack.contracts.components.MotionModel.predict_rows`, the observation model
+        :meth:`~pftrack.contracts.components.ObservationModel.to_boxes_rows`, the likelihood
+        :meth:`~pftrack.contracts.components.Likelihood.offers_rows` -- and the filter resamples
         systematically every frame (``resampling="systematic"``, ``ess_threshold=1``);
         otherwise the reference. ``"rows"`` and ``"reference"`` force one (the records are the
         same; rows with a component lacking its rows method stack its per-target calls).

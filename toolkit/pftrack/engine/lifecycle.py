@@ -1,0 +1,389 @@
+"""The track lifecycle as stages: which tracks start, which are believed, which end, which two
+are one, and what is output.
+
+Track management is a list of stages, each a :class:`LifecycleStage` component with a narrow
+contract (as Stone Soup's tracker loop has an initiator and a deleter, each a component of its
+own). A stage sees the frame and the live tracks read-only (:class:`FrameView`,
+:class:`TrackView`), keeps its own per-track state keyed by track id, and returns decisions
+(:class:`Birth`, :class:`End`, :class:`Confirm`, :class:`Hide`, :class:`OutputBox`,
+:class:`Resize`, :class:`AppearanceScores`). No stage receives the engine; one runner,
+:class:`LifecycleTracks`, calls the stages and applies their decisions: births and ends through
+the engine's public methods (``add_target``, ``remove_target``, ``record``), and the per-target
+fields the engine reads but has no method for (``Target.appearance_scores``,
+``Target.box_wh_px``, a newborn's ``frames_tracked``) by setting them on its targets.
+
+Roles and the order the runner calls them in, each frame::
+
+    detections
+      -> before predict:
+           1. initiator.scheduled      births due at this frame (given boxes)
+           2. reidentifier.scores      each track's appearance similarity to the detections,
+                                       for the associator (``Target.appearance_scores``)
+      -> the engine: predict, associate, weight, estimate, resample, the filter's own deaths
+      -> after the estimates (``records``: this frame's estimate of each live track):
+           3. reidentifier.observe     per-track appearance models learn from matched detections
+           4. sizer.resize             each track's own box size (``Target.box_wh_px``)
+           5. reporter.report          this frame's output boxes, tracks hidden from the output
+           6. confirmer.confirm        tentative -> confirmed (their held-back records are
+                                       output from birth on), or ended unconfirmed
+           7. terminator.terminate     other ends (left the picture, a given last frame)
+              the output is assembled here: the records just confirmed, then the records of
+              the confirmed tracks that are neither ended (``End.output`` False) nor hidden
+           8. merger.merge             two confirmed tracks that are one object: one ends, its
+                                       record of this frame is withdrawn
+           9. initiator.initiate       new tracks from the detections no track explains; each
+                                       output at once, or held back while a confirmer says it
+                                       is tentative
+      -> list[TrackRecord]
+
+Stages of one role run in the order they are listed, each seeing the tracks as they were when
+the role began. Every stage is told of each track that starts
+(:meth:`LifecycleStage.track_started`) and ends, whoever ended it
+(:meth:`LifecycleStage.track_ended`), to keep or drop its per-track state.
+
+A configuration lists the stages explicitly (``tracks: {type: stages, params: {stages:
+[...]}}``, :class:`StagedTracks`); the named track managers (``manual``, ``births``,
+``confirmed``, ``given-boxes``) are fixed lists of stages built from their parameters.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Any
+
+import numpy as np
+
+from pftrack.contracts.components import (
+    Detections,
+    Frame,
+    RunContext,
+    Target,
+    TrackManager,
+    TrackRecord,
+)
+from pftrack.contracts.stages import (
+    ROLES,
+    Birth,
+    Confirm,
+    End,
+    FrameView,
+    Hide,
+    LifecycleStage,
+    ModelView,
+    OutputBox,
+    TrackView,
+    _frozen,
+)
+
+__all__ = [
+    "LifecycleTracks",
+    "ManualTracks",
+    "StagedTracks",
+]
+
+
+# --------------------------------------------------------------------------------------------
+# The runner
+# --------------------------------------------------------------------------------------------
+
+
+class LifecycleTracks(TrackManager):
+    """Runs lifecycle stages in the fixed order of :mod:`pftrack.engine.lifecycle` and applies their
+    decisions through the engine's public methods; the engine sees it as its track manager.
+
+    Subclasses say which stages (:meth:`build_stages`). The stages are built once, on first use.
+
+    Attributes
+    ----------
+    stages_ : list of LifecycleStage
+        The stages, in the order given.
+    tentative_ : dict[int, list of TrackRecord]
+        Tentative tracks by id, with their records held back so far.
+    """
+
+    def build_stages(self) -> list[LifecycleStage]:
+        """The stages this manager runs (default: none)."""
+        return []
+
+    def setup(self, context: RunContext) -> None:
+        """Build the stages and hand each the run's context."""
+        for s in self._stages():
+            s.setup(context)
+
+    # -- state ------------------------------------------------------------------------------
+
+    def _stages(self) -> list[LifecycleStage]:
+        st = self.__dict__.get("stages_")
+        if st is None:
+            st = self.stages_ = list(self.build_stages())
+            for s in st:
+                if not isinstance(s, LifecycleStage) or s.role not in ROLES:
+                    raise ValueError(f"tracks {self.name or type(self).__name__!r}: {s!r} is "
+                                     f"not a lifecycle stage of a known role {ROLES}")
+            # each role's stages, typed loosely: a role's methods are its subclass's
+            self.by_role_: dict[str, list[Any]] = {r: [s for s in st if s.role == r]
+                                                   for r in ROLES}
+        return st
+
+    @property
+    def tentative_(self) -> dict[int, list[TrackRecord]]:
+        return self.__dict__.setdefault("_tentative", {})
+
+    def end_target(self, target: Target) -> None:
+        self.tentative_.pop(target.id, None)
+        for s in self._stages():
+            s.track_ended(target.id)
+
+    # -- views ------------------------------------------------------------------------------
+
+    def _models(self, engine: Any) -> ModelView:
+        """The run's models as a :class:`ModelView` (tracks looked up when a stage asks)."""
+        obs, motion, lik = engine.observation, engine.motion, engine.likelihood
+
+        def target(track_id: int) -> Target | None:
+            for t in engine.targets:
+                if t.id == track_id:
+                    return t
+            return None
+
+        def boxes(states: np.ndarray, track_id: int | None) -> np.ndarray:
+            return obs.to_boxes(states, None if track_id is None else target(track_id))
+
+        def log_likelihood(b: np.ndarray, track_id: int) -> np.ndarray:
+            t = target(track_id)
+            if t is None:
+                raise ValueError(f"log_likelihood: no live track {track_id}")
+            return lik.log_likelihood(b, t)
+
+        vel = getattr(motion, "velocity_dims", None)
+        return ModelView(tuple(motion.position_dims), None if vel is None else tuple(vel),
+                         float(engine.dt), boxes, obs.position_from_box, obs.world_position,
+                         engine.valid_region, log_likelihood)
+
+    @staticmethod
+    def _read_only(frame: Frame, detections: Detections | None,
+                   ) -> tuple[Frame, Detections | None]:
+        """The frame and detections as stages see them: read-only views (no copies)."""
+        f = Frame(frame.index, _frozen(frame.image), frame.time_s)  # type: ignore[arg-type]
+        if detections is None:
+            return f, None
+        return f, Detections(_frozen(detections.boxes_xywh_px),  # type: ignore[arg-type]
+                             _frozen(detections.scores),  # type: ignore[arg-type]
+                             _frozen(detections.points_world_m))
+
+    def _view(self, engine: Any, frame: Frame, detections: Detections | None,
+              unmatched: np.ndarray, claimed: frozenset[int], models: ModelView) -> FrameView:
+        tent = self.tentative_
+        return FrameView(frame=frame, detections=detections,
+                         tracks=tuple(TrackView.of(t, t.id in tent) for t in engine.targets),
+                         unmatched=unmatched, claimed=claimed, models=models)
+
+    # -- applying decisions -----------------------------------------------------------------
+
+    def _apply_births(self, engine: Any, frame: Frame, births: Iterable[Birth],
+                      out: list[TrackRecord] | None) -> None:
+        """Start the tracks; ``out`` (after the estimates): their first records go there, or
+        are held back while tentative."""
+        from pftrack.geometry.boxes import iou_matrix
+
+        confirmers = self.by_role_["confirmer"]
+        for b in births:
+            if b.max_iou is not None and b.box_xywh_px is not None:
+                taken = [t.box_xywh_px for t in engine.targets]
+                if taken and iou_matrix(np.asarray(b.box_xywh_px, dtype=np.float64),
+                                        np.array(taken)).max() > b.max_iou:
+                    continue
+            t = engine.add_target(frame, b.position, box_xywh_px=b.box_xywh_px,
+                                  target_id=b.track_id)
+            if b.supported:
+                t.frames_tracked = 1
+            tentative = any(c.tentative(b) for c in confirmers)
+            if out is not None:
+                rec = engine.record(frame, t)
+                if tentative:
+                    self.tentative_[t.id] = [rec]
+                else:
+                    out.append(rec)
+            elif tentative:
+                self.tentative_[t.id] = []
+            view = TrackView.of(t, tentative)
+            for s in self.stages_:
+                s.track_started(view, b)
+
+    def _end(self, engine: Any, decisions: Iterable[Any], withdrawn: set[int]) -> None:
+        """Apply the :class:`End` decisions; the ended tracks whose record of this frame is
+        not output (``End.output`` False, or never confirmed) go to ``withdrawn``."""
+        for d in decisions:
+            if isinstance(d, End):
+                if not d.output or d.track_id in self.tentative_:
+                    withdrawn.add(d.track_id)
+                engine.remove_target(d.track_id)
+
+    # -- the engine's two calls -------------------------------------------------------------
+
+    def before_frame(self, engine: Any, frame: Frame, detections: Detections | None) -> None:
+        """Steps 1-2: given starts, then appearance scores for the associator."""
+        stages = self._stages()
+        if not stages:
+            return
+        roles = self.by_role_
+        every = np.arange(len(detections)) if detections is not None else np.zeros(0, int)
+        every.flags.writeable = False
+        models = self._models(engine)
+        seen, seen_detections = self._read_only(frame, detections)
+        if roles["initiator"]:
+            view = self._view(engine, seen, seen_detections, every, frozenset(), models)
+            for s in roles["initiator"]:
+                self._apply_births(engine, frame, s.scheduled(view), None)
+        if roles["reidentifier"]:
+            view = self._view(engine, seen, seen_detections, every, frozenset(), models)
+            live = {t.id: t for t in engine.targets}
+            for s in roles["reidentifier"]:
+                d = s.scores(view)
+                if d is None:
+                    continue
+                for tid, sc in d.scores.items():
+                    if tid in live:
+                        live[tid].appearance_scores = sc
+
+    def after_frame(self, engine: Any, frame: Frame, detections: Detections | None,
+                    records: list[TrackRecord], unmatched_detections: np.ndarray,
+                    ) -> list[TrackRecord]:
+        """Steps 3-9 (see the module docstring); returns the records to output now."""
+        stages = self._stages()
+        if not stages:
+            return records
+        roles = self.by_role_
+        claimed = frozenset(t.detection.index for t in engine.targets
+                            if t.detection is not None)
+        models = self._models(engine)
+        seen, seen_detections = self._read_only(frame, detections)
+        unmatched = _frozen(np.asarray(unmatched_detections))
+
+        def view() -> FrameView:
+            """The tracks as they are now (rebuilt only after a role changed them)."""
+            return self._view(engine, seen, seen_detections, unmatched,  # type: ignore[arg-type]
+                              claimed, models)
+
+        v = view()
+        for s in roles["reidentifier"]:
+            s.observe(v)
+        by_id = {r.id: r for r in records}
+        if roles["sizer"]:
+            live = {t.id: t for t in engine.targets}
+            resized = False
+            for s in roles["sizer"]:
+                for d in s.resize(v):
+                    t = live.get(d.track_id)
+                    if t is None:
+                        continue
+                    resized = True
+                    t.box_wh_px = d.box_wh_px
+                    if d.box_xywh_px is not None:
+                        t.box_xywh_px = np.array(d.box_xywh_px, dtype=np.float64)
+                        if d.track_id in by_id:
+                            by_id[d.track_id].box_xywh_px = np.array(d.box_xywh_px,
+                                                                     dtype=np.float64)
+            if resized:
+                v = view()
+        hidden: set[int] = set()
+        for s in roles["reporter"]:
+            for d in s.report(v):
+                if isinstance(d, Hide):
+                    hidden.add(d.track_id)
+                elif isinstance(d, OutputBox) and d.track_id in by_id:
+                    by_id[d.track_id].box_xywh_px[:] = d.box_xywh_px  # each record owns its box
+        tentative = self.tentative_
+        out: list[TrackRecord] = []
+        withdrawn: set[int] = set()
+        if roles["confirmer"]:
+            for tid, held in tentative.items():
+                if tid in by_id:
+                    held.append(by_id[tid])
+            decided = False
+            for s in roles["confirmer"]:
+                for d in s.confirm(v):
+                    decided = True
+                    if isinstance(d, Confirm) and d.track_id in tentative:
+                        out.extend(tentative.pop(d.track_id))
+                    elif isinstance(d, End):
+                        self._end(engine, [d], withdrawn)
+            if decided:
+                v = view()
+        ended: list[End] = []
+        for s in roles["terminator"]:
+            ends = list(s.terminate(v))
+            self._end(engine, ends, withdrawn)
+            ended += ends
+        if ended:
+            v = view()
+        flushed = {id(r) for r in out}
+        for r in records:
+            if (r.id not in withdrawn and r.id not in tentative and id(r) not in flushed
+                    and r.id not in hidden):
+                out.append(r)
+        gone: set[int] = set()
+        merged: list[End] = []
+        for s in roles["merger"]:
+            ends = list(s.merge(v))
+            self._end(engine, ends, gone)
+            merged += ends
+        if gone:
+            out = [r for r in out if r.id not in gone or r.frame != frame.index]
+        if merged:
+            v = view()
+        for s in roles["initiator"]:
+            self._apply_births(engine, frame, s.initiate(v), out)
+        return out
+
+
+class StagedTracks(LifecycleTracks):
+    """Track management as an explicit list of lifecycle stages (see :mod:`pftrack.engine.lifecycle`
+    for the roles and the order they run in), e.g. the configuration ``tracks: {type: stages,
+    params: {stages: [{type: detection-births, params: {min_score: 0.5}}, hit-confirmation,
+    duplicate-merge]}}`` (a full example: the docs page "How tracks start, are confirmed and end").
+
+    Parameters
+    ----------
+    stages : list
+        The stages, each a registered stage name or ``{type: NAME, params: {...}}``; stages of
+        one role run in this order.
+    """
+
+    def __init__(self, stages: list[Any] | None = None) -> None:
+        self.stages = stages
+
+    def setup(self, context: RunContext) -> None:
+        """Build the stages through the run's host and hand each the context."""
+        self._build_host = context.get_host()  # only while building: a host does not pickle
+        try:
+            super().setup(context)
+        finally:
+            del self._build_host
+
+    def build_stages(self) -> list[LifecycleStage]:
+        host = self.__dict__.get("_build_host")
+        if host is None:
+            from pftrack.host import get_host
+
+            host = get_host()
+        specs = [] if self.stages is None else self.stages
+        if not isinstance(specs, (list, tuple)):
+            raise ValueError(  # noqa: TRY004 - a configuration error: exit 2, as all are
+                f"tracks.stages must be a list of stages, got {self.stages!r}")
+        out = []
+        for k, spec in enumerate(specs):
+            try:
+                out.append(host.build("stage", spec))
+            except (KeyError, ValueError, TypeError) as exc:
+                raise ValueError(f"tracks.stages[{k}]: {exc}") from None
+        return out  # type: ignore[return-value]
+
+
+class ManualTracks(LifecycleTracks):
+    """The default track management: no stages. Targets are added by the caller
+    (:meth:`pftrack.engine.tracker.MultiTargetTracker.add_target`), end only by the filter's own
+    rules, and every live target's estimate is output. No parameters."""
+
+    def __init__(self) -> None:
+        """No parameters."""
