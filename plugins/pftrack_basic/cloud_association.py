@@ -23,7 +23,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from pftrack.components import Assignment, Associator, Detections, Param, Target
+from pftrack.contracts.components import Assignment, Associator, Detections, Param, Target
 
 __all__ = ["CloudAssociator", "cloud_cost"]
 

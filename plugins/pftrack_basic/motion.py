@@ -27,7 +27,7 @@ import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
-from pftrack.components import MotionModel, Param, Target
+from pftrack.contracts.components import MotionModel, Param, Target
 from pftrack.filter import _jit
 
 # below this many particles a (N, D) @ (D, D) product beats column-wise updates; above, the

@@ -63,7 +63,8 @@ def test_component_parameters_checked(pets):
     msgs = [str(i) for i in info.value.issues]
     assert msgs[0].startswith("observation.params.heigth_m: unknown parameter of observation "
                               "'camera-box'") and "did you mean 'height_m'" in msgs[0]
-    assert msgs[1] == "tracks.params.confirm_hits: tracks 'confirmed' expects an integer >= 1, got 2.5"
+    assert msgs[1] == ("tracks.params.confirm_hits: tracks 'confirmed' expects an integer >= 1, "
+                       "got 2.5")
 
 
 def test_every_issue_reported_at_once(pets):
