@@ -185,8 +185,6 @@ HAND_WRITTEN = {
     "pftrack.engine.lifecycle.ManualTracks":
         "an __init__ without parameters; module not yet converted",
     "pftrack.engine.lifecycle.StagedTracks": "module not yet converted (stages: a list of specs)",
-    "pftrack.builtin.world_observation.CameraBoxObservation": "module not yet converted",
-    "pftrack.builtin.world_observation.CameraVolumeObservation": "module not yet converted",
     "pftrack_basic.tracks.BorderTerminator":
         "an __init__ without parameters; module not yet converted",
 }

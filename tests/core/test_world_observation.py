@@ -78,10 +78,10 @@ def test_loads_a_camera_path_and_validates():
     obs = CameraBoxObservation(str(PETS / "View_001.xml"))
     assert obs.get_camera().image_size == (768, 576)
     states = np.zeros((2, 6))
-    # __init__ only stores (scikit-learn convention); the first use validates and loads
-    bad = CameraBoxObservation(obs.get_camera(), height_m=0)
+    # a bad parameter is refused when the observation is built; a camera path is loaded on
+    # first use
     with pytest.raises(ValueError, match="height_m"):
-        bad.to_boxes(states)
+        CameraBoxObservation(obs.get_camera(), height_m=0)
     with pytest.raises(FileNotFoundError):
         CameraBoxObservation("/nonexistent/camera.xml").to_boxes(states)
     with pytest.raises(ValueError, match="no camera"):

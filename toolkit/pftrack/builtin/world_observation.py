@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pftrack.contracts.components import ObservationModel, RunContext, Target
+from pftrack.contracts.components import ObservationModel, Param, RunContext, Target
 from pftrack.geometry.boxes import foot_points
 
 if TYPE_CHECKING:
@@ -36,49 +36,40 @@ __all__ = ["CameraBoxObservation", "CameraVolumeObservation"]
 class CameraBoxObservation(ObservationModel):
     """Image boxes of ground-plane states through a camera.
 
-    Parameters
-    ----------
-    camera : Camera or str
-        A :class:`pftrack.geometry.camera.Camera` (world metres, z up) or a camera file path
-        (anything :func:`pftrack.geometry.formats.load_camera` reads, e.g. PETS Tsai XML).
-        None: the run's camera (:meth:`setup` takes it from the
-        :class:`~pftrack.contracts.components.RunContext`; ``pftrack run --camera``).
-    height_m : float
-        Height of the tracked objects in metres (about 1.75 m for people). Unit: m.
-    width_m : float, optional
-        Width in metres; the box width is ``height_px * width_m / height_m``. When None,
-        ``width_ratio`` is used. Unit: m.
-    width_ratio : float
-        Box width as a fraction of its height (PETS 2009 ground truth: median 0.355). Unit: 1.
-    position_dims : (int, int)
-        Entries of the state vector that hold (p_x, p_y) in metres (default the first two, the
-        layout of the soccer paper's eq. 1). Unit: none.
-    min_visible : float
-        :meth:`in_view` is true while at least this fraction of the box's area is inside the
-        image (a person stepping out of the picture dies once mostly out). Unit: 1.
-    adapt_height : bool
-        Keep a height factor per target (module docstring).
-    height_scale_range : (float, float)
-        Bounds of the per-target height factor. Unit: 1.
+    {params}
 
     Notes
     -----
     ``to_boxes`` is vectorised: one projection of 2N points per call.
     """
 
-    def __init__(self, camera: CameraSpec | None = None, height_m: float = 1.75,
-                 width_m: float | None = None,
-                 width_ratio: float = 0.355, position_dims: tuple[int, int] = (0, 1),
-                 min_visible: float = 0.5, adapt_height: bool = False,
-                 height_scale_range: tuple[float, float] = (0.85, 1.2)) -> None:
-        self.camera = camera
-        self.height_m = height_m
-        self.width_m = width_m
-        self.width_ratio = width_ratio
-        self.position_dims = position_dims
-        self.min_visible = min_visible
-        self.adapt_height = adapt_height
-        self.height_scale_range = height_scale_range
+    camera: CameraSpec | None = Param(
+        None, "A pftrack.geometry.camera.Camera (world metres, z up) or a camera file path "
+        "(anything pftrack.geometry.formats.load_camera reads, e.g. PETS Tsai XML). None: the "
+        "run's camera (setup takes it from the RunContext; pftrack run --camera).")
+    height_m: float = Param(1.75, "Height of the tracked objects (about 1.75 m for people).",
+                            unit="m", low=0.0, low_open=True)
+    width_m: float | None = Param(None, "Width of the tracked objects; the box width is "
+                                  "height_px * width_m / height_m. None: width_ratio is used.",
+                                  unit="m", low=0.0, low_open=True)
+    width_ratio: float = Param(0.355, "Box width as a fraction of its height (PETS 2009 ground "
+                               "truth: median 0.355).", unit="1", low=0.0, low_open=True)
+    position_dims: tuple[int, int] = Param(
+        (0, 1), "Entries of the state vector that hold (p_x, p_y) in metres (default the "
+        "first two, the layout of the soccer paper's eq. 1).", unit="none", low=0, length=2)
+    min_visible: float = Param(0.5, "in_view is true while at least this fraction of the "
+                               "box's area is inside the image (a person stepping out of the "
+                               "picture dies once mostly out).", unit="1", low=0.0, high=1.0)
+    adapt_height: bool = Param(False, "Keep a height factor per target (module docstring).")
+    height_scale_range: tuple[float, float] = Param(
+        (0.85, 1.2), "Bounds (low, high) of the per-target height factor, low <= 1 <= high.",
+        unit="1", low=0.0, low_open=True, length=2)
+
+    def _check_relations(self) -> None:
+        lo, hi = (float(v) for v in self.height_scale_range)
+        if not lo <= 1 <= hi:
+            raise ValueError(f"CameraBoxObservation: height_scale_range must satisfy "
+                             f"low <= 1 <= high, got {self.height_scale_range}")
 
     @classmethod
     def _conformance_example(cls):
@@ -92,21 +83,11 @@ class CameraBoxObservation(ObservationModel):
         return cls(), {"states": states, "context": RunContext(camera=cam)}
 
     def _checked(self) -> None:
-        """Validate the parameters and load a camera path, once (``camera_``, ``dims_``,
-        ``scale_range_``); called on first use, so that ``__init__`` only stores."""
+        """Load a camera path and derive ``camera_``, ``dims_``, ``scale_range_``, once, on
+        first use."""
         if "dims_" in self.__dict__:
             return
-        if not float(self.height_m) > 0:
-            raise ValueError(f"CameraBoxObservation: height_m must be > 0, got {self.height_m}")
-        if self.width_m is not None and not float(self.width_m) > 0:
-            raise ValueError(f"CameraBoxObservation: width_m must be > 0, got {self.width_m}")
-        if not float(self.width_ratio) > 0:
-            raise ValueError(f"CameraBoxObservation: width_ratio must be > 0, got "
-                             f"{self.width_ratio}")
         lo, hi = (float(v) for v in self.height_scale_range)
-        if not 0 < lo <= 1 <= hi:
-            raise ValueError(f"CameraBoxObservation: height_scale_range must satisfy "
-                             f"0 < low <= 1 <= high, got {self.height_scale_range}")
         self.camera_ = _resolve_camera(self, required=False)
         self.scale_range_ = (lo, hi)
         self.dims_ = tuple(int(d) for d in self.position_dims)
@@ -268,37 +249,27 @@ class CameraVolumeObservation(ObservationModel):
     assumes the object rests on the plane ``z = support_z_m`` (sea level, the ground): the
     box's bottom centre is back-projected onto that plane.
 
-    Parameters
-    ----------
-    camera : Camera or str, optional
-        As :class:`CameraBoxObservation` (None: the run's camera).
-    size_m : (float, float, float)
-        Object size along world x, y and z, metres. Unit: m.
-    position_dims : (int, int, int)
-        Entries of the state vector holding (x, y, z) in metres (default the first three, the
-        layout of ``constant-velocity-3d``). Unit: none.
-    support_z_m : float
-        Height of the plane objects rest on (births from boxes), metres. Unit: m.
-    min_visible : float
-        :meth:`in_view` is true while at least this fraction of the box is inside the image.
-        Unit: 1.
-    particle_box : {"cuboid", "point"}
-        ``"point"``: a state's box is its projected point (width and height 0), one projection
-        per particle instead of eight. For the coastal paper, where each particle is a point on the
-        intruder and its size comes from the particles' spread (eq. 10), not from a box per
-        particle; likelihoods of points read the box's corner as the pixel.
+    {params}
     """
 
-    def __init__(self, camera: CameraSpec | None = None,
-                 size_m: tuple[float, float, float] = (1.0, 1.0, 1.0),
-                 position_dims: tuple[int, int, int] = (0, 1, 2), support_z_m: float = 0.0,
-                 min_visible: float = 0.5, particle_box: str = "cuboid") -> None:
-        self.camera = camera
-        self.size_m = size_m
-        self.position_dims = position_dims
-        self.support_z_m = support_z_m
-        self.min_visible = min_visible
-        self.particle_box = particle_box
+    camera: CameraSpec | None = Param(None, "As CameraBoxObservation's (None: the run's "
+                                      "camera).")
+    size_m: tuple[float, float, float] = Param(
+        (1.0, 1.0, 1.0), "Object size along world x, y and z.", unit="m", low=0.0,
+        low_open=True, length=3)
+    position_dims: tuple[int, int, int] = Param(
+        (0, 1, 2), "Entries of the state vector holding (x, y, z) in metres (default the first "
+        "three, the layout of constant-velocity-3d).", unit="none", low=0, length=3)
+    support_z_m: float = Param(0.0, "Height of the plane objects rest on (births from boxes).",
+                               unit="m")
+    min_visible: float = Param(0.5, "in_view is true while at least this fraction of the box "
+                               "is inside the image.", unit="1", low=0.0, high=1.0)
+    particle_box: str = Param(
+        "cuboid", "point: a state's box is its projected point (width and height 0), one "
+        "projection per particle instead of eight; for the coastal paper, where each particle "
+        "is a point on the intruder and its size comes from the particles' spread (eq. 10), "
+        "not from a box per particle; likelihoods of points read the box's corner as the "
+        "pixel.", choices=("cuboid", "point"))
 
     @classmethod
     def _conformance_example(cls):
@@ -328,12 +299,6 @@ class CameraVolumeObservation(ObservationModel):
         """The camera in use (``camera``, loaded when a path, or the run's)."""
         if "half_size_" not in self.__dict__:  # parameters checked once, on first use
             size = np.asarray(self.size_m, dtype=np.float64).reshape(-1)
-            if size.shape != (3,) or not np.all(size > 0):
-                raise ValueError(f"CameraVolumeObservation: size_m must be 3 sizes > 0 (x, y, "
-                                 f"z metres), got {self.size_m!r}")
-            if self.particle_box not in ("cuboid", "point"):
-                raise ValueError(f"CameraVolumeObservation: particle_box must be 'cuboid' or "
-                                 f"'point', got {self.particle_box!r}")
             self.camera_ = _required_camera(self)
             self.half_size_ = 0.5 * size
         return self.camera_
