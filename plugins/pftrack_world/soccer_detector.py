@@ -9,15 +9,12 @@ from __future__ import annotations
 import functools
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from pftrack.contracts.components import Detections, Detector, Frame, Param, RunContext
 
 from pftrack_world.soccer_pitch import _DEFAULT_VOLUME, default_soccer_camera_path
-
-if TYPE_CHECKING:
-    pass
 
 
 class PitchBlobDetector(Detector):

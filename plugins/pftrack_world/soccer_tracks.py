@@ -15,13 +15,9 @@ import math
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
-
-if TYPE_CHECKING:
-    pass
-
 
 #: Source name -> short description (see the module docstring's table).
 SOURCES: dict[str, str] = {
