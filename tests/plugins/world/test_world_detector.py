@@ -184,7 +184,7 @@ def test_fit_is_seeded_and_finds_the_objects():
     # no camera: hard negatives mined over the scales the training boxes show
     assert a.info["mining_scales"] == "training boxes"
     assert np.linalg.norm(a.weights) == pytest.approx(1.0, rel=1e-5)
-    det = SVMDetector(min_height_px=25, max_height_px=60, scale_step=1.1, **kw)
+    det = SVMDetector(min_height_px=25, max_height_px=60, scale_step=1.1, train=kw)
     det.fit(sc.frames, sc.boxes_by_frame, rng=np.random.default_rng(0))
     test = synthetic_scene(seed=5, n_frames=3)
     hits = 0

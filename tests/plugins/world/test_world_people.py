@@ -122,9 +122,11 @@ def test_svm_trained_on_one_frame_warns(tmp_path):
 
 
 def test_local_search_parameters_are_checked():
-    for bad in ({"full_every": 0}, {"full_every": 1.5}, {"roi_margin": 0.0},
-                {"roi_memory": 0}, {"motion_threshold": -1.0}):
-        with pytest.raises(ValueError, match=f"'hog-people'\\): parameter '{next(iter(bad))}'"):
+    for bad, name in (({"full_every": 0}, "full_every"), ({"full_every": 1.5}, "full_every"),
+                      ({"partial": {"margin": 0.0}}, "partial.margin"),
+                      ({"partial": {"memory": 0}}, "partial.memory"),
+                      ({"partial": {"motion_threshold": -1.0}}, "partial.motion_threshold")):
+        with pytest.raises(ValueError, match=f"'hog-people'\\): parameter '{name}'"):
             get_host().build("detector", {"type": "hog-people", "params": bad})
 
 

@@ -330,6 +330,8 @@ class Component(ABC):
 
     @classmethod
     def _param_names(cls) -> list[str]:
+        if cls.__init__ is object.__init__:
+            return []  # no parameters declared and no __init__ written
         sig = inspect.signature(cls.__init__)
         names = []
         for p in sig.parameters.values():
