@@ -49,6 +49,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 from pftrack.contracts.components import (
     Detections,
+    Detector,
     Frame,
     Group,
     Param,
@@ -206,7 +207,8 @@ class HOGPeopleDetector(SVMDetector):
     def describe(self) -> dict[str, Any]:
         """The parameters and the window geometry."""
         m = self._model()
-        return {**self.get_params(), "window_wh": list(m.window_wh),
+        # the parameters as plain values (Detector's), not the SVM model's record
+        return {**Detector.describe(self), "window_wh": list(m.window_wh),
                 "box_in_window": [float(v) for v in m.box_in_window]}
 
     def _model(self) -> SVMModel:

@@ -535,8 +535,8 @@ class ParamGroup:
         parameters. Default: nothing."""
 
     def __eq__(self, other: object) -> bool:
-        return type(other) is type(self) and _plain(self.get_params()) == _plain(
-            other.get_params())  # type: ignore[attr-defined]
+        return isinstance(other, ParamGroup) and type(other) is type(self) and _plain(
+            self.get_params()) == _plain(other.get_params())
 
     __hash__ = None  # type: ignore[assignment]
 
