@@ -220,6 +220,7 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
     """
     import numpy as np
 
+    from pftrack.host.config import training_params
     from pftrack.io.outputs import check_input_file, check_output_file
 
     # checked before training, not after it
@@ -230,9 +231,10 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
     cfg = cfg or {"detector": {"type": "svm", "params": {}}}
     det_cfg = dict(cfg.get("detector") or {"type": "svm"})
     train_cfg = det_cfg.get("train") or {}
-    merged = {**(det_cfg.get("params") or {}), **(train_cfg.get("params") or {}),
-              **(params or {})}
-    det_cfg = {"type": det_cfg.get("type", "svm"), "params": merged}
+    name = det_cfg.get("type", "svm")
+    merged = training_params(name, det_cfg.get("params") or {},
+                             {**(train_cfg.get("params") or {}), **(params or {})})
+    det_cfg = {"type": name, "params": merged}
     det = build_detector({"detector": det_cfg}, RunContext(camera=_load_camera(camera)))
     first, last = parse_frames(frames)
     if out is not None:
