@@ -40,8 +40,9 @@ asked for, and its JSON says which part was reported and which part chose the se
 ``people-image`` through :func:`pftrack.workflows.pipeline.run_pipeline` (what ``pftrack run
 people-image
 --detections det.txt`` runs) and ``track`` through :func:`pftrack.workflows.track.track_video` (what
-``pftrack track VIDEO --detections det.txt`` runs: a camera estimated from the detections, then
-ground-plane tracking); the peers with their documented defaults: norfair (IoU distance), and
+``pftrack track VIDEO --detections det.txt`` runs: a camera estimated from the detections, the
+tracks kept in the image plane with ``people-image`` and placed on the ground through that
+camera); the peers with their documented defaults: norfair (IoU distance), and
 roboflow ``trackers``' ByteTrack, SORT, OC-SORT and BoT-SORT (camera-motion compensation on, no
 appearance model), fed ``supervision.Detections`` of the same boxes. ``--config FILE.yaml`` adds
 pftrack with that configuration (a row named after the file). A tracker that fails on a video (no

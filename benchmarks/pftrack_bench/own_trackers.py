@@ -155,7 +155,8 @@ def pftrack_config_entry(name: str, config: str | os.PathLike[str] | dict[str, A
 
 def _pftrack_track(inp: TrackInput) -> TrackResult:
     """``pftrack track VIDEO --detections det.txt --frames A:B --seed S`` (a camera estimated
-    from the detections, then ``people-ground``); engine-step time only (not the camera fit)."""
+    from the detections, ``people-image`` tracks placed on the ground through it); engine-step
+    time only (not the camera fit)."""
     import warnings
 
     from pftrack.workflows.pipeline import FrameWarning
@@ -275,7 +276,7 @@ def default_trackers() -> dict[str, TrackerEntry]:
         "track": TrackerEntry(
             "track", "pftrack", _pftrack_track,
             {"command": "pftrack track V --detections det.txt (camera estimated from the "
-                        "detections, people-ground)"}),
+                        "detections, people-image placed on the ground through it)"}),
         "norfair": TrackerEntry("norfair", "peer", _norfair, dict(NORFAIR_SETTINGS)),
         "bytetrack": TrackerEntry("bytetrack", "peer", _roboflow("ByteTrackTracker"),
                                   rf("ByteTrackTracker")),

@@ -97,6 +97,8 @@ def _code(value: Any) -> str:
     """A default or value as inline code (``—`` when there is none)."""
     if value is inspect.Parameter.empty:
         return "required"
+    if value is GROUP_DEFAULT:
+        return "—"
     text = json.dumps(value) if isinstance(value, (str, bool, type(None))) else repr(value)
     return "`" + text.replace("|", "\\|").replace("`", "'") + "`"
 
@@ -201,13 +203,23 @@ def component_params(cls: type) -> list[dict[str, Any]]:
         a :class:`pftrack.contracts.components.Param` declaration allows, :func:`param_allowed`;
         ``""`` for a parameter of a hand-written ``__init__``).
     """
-    from pftrack.contracts.components import _declared
+    from pftrack.contracts.components import Group, _declared
 
     declared = _declared(cls)
     documented = _doc_params(cls)
     rows = []
     for p in inspect.signature(cls.__init__).parameters.values():
         if p.name == "self" or p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+            continue
+        group = declared.get(p.name)
+        if isinstance(group, Group):
+            keys = ", ".join(f"`{p.name}.{k}`" for k in _declared(group.group))
+            rows.append({"name": p.name, "type": "mapping", "default": GROUP_DEFAULT,
+                         "unit": "", "unit_source": "", "numeric": False, "allowed": "",
+                         "doc": f"{group.doc} A mapping of the keys below ({keys}); a key "
+                                "left out takes its default."})
+            for sub in _declared(group.group).values():
+                rows.append(_declared_row(f"{p.name}.{sub.name}", sub, sub.default))
             continue
         if p.name in declared:
             typ, doc = declared[p.name].type_doc, declared[p.name].doc
@@ -232,6 +244,27 @@ def component_params(cls: type) -> list[dict[str, Any]]:
                      "numeric": is_numeric(typ, p.default),
                      "allowed": param_allowed(declared[p.name]) if p.name in declared else ""})
     return rows
+
+
+#: The default shown for a parameter group (its keys' defaults are on their own rows).
+GROUP_DEFAULT = "—"
+
+
+def _declared_row(name: str, param: Any, default: Any) -> dict[str, Any]:
+    """The row of :func:`component_params` for a declared parameter ``param`` named ``name``."""
+    typ, doc, unit = param.type_doc, param.doc, param.unit
+    if unit is None:
+        unit, doc = stated_unit(doc)
+    if unit is not None:
+        source = "stated"
+        unit = "" if unit == NOT_A_QUANTITY else unit
+    else:
+        unit = unit_of(name, doc)
+        source = ("name" if any(name.endswith(k) for k in _NAME_UNITS) else "text") \
+            if unit else ""
+    return {"name": name, "type": typ, "default": default, "unit": unit,
+            "unit_source": source, "doc": doc, "numeric": is_numeric(typ, default),
+            "allowed": param_allowed(param)}
 
 
 def param_allowed(param: Any) -> str:
@@ -302,7 +335,17 @@ def preset_defaults(cfg: dict[str, Any], host: Any) -> dict[str, Any]:
         except KeyError:
             continue
         for r in component_params(cls):
-            out[f"{key}.params.{r['name']}"] = r["default"]
+            for path in _preset_paths(key, r["name"]):
+                out[path] = r["default"]
+    return out
+
+
+def _preset_paths(key: str, name: str) -> list[str]:
+    """Where a preset sets component parameter ``name`` of its section ``key``: under
+    ``params``, and a detector's training group (``train.X``) under ``train.params`` too."""
+    out = [f"{key}.params.{name}"]
+    if key == "detector" and name.startswith("train."):
+        out.append(f"detector.train.params.{name.removeprefix('train.')}")
     return out
 
 
@@ -320,7 +363,8 @@ def preset_units(cfg: dict[str, Any], host: Any) -> dict[str, str]:
         except KeyError:
             continue
         for r in component_params(cls):
-            out[f"{key}.params.{r['name']}"] = r["unit"]
+            for path in _preset_paths(key, r["name"]):
+                out[path] = r["unit"]
     return out
 
 

@@ -67,14 +67,31 @@ def cloud_cost(targets: Sequence[Target], detections: Detections, *,
         without their normalising constants: 0 for a detection exactly where every particle
         is); ``inf`` for a track with no finite particle box.
     """
+    return _cloud_cost(targets, detections, sigma, sigma_size)[0]
+
+
+def _cloud_mean(b: np.ndarray) -> tuple[np.ndarray, float]:
+    """Mean box centre (2,) and height of one cloud's finite particle boxes (N, 4)."""
+    b = b[np.isfinite(b).all(axis=1)]
+    if not len(b):
+        return np.full(2, np.nan), np.nan
+    return (b[:, :2] + 0.5 * b[:, 2:]).mean(axis=0), float(b[:, 3].mean())
+
+
+def _cloud_cost(targets: Sequence[Target], detections: Detections,
+                sigma: float | tuple[float, float], sigma_size: float
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`cloud_cost`, plus each cloud's mean particle box centre (T, 2) and height (T,)
+    in pixels (NaN for a cloud without a finite box), which the scatter estimate reads."""
     T, K = len(targets), len(detections)
     cost = np.full((T, K), np.inf)
+    centre, height = np.full((T, 2), np.nan), np.full(T, np.nan)
     if T == 0 or K == 0:
-        return cost
+        return cost, centre, height
+    boxes = [_particle_boxes(t) for t in targets]
     db = detections.boxes_xywh_px
     dc = db[:, :2] + 0.5 * db[:, 2:]  # (K, 2)
     dh = np.maximum(db[:, 3], 1e-6)  # (K,)
-    boxes = [_particle_boxes(t) for t in targets]
     if len({len(b) for b in boxes}) == 1:
         groups = [(list(range(T)), np.stack(boxes))]
     else:
@@ -103,7 +120,13 @@ def cloud_cost(targets: Sequence[Target], detections: Detections, *,
         c = -(lse - 0.5 * r * r)
         c = np.where(finite[..., 0] & (n_ok[:, None] > 0) & np.isfinite(c), c, np.inf)
         cost[rows] = c
-    return cost
+        if ok.all():
+            centre[rows] = pc.mean(axis=1)
+            height[rows] = pb[..., 3].mean(axis=1)
+        else:
+            for row, b in zip(rows, pb):
+                centre[row], height[row] = _cloud_mean(b)
+    return cost, centre, height
 
 
 def _solve(cost: np.ndarray, max_cost: float) -> list[tuple[int, int]]:
@@ -199,27 +222,18 @@ class CloudAssociator(Associator):
         s = np.clip(np.sqrt(var), prior * _SCATTER_RANGE[0], prior * _SCATTER_RANGE[1])
         return (float(s[0]), float(s[1]), float(s[2]))
 
-    def _learn(self, targets: Sequence[Target], detections: Detections,
-               matches: list[tuple[int, int]]) -> None:
+    def _learn(self, detections: Detections, matches: list[tuple[int, int]],
+               misses: np.ndarray, centre: np.ndarray, height: np.ndarray) -> None:
         """Keep the residuals of this frame's pairs whose track was matched in the previous
-        frame (its cloud is tight): detection centre minus the cloud's mean centre, in
-        detection heights, and the log height ratio."""
-        pairs = [(i, j) for i, j in matches if targets[i].misses == 0]
+        frame (``misses`` 0: its cloud is tight): detection centre minus the cloud's mean
+        centre (``centre``, px), in detection heights, and the log ratio of the detection's
+        height to the cloud's mean height (``height``, px)."""
+        pairs = [(i, j) for i, j in matches if misses[i] == 0]
         if not pairs:
             return
+        ti = np.array([i for i, _ in pairs], dtype=np.intp)
         d = detections.boxes_xywh_px[[j for _, j in pairs]]
-        boxes = [_particle_boxes(targets[i]) for i, _ in pairs]
-        if len({len(b) for b in boxes}) == 1 and all(np.isfinite(b).all() for b in boxes):
-            pb = np.stack(boxes)  # (P, N, 4): the common case, all at once
-            c = (pb[..., :2] + 0.5 * pb[..., 2:]).mean(axis=1)
-            h = pb[..., 3].mean(axis=1)
-        else:
-            c, h = np.full((len(pairs), 2), np.nan), np.full(len(pairs), np.nan)
-            for k, b in enumerate(boxes):
-                b = b[np.isfinite(b).all(axis=1)]
-                if len(b):
-                    c[k] = (b[:, :2] + 0.5 * b[:, 2:]).mean(axis=0)
-                    h[k] = b[:, 3].mean()
+        c, h = centre[ti], height[ti]
         ok = np.isfinite(h) & (d[:, 3] > 0)
         if not ok.any():
             return
@@ -232,11 +246,16 @@ class CloudAssociator(Associator):
 
     def costs(self, targets: Sequence[Target], detections: Detections) -> np.ndarray:
         """The (T, K) cost matrix: :func:`cloud_cost` plus the appearance cost."""
+        return self._costs(targets, detections)[0]
+
+    def _costs(self, targets: Sequence[Target], detections: Detections
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`costs`, and the clouds' mean centres and heights (see :func:`_cloud_cost`)."""
         if not hasattr(self, "_scatter_now"):
             self._reset()
         sx, sy, ss = self._scatter_now
         self.scatter_ = (sx, sy, ss)
-        cost = cloud_cost(targets, detections, sigma=(sx, sy), sigma_size=ss)
+        cost, centre, height = _cloud_cost(targets, detections, (sx, sy), ss)
         w = float(self.appearance_weight)
         K = len(detections)
         for j, t in enumerate(targets):
@@ -249,12 +268,12 @@ class CloudAssociator(Associator):
                 with np.errstate(divide="ignore"):
                     cost[j] += w * -np.log(np.where(barred, 1.0, np.clip(a, 0.0, 1.0)))
             cost[j, barred] = np.inf
-        return cost
+        return cost, centre, height
 
     def associate(self, targets: Sequence[Target], detections: Detections) -> Assignment:
         """Match targets to detections; ``Assignment.matches`` rows are (target, detection)."""
         T, K = len(targets), len(detections)
-        cost = self.costs(targets, detections)
+        cost, centre, height = self._costs(targets, detections)
         self.cost_ = cost
         gate = float(self.max_cost)
         high = np.flatnonzero(detections.scores >= float(self.high_score))
@@ -267,5 +286,6 @@ class CloudAssociator(Associator):
             if len(recent):
                 sub = cost[np.ix_(recent, low)]
                 matches += [(int(recent[i]), int(low[j])) for i, j in _solve(sub, gate)]
-        self._learn(targets, detections, matches)
+        misses = np.array([t.misses for t in targets], dtype=np.intp)
+        self._learn(detections, matches, misses, centre, height)
         return Assignment.from_matches(matches, T, K)

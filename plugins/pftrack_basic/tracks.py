@@ -200,9 +200,6 @@ class BorderTerminator(Terminator):
         Each confirmed track's state at its last matched detection, by id.
     """
 
-    def __init__(self) -> None:
-        """No parameters."""
-
     @property
     def last_matched_(self) -> dict[int, np.ndarray]:
         return self.__dict__.setdefault("_last_matched", {})

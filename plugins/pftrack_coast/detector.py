@@ -20,7 +20,15 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pftrack.contracts.components import Detections, Detector, Frame, Param, RunContext
+from pftrack.contracts.components import (
+    Detections,
+    Detector,
+    Frame,
+    Group,
+    Param,
+    ParamGroup,
+    RunContext,
+)
 
 from pftrack_coast.eigenspace import (
     FRAME_OFFSETS,
@@ -29,7 +37,7 @@ from pftrack_coast.eigenspace import (
     EigenspaceResult,
 )
 
-__all__ = ["EigenspaceDetector", "boxes_to_mask"]
+__all__ = ["EigenspaceDetector", "RecalibrationWatch", "boxes_to_mask"]
 
 
 def boxes_to_mask(boxes_xywh_px: np.ndarray, image_hw: tuple[int, int]) -> np.ndarray:
@@ -48,6 +56,38 @@ def boxes_to_mask(boxes_xywh_px: np.ndarray, image_hw: tuple[int, int]) -> np.nd
     return mask
 
 
+class RecalibrationWatch(ParamGroup):
+    """How :class:`EigenspaceDetector` watches for a camera recalibration or a sudden global
+    change (a time gap, a level step, too many intruder blocks) and re-baselines the model on
+    the frames after it (:class:`~pftrack_coast.recalibration.RecalibrationGuard`).
+
+    {params}
+    """
+
+    mode: str = Param(
+        "rebaseline", "'rebaseline' (default): on an event, hold detections for settle_frames "
+        "frames and re-baseline the model's per-pixel means on them, with a "
+        "RecalibrationWarning for each; 'off': the model as trained, every frame.",
+        choices=("rebaseline", "off"))
+    block_fraction: float = Param(
+        0.25, "An event when more than this fraction of the trained blocks are intruders in "
+        "one frame.", unit="1", low=0.0, low_open=True, high=1.0)
+    level_step: float | None = Param(
+        15.0, "An event when the frame's median grey level moves by more than this from the "
+        "previous frame's (grey levels: counts for a thermal camera); null: not watched.",
+        unit="grey levels", low=0.0, low_open=True)
+    gap_s: float | None = Param(
+        None, "An event when a frame comes more than this long after the previous one (a "
+        "thermal camera's flat-field correction pauses the recording for about 1-2 s); null: "
+        "not watched.", unit="s", low=0.0, low_open=True)
+    adapt_rate: float = Param(
+        0.02, "After each sound frame the means of the blocks away from any intruder move "
+        "this fraction of the way towards it (the drift after a recalibration); 0: never.",
+        unit="1", low=0.0, high=1.0, high_open=True)
+    settle_frames: int = Param(
+        3, "Frames held after an event and re-baselined on.", unit="frames", low=1)
+
+
 class EigenspaceDetector(Detector):
     """Block eigenspace background subtraction (the coastal paper): intruder blocks -> boxes.
 
@@ -61,7 +101,7 @@ class EigenspaceDetector(Detector):
         The r_D map, intruder mask, boxes and scores of the last frame given to
         :meth:`detect` (for likelihoods and pictures).
     guard_ : RecalibrationGuard
-        With ``recalibration="rebaseline"``, after the first :meth:`detect`: the guard, its
+        With ``recalibration.mode`` "rebaseline", after the first :meth:`detect`: the guard, its
         events and messages; ``guard_.model`` is the copy of ``model_`` that it re-baselines.
     """
 
@@ -88,31 +128,9 @@ class EigenspaceDetector(Detector):
                   "mean and eigenspace, which finds objects that stood in the block through "
                   "training but flags it in every frame where its background differs from "
                   "the borrowed one.", choices=UNTRAINED)
-    recalibration: str = Param(
-        "rebaseline", "'rebaseline' (default): watch for a camera recalibration or sudden "
-                      "global change (a time gap, a level step, too many intruder blocks), "
-                      "hold detections for recal_settle_frames frames and re-baseline the "
-                      "model's per-pixel means on them, with a RecalibrationWarning for each "
-                      "(see pftrack_coast.recalibration); 'off': the model as trained, every "
-                      "frame.", choices=("rebaseline", "off"))
-    recal_block_fraction: float = Param(
-        0.25, "recalibration: an event when more than this fraction of the trained blocks "
-              "are intruders in one frame.", unit="1", low=0.0, low_open=True, high=1.0)
-    recal_level_step: float | None = Param(
-        15.0, "recalibration: an event when the frame's median grey level moves by more than "
-              "this from the previous frame's (grey levels: counts for a thermal camera); "
-              "null: not watched.", unit="grey levels", low=0.0, low_open=True)
-    recal_gap_s: float | None = Param(
-        None, "recalibration: an event when a frame comes more than this long after the "
-              "previous one (a thermal camera's flat-field correction pauses the recording "
-              "for about 1-2 s); null: not watched.", unit="s", low=0.0, low_open=True)
-    recal_adapt_rate: float = Param(
-        0.02, "recalibration: after each sound frame the means of the blocks away from any "
-              "intruder move this fraction of the way towards it (the drift after a "
-              "recalibration); 0: never.", unit="1", low=0.0, high=1.0,
-        high_open=True)
-    recal_settle_frames: int = Param(
-        3, "recalibration: frames held after an event and re-baselined on.", unit="frames", low=1)
+    recalibration: RecalibrationWatch = Group(
+        RecalibrationWatch, "Watching for a camera recalibration or sudden global change "
+        "(:mod:`pftrack_coast.recalibration`).")
     box_margin_px: int = Param(0, "Training with boxes: each box is grown by this many pixels "
                                   "per side (people's outlines are not background).", unit="px",
                                   low=0)
@@ -210,9 +228,9 @@ class EigenspaceDetector(Detector):
         return self._model().score(img)
 
     def _guard(self) -> Any:
-        """The recalibration guard (``recalibration="rebaseline"``) around a copy of the model:
-        its re-baselines and drift-following change ``guard_.model``, never ``model_`` (what
-        :meth:`score` and :meth:`save` use)."""
+        """The recalibration guard (``recalibration.mode`` "rebaseline") around a copy of the
+        model: its re-baselines and drift-following change ``guard_.model``, never ``model_``
+        (what :meth:`score` and :meth:`save` use)."""
         model = self._model()
         guard = self.__dict__.get("guard_")
         if guard is None or self.__dict__.get("guard_source_") is not model:
@@ -221,21 +239,20 @@ class EigenspaceDetector(Detector):
             from pftrack_coast.recalibration import RecalibrationGuard
 
             self.guard_source_ = model
+            w = self.recalibration
             guard = RecalibrationGuard(
-                copy.deepcopy(model), block_fraction=float(self.recal_block_fraction),
-                level_step=None if self.recal_level_step is None else float(
-                    self.recal_level_step),
-                gap_s=None if self.recal_gap_s is None else float(self.recal_gap_s),
-                settle_frames=int(self.recal_settle_frames),
-                adapt_rate=float(self.recal_adapt_rate))
+                copy.deepcopy(model), block_fraction=float(w.block_fraction),
+                level_step=None if w.level_step is None else float(w.level_step),
+                gap_s=None if w.gap_s is None else float(w.gap_s),
+                settle_frames=int(w.settle_frames), adapt_rate=float(w.adapt_rate))
             self.guard_ = guard
         return guard
 
     def detect(self, frame: Frame) -> Detections:
         """Boxes (xywh px) of the 4-connected groups of intruder blocks, scored by their
-        largest ``r_D - v_D``. With ``recalibration="rebaseline"`` no boxes while the model
-        settles after a recalibration (each event is a ``RecalibrationWarning``)."""
-        if self.recalibration == "rebaseline":
+        largest ``r_D - v_D``. With ``recalibration.mode`` "rebaseline" no boxes while the
+        model settles after a recalibration (each event is a ``RecalibrationWarning``)."""
+        if self.recalibration.mode == "rebaseline":
             res = self._guard().score(frame.image, time_s=frame.time_s, frame=frame.index)
         else:
             res = self.score(frame)

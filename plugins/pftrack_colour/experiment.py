@@ -330,7 +330,20 @@ class GivenEndsTerminator(Terminator):
                 if ends.get(t.id, np.inf) <= view.frame.index]
 
 
-class BoxSizeSizer(Sizer):
+class _BoxSizing:
+    """The box-size parameters :class:`BoxSizeSizer` adapts with, declared once for it and for
+    :class:`GivenBoxTracks`, which passes them on."""
+
+    scale_step: float | None = Param(
+        None, "Per-frame scale search around the estimate (see :func:`track`).", unit="1", low=0.0)
+    scale_limits: tuple[float, float] = Param(
+        (0.6, 1.6), "Bounds of the scale search, times the starting size.",
+        unit="1", low=0.0, low_open=True, length=2)
+    perspective: bool = Param(
+        False, "Box height from a linear fit of height against foot row (see :func:`track`).")
+
+
+class BoxSizeSizer(_BoxSizing, Sizer):
     """Adapts each target's box size every frame: a scale search around the estimate
     (``scale_step``) and/or a perspective fit of box height against foot row
     (``perspective``), see :func:`track`.
@@ -346,14 +359,6 @@ class BoxSizeSizer(Sizer):
     feet_ : list of (foot row, height)
         The start boxes so far (perspective fit).
     """
-
-    scale_step: float | None = Param(
-        None, "Per-frame scale search around the estimate (see :func:`track`).", unit="1", low=0.0)
-    scale_limits: tuple[float, float] = Param(
-        (0.6, 1.6), "Bounds of the scale search, times the starting size.",
-        unit="1", low=0.0, low_open=True, length=2)
-    perspective: bool = Param(
-        False, "Box height from a linear fit of height against foot row (see :func:`track`).")
 
     def _state(self) -> None:
         if "start_boxes_" not in self.__dict__:
@@ -389,7 +394,7 @@ class BoxSizeSizer(Sizer):
         return out
 
 
-class GivenBoxTracks(LifecycleTracks):
+class GivenBoxTracks(_BoxSizing, LifecycleTracks):
     """Targets started from given boxes at given frames and stopped at given frames (the colour
     paper's protocol: each person from its first ground-truth box to its last), optionally resized
     every frame; every live target's estimate is output. The stages
@@ -405,14 +410,6 @@ class GivenBoxTracks(LifecycleTracks):
     ends: dict[int, int] | None = Param(
         None, "Frame after which each target is stopped: {id: frame} (e.g. "
         ":func:`last_frames`).", unit="none")
-    scale_step: float | None = Param(
-        None, "Per-frame scale search around the estimate (see :func:`track`).", unit="1", low=0.0)
-    scale_limits: tuple[float, float] = Param(
-        (0.6, 1.6), "Bounds of the scale search, times the starting size.",
-        unit="1", low=0.0, low_open=True, length=2)
-    perspective: bool = Param(
-        False, "Box height from a linear fit of height against foot row (see :func:`track`).")
-
     def build_stages(self) -> list[LifecycleStage]:
         stages: list[LifecycleStage] = [GivenStartsInitiator(starts=self.starts)]
         if self.scale_step or self.perspective:

@@ -40,7 +40,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from pftrack.contracts.components import Detections, Detector, Frame, Param, RunContext
+from pftrack.contracts.components import (
+    Detections,
+    Detector,
+    Frame,
+    Group,
+    Param,
+    ParamGroup,
+    RunContext,
+)
 from pftrack.geometry.boxes import foot_points, iou_matrix, nms
 
 if TYPE_CHECKING:
@@ -50,6 +58,7 @@ __all__ = [
     "SVMDetector",
     "SVMModel",
     "ScaleBand",
+    "SvmTraining",
     "TrainingRecallWarning",
     "heights_from_boxes",
     "load_model",
@@ -614,6 +623,24 @@ def _dense_windows(model: SVMModel, grey: np.ndarray, bands: Sequence[ScaleBand]
 # --------------------------------------------------------------------------------------------
 
 
+class SvmTraining(ParamGroup):
+    """How :meth:`SVMDetector.fit` trains a model (:func:`train_svm_model`): the window, the
+    feature, the regularisation and the negatives.
+
+    {params}
+    """
+
+    feature: str = Param("hog", "Window feature: OpenCV HOG, or the grey levels (the soccer "
+                         "paper's feature).", choices=FEATURES)
+    window_wh: Sequence[int] = Param(
+        (32, 64), "Window size (width, height).", unit="px", low=1, length=2)
+    C: float = Param(0.01, "LinearSVC regularisation.", unit="1", low=0.0, low_open=True)
+    n_negatives: int = Param(8000, "Random negative windows drawn.", unit="count", low=0)
+    hard_negative_rounds: int = Param(
+        1, "Rounds of hard-negative mining (the detector's own false positives on the training "
+        "frames added as negatives; 0 or 1 in practice).", unit="count", low=0)
+
+
 class SVMDetector(Detector):
     """Linear SVM sliding-window person detector (the soccer paper's sec. 2), multi-scale, with NMS.
 
@@ -660,27 +687,11 @@ class SVMDetector(Detector):
         400.0,
         "Largest person height searched; with a camera it clips its expected range.",
         unit="px", low=0.0, low_open=True)
-    feature: str = Param(
-        "hog", "Feature used by :meth:`fit` (a loaded model carries its own).", choices=FEATURES)
-    window_wh: Sequence[int] = Param(
-        (32, 64), "Window size used by :meth:`fit` (pixels).", unit="px", low=1, length=2)
-    occupancy: float = Param(
-        0.8, "Fraction of the window height a training box fills (:meth:`fit`).",
-        unit="1", low=0.0, low_open=True, high=1.0)
-    C: float = Param(
-        0.01, "LinearSVC regularisation (:meth:`fit`).", unit="1", low=0.0, low_open=True)
-    n_negatives: int = Param(
-        8000, "Random negative windows drawn by :meth:`fit`.", unit="count", low=0)
-    hard_negative_rounds: int = Param(
-        1, "Rounds of hard-negative mining in :meth:`fit` (0 or 1 in practice).",
-        unit="count", low=0)
-    neg_iou: float = Param(
-        0.3,
-        "A negative window's person box must have IoU below this with every ground-truth box.",
-        unit="1", low=0.0, high=1.0)
-    max_hard_negatives: int = Param(
-        20000, "At most this many mined false positives are added per round (a random subset).",
-        unit="count", low=0)
+    train: SvmTraining = Group(
+        SvmTraining,
+        "How :meth:`fit` (``pftrack detector train``) trains a model; a loaded model carries "
+        "its own window and feature. A configuration gives these keys under "
+        "``detector.train.params``.")
 
     # -- set-up -------------------------------------------------------------------------------
 
@@ -856,12 +867,11 @@ class SVMDetector(Detector):
             raise ValueError("SVMDetector.fit: no ground-truth boxes to learn from")
         if rng is None:
             raise ValueError("SVMDetector.fit needs rng=np.random.default_rng(seed)")
+        t = self.train
         model = train_svm_model(frames, boxes_by_frame, rng, ignore_by_frame=ignore_by_frame,
-                                feature=self.feature, window_wh=tuple(self.window_wh),
-                                occupancy=self.occupancy, C=self.C, n_negatives=self.n_negatives,
-                                hard_negative_rounds=self.hard_negative_rounds,
-                                neg_iou=self.neg_iou, max_hard=self.max_hard_negatives,
-                                detector=self)
+                                feature=t.feature, window_wh=tuple(t.window_wh), C=t.C,
+                                n_negatives=t.n_negatives,
+                                hard_negative_rounds=t.hard_negative_rounds, detector=self)
         self.set_model(model)
         return self
 

@@ -44,10 +44,18 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
-from pftrack.contracts.components import Detections, Frame, Param, RunContext
+from pftrack.contracts.components import (
+    Detections,
+    Detector,
+    Frame,
+    Group,
+    Param,
+    ParamGroup,
+    RunContext,
+)
 from pftrack.geometry.boxes import foot_points, nms
 
 if TYPE_CHECKING:
@@ -55,7 +63,13 @@ if TYPE_CHECKING:
 
 from .detector import SVMDetector, SVMModel, heights_from_boxes, merge_clusters
 
-__all__ = ["HOG_PEOPLE_BOX", "HOGPeopleDetector", "default_people_model", "measure_margin"]
+__all__ = [
+    "HOG_PEOPLE_BOX",
+    "HOGPeopleDetector",
+    "PartialSearch",
+    "default_people_model",
+    "measure_margin",
+]
 
 #: Person box inside OpenCV's 64 x 128 default people window, as fractions of the window
 #: (left, top, width, height); measured as the module docstring says.
@@ -73,6 +87,29 @@ def default_people_model(box_fraction: Sequence[float] = HOG_PEOPLE_BOX) -> SVMM
     fl, ft, fw, fh = (float(v) for v in box_fraction)
     return SVMModel(coef[:-1].copy(), float(coef[-1]), "hog", WINDOW_WH,
                     (fl * W, ft * H, fw * W, fh * H), {"source": "cv2 default people detector"})
+
+
+class PartialSearch(ParamGroup):
+    """Where :class:`HOGPeopleDetector` searches on the frames between whole searches
+    (``full_every`` > 1): near the people it found in the last ``memory`` frames, and where the
+    frame changed since the previous one.
+
+    {params}
+    """
+
+    margin: float = Param(
+        0.3, "How far from a person found before a window is still scored.",
+        unit="box heights", low=0.0, low_open=True)
+    memory: int = Param(
+        10, "The people found in this many frames before are searched near.", unit="frames",
+        low=1)
+    motion_threshold: float | None = Param(
+        15.0,
+        "Also search where the frame changed since the previous one (someone entering, or "
+        "coming out from behind something): the grey levels, averaged over 4 x 4 pixels, moved "
+        "by more than this; each changed region is searched as a person of the expected height "
+        "standing at its bottom. None: only near the people found before.", unit="grey levels",
+        low=0.0)
 
 
 class HOGPeopleDetector(SVMDetector):
@@ -111,16 +148,6 @@ class HOGPeopleDetector(SVMDetector):
         480.0,
         "Person heights (image pixels) searched; with a camera they clip its expected range.",
         unit="px", low=0.0, low_open=True)
-    box_fraction: Sequence[float] = Param(
-        HOG_PEOPLE_BOX,
-        "Person box inside the 64 x 128 window as fractions (left, top, width, height).",
-        unit="1", low=0.0, high=1.0, length=4)
-    score_offset: float = Param(
-        0.46, "The logistic map of the margin ``m``: ``1 / (1 + exp(-(m - score_offset) / "
-        "score_scale))``.", unit="1")
-    score_scale: float = Param(
-        0.32, "The logistic map of the margin ``m``: ``1 / (1 + exp(-(m - score_offset) / "
-        "score_scale))``.", unit="1", low=0.0, low_open=True)
     learn_scales: int = Param(
         10,
         "Without a camera: frames searched over the whole pyramid before the search is limited "
@@ -132,29 +159,25 @@ class HOGPeopleDetector(SVMDetector):
     full_every: int = Param(
         1, "Search the whole frame (every scale band) on every ``full_every``-th frame only, "
         "counted from the first frame (again after a seek); on the frames between, only near "
-        "the people found in the last ``roi_memory`` frames (``roi_margin``; scales within a "
-        "factor 1.5 of each one's height) and where the frame changed (``motion_threshold``), "
-        "at the whole search's window positions, each window scoring exactly as in the whole "
-        "search. A person who appears without moving away from everyone found before is first "
-        "found at the next whole search. 1: every frame is searched whole.", unit="frames", low=1)
-    roi_margin: float = Param(
-        0.3, "How far from a person found before a window is still scored on the frames between "
-        "whole searches.", unit="box heights", low=0.0, low_open=True)
-    roi_memory: int = Param(
-        10, "The people found in this many frames before are searched near on the frames between "
-        "whole searches.", unit="frames", low=1)
-    motion_threshold: float | None = Param(
-        15.0,
-        "On the frames between whole searches, also search where the frame changed since the "
-        "previous one (someone entering, or coming out from behind something): the grey "
-        "levels, averaged over 4 x 4 pixels, moved by more than this; each changed region is "
-        "searched as a person of the expected height standing at its bottom. None: only near "
-        "the people found before.", unit="grey levels", low=0.0)
+        "the people found before and where the frame changed (``partial``), at the whole "
+        "search's window positions, each window scoring exactly as in the whole search. A "
+        "person who appears without moving away from everyone found before is first found at "
+        "the next whole search. 1: every frame is searched whole.", unit="frames", low=1)
+    partial: PartialSearch = Group(
+        PartialSearch, "Where the frames between whole searches (``full_every`` > 1) are "
+        "searched.")
+
+    #: The person box inside the 64 x 128 window as fractions (left, top, width, height),
+    #: measured as the module docstring says.
+    box_fraction: ClassVar[tuple[float, ...]] = HOG_PEOPLE_BOX
+    #: The logistic map of the margin ``m``: ``1 / (1 + exp(-(m - score_offset) /
+    #: score_scale))``, fitted once as the module docstring says.
+    score_offset: ClassVar[float] = 0.46
+    score_scale: ClassVar[float] = 0.32
 
     # the SVM detector's model and training parameters do not apply: no parameters here
     model = None
-    feature = window_wh = occupancy = C = None
-    n_negatives = hard_negative_rounds = neg_iou = max_hard_negatives = None
+    train = None
 
     def setup(self, context: RunContext) -> None:
         """The run's camera when ``camera`` is not set. A ``--detector-model`` is refused:
@@ -184,7 +207,8 @@ class HOGPeopleDetector(SVMDetector):
     def describe(self) -> dict[str, Any]:
         """The parameters and the window geometry."""
         m = self._model()
-        return {**self.get_params(), "window_wh": list(m.window_wh),
+        # the parameters as plain values (Detector's), not the SVM model's record
+        return {**Detector.describe(self), "window_wh": list(m.window_wh),
                 "box_in_window": [float(v) for v in m.box_in_window]}
 
     def _model(self) -> SVMModel:
@@ -225,7 +249,7 @@ class HOGPeopleDetector(SVMDetector):
         tau = self.merge_tau
         low = thr - (3.0 * float(tau) if tau is not None else 0.0)
         boxes, m = self.score_windows(grey, threshold=low, rois=rois,
-                                      roi_margin=float(self.roi_margin))
+                                      roi_margin=float(self.partial.margin))
         keep = nms(boxes, m, self.nms_iou)
         keep = keep[m[keep] >= thr]
         if tau is not None and len(keep):
@@ -250,7 +274,7 @@ class HOGPeopleDetector(SVMDetector):
             self.__dict__["start_index_"] = int(frame.index)
             self.__dict__["recent_"] = []
         rois = None if learning else self._rois(int(frame.index))
-        if int(self.full_every) > 1 and self.motion_threshold is not None:
+        if int(self.full_every) > 1 and self.partial.motion_threshold is not None:
             small = cv2.resize(grey, (grey.shape[1] // 4, grey.shape[0] // 4),
                                interpolation=cv2.INTER_AREA)
             prev = self.__dict__.get("prev_small_")
@@ -265,7 +289,7 @@ class HOGPeopleDetector(SVMDetector):
         if int(self.full_every) > 1:
             idx = int(frame.index)
             recent = self.__dict__.get("recent_", [])
-            recent = [(i, b) for i, b in recent if i > idx - int(self.roi_memory)]
+            recent = [(i, b) for i, b in recent if i > idx - int(self.partial.memory)]
             recent.append((idx, boxes))
             if rois is None:
                 self.__dict__["full_index_"] = idx
@@ -298,7 +322,7 @@ class HOGPeopleDetector(SVMDetector):
         grid = self._height_grid(size_wh)
         if grid is None:
             return np.zeros((0, 4))
-        changed = (cv2.absdiff(small, prev) > float(self.motion_threshold)).astype(np.uint8)
+        changed = (cv2.absdiff(small, prev) > float(self.partial.motion_threshold)).astype(np.uint8)
         mask = cv2.dilate(changed, np.ones((3, 3), np.uint8), iterations=2)
         n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
         if n <= 1:

@@ -114,7 +114,8 @@ def test_too_few_people_falls_back_to_the_image_plane(tmp_path):
                       report=False)
     assert res.summary["preset"] == "people-image" and res.summary["state"] == "image"
     assert res.summary["camera"].startswith("none: only 10 person boxes")
-    assert any("tracking in the image plane" in m for m in res.messages)
+    assert any(m.startswith("no camera: only 10 person boxes") and "no ground positions" in m
+               for m in res.messages)
     assert res.summary["tracks"] == 1
 
 

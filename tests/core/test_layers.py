@@ -75,7 +75,6 @@ MAX_LINES = 800
 OVER_THE_LIMIT = frozenset({
     "plugins/pftrack_coast/volumes.py",
     "plugins/pftrack_world/detector.py",
-    "toolkit/pftrack/contracts/components.py",
 })
 
 

@@ -337,3 +337,68 @@ def test_particles_without_a_box_have_zero_likelihood():
     np.testing.assert_array_equal(one, rows)
     assert np.all(one[:5] == -np.inf)
     np.testing.assert_array_equal(one[5:], before[5:])
+
+
+def _walkers(tmp_path, n_frames: int = 60):
+    """A still 640 x 360 video and a det.txt of six people walking across the ground as a
+    camera 2.7 m up sees them (boxes 0.34 of their height wide)."""
+    import cv2
+
+    cam = camera_from_parameters(500.0, 0.0, 0.0, 2.7, (640, 360))
+    start = np.column_stack([np.linspace(-3.0, 3.0, 6), np.linspace(8.0, 20.0, 6),
+                             np.zeros(6)])
+    lines = []
+    for f in range(1, n_frames + 1):
+        ground = start + [0.04 * f, 0.0, 0.0]
+        foot = cam.project(ground)
+        head = cam.project(ground + [0.0, 0.0, 1.7])
+        h = foot[:, 1] - head[:, 1]
+        lines += [f"{f},-1,{u - 0.17 * hh:.2f},{v:.2f},{0.34 * hh:.2f},{hh:.2f},0.9\n"
+                  for u, v, hh in zip(foot[:, 0], head[:, 1], h)]
+    det = tmp_path / "det.txt"
+    det.write_text("".join(lines))
+    video = tmp_path / "still.mp4"
+    out = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"mp4v"), 10, (640, 360))
+    img = np.random.default_rng(0).integers(0, 255, (360, 640, 3), dtype=np.uint8)
+    for _ in range(n_frames):
+        out.write(img)
+    out.release()
+    return video, det
+
+
+def test_given_boxes_are_tracked_in_the_image_plane_with_ground_positions(tmp_path):
+    """``pftrack track --detections``: a trusted camera estimated from the boxes, the tracks
+    kept in the image plane (people-image), their ground positions their feet through it."""
+    from pftrack.io.mot import read_mot
+    from pftrack.workflows.track import track_video
+
+    video, det = _walkers(tmp_path)
+    out = tmp_path / "out"
+    res = track_video(video, out, detections=det, report=False)
+    s = json.loads((out / "summary.json").read_text())
+    assert s["preset"] == "people-image" and s["state"] == "image"
+    assert s["camera"].startswith("estimated from") and s["camera_trust"]["trusted"]
+    assert (out / "camera.yaml").is_file() and res.fit is not None
+    assert any("tracked in the image plane" in m and "through the camera" in m
+               for m in res.messages)
+    rows = read_mot(out / "tracks.txt")
+    assert s["tracks"] == 6 and len(rows) > 6 * 40
+    assert np.all(np.abs(rows[:, 9]) < 1e-6)  # on the ground
+    # each track's ground position is its box's foot through the camera written beside it:
+    # within a quarter metre of the given boxes' feet in frame 50 (the farthest person is 20 m
+    # away, where a pixel of the foot row spans centimetres)
+    from pftrack.geometry.boxes import foot_points
+    from pftrack.geometry.formats import load_camera
+
+    cam = load_camera(out / "camera.yaml")
+    from pftrack.io.detections import read_detections
+
+    feet = cam.image_to_ground(foot_points(read_detections(det)[50].boxes_xywh_px))[:, :2]
+    f = rows[rows[:, 0] == 50]
+    assert len(f) == 6
+    d = np.linalg.norm(f[:, None, 7:9] - feet[None], axis=2).min(axis=1)
+    assert d.max() < 0.25, d
+    # asked for the ground plane: tracked there
+    res2 = track_video(video, tmp_path / "out2", detections=det, report=False,
+                       preset="people-ground")
+    assert res2.summary["state"] == "world" and res2.summary["preset"] == "people-ground"

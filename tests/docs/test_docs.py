@@ -121,6 +121,13 @@ def test_component_tables_show_what_each_declared_parameter_allows(page):
     rows = _rows(page[page.index("(config-tracks-volumes)="):], "#### `volumes`")
     assert rows["v_pi"][3].endswith("Allowed: (0, 1).")
     assert rows["merge_speed_m"][3].endswith("Allowed: (0, ∞).")
+    # a parameter group: its row, then one row per key with its dotted name
+    rows = _rows(page[page.index("(config-detector-svm)="):], "#### `svm`")
+    assert rows["train"][:3] == ["mapping", "—", "—"] and "`train.C`" in rows["train"][3]
+    assert rows["train.C"][:3] == ["float", "`0.01`", "1"]
+    assert rows["train.C"][3].endswith("Allowed: (0, ∞).")
+    rows = _rows(page[page.index("(config-detector-eigenspace)="):], "#### `eigenspace`")
+    assert rows["recalibration.gap_s"][:3] == ["float \\| None", "`null`", "s"]
     rows = _rows(page[page.index("(config-associator-hungarian-iou)="):],
                  "#### `hungarian-iou`")
     assert rows["metric"][3].endswith("Allowed: one of `iou`, `distance`.")
@@ -144,6 +151,8 @@ def test_every_preset_key_is_listed_with_its_value(page):
     rows = _rows(page, "### `pets09-ground`")
     assert rows["tracker.n_particles"][0] == "`200`"
     assert rows["observation.params.height_m"][1] == "`1.75`"
+    # the detector's training settings, under detector.train.params, with the group's defaults
+    assert rows["detector.train.params.C"] == ["`0.003`", "`0.01`", "1"]
 
 
 def test_parameters_section_and_units():

@@ -132,8 +132,9 @@ def test_guard_time_gap_alone_and_the_detector_param():
     held = [not guard.score(f, time_s=t).r_map.any() for f, t in zip(stream, times)]
     assert held == [False, False, False, True, True, False]
     assert "1.80 s gap" in guard.events[0].causes[0]
-    # the detector: recalibration="rebaseline" warns and gives no boxes while settling
-    det = EigenspaceDetector(recalibration="rebaseline", recal_gap_s=1.0, recal_settle_frames=2)
+    # the detector: recalibration mode "rebaseline" warns and gives no boxes while settling
+    det = EigenspaceDetector(recalibration={"mode": "rebaseline", "gap_s": 1.0,
+                                            "settle_frames": 2})
     det.fit_masks(train, [None] * len(train))
     out = []
     with pytest.warns(RecalibrationWarning, match="frame 3: recalibration"):
@@ -142,8 +143,9 @@ def test_guard_time_gap_alone_and_the_detector_param():
             f[8:16, 8:16] += 120.0
             out.append(len(det.detect(Frame(k, f, t)).boxes_xywh_px))
     assert out == [1, 1, 1, 0, 0, 1]
-    with pytest.raises(ValueError, match="'recalibration' must be one of 'rebaseline', 'off'"):
-        EigenspaceDetector(recalibration="yes")
+    with pytest.raises(ValueError, match="'recalibration.mode' must be one of 'rebaseline', "
+                                         "'off'"):
+        EigenspaceDetector(recalibration={"mode": "yes"})
 
 
 # -- the thermal benchmark ---------------------------------------------------------------------

@@ -184,7 +184,7 @@ def test_fit_is_seeded_and_finds_the_objects():
     # no camera: hard negatives mined over the scales the training boxes show
     assert a.info["mining_scales"] == "training boxes"
     assert np.linalg.norm(a.weights) == pytest.approx(1.0, rel=1e-5)
-    det = SVMDetector(min_height_px=25, max_height_px=60, scale_step=1.1, **kw)
+    det = SVMDetector(min_height_px=25, max_height_px=60, scale_step=1.1, train=kw)
     det.fit(sc.frames, sc.boxes_by_frame, rng=np.random.default_rng(0))
     test = synthetic_scene(seed=5, n_frames=3)
     hits = 0
@@ -233,3 +233,38 @@ def test_trained_on_pets_detects_people_in_unseen_frames(tmp_path):
     recall, precision = tp / (tp + fn), tp / max(tp + fp, 1)
     # measured: recall 0.94, precision 0.77 (seed 0)
     assert recall > 0.8 and precision > 0.65, (recall, precision)
+
+
+def test_training_settings_are_the_train_group_wherever_the_configuration_gives_them():
+    """``detector.train.params`` (and ``pftrack detector train``'s options) fill the svm's
+    ``train`` group, over ``detector.params.train``; a detector without such a group takes
+    them as its own parameters."""
+    from pftrack.host.config import ConfigError, training_params, validate_config
+    from pftrack.workflows.pipeline import load_config
+
+    merged = training_params("svm", {"threshold": 0.5, "train": {"C": 0.1, "n_negatives": 50}},
+                             {"C": 0.003, "feature": "grey"})
+    assert merged == {"threshold": 0.5,
+                      "train": {"C": 0.003, "n_negatives": 50, "feature": "grey"}}
+    det = SVMDetector(**merged)
+    assert (det.train.C, det.train.n_negatives, det.train.feature, det.train.window_wh) == \
+        (0.003, 50, "grey", (32, 64))
+    assert training_params("eigenspace", {"block_size": 8}, {"min_samples": 3}) == \
+        {"block_size": 8, "min_samples": 3}
+    # the shipped preset trains with its training settings in the group
+    cfg = load_config("pets09-ground")
+    tp = cfg["detector"]["train"]["params"]
+    built = SVMDetector(**training_params("svm", cfg["detector"]["params"], tp))
+    assert (built.train.C, tuple(built.train.window_wh)) == (0.003, (48, 96))
+    # a configuration's mistakes are named by their dotted key and the component
+    cfg["detector"]["train"]["params"] = {"C": 0, "window": [48, 96]}
+    cfg["detector"]["params"]["train"] = {"n_negatives": -1}
+    with pytest.raises(ConfigError) as info:
+        validate_config(cfg, "pets.yaml")
+    text = str(info.value)
+    assert "detector.params.train.n_negatives: detector 'svm' expects an integer >= 0 for " \
+           "train.n_negatives, got -1" in text
+    assert "detector.train.params.C: detector 'svm' expects a number > 0 for train.C, got 0" \
+        in text
+    assert "detector.train.params.window: unknown parameter train.window of detector 'svm'" \
+        in text and "did you mean 'window_wh'?" in text

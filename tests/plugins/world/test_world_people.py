@@ -122,9 +122,11 @@ def test_svm_trained_on_one_frame_warns(tmp_path):
 
 
 def test_local_search_parameters_are_checked():
-    for bad in ({"full_every": 0}, {"full_every": 1.5}, {"roi_margin": 0.0},
-                {"roi_memory": 0}, {"motion_threshold": -1.0}):
-        with pytest.raises(ValueError, match=f"'hog-people'\\): parameter '{next(iter(bad))}'"):
+    for bad, name in (({"full_every": 0}, "full_every"), ({"full_every": 1.5}, "full_every"),
+                      ({"partial": {"margin": 0.0}}, "partial.margin"),
+                      ({"partial": {"memory": 0}}, "partial.memory"),
+                      ({"partial": {"motion_threshold": -1.0}}, "partial.motion_threshold")):
+        with pytest.raises(ValueError, match=f"'hog-people'\\): parameter '{name}'"):
             get_host().build("detector", {"type": "hog-people", "params": bad})
 
 
@@ -224,3 +226,18 @@ def test_motion_rois_stand_a_person_on_each_changed_region():
     assert bh == pytest.approx(0.25 * (160 + 8), abs=4) and y + bh == pytest.approx(168, abs=1)
     assert x <= 80 - 8 and x + bw >= 104 + 8
     assert det._motion_rois(prev, prev, (w, h)).shape == (0, 4)
+
+
+def test_partial_search_settings_are_one_group_and_describe_writes_them_as_json():
+    import json
+
+    det = get_host().build("detector", {"type": "hog-people",
+                                        "params": {"full_every": 2, "partial": {"memory": 4}}})
+    assert (det.partial.memory, det.partial.margin, det.partial.motion_threshold) == \
+        (4, 0.3, 15.0)
+    info = json.loads(json.dumps(det.describe()))
+    assert info["partial"] == {"margin": 0.3, "memory": 4, "motion_threshold": 15.0}
+    assert info["full_every"] == 2 and "train" not in info and "score_offset" not in info
+    # the calibration and the window box are fixed, not parameters
+    assert not {"score_offset", "score_scale", "box_fraction"} & set(det.get_params())
+    assert (det.score_offset, det.score_scale) == (0.46, 0.32)

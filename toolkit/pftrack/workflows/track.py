@@ -25,7 +25,12 @@ What ``pftrack track VIDEO --out DIR`` does (:func:`track_video`):
 3. **Track** the same detections (given their ground points through the camera) with
    ``people-ground`` (or ``--preset``) through :func:`pftrack.workflows.pipeline.run_pipeline`,
    which writes ``DIR/tracks.txt`` (MOTChallenge, the video's frame numbers from 1) and report
-   images ``DIR/report/*.png``.
+   images ``DIR/report/*.png``. Detections given with ``--detections`` (and no ``--preset``)
+   are tracked in the image plane with ``people-image``: a detector's box convention (how
+   tight, how tall a person's box is) is its own, and the ground-plane model, which draws a
+   person's box from the camera, keeps identities worse on such boxes; the camera, when
+   there is one, gives each box's ground position (its foot point) in ``tracks.txt``'s world
+   columns.
 4. **Static things are not people**: a track that stays at one place with one look for many
    seconds (:mod:`pftrack.workflows.static_tracks`, its rule in
    :class:`~pftrack.workflows.static_tracks.StaticRule`) is listed in the summary's
@@ -605,7 +610,8 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
     detections : path or dict {frame: Detections}, optional
         Detections to track instead of running the detector (MOTChallenge ``det.txt``).
     preset : str, path or dict, optional
-        Configuration; default ``people-ground`` with a camera, ``people-image`` without.
+        Configuration; default ``people-ground`` with a camera, ``people-image`` without, and
+        ``people-image`` for ``detections`` given (with the camera's ground positions).
     frames : "A:B", optional
         Frames (MOT numbering, from 1).
     seed : int
@@ -642,6 +648,7 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
         check_output_tree(out_dir, {**{name: "file" for name in TRACK_OUTPUTS},
                                     "report": "dir"})
     messages: list[str] = []
+    given_boxes = detections is not None and preset is None
     t0, c0 = time.perf_counter(), time.process_time()
     cam = _load_camera(camera)
     if detector is not None:
@@ -679,16 +686,19 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
         fit, why = estimate_camera(dets, size, person_height_m=person_height_m,
                                    min_score=calib_min_score, seed=seed, video=video)
         trust = None if fit is None else getattr(fit, "trust", None)
+        # what the run does without a camera: given boxes are tracked in the image plane
+        # anyway, and only lose their ground positions
+        without = ("no ground positions. Give --camera for them" if given_boxes else
+                   "tracking in the image plane (preset people-image). Give --camera to "
+                   "track on the ground plane")
         if fit is None:
             cam_source = f"none: {why}"
-            messages.append(f"no camera: {why}; tracking in the image plane (preset "
-                            "people-image). Give --camera to track on the ground plane.")
+            messages.append(f"no camera: {why}; {without}.")
         elif trust is not None and not trust["trusted"] and preset is None:
             untrusted = "; ".join(trust["reasons"])
             cam_source = f"not trusted: {why}, but {untrusted}"
             messages.append(f"no camera: the camera estimated from the people is not trusted "
-                            f"({untrusted}); tracking in the image plane (preset "
-                            "people-image). Give --camera, or --preset people-ground to use "
+                            f"({untrusted}); {without}, or --preset people-ground to use "
                             "the estimate anyway.")
         else:
             cam = fit.camera
@@ -703,6 +713,15 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
         if cfg.get("state", "world") == "world" and cam is None:
             raise ValueError(f"preset {preset}: state 'world' needs a camera and none could be "
                              "estimated; give --camera, or --preset people-image")
+    elif given_boxes:
+        # boxes from a detector whose box convention (how tight, how tall for a person) the
+        # ground-plane model does not know keep their identities better in the image plane
+        # (docs/decisions/track-given-boxes.md); the camera then gives their ground positions
+        cfg = load_config("people-image")
+        messages.append("the detections given are tracked in the image plane (preset "
+                        "people-image; --preset people-ground tracks them on the ground plane)"
+                        + ("; their ground positions are their boxes' feet through the camera"
+                           if cam is not None else ""))
     else:
         cfg = cfg_ground if cam is not None else with_detector(load_config("people-image"),
                                                                detector)
