@@ -74,18 +74,39 @@ From Python, e.g. a modified preset against the peers on the tune part::
 from __future__ import annotations
 
 import argparse
-import hashlib
-import json
 import os
 import sys
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from pftrack_bench.own_detection_sets import (  # noqa: F401 (public here as well)
+    HOG_LEVEL,
+    HOG_PRESET,
+    LEVELS,
+    MOT17_MIN_VISIBILITY,
+    NoiseLevel,
+    _level,
+    default_cache_dir,
+    detectable_mask,
+    hog_detections,
+    hog_timing,
+    simulate_detections,
+)
+from pftrack_bench.own_trackers import (
+    TrackerEntry,
+    TrackInput,
+    TrackResult,
+    _in_frames,
+    default_trackers,
+    pftrack_config_entry,
+    run_pftrack_config,
+    write_det_file,
+)
 from pftrack_bench.protocol import (
     REPORT_PART,
     TUNE_PART,
@@ -164,53 +185,8 @@ PROTOCOL = Protocol(
 #: MOT17 classes whose matched tracker boxes are removed before scoring: person on vehicle,
 #: static person, distractor, reflection (TrackEval's MOT17 preprocessing).
 MOT17_DISTRACTOR_CLASSES = (2, 7, 8, 12)
-#: A MOT17-09 pedestrian is detectable when at least this fraction of it is visible (the
-#: ground truth's ``visibility`` column): a quarter of a person is about what a person
-#: detector needs; fully hidden people keep their boxes in MOT17's ground truth.
-MOT17_MIN_VISIBILITY = 0.25
 
 
-@dataclass(frozen=True)
-class NoiseLevel:
-    """A simulated detector (:func:`simulate_detections`).
-
-    Attributes
-    ----------
-    name : str
-    miss_rate : float
-        Probability that a detectable person gets no box in a frame (independent per box).
-    corner_sd_px : float
-        Standard deviation of the box's top-left corner, pixels (each coordinate).
-    size_sd : float
-        Standard deviation of the width and height, as a fraction of the true size.
-    score_mean, score_sd : float
-        Scores of true detections: normal, clipped to [0.01, 1].
-    fp_rate : float
-        False positives per true (detectable) box of the frame, on average (Poisson count per
-        frame); placed uniformly in the image, sizes those of true boxes of the same frame.
-    fp_score_mean, fp_score_sd : float
-        Scores of the false positives, normal, clipped to [0.01, 1].
-    """
-
-    name: str
-    miss_rate: float
-    corner_sd_px: float
-    size_sd: float
-    score_mean: float = 0.85
-    score_sd: float = 0.05
-    fp_rate: float = 0.0
-    fp_score_mean: float = 0.55
-    fp_score_sd: float = 0.05
-
-
-LEVELS: dict[str, NoiseLevel] = {
-    "clean": NoiseLevel("clean", miss_rate=0.20, corner_sd_px=3.0, size_sd=0.04),
-    "noisy": NoiseLevel("noisy", miss_rate=0.30, corner_sd_px=6.0, size_sd=0.08, fp_rate=0.10),
-}
-#: The detector level: the ``hog-people`` detector's own boxes (one set, no seed).
-HOG_LEVEL = "hog"
-#: The preset whose detector settings ``hog`` uses.
-HOG_PRESET = "people-image"
 DEFAULT_SEEDS = (0, 1, 2, 3, 4)
 
 
@@ -262,479 +238,10 @@ def read_gt(name: str, data: str | os.PathLike[str] | None = None) -> np.ndarray
     return read_mot(data_files(name, data)[1])
 
 
-# --------------------------------------------------------------------------------------------
-# Detections
-# --------------------------------------------------------------------------------------------
-
-
-def detectable_mask(gt_rows: np.ndarray, rule: str) -> np.ndarray:
-    """Which ground-truth rows a detector could find: ``"pets"``: flag 1; ``"mot17"``: consider
-    1, class 1 and visibility >= :data:`MOT17_MIN_VISIBILITY`."""
-    g = np.asarray(gt_rows, dtype=np.float64).reshape(len(gt_rows), -1)
-    if rule == "pets":
-        return g[:, 6] != 0
-    if rule == "mot17":
-        return (g[:, 6] == 1) & (g[:, 7] == 1) & (g[:, 8] >= MOT17_MIN_VISIBILITY)
-    raise ValueError(f"own-detections: unknown scoring rule {rule!r} (pets, mot17)")
-
-
-def _level(level: str | NoiseLevel) -> NoiseLevel:
-    if isinstance(level, NoiseLevel):
-        return level
-    if level not in LEVELS:
-        raise ValueError(f"own-detections: unknown noise level {level!r} (known: "
-                         f"{', '.join(LEVELS)})")
-    return LEVELS[level]
-
-
-def _clip_rows(frames: np.ndarray, x0: np.ndarray, y0: np.ndarray, x1: np.ndarray,
-               y1: np.ndarray, scores: np.ndarray, image_wh: tuple[int, int]) -> np.ndarray:
-    w_img, h_img = float(image_wh[0]), float(image_wh[1])
-    x0, x1 = np.clip(x0, 0.0, w_img), np.clip(x1, 0.0, w_img)
-    y0, y1 = np.clip(y0, 0.0, h_img), np.clip(y1, 0.0, h_img)
-    ok = (x1 - x0 >= 1.0) & (y1 - y0 >= 1.0)  # a box left with less than a pixel is no box
-    return np.column_stack([frames, -np.ones_like(frames), x0, y0, x1 - x0, y1 - y0,
-                            scores])[ok]
-
-
-def simulate_detections(gt_rows: np.ndarray, level: str | NoiseLevel, seed: int,
-                        image_wh: tuple[int, int], *, detectable: np.ndarray | None = None
-                        ) -> np.ndarray:
-    """Detections simulated from ground truth at a noise level (:data:`LEVELS`).
-
-    Each detectable box is missed with probability ``miss_rate``; otherwise its top-left corner
-    moves by normal noise of ``corner_sd_px`` pixels per coordinate and its width and height are
-    scaled by ``1 + N(0, size_sd)``, score ``N(score_mean, score_sd)``. False positives: a
-    Poisson number per frame with mean ``fp_rate`` times the frame's detectable boxes, each the
-    size of a random detectable box of that frame, placed uniformly in the image. Every box is
-    clipped to the image as a detector's is (boxes left smaller than 1 px are dropped).
-
-    Parameters
-    ----------
-    gt_rows : ndarray (M, >= 7)
-        MOT rows ``frame, id, left, top, width, height, flag, ...``.
-    level : str or NoiseLevel
-        ``"clean"``, ``"noisy"`` or a :class:`NoiseLevel`.
-    seed : int
-        Seed of the ``numpy.random.Generator``: same seed, same detections.
-    image_wh : (int, int)
-        Image width and height, pixels.
-    detectable : bool ndarray (M,), optional
-        Rows a detector could find (:func:`detectable_mask`); default: flag (column 6) not 0.
-
-    Returns
-    -------
-    ndarray (N, 7)
-        MOTChallenge det rows ``frame, -1, left, top, width, height, score``, sorted by frame.
-    """
-    lv = _level(level)
-    g = np.asarray(gt_rows, dtype=np.float64)
-    if g.ndim != 2 or g.shape[1] < 7:
-        raise ValueError(f"simulate_detections: gt_rows must be MOT rows (M, >= 7), got shape "
-                         f"{g.shape}")
-    mask = g[:, 6] != 0 if detectable is None else np.asarray(detectable, dtype=bool)
-    if mask.shape != (len(g),):
-        raise ValueError(f"simulate_detections: detectable has shape {mask.shape}, need "
-                         f"({len(g)},)")
-    t = g[mask]
-    t = t[np.argsort(t[:, 0], kind="stable")]
-    rng = np.random.default_rng(seed)
-    n = len(t)
-    # every draw made for every box, so that one box's noise does not depend on another's miss
-    hit = rng.random(n) >= lv.miss_rate
-    corner = rng.normal(0.0, lv.corner_sd_px, (n, 2))
-    scale = 1.0 + rng.normal(0.0, lv.size_sd, (n, 2))
-    scores = np.clip(rng.normal(lv.score_mean, lv.score_sd, n), 0.01, 1.0)
-    x0 = t[:, 2] + corner[:, 0]
-    y0 = t[:, 3] + corner[:, 1]
-    w = t[:, 4] * np.maximum(scale[:, 0], 0.05)
-    h = t[:, 5] * np.maximum(scale[:, 1], 0.05)
-    parts = [_clip_rows(t[hit, 0], x0[hit], y0[hit], (x0 + w)[hit], (y0 + h)[hit], scores[hit],
-                        image_wh)]
-    if lv.fp_rate > 0 and n:
-        frames, start, count = np.unique(t[:, 0], return_index=True, return_counts=True)
-        k = rng.poisson(lv.fp_rate * count)
-        which = np.repeat(np.arange(len(frames)), k)
-        m = len(which)
-        src = start[which] + np.minimum((rng.random(m) * count[which]).astype(np.int64),
-                                        count[which] - 1)
-        fw = np.minimum(t[src, 4], image_wh[0])
-        fh = np.minimum(t[src, 5], image_wh[1])
-        fx = rng.random(m) * (image_wh[0] - fw)
-        fy = rng.random(m) * (image_wh[1] - fh)
-        fs = np.clip(rng.normal(lv.fp_score_mean, lv.fp_score_sd, m), 0.01, 1.0)
-        parts.append(_clip_rows(frames[which], fx, fy, fx + fw, fy + fh, fs, image_wh))
-    rows = np.concatenate(parts)
-    return rows[np.argsort(rows[:, 0], kind="stable")]
-
-
-def default_cache_dir() -> Path:
-    """``$PFTRACK_CACHE`` or ``$XDG_CACHE_HOME/pftrack`` (``~/.cache/pftrack``)."""
-    env = os.environ.get("PFTRACK_CACHE")
-    if env:
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "pftrack"
-
-
-def _hog_key(video: Path, det_spec: Any, frames: tuple[int, int | None]) -> dict[str, Any]:
-    import inspect
-
-    from pftrack_world import people
-
-    st = video.stat()
-    code = hashlib.sha256(Path(inspect.getsourcefile(people) or "").read_bytes()).hexdigest()
-    return {"video": str(video.resolve()), "video_bytes": st.st_size,
-            "video_mtime_ns": st.st_mtime_ns, "detector": det_spec,
-            "frames": [frames[0], frames[1]], "detector_code_sha256": code[:16]}
-
-
-def hog_detections(video: str | os.PathLike[str], frames: str | tuple[int, int | None] | None,
-                   cache_dir: str | os.PathLike[str] | None = None, *,
-                   config: str | dict[str, Any] = HOG_PRESET, progress: bool = False
-                   ) -> np.ndarray:
-    """The ``hog-people`` detector's boxes on ``video``, computed once and cached on disk.
-
-    The detector is built as ``config`` (default the ``people-image`` preset) configures it and
-    run over ``frames`` (``"A:B"``, ground-truth numbering; None: the whole video) on one
-    OpenCV thread. The result is a MOT det file in ``cache_dir`` (default
-    :func:`default_cache_dir`) named by a hash of the video (path, size, modification time), the
-    detector's type and parameters, the frames and the detector's source code; a second call
-    with the same key reads the file. Beside it a ``.json`` holds the key and the detection time
-    (``wall_s``, ``cpu_s``, ``frames``).
-
-    Returns
-    -------
-    ndarray (N, 7)
-        ``frame, -1, left, top, width, height, score``.
-    """
-    import cv2
-    from pftrack.io.atomic import atomic_write_text
-    from pftrack.io.detections import write_detections
-    from pftrack.io.mot import read_mot
-    from pftrack.workflows.track import detect_video
-
-    video = Path(video)
-    if not video.is_file():
-        raise FileNotFoundError(f"hog_detections: video {video} not found")
-    cfg, key, path, meta = _hog_cache(video, frames, cache_dir, config)
-    if not (path.is_file() and meta.is_file()):
-        path.parent.mkdir(parents=True, exist_ok=True)
-        threads = cv2.getNumThreads()
-        cv2.setNumThreads(1)
-        try:
-            dets, _, timing = detect_video(video, cfg, key["frames"], progress=progress)
-        finally:
-            cv2.setNumThreads(threads)
-        write_detections(path, dets)
-        atomic_write_text(meta, json.dumps({"key": key, "timing": timing}, indent=2) + "\n")
-    rows = read_mot(path, check_unique=False) if path.stat().st_size else np.zeros((0, 10))
-    return rows[:, :7].copy()
-
-
-def hog_timing(video: str | os.PathLike[str], frames: Any = None,
-               cache_dir: str | os.PathLike[str] | None = None,
-               config: str | dict[str, Any] = HOG_PRESET) -> dict[str, Any] | None:
-    """The detection time stored beside a cached :func:`hog_detections` result (None when not
-    cached)."""
-    meta = _hog_cache(Path(video), frames, cache_dir, config)[3]
-    return json.loads(meta.read_text())["timing"] if meta.is_file() else None
-
-
-def _hog_cache(video: Path, frames: Any, cache_dir: str | os.PathLike[str] | None,
-               config: str | dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any], Path, Path]:
-    """(configuration, cache key, det file, its key-and-timing file) of a hog run."""
-    from pftrack.io.frames import parse_frames
-    from pftrack.workflows.pipeline import load_config
-
-    cfg = load_config(config)
-    if not cfg.get("detector"):
-        raise ValueError(f"hog_detections: config {cfg.get('_source', config)} has no detector")
-    key = _hog_key(video, cfg["detector"], parse_frames(frames))
-    digest = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]
-    root = Path(cache_dir) if cache_dir is not None else default_cache_dir()
-    path = root / f"hog-{video.stem}-{digest}.txt"
-    return cfg, key, path, path.with_suffix(".json")
-
-
-def write_det_file(path: str | os.PathLike[str], det_rows: np.ndarray) -> Path:
-    """Write det rows (N, 7) as a MOTChallenge ``det.txt``, atomically."""
-    import io
-
-    from pftrack.io.atomic import atomic_write_text
-
-    rows = np.asarray(det_rows, dtype=np.float64).reshape(-1, 7)
-    buf = io.StringIO()
-    np.savetxt(buf, rows, fmt=["%d", "%d"] + ["%.3f"] * 4 + ["%.4f"], delimiter=",")
-    return atomic_write_text(path, buf.getvalue())
-
-
-# --------------------------------------------------------------------------------------------
-# Trackers
-# --------------------------------------------------------------------------------------------
-
-
-@dataclass
-class TrackInput:
-    """What every tracker of one cell gets: the video, the part's frames (inclusive, ground-truth
-    numbering), the detections of those frames as a ``det.txt`` (``det_path``), the seed (the
-    noise seed; pftrack's random stream), the video's frame rate and image size."""
-
-    video: Path
-    frames: tuple[int, int]
-    det_path: Path
-    seed: int
-    fps: float
-    image_wh: tuple[int, int]
-    _dets: dict[int, Any] | None = field(default=None, repr=False)
-
-    def detections(self) -> dict[int, Any]:
-        """The det file read as ``pftrack run --detections`` reads it."""
-        if self._dets is None:
-            from pftrack.io.detections import read_detections
-
-            self._dets = read_detections(self.det_path)
-        return self._dets
-
-
-@dataclass
-class TrackResult:
-    """One tracker's run on one cell: MOT rows (M, 10); its own time (seconds, summed over the
-    frames: CPU and wall) and the frames it stepped; ``status`` ``"ok"``, ``"fallback"`` (it
-    ran, not as asked: ``message`` says how) or ``"failed"`` (no usable tracks: ``message``
-    says why)."""
-
-    rows: np.ndarray
-    cpu_s: float = 0.0
-    wall_s: float = 0.0
-    n_frames: int = 0
-    status: str = "ok"
-    message: str = ""
-
-
-@dataclass(frozen=True)
-class TrackerEntry:
-    """A tracker the bench runs: ``run(TrackInput) -> TrackResult``; ``kind`` ``"pftrack"`` or
-    ``"peer"`` (the goals compare the first against the best of the second); ``settings``
-    (JSON) say how it is configured."""
-
-    name: str
-    kind: str
-    run: Callable[[TrackInput], TrackResult]
-    settings: dict[str, Any] = field(default_factory=dict)
-
-
-def _nan_message(rows: np.ndarray) -> str | None:
-    bad = ~np.all(np.isfinite(rows), axis=1) if len(rows) else np.zeros(0, bool)
-    if bad.any():
-        return f"row {int(np.flatnonzero(bad)[0]) + 1} of its tracks has a NaN or infinite value"
-    return None
-
-
-def _pftrack_run(config: str | os.PathLike[str] | dict[str, Any], inp: TrackInput) -> TrackResult:
-    """``pftrack run CONFIG --video V --detections det.txt --frames A:B --seed S``'s library
-    call, with its engine-step time."""
-    import warnings
-
-    from pftrack.workflows.pipeline import FrameWarning, run_pipeline
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", FrameWarning)
-        run = run_pipeline(config, video=inp.video, frames=inp.frames, seed=inp.seed,
-                           detections=str(inp.det_path), progress=False, report=False)
-    n = max(run.n_frames, 1)
-    res = TrackResult(run.rows, cpu_s=run.timing["tracking_cpu_s_per_frame"] * n,
-                      wall_s=run.timing["tracking_s_per_frame"] * n, n_frames=run.n_frames)
-    return _check_rows(res)
-
-
-def _check_rows(res: TrackResult) -> TrackResult:
-    why = _nan_message(res.rows)
-    if why is not None:
-        res.status, res.message = "failed", why
-    return res
-
-
-def run_pftrack_config(config: str | os.PathLike[str] | dict[str, Any],
-                       video: str | os.PathLike[str], frames: tuple[int, int],
-                       det_rows: np.ndarray, seed: int = 0) -> np.ndarray:
-    """pftrack with ``config`` (a preset name, a YAML path or a configuration dict, e.g. a
-    preset loaded with :func:`pftrack.workflows.pipeline.load_config` and modified) on given
-    detections.
-
-    ``det_rows`` (N, 7) are written to a temporary ``det.txt`` and tracked as ``pftrack run
-    CONFIG --video VIDEO --detections det.txt --frames A:B --seed SEED`` does. Returns the MOT
-    track rows (M, 10); ValueError when they hold a NaN.
-    """
-    import tempfile
-
-    from pftrack.workflows.pipeline import video_fps
-
-    first, last = int(frames[0]), int(frames[1])
-    with tempfile.TemporaryDirectory() as tmp:
-        det = write_det_file(Path(tmp) / "det.txt", _in_frames(det_rows, first, last))
-        inp = TrackInput(Path(video), (first, last), det, int(seed), video_fps(video), (0, 0))
-        res = _pftrack_run(config, inp)
-    if res.status == "failed":
-        raise ValueError(f"run_pftrack_config: {res.message}")
-    return res.rows
-
-
-def pftrack_config_entry(name: str, config: str | os.PathLike[str] | dict[str, Any]
-                         ) -> TrackerEntry:
-    """A tracker entry running pftrack with ``config`` (see :func:`run_pftrack_config`)."""
-    from pftrack.workflows.pipeline import load_config
-
-    cfg = load_config(config)  # checked now, not after the first cell
-    src = str(config) if not isinstance(config, dict) else cfg.get("_source", "dict")
-    return TrackerEntry(name, "pftrack", lambda inp: _pftrack_run(cfg, inp),
-                        {"config": src, "preset": cfg.get("name")})
-
-
-def _pftrack_track(inp: TrackInput) -> TrackResult:
-    """``pftrack track VIDEO --detections det.txt --frames A:B --seed S`` (a camera estimated
-    from the detections, ``people-image`` tracks placed on the ground through it); engine-step
-    time only (not the camera fit)."""
-    import warnings
-
-    from pftrack.workflows.pipeline import FrameWarning
-    from pftrack.workflows.track import track_video
-
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", FrameWarning)
-            fr = track_video(inp.video, None, detections=str(inp.det_path),
-                             frames=f"{inp.frames[0]}:{inp.frames[1]}", seed=inp.seed,
-                             report=False)
-    except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
-        return TrackResult(np.zeros((0, 10)), status="failed", message=str(exc))
-    run = fr.run
-    n = max(run.n_frames, 1)
-    res = TrackResult(run.rows, cpu_s=run.timing["tracking_cpu_s_per_frame"] * n,
-                      wall_s=run.timing["tracking_s_per_frame"] * n, n_frames=run.n_frames)
-    if fr.fit is None:
-        res.status = "fallback"
-        res.message = "; ".join(m for m in fr.messages if m.startswith("no camera")) or \
-            str(fr.summary.get("camera"))
-    return _check_rows(res)
-
-
-#: norfair's settings: IoU distance (1 - IoU) below 0.7 matches; a track dies after 15 frames
-#: without a match (its default) and is shown after 2 matched frames.
-NORFAIR_SETTINGS = {"distance_function": "iou", "distance_threshold": 0.7,
-                    "hit_counter_max": 15, "initialization_delay": 2}
-
-
-def _norfair(inp: TrackInput) -> TrackResult:
-    from pftrack_bench.fresh_video import norfair_tracks
-
-    s = NORFAIR_SETTINGS
-    timing: dict[str, float] = {}
-    first, last = inp.frames
-    rows = norfair_tracks(inp.detections(), range(first, last + 1), 0.0,
-                          distance_threshold=s["distance_threshold"],
-                          hit_counter_max=s["hit_counter_max"],
-                          initialization_delay=s["initialization_delay"], timing=timing)
-    return TrackResult(rows, timing["cpu_s"], timing["wall_s"], last - first + 1)
-
-
-def _roboflow(cls_name: str, needs_frame: bool = False) -> Callable[[TrackInput], TrackResult]:
-    """A roboflow ``trackers`` tracker with its defaults (``frame_rate`` the video's), fed
-    ``supervision.Detections`` of the boxes; rows from its confirmed tracks (id >= 0)."""
-
-    def run(inp: TrackInput) -> TrackResult:
-        import supervision as sv
-        import trackers
-
-        tracker = getattr(trackers, cls_name)(frame_rate=float(inp.fps))
-        dets = inp.detections()
-        first, last = inp.frames
-        images: Any = None
-        if needs_frame:
-            from pftrack.workflows.pipeline import iter_frames
-
-            images = iter_frames(inp.video, first, last)
-        rows: list[np.ndarray] = []
-        cpu = wall = 0.0
-        n = 0
-        for f in range(first, last + 1):
-            image = None
-            if images is not None:
-                frame = next(images, None)
-                if frame is None:
-                    break
-                image = frame.image
-            d = dets.get(f)
-            if d is not None and len(d):
-                b = d.boxes_xywh_px
-                xyxy = np.column_stack([b[:, :2], b[:, :2] + b[:, 2:]])
-                det = sv.Detections(xyxy=xyxy, confidence=d.scores.copy(),
-                                    class_id=np.zeros(len(b), dtype=int))
-            else:
-                det = sv.Detections.empty()
-            t0, c0 = time.perf_counter(), time.process_time()
-            out = tracker.update(det, frame=image) if needs_frame else tracker.update(det)
-            wall += time.perf_counter() - t0
-            cpu += time.process_time() - c0
-            n += 1
-            ids = np.asarray(out.tracker_id if out.tracker_id is not None else [], dtype=int)
-            ok = ids >= 0
-            if ok.any():
-                xy = np.asarray(out.xyxy, dtype=np.float64)[ok]
-                r = np.full((int(ok.sum()), 10), -1.0)
-                r[:, 0], r[:, 1] = f, ids[ok]
-                r[:, 2:4], r[:, 4:6] = xy[:, :2], xy[:, 2:] - xy[:, :2]
-                r[:, 6] = 1.0
-                rows.append(r)
-        out_rows = np.concatenate(rows) if rows else np.zeros((0, 10))
-        return TrackResult(out_rows, cpu, wall, n)
-
-    return run
-
-
-def default_trackers() -> dict[str, TrackerEntry]:
-    """The bench's trackers by name: pftrack's ``people-image`` and ``track`` (ground plane),
-    and the peers ``norfair``, ``bytetrack``, ``sort``, ``ocsort``, ``botsort``."""
-    import trackers
-
-    version = getattr(trackers, "__version__", None)
-    if version is None:
-        from importlib.metadata import version as _v
-
-        version = _v("trackers")
-
-    def rf(cls: str) -> dict[str, Any]:
-        return {"package": f"trackers {version}", "class": cls,
-                "arguments": "defaults; frame_rate = the video's"}
-
-    return {
-        "people-image": TrackerEntry(
-            "people-image", "pftrack", lambda inp: _pftrack_run("people-image", inp),
-            {"command": "pftrack run people-image --video V --detections det.txt"}),
-        "track": TrackerEntry(
-            "track", "pftrack", _pftrack_track,
-            {"command": "pftrack track V --detections det.txt (camera estimated from the "
-                        "detections, people-image placed on the ground through it)"}),
-        "norfair": TrackerEntry("norfair", "peer", _norfair, dict(NORFAIR_SETTINGS)),
-        "bytetrack": TrackerEntry("bytetrack", "peer", _roboflow("ByteTrackTracker"),
-                                  rf("ByteTrackTracker")),
-        "sort": TrackerEntry("sort", "peer", _roboflow("SORTTracker"), rf("SORTTracker")),
-        "ocsort": TrackerEntry("ocsort", "peer", _roboflow("OCSORTTracker"),
-                               rf("OCSORTTracker")),
-        "botsort": TrackerEntry("botsort", "peer", _roboflow("BoTSORTTracker", needs_frame=True),
-                                {**rf("BoTSORTTracker"), "note": "camera-motion compensation "
-                                 "(sparse optical flow) on the frames; no appearance model"}),
-    }
-
 
 # --------------------------------------------------------------------------------------------
 # Scoring
 # --------------------------------------------------------------------------------------------
-
-
-def _in_frames(rows: np.ndarray, first: int, last: int) -> np.ndarray:
-    rows = np.asarray(rows, dtype=np.float64)
-    return rows[(rows[:, 0] >= first) & (rows[:, 0] <= last)]
 
 
 def mot17_scoring_rows(gt_rows: np.ndarray, track_rows: np.ndarray

@@ -29,6 +29,10 @@ The rules, each a test below:
   inside a function and with the reason it is there; the list holds only imports that exist.
   The package itself (``from pftrack import __version__``) is imported before any of its
   modules whoever asks, so it counts as no layer; its re-export modules do count.
+
+And one rule on size: no module of the core or of the built-in plugins is longer than
+:data:`MAX_LINES` (a longer one does several jobs; split it by job and re-export what moved from
+the old path), except those in :data:`OVER_THE_LIMIT`.
 """
 
 from __future__ import annotations
@@ -62,6 +66,16 @@ CALL_TIME_UPWARD: dict[tuple[str, str], str] = {
     ("pftrack.geometry.volumes", "pftrack.host"):
         "volume files shipped by plugins (pftrack_register_volumes)",
 }
+
+
+#: The longest a module of ``toolkit/pftrack`` or ``plugins/`` may be, in lines.
+MAX_LINES = 800
+#: Modules longer than :data:`MAX_LINES`, each being split on another branch now (paths from the
+#: repository's root). The list only shrinks: a module back under the limit leaves it.
+OVER_THE_LIMIT = frozenset({
+    "plugins/pftrack_coast/volumes.py",
+    "plugins/pftrack_world/detector.py",
+})
 
 
 def _modules() -> dict[str, Path]:
@@ -224,3 +238,30 @@ def test_the_checks_see_a_circle_and_an_upward_import():
     # a lazy import inside a function is read, and marked as such
     assert [top for t, _, top in IMPORTS["pftrack.host.config"] if t == "pftrack.io.frames"] \
         == [False]
+
+
+def _line_counts(root: Path) -> dict[str, int]:
+    """Lines of every module under ``toolkit/pftrack`` and ``plugins`` of the checkout at
+    ``root``, by path from ``root``."""
+    return {path.relative_to(root).as_posix(): len(path.read_text().splitlines())
+            for base in (root / "toolkit" / "pftrack", root / "plugins")
+            for path in sorted(base.rglob("*.py"))}
+
+
+def test_no_module_is_longer_than_the_limit():
+    root = TOOLKIT.parent
+    lines = _line_counts(root)
+    assert {"toolkit/pftrack/engine/tracker.py", "plugins/pftrack_world/soccer.py"} <= set(lines)
+    over = {path: n for path, n in lines.items() if n > MAX_LINES}
+    assert {p: n for p, n in over.items() if p not in OVER_THE_LIMIT} == {}
+    assert OVER_THE_LIMIT - set(over) == set()  # a module split below the limit leaves the list
+
+
+def test_the_size_check_counts_lines(tmp_path):
+    """On a made-up checkout: a module of MAX_LINES + 1 lines is over, one of MAX_LINES is not."""
+    (tmp_path / "toolkit" / "pftrack").mkdir(parents=True)
+    (tmp_path / "plugins" / "pftrack_x").mkdir(parents=True)
+    (tmp_path / "toolkit" / "pftrack" / "a.py").write_text("x = 1\n" * (MAX_LINES + 1))
+    (tmp_path / "plugins" / "pftrack_x" / "b.py").write_text("y = 2\n" * MAX_LINES)
+    assert _line_counts(tmp_path) == {"toolkit/pftrack/a.py": MAX_LINES + 1,
+                                      "plugins/pftrack_x/b.py": MAX_LINES}

@@ -275,7 +275,7 @@ def _awkward_boxes(rng, n: int, w_img: int, h_img: int) -> np.ndarray:
     (NCCLikelihood, {"grid_wh": (40, 50)}),  # 2000 cells
 ])
 def test_compiled_emd_and_ncc_give_the_numpy_numbers_bit_for_bit(lik_cls, params, monkeypatch):
-    import pftrack_world.likelihoods as mod
+    import pftrack_world.appearance as mod  # the NCC and EMD likelihoods and their kernels
 
     if mod._kernels() is None:
         pytest.skip("numba kernels disabled (PFTRACK_NO_JIT)")

@@ -27,7 +27,10 @@ particles stacked into one (T, N, D) array and each step one call for all target
 (``predict_rows``, ``to_boxes_rows``, ``log_likelihood_rows``, then weights, estimates and
 systematic resampling of all rows at once). The rows backend runs wherever every per-frame
 component offers its rows method and the filter resamples systematically every frame; the
-reference otherwise (:meth:`MultiTargetTracker.uses_rows`).
+reference otherwise (:meth:`MultiTargetTracker.uses_rows`). The rows backend's methods are in
+:mod:`pftrack.engine.rows` (each method ``_x`` there as the function ``x``); the
+records as arrays in :mod:`pftrack.engine.records`; the error naming a component at fault in
+:mod:`pftrack.engine.faults`; each still imports from here.
 
 The observation model (:class:`pftrack.contracts.components.ObservationModel`) and the track
 management (:class:`pftrack.contracts.components.TrackManager`) are plugin kinds;
@@ -44,7 +47,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -64,18 +67,22 @@ from pftrack.contracts.components import (
     TrackManager,
     TrackRecord,
 )
+from pftrack.engine import rows
+from pftrack.engine.faults import ComponentOutputError, component_label
 from pftrack.engine.lifecycle import ManualTracks
+from pftrack.engine.records import (  # noqa: F401 (public here as well)
+    UNCERTAINTY_COLUMNS,
+    records_to_mot,
+    records_uncertainty,
+)
 from pftrack.filter import (
     RESAMPLERS,
     _jit,
     effective_sample_size,
-    normalize_log_weight_rows,
     normalize_log_weights,
-    systematic_resample_rows,
     weighted_extent,
     weighted_mean,
 )
-from pftrack.filter.core import _EXP_ZERO_BELOW
 
 log = logging.getLogger(__name__)
 
@@ -94,37 +101,6 @@ __all__ = [
 ]
 
 
-def records_to_mot(records: Iterable[TrackRecord]) -> np.ndarray:
-    """MOTChallenge rows (M, 10): frame, id, left, top, width, height, conf, x, y, z
-    (world columns -1 when unknown)."""
-    rows = []
-    for r in records:
-        w = r.world_m if r.world_m is not None else (-1.0, -1.0, -1.0)
-        rows.append([r.frame, r.id, *r.box_xywh_px, r.confidence, *w])
-    return np.asarray(rows, dtype=np.float64).reshape(-1, 10)
-
-
-UNCERTAINTY_COLUMNS = ("frame", "id", "x1_sd", "y1_sd", "x2_sd", "y2_sd", "world_var_x",
-                       "world_cov_xy", "world_var_y")
-
-
-def records_uncertainty(records: Iterable[TrackRecord]) -> np.ndarray:
-    """The spread of each record's estimate (M, 9), rows in the order of
-    :func:`records_to_mot`'s: frame, id, the standard deviations of the box's x1, y1, x2, y2
-    (pixels) and the ground covariance's var_x, cov_xy, var_y (m^2); NaN where a record has
-    none (``TrackRecord.xyxy_sd``, ``TrackRecord.world_cov``: filled by
-    :class:`pftrack.workflows.spread.RecordSpread`). Written beside ``tracks.txt`` as
-    ``tracks_uncertainty.csv`` (:func:`pftrack.io.outputs.write_track_uncertainty`)."""
-    rows = []
-    nan4 = (math.nan,) * 4
-    for r in records:
-        sd = nan4 if r.xyxy_sd is None else r.xyxy_sd
-        c = r.world_cov
-        cov = (math.nan,) * 3 if c is None else (c[0][0], c[0][1], c[1][1])
-        rows.append([r.frame, r.id, *sd, *cov])
-    return np.asarray(rows, dtype=np.float64).reshape(-1, 9)
-
-
 @dataclass
 class _Filter:
     target: Target
@@ -132,28 +108,6 @@ class _Filter:
     weights: np.ndarray
     anchor: np.ndarray  # position to re-spread around when every weight vanishes
     log_weights: np.ndarray  # np.log(weights), kept so a uniform row is not re-logged each frame
-
-
-class ComponentOutputError(RuntimeError):
-    """A component returned what its contract forbids (NaN log-likelihoods, a wrong shape or
-    dtype); the message names the component and the module it comes from."""
-
-
-def component_label(component: Any) -> str:
-    """``likelihood 'name' of plugin 'p' (Class from module)``: a component named for a
-    message (its plugin when the process's host registered this class under that name)."""
-    cls = type(component)
-    kind = getattr(component, "kind", "component")
-    name = getattr(component, "name", None) or cls.__name__
-    plugin = ""
-    try:
-        from pftrack.host import get_host
-
-        entry = get_host().registry.get(kind, name)
-        plugin = f" of plugin {entry.plugin!r}" if entry.obj is cls else ""
-    except Exception:  # noqa: BLE001 - naming the plugin must not hide the fault itself
-        pass
-    return f"{kind} {name!r}{plugin} ({cls.__name__} from {cls.__module__})"
 
 
 class MultiTargetTracker:
@@ -223,6 +177,10 @@ class MultiTargetTracker:
         component offers its rows method and the filter resamples systematically every frame,
         else the reference (:meth:`uses_rows`).
     """
+
+    #: The last frame's resampled rows and each filter's view of them, set by the rows backend
+    #: (:func:`pftrack.engine.rows.finish_rows`); an annotation only, no class attribute.
+    _last_stack: tuple[np.ndarray, list[np.ndarray]]
 
     def __init__(self, motion: MotionModel, likelihood: Likelihood, observation: ObservationModel,
                  *, n_particles: int = 500, resampling: str = "systematic",
@@ -514,39 +472,35 @@ class MultiTargetTracker:
             return None, not ok
         return self._record(frame, t, best, pos_dims), not ok
 
+    # -- the rows backend (pftrack.engine.rows) ------------------------------------------------
+
     def _step_rows(self, frame: Frame, filters: list[_Filter],
                    detections: Detections | None) -> tuple[list[TrackRecord], list[int],
                                                            np.ndarray]:
-        """The frame of :meth:`_step_reference` with every target's particles as one (T, N, D)
-        array: one call each for predict, boxes and log-likelihoods (T, N), then weights,
-        estimates, extents and systematic resampling for all rows at once (compiled in two
-        passes around numpy's exp when the engine's kernels are loaded). Each row's numbers,
-        the random draws and their order are the reference's (T offsets from one
-        ``rng.random(T)`` are the T numbers successive draws give). A frame in which some
-        target lost every weight ends target by target as in the reference (its re-spread
-        draws between the targets' offsets)."""
-        targets = [f.target for f in filters]
-        p = self.motion.predict_rows(self._stacked_particles(filters), self.dt, self.rng,
-                                     targets)
-        boxes = self.observation.to_boxes_rows(p, targets)
-        for i, f in enumerate(filters):
-            self._moved(f, p[i], boxes[i])
-        unmatched = self._associate(filters, detections)  # (proposals change p in place)
-        if not all(f.particles.base is p for f in filters):  # a component replaced some
-            p = np.array([f.particles for f in filters])
-        self.likelihood.begin_frame(frame, targets, detections)
-        if self.likelihood.offers_rows():
-            lw = self._log_likelihood_rows(frame, filters, boxes, p)  # (T, N)
-        else:  # (backend "rows" forced) the per-target calls, checked as the reference does
-            lw = np.array([self._log_likelihood(frame, f) for f in filters])
-        ends = self._weigh_rows(lw, filters, p)
-        if ends is None:  # a target lost every weight: the reference's ends, target by target
-            records, dead = self._filter_each(frame, filters, list(lw), detections)
-            return records, dead, unmatched
-        states, extents, best, resampled, idx = ends
-        records, dead = self._finish_rows(frame, filters, detections, states, extents, best,
-                                          resampled, idx)
-        return records, dead, unmatched
+        """The frame on the rows backend: :func:`pftrack.engine.rows.step_rows`."""
+        return rows.step_rows(self, frame, filters, detections)
+
+    def _log_likelihood_rows(self, frame: Frame, filters: list[_Filter], boxes: np.ndarray,
+                             p: np.ndarray) -> np.ndarray:
+        """:func:`pftrack.engine.rows.log_likelihood_rows`."""
+        return rows.log_likelihood_rows(self, frame, filters, boxes, p)
+
+    def _weigh_rows(self, lw: np.ndarray, filters: list[_Filter], p: np.ndarray,
+                    ) -> tuple[Any, ...] | None:
+        """:func:`pftrack.engine.rows.weigh_rows`."""
+        return rows.weigh_rows(self, lw, filters, p)
+
+    def _finish_rows(self, frame: Frame, filters: list[_Filter], detections: Detections | None,
+                     states: np.ndarray, extents: np.ndarray, best_rows: list[float],
+                     resampled: np.ndarray, resample_rows: np.ndarray,
+                     ) -> tuple[list[TrackRecord], list[int]]:
+        """:func:`pftrack.engine.rows.finish_rows`."""
+        return rows.finish_rows(self, frame, filters, detections, states, extents, best_rows,
+                                resampled, resample_rows)
+
+    def _stacked_particles(self, filters: list[_Filter]) -> np.ndarray:
+        """:func:`pftrack.engine.rows.stacked_particles`."""
+        return rows.stacked_particles(self, filters)
 
     # -- the parts of a frame -----------------------------------------------------------------
 
@@ -616,78 +570,6 @@ class MultiTargetTracker:
         t.log_likelihoods = logl
         return logl
 
-    def _log_likelihood_rows(self, frame: Frame, filters: list[_Filter], boxes: np.ndarray,
-                             p: np.ndarray) -> np.ndarray:
-        """Every target's log-likelihoods (T, N) float64 from one
-        :meth:`Likelihood.log_likelihood_rows` call, checked as :meth:`_log_likelihood` checks
-        one row (the error names the first target at fault), zero outside the valid regions;
-        row ``i`` kept in ``targets[i].log_likelihoods``."""
-        targets = [f.target for f in filters]
-        try:
-            lw = self.likelihood.log_likelihood_rows(boxes, targets)
-        except (ValueError, OSError) as exc:  # bad input met at run time: still exit 2
-            raise ValueError(f"{self._who(self.likelihood)}: {exc}") from exc
-        except Exception as exc:
-            raise ComponentOutputError(
-                f"{self._who(self.likelihood)} raised {type(exc).__name__}: {exc} (frame "
-                f"{frame.index}, targets {[t.id for t in targets]}, log_likelihood_rows)"
-            ) from exc
-        if type(lw) is not np.ndarray or lw.dtype != np.float64:
-            lw = self._checked_dtype(lw)
-        if lw.shape != boxes.shape[:2]:
-            raise ComponentOutputError(
-                f"{self._who(self.likelihood)} returned log-likelihoods of shape {lw.shape} from "
-                f"log_likelihood_rows, expected {boxes.shape[:2]} (one row per target, one "
-                "value per particle)")
-        if not (lw < np.inf).all():
-            i = int(np.flatnonzero(~(lw < np.inf).all(axis=1))[0])
-            self._check_finite(lw[i], frame, targets[i])
-        pos = self._pos_index(list(self.motion.position_dims))
-        if self.valid_region is not None:
-            xy = p[:, :, pos]
-            inside = np.asarray(self.valid_region(xy.reshape(-1, xy.shape[2])), dtype=bool)
-            lw = np.where(inside.reshape(lw.shape), lw, -np.inf)
-        own = [(i, t.valid_region) for i, t in enumerate(targets) if t.valid_region is not None]
-        if own:
-            lw = lw.copy()  # (never the likelihood's own array)
-            for i, region in own:
-                lw[i] = np.where(region(p[i][:, pos]), lw[i], -np.inf)
-        for t, row in zip(targets, lw):
-            t.log_likelihoods = row
-        return lw
-
-    def _weigh_rows(self, lw: np.ndarray, filters: list[_Filter], p: np.ndarray,
-                    ) -> tuple[Any, ...] | None:
-        """Step 4 for every target at once (systematic resampling every frame): from the
-        log-likelihoods ``lw`` (T, N) and the particles ``p`` (T, N, D), ``(states (T, D),
-        extents (T, D), best log-likelihood per row, resampled particles (T, N, D),
-        resampling indices (T, N))``, each row the single filter's numbers bit for bit; None,
-        having drawn nothing, when some row has no finite weight. Compiled (two passes around
-        numpy's exp, :mod:`pftrack.filter._jit`) when the engine's kernels are loaded, else
-        numpy's rows functions: the same numbers."""
-        if all(f.log_weights is self._uniform_log for f in filters):
-            logw = self._uniform_log_row
-        else:
-            logw = np.array([f.log_weights for f in filters])
-        if (_jit.small_ready() and p.ndim == 3 and p.shape[2] >= 2 and p.flags.c_contiguous
-                and p.dtype == np.float64):
-            lwc = np.ascontiguousarray(lw, dtype=np.float64)
-            status, vals, pos, best = _jit.shift_rows_for_exp(lwc, logw, _EXP_ZERO_BELOW)
-            if status != 0:  # (NaN and +inf were rejected when the rows were checked)
-                return None
-            np.exp(vals, out=vals)  # numpy's exp, on the weights that are not exactly 0
-            u = self.rng.random(len(filters))  # what the systematic resampling draws
-            _, states, extents, idx, resampled = _jit.estimate_resample_rows(vals, pos, p, u)
-            return states, extents, best.tolist(), resampled, idx
-        weights, ok = normalize_log_weight_rows(lw + logw)
-        if not ok.all():
-            return None
-        states = weighted_mean(p, weights)
-        extents = weighted_extent(p, weights, states)
-        idx = systematic_resample_rows(weights, self.rng)
-        flat = idx + (np.arange(len(filters), dtype=np.intp) * p.shape[1])[:, None]
-        resampled = p.reshape(-1, p.shape[2]).take(flat.ravel(), axis=0).reshape(p.shape)
-        return states, extents, lw.max(axis=1).tolist(), resampled, idx
 
     def _propose_at_detections(self, targets: list[Target]) -> None:
         """Redraw ``detection_proposal`` of each matched target's predicted particles around
@@ -726,79 +608,6 @@ class MultiTargetTracker:
             if t.particle_boxes_xywh_px is not None:
                 t.particle_boxes_xywh_px[i] = b
 
-    def _finish_rows(self, frame: Frame, filters: list[_Filter], detections: Detections | None,
-                     states: np.ndarray, extents: np.ndarray, best_rows: list[float],
-                     resampled: np.ndarray, resample_rows: np.ndarray,
-                     ) -> tuple[list[TrackRecord], list[int]]:
-        """Step 5 of the rows backend, when every target was weighted, estimated and resampled
-        by :meth:`_weigh_rows`: the estimates' boxes, anchors and confidences of all targets at
-        once, support and death per target, and the records, each field a row of one block
-        copied once per frame (the numbers and the records of :meth:`_filter_one`). Returns
-        ``(records, dead ids)``."""
-        observation = self.observation
-        pos_dims = list(self.motion.position_dims)
-        box_in_view = type(observation).in_view is ObservationModel.in_view
-        targets = [f.target for f in filters]
-        est_boxes = rec_boxes = None
-        if type(observation).to_boxes_rows is not ObservationModel.to_boxes_rows:
-            est_boxes = observation.to_boxes_rows(states[:, None, :], targets)[:, 0]
-            rec_boxes = est_boxes.copy()
-        pos = self._pos_index(pos_dims)
-        anchors = states[:, pos].copy()  # the engine's: never a view of what callers get
-        confidences = expit(np.array(best_rows)).tolist()
-        # what the records own: one copy of each block (the targets keep views of the originals)
-        rec_states = states.copy()
-        rec_positions = states[:, pos].copy()
-        rec_extents = extents.copy()
-        no_world = type(observation).world_position is ObservationModel.world_position
-        uniform, uniform_log = self._uniform, self._uniform_log
-        index = frame.index
-        records = []
-        dead = []
-        for i, f in enumerate(filters):
-            t = targets[i]
-            best = best_rows[i]
-            state = states[i]
-            t.state = state
-            t.extent = extents[i]
-            # (an observation model without rows boxes the estimate of a target whose state
-            # and extent are already this frame's, as in the reference)
-            box = est_boxes[i] if est_boxes is not None else \
-                observation.to_boxes(state[None], t)[0]
-            t.box_xywh_px = box
-            self._support(t, t.detection is not None or self._self_supported(best, detections))
-            f.anchor = anchors[i]
-            # resampled (``t.resample_index``: which weighted particle each new one copies)
-            f.particles = t.particles = resampled[i]
-            t.resample_index = resample_rows[i]
-            f.weights, f.log_weights = uniform, uniform_log
-            # 5. death
-            if self._gone(t, state, box, box_in_view, observation, frame, pos_dims):
-                dead.append(t.id)
-                continue
-            world = None if no_world else observation.world_position(state)
-            records.append(TrackRecord(
-                frame=index, id=t.id,
-                box_xywh_px=rec_boxes[i] if rec_boxes is not None else box.copy(),
-                state=rec_states[i],
-                position=rec_positions[i], extent=rec_extents[i],
-                confidence=confidences[i] if math.isfinite(best) else 0.0,
-                world_m=None if world is None else np.asarray(world, dtype=np.float64)))
-        # next frame's prediction reads these rows as they are while no filter changed
-        self._last_stack = (resampled, [f.particles for f in filters])
-        return records, dead
-
-    def _stacked_particles(self, filters: list[_Filter]) -> np.ndarray:
-        """Every filter's particles as one (T, N, D) array: the array the last frame's
-        resampling filled when each filter still holds its row of it (no copy: predict does
-        not modify its input), else a new stack."""
-        last = self.__dict__.get("_last_stack")
-        if last is not None:
-            arr, views = last
-            if len(views) == len(filters) and all(f.particles is v
-                                                  for f, v in zip(filters, views)):
-                return arr
-        return np.array([f.particles for f in filters])
 
     def _pos_index(self, pos_dims: list[int]) -> slice | list[int]:
         """``pos_dims`` as a slice when they are consecutive (a basic index: no fancy-index
