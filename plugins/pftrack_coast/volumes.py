@@ -56,7 +56,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 from pftrack.contracts.components import (
@@ -472,8 +472,6 @@ class VolumeTracks(TrackManager):
         "than this (metres per frame) do not merge however close: two intruders crossing, not "
         "one tracked twice (which moves as one). None: no velocity test.", unit="m/frame",
         low=0.0, low_open=True)
-    merge_speed_frames: int = Param(4, "Frames over which merge_speed_m's velocities are "
-                                       "measured.", unit="frames", low=1)
     reid_frames: int = Param(
         0, "A new track whose first output footprint lies within reid_m of where an output "
         "track ended (exit or merge) at most this many frames before takes up that track's id "
@@ -487,23 +485,6 @@ class VolumeTracks(TrackManager):
         "swap output ids when the swapped histograms match the templates better by "
         "appearance_margin, and re-identification takes the best-matching ended id within "
         "reid_m (False: positions only).")
-    appearance_rate: float = Param(0.1, "Template update rate per frame while a track is alone.",
-                                   unit="1", low=0.0, low_open=True, high=1.0)
-    appearance_near_m: float = Param(
-        1.0, "Tracks whose footprints are closer than this are together; a track is alone (its "
-        "template updated) with no other within twice this.", unit="m", low=0.0, low_open=True)
-    appearance_apart: float = Param(
-        1.5, "Two tracks together are apart (a swap is tested) once their footprints are "
-        "farther than this times appearance_near_m and their image boxes are disjoint.",
-        unit="1", low=0.0)
-    appearance_inner: float = Param(
-        0.4, "Fraction of the region's width (about its centre) whose colours are counted.",
-        unit="1", low=0.0, low_open=True, high=1.0)
-    appearance_margin: float = Param(
-        0.05, "Bhattacharyya distance (sum over the pair) by which the swapped match must beat "
-        "the kept one.", unit="1", low=0.0)
-    appearance_min_frames: int = Param(
-        5, "Frames alone before a track's template is used.", unit="frames", low=1)
     confirm_frames: int = Param(3, "A new track is output once it has lived this many frames "
                                    "(its records from the entry on, so confirmation costs no "
                                    "frames); one that ends sooner was noise and is never "
@@ -527,10 +508,6 @@ class VolumeTracks(TrackManager):
         "same direction as the object, scaled by H / (H - h); the top is not held at the "
         "volume's near face as the foot row is while an intruder is seen through the volume "
         "from in front of it).", choices=("footprint", "top"))
-    min_speed: float = Param(0.3, "Before the footprint has travelled min_travel_m: the heading "
-                                  "is the particles' mean horizontal velocity once faster than "
-                                  "this (metres per time step; state entries 3, 4).", unit="m/dt",
-                                  low=0.0)
     object_size_m: Sequence[float] | None = Param(
         None, "A typical intruder's size (width across the view, height, depth along it), "
         "metres: a new track's particles are jittered by half of it (so that a track started "
@@ -542,24 +519,11 @@ class VolumeTracks(TrackManager):
         "image boxes of a cuboid of that size on its last footprint and where its recent "
         "motion takes it next, enlarged by this fraction of the size per side (one "
         "intruder's particles do not spread onto a neighbour). None: no gate.", unit="1", low=0.0)
-    min_size_fraction: float = Param(
-        0.5, "With object_size_m: an entry whose particles span less than this fraction of the "
-        "typical width or height (on the support plane) is a fringe or noise: no new track.",
-        unit="1", low=0.0)
     gather_frames: int = Param(
         0, "With object_size_m: a detection group whose entry candidate is too small "
         "(min_size_fraction) keeps gathering on it, without being spread again, for up to this "
         "many frames (its few hits are resampled and spread over the intruder, which then "
         "looks its size); 0: it is spread again at once.", unit="frames", low=0)
-    spawn_overlap: float = Param(0.5, "An entry whose particles' image box lies more than this "
-                                      "fraction inside a tracked intruder's box is that "
-                                      "intruder's fringe: no new track.", unit="1",
-                                      low=0.0, high=1.0)
-    footprint_inside: bool = Param(
-        True, "Output a track only while its footprint (the support-plane correction) lies "
-        "inside its volume's ground footprint: one view sees an intruder through the volume "
-        "before it enters and after it leaves; its footprint says where it is (False: the "
-        "paper, output while the particles see it).")
     footprint_held: bool = Param(
         False, "With footprint_inside: a track is not output while its foot row may be held "
         "by the volume: while the image row of blob_block_px cells (the likelihood's blocks) "
@@ -573,22 +537,53 @@ class VolumeTracks(TrackManager):
         "as likely under a neighbouring track's template as under its own gets likelihood 0: "
         "a neighbour's blob cannot take a track's particles where the colours say whose they "
         "are. Colour (8-bit BGR) frames only; a grey frame bars nothing.")
-    colour_share_ratio: float = Param(
-        1.25, "colour_share's ratio (>= 1; chosen on PETS frames 401-600).", unit="1", low=1.0)
-    colour_share_floor: float = Param(
-        0.01, "Added to both templates' bin probabilities before colour_share's ratio (> 0): "
-        "a colour neither template holds decides nothing.", unit="1", low=0.0, low_open=True)
-    colour_share_distance: float = Param(
-        0.35, "colour_share only between tracks whose templates lie at least this "
-        "Bhattacharyya distance apart (in [0, 1); alike templates decide nothing; chosen on "
-        "PETS frames 401-600).", unit="1", low=0.0, high=1.0, high_open=True)
-    colour_share_max_barred: float = Param(
-        0.7, "When colour_share would bar more than this fraction (in (0, 1]) of a track's "
-        "particles (its intruder hidden behind a neighbour), it bars none.", unit="1",
-        low=0.0, low_open=True, high=1.0)
-    blob_block_px: int = Param(8, "Cell size (pixels) of the image grid on which a new track "
-                                  "takes the largest connected patch of the group's particles.",
-                               unit="px", low=1)
+    # Fixed settings (class attributes, not parameters: no shipped configuration changes them).
+    #: Frames over which merge_speed_m's footprint velocities are measured.
+    merge_speed_frames: ClassVar[int] = 4
+    #: Template update rate per frame while a track is alone.
+    appearance_rate: ClassVar[float] = 0.1
+    #: Tracks whose footprints are closer than this (metres) are together; a track is alone
+    #: (its template updated) with no other within twice this.
+    appearance_near_m: ClassVar[float] = 1.0
+    #: Two tracks together are apart (a swap is tested) once their footprints are farther than
+    #: this times appearance_near_m and their image boxes are disjoint.
+    appearance_apart: ClassVar[float] = 1.5
+    #: Fraction of a track's image region's width (about its centre) whose colours its
+    #: histogram counts.
+    appearance_inner: ClassVar[float] = 0.4
+    #: Bhattacharyya distance (summed over a pair) by which a swapped match must beat the kept
+    #: one.
+    appearance_margin: ClassVar[float] = 0.05
+    #: Frames alone before a track's template is used.
+    appearance_min_frames: ClassVar[int] = 5
+    #: Before the footprint has travelled min_travel_m, the heading is the particles' mean
+    #: horizontal velocity once faster than this (metres per time step; state entries 3, 4).
+    min_speed: ClassVar[float] = 0.3
+    #: With object_size_m: an entry whose particles span less than this fraction of the typical
+    #: width or height (on the support plane) is a fringe or noise: no new track.
+    min_size_fraction: ClassVar[float] = 0.5
+    #: An entry whose particles' image box lies more than this fraction inside a tracked
+    #: intruder's box is that intruder's fringe: no new track.
+    spawn_overlap: ClassVar[float] = 0.5
+    #: A track is output only while its footprint (the support-plane correction) lies inside
+    #: its volume's ground footprint: one view sees an intruder through the volume before it
+    #: enters and after it leaves; its footprint says where it is.
+    footprint_inside: ClassVar[bool] = True
+    #: colour_share bars a particle whose pixel's colour a neighbour's template explains more
+    #: than this many times better than the track's own.
+    colour_share_ratio: ClassVar[float] = 1.25
+    #: Added to both templates' bin probabilities before colour_share's ratio: a colour neither
+    #: template holds decides nothing.
+    colour_share_floor: ClassVar[float] = 0.01
+    #: colour_share acts only between tracks whose templates lie at least this Bhattacharyya
+    #: distance apart (alike templates decide nothing).
+    colour_share_distance: ClassVar[float] = 0.35
+    #: When colour_share would bar more than this fraction of a track's particles (its intruder
+    #: hidden behind a neighbour), it bars none.
+    colour_share_max_barred: ClassVar[float] = 0.7
+    #: Cell size (pixels) of the image grid on which a new track takes the largest connected
+    #: patch of its group's particles (the likelihood's blocks).
+    blob_block_px: ClassVar[int] = 8
 
     @classmethod
     def _conformance_example(cls) -> Any:

@@ -319,7 +319,6 @@ def test_units_read_from_the_code_are_the_right_ones():
         "likelihood.detection.sigma": "detection heights",
         "tracks.confirmed.confirm_hits": "count",
         "tracks.confirmed.confirm_window": "frames",
-        "tracks.volumes.min_speed": "m/dt",
         "motion.constant-velocity-3d.position_noise": "state units per √dt",
         "scene.soccer.fps": "frames/s",
         "scene.walkers.noise_sigma": "grey levels",
