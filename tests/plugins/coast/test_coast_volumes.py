@@ -21,6 +21,7 @@ from pftrack.geometry.volumes import CuboidVolume
 from pftrack.metrics import evaluate
 from pftrack_basic.motion import ConstantVelocity3DMotion
 from pftrack_coast.volumes import (
+    PARTS,
     InsideBoxesLikelihood,
     VolumeTracks,
     cuboid_box,
@@ -53,22 +54,30 @@ def _boxes(cam: Camera, centres: np.ndarray) -> np.ndarray:
 
 
 def _tracks(**kw) -> VolumeTracks:
-    """A ``VolumeTracks`` with ``kw``; the fixed settings among them (class attributes that are
-    no parameters, e.g. ``colour_share_max_barred``) set on the instance."""
-    fixed = {k: kw.pop(k) for k in list(kw) if k not in VolumeTracks.declared_params()}
+    """A ``VolumeTracks`` with ``kw``; the fixed settings in its parts' mappings (class
+    attributes that are no parameters, e.g. ``mask: {colour_share_max_barred: 1}``) set on the
+    built parts."""
+    fixed = {}
+    for key, cls in PARTS.items():
+        if key in kw:
+            spec = dict(kw[key])
+            fixed[key] = {k: spec.pop(k) for k in list(spec) if k not in cls.declared_params()}
+            kw[key] = spec
     tracks = VolumeTracks(**kw)
-    for k, v in fixed.items():
-        assert hasattr(VolumeTracks, k), k
-        setattr(tracks, k, v)
+    for key, values in fixed.items():
+        for k, v in values.items():
+            assert hasattr(PARTS[key], k), k
+            setattr(tracks._parts()[key], k, v)
     return tracks
 
 
 def _run(seed: int = 0, n_frames: int = 80, walk=None, colours=None, **params):
     cam = _camera()
     vol = CuboidVolume([0.0, 0.0, 1.25], [30.0, 30.0, 2.5], None, "yard")
-    kw = dict(volumes=[vol.to_dict()], entry_particles=5, exit_particles=100,
-              object_size_m=(0.5, 1.75, 0.5), merge_distance_m=0.6)
-    kw.update(params)
+    kw: dict = dict(volumes=[vol.to_dict()], entry={"particles": 5}, exit={"particles": 100},
+                    object_size_m=(0.5, 1.75, 0.5), merge={"distance_m": 0.6})
+    for k, v in params.items():  # a part's mapping adds to the one above
+        kw[k] = {**kw[k], **v} if isinstance(kw.get(k), dict) else v
     tracks = _tracks(**kw)
     obs = CameraVolumeObservation(camera=cam, particle_box="point")
     ctx = RunContext(camera=cam)
@@ -162,7 +171,7 @@ def test_appearance_on_a_colourless_image_keeps_the_tracks_and_learns_templates(
     """On a black image every histogram is the same: appearance can tell no one apart, so the
     tracks are those of positions alone, while each track that was alone has a template."""
     off = _run(seed=3, n_frames=40)
-    on = _run(seed=3, n_frames=40, appearance=True, appearance_min_frames=2)
+    on = _run(seed=3, n_frames=40, reid={"appearance": True, "min_frames": 2})
     assert np.array_equal(off[2], on[2]) and len(on[2]) > 20
     assert not [e for e in on[1].events_ if e["event"] == "swapped"]
     live = set(on[1].tracks_)
@@ -196,12 +205,16 @@ def test_volume_tracks_bad_parameters_are_named():
         VolumeTracks(volumes="near", object_size_m=(1, 2)).setup(ctx)
     with pytest.raises(ValueError, match="unknown volume 'nowhere'"):
         VolumeTracks(volumes="nowhere").setup(ctx)
-    with pytest.raises(ValueError, match="entry_particles"):
-        VolumeTracks(volumes="near", entry_particles=0).setup(ctx)
+    with pytest.raises(ValueError, match="tracks 'volumes' entry: .*'particles'"):
+        VolumeTracks(volumes="near", entry={"particles": 0}).setup(ctx)
     with pytest.raises(ValueError, match="'gather_frames' must be an integer >= 0"):
-        VolumeTracks(volumes="near", gather_frames=-1).setup(ctx)
-    with pytest.raises(ValueError, match="'merge_speed_m' must be a number > 0"):
-        VolumeTracks(volumes="near", merge_speed_m=-0.1).setup(ctx)
+        VolumeTracks(volumes="near", entry={"gather_frames": -1}).setup(ctx)
+    with pytest.raises(ValueError, match="volumes' merge: .*'speed_m' must be a number > 0"):
+        VolumeTracks(volumes="near", merge={"speed_m": -0.1}).setup(ctx)
+    with pytest.raises(ValueError, match=r"merge: .*unexpected parameters \['merge_iou'\]"):
+        VolumeTracks(volumes="near", merge={"merge_iou": 0.5})
+    with pytest.raises(ValueError, match="exit must be a mapping of VolumeExit's parameters"):
+        VolumeTracks(volumes="near", exit=3)
 
 
 def test_engine_target_region_masks_likelihood_and_set_particles_checks_shape():
@@ -318,8 +331,8 @@ def test_gather_frames_keeps_a_too_small_candidate_gathering_before_spreading_ag
 
         VolumeTracks._spread = spy
         try:
-            engine, tracks, rows, *_ = _run(n_frames=30, min_size_fraction=10.0,
-                                             gather_frames=g, idle_frames=1000)
+            engine, tracks, rows, *_ = _run(n_frames=30, entry={
+                "min_size_fraction": 10.0, "gather_frames": g, "idle_frames": 1000})
         finally:
             VolumeTracks._spread = orig
         assert len(rows) == 0  # nothing is large enough to be an intruder
@@ -353,8 +366,8 @@ def _cross(n_frames: int) -> dict[int, np.ndarray]:
 def test_merge_speed_keeps_two_people_crossing_apart(speed):
     """Two tracks close on the ground for merge_frames frames merge (one intruder tracked
     twice), unless their footprints move apart faster than merge_speed_m: two crossing."""
-    engine, tracks, rows, gt, vol, truth = _run(n_frames=60, walk=_cross, merge_distance_m=1.0,
-                                                merge_frames=2, merge_speed_m=speed)
+    engine, tracks, rows, gt, vol, truth = _run(n_frames=60, walk=_cross, merge={
+        "distance_m": 1.0, "frames": 2, "speed_m": speed})
     merged = [e for e in tracks.events_ if e["event"] == "merged"]
     m = evaluate(gt, rows, metric="world", threshold=1.0)
     if speed is None:
@@ -474,8 +487,9 @@ def test_heading_from_the_cloud_top_sees_a_car_driving_along_the_view(heading_fr
     from pftrack_coast.volumes import _support_base, _support_finish
 
     cam, frames = _car_through_the_near_volume()
-    tracks = VolumeTracks(volumes=["near"], footprint_aspect=3.0, min_travel_m=3.0,
-                          heading_frames=15, heading_from=heading_from, footprint_held=True)
+    tracks = VolumeTracks(volumes=["near"], footprint={
+        "aspect": 3.0, "min_travel_m": 3.0, "heading_frames": 15, "heading_from": heading_from,
+        "held": True})
     tracks.setup(RunContext(camera=cam))
     tracks.tracks_[1] = "near"
     fronts: deque = deque(maxlen=15)
@@ -507,7 +521,8 @@ def test_heading_from_the_cloud_top_sees_a_car_driving_along_the_view(heading_fr
 
 def test_heading_from_and_exit_established_are_checked():
     with pytest.raises(ValueError, match="'heading_from' must be one of 'footprint', 'top'"):
-        VolumeTracks(volumes=["near"], heading_from="feet").setup(RunContext(camera=_camera()))
+        VolumeTracks(volumes=["near"], footprint={"heading_from": "feet"}).setup(
+            RunContext(camera=_camera()))
 
 
 def test_exit_established_holds_a_new_track_to_n_m_until_it_gathers():
@@ -515,12 +530,12 @@ def test_exit_established_holds_a_new_track_to_n_m_until_it_gathers():
     of 2000 particles at first): with the paper's rule each track ends one frame after its
     entry and is never output; with exit_established the same run keeps each person one track
     until they leave: the very tracks of N_out = 100, which new tracks pass at once."""
-    _, paper, rows_p, gt, _, _ = _run(exit_particles=1500)
+    _, paper, rows_p, gt, _, _ = _run(exit={"particles": 1500})
     exits = [e for e in paper.events_ if e["event"] == "exit"]
     entries = [e for e in paper.events_ if e["event"] == "entry"]
     assert len(entries) > 10 and len(exits) >= len(entries) - 2
     assert len(rows_p) == 0
-    _, est, rows, gt, _, _ = _run(exit_particles=1500, exit_established=True)
+    _, est, rows, gt, _, _ = _run(exit={"particles": 1500, "established": True})
     m = evaluate(gt, rows, metric="world", threshold=1.0)
     assert m["MOTA"] > 0.7 and m["IDF1"] > 0.8
     assert len(np.unique(rows[:, 1])) == 2
@@ -537,7 +552,7 @@ def test_footprint_held_while_the_car_is_seen_from_in_front_of_the_volume():
     from pftrack_coast.volumes import _support_base
 
     cam, frames = _car_through_the_near_volume(30)
-    tracks = VolumeTracks(volumes=["near"], footprint_held=True)
+    tracks = VolumeTracks(volumes=["near"], footprint={"held": True})
     tracks.setup(RunContext(camera=cam))
     tracks.tracks_[1] = "near"
     held, fronts = [], []
@@ -619,7 +634,8 @@ def _two_colours() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def _colour_tracks(**params) -> VolumeTracks:
     img, red, blue = _two_colours()
-    tracks = _tracks(volumes=["near"], appearance=True, colour_share=True, **params)
+    tracks = _tracks(volumes=["near"], reid={"appearance": True},
+                     mask={"colour_share": True, **params})
     tracks._start()
     tracks.frame_, tracks.image_ = 7, img
     tracks.tracks_ = {1: "near", 2: "near", 3: "near"}
@@ -674,8 +690,8 @@ def test_colour_share_ratio_and_floor_are_the_bar():
 
 
 def test_colour_share_parameters_are_checked():
-    with pytest.raises(ValueError, match="colour_share needs appearance"):
-        VolumeTracks(volumes=["near"], colour_share=True, appearance=False)
+    with pytest.raises(ValueError, match="mask.colour_share needs reid.appearance"):
+        VolumeTracks(volumes=["near"], mask={"colour_share": True}, reid={"appearance": False})
 
 
 def test_colour_share_in_both_region_paths(monkeypatch):
@@ -689,7 +705,7 @@ def test_colour_share_in_both_region_paths(monkeypatch):
     image[:] = img[0, 200]
     cols = np.clip(np.floor(px[left]).astype(int), 0, [639, 479])
     image[cols[:, 1], cols[:, 0]] = img[0, 0]
-    tracks.appearance, tracks.colour_share = True, True
+    tracks.reid_.appearance, tracks.mask_.colour_share = True, True
     tracks.image_, tracks.frame_ = image, 10 ** 6
     tracks.templates_ = {tid: (red, 9), 999: (blue, 9)}
     own = tracks._colour_own(tid, px)
@@ -719,10 +735,10 @@ def test_colour_share_keeps_a_hidden_intruders_track():
     colour_share."""
     red, blue = (20, 20, 220), (220, 30, 20)
     runs = {}
-    for name, kw in (("off", {}), ("all", dict(colour_share=True, colour_share_max_barred=1.0)),
-                     ("capped", dict(colour_share=True))):
+    for name, kw in (("off", {}), ("all", {"colour_share": True, "colour_share_max_barred": 1.0}),
+                     ("capped", {"colour_share": True})):
         _, tracks, rows, gt, _, _ = _run(seed=0, walk=_pass, colours=(red, blue),
-                                         appearance=True, **kw)
+                                         reid={"appearance": True}, mask=kw)
         runs[name] = (len(np.unique(rows[:, 1])), evaluate(gt, rows, metric="world",
                                                              threshold=1.0))
     assert runs["off"][0] == 2 and runs["off"][1]["IDSW"] == 0, runs
