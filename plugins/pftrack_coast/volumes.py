@@ -465,6 +465,14 @@ class VolumeExit(Component):
         "from the first frame (the paper), which ends a new track on an intruder smaller than "
         "its first frame's spread one frame after its entry.")
 
+    def low(self, n_above: int, gathered: bool, entry_particles: int) -> bool:
+        """Whether a track with ``n_above`` particles above v_pi is low this frame (an exit
+        after ``frames`` low frames in a row). ``gathered``: it has had more than N_out
+        particles above v_pi before; ``entry_particles``: N_m."""
+        if self.established and not gathered:
+            return n_above < int(entry_particles)  # not gathered yet: N_m holds it
+        return n_above <= int(self.particles)
+
 
 class VolumeMask(Component):
     """Where particles may live, part ``mask`` of :class:`VolumeTracks`: every particle in its
@@ -529,6 +537,24 @@ class VolumeMerge(Component):
 
     #: Frames over which speed_m's footprint velocities are measured.
     speed_frames: ClassVar[int] = 4
+
+    def same(self, boxes_xywh_px: np.ndarray, ground_xy: np.ndarray | None,
+             velocities: np.ndarray | None) -> np.ndarray:
+        """Which pairs of K tracks look like one intruder this frame (K, K) bool: image boxes
+        (K, 4) overlapping by more than ``iou``, or footprints ``ground_xy`` (K, 2), metres,
+        closer than ``distance_m``; but not footprint ``velocities`` (K, 2), metres per frame,
+        differing by more than ``speed_m`` (NaN: not known yet, may merge). ``ground_xy`` and
+        ``velocities`` are read only when ``distance_m`` and ``speed_m`` are set."""
+        same = iou_matrix(boxes_xywh_px, boxes_xywh_px) > float(self.iou)
+        if self.distance_m is not None and ground_xy is not None:
+            xy = ground_xy
+            d = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
+            same |= d < float(self.distance_m)
+        if self.speed_m is not None and velocities is not None:
+            v = velocities  # crossing intruders move apart: not one
+            dv = np.hypot(v[:, None, 0] - v[None, :, 0], v[:, None, 1] - v[None, :, 1])
+            same &= ~(dv > float(self.speed_m))
+        return same
 
 
 class VolumeReid(Component):
@@ -1244,10 +1270,7 @@ class VolumeTracks(TrackManager):
             n_above = above(t)
             if n_above > int(self.exit_.particles):
                 self.established_.add(tid)
-            if self.exit_.established and tid not in self.established_:
-                low = n_above < int(self.entry_.particles)  # not gathered yet: N_m holds it
-            else:
-                low = n_above <= int(self.exit_.particles)
+            low = self.exit_.low(n_above, tid in self.established_, self.entry_.particles)
             self.low_[tid] = self.low_.get(tid, 0) + 1 if low else 0
             if self.low_[tid] >= int(self.exit_.frames) or tid not in by_id:
                 self.events_.append({"frame": frame.index, "id": tid,
@@ -1258,17 +1281,14 @@ class VolumeTracks(TrackManager):
         # one intruder tracked twice (overlapping for merge_frames frames): the younger ends
         overlaps: dict[tuple[int, int], int] = {}
         if len(out) > 1:
-            boxes = np.array([r.box_xywh_px for r in out])
-            same = iou_matrix(boxes, boxes) > float(self.merge_.iou)
-            if self.merge_.distance_m is not None:
+            merge = self.merge_
+            xy = v = None
+            if merge.distance_m is not None:
                 xy = np.array([r.world_m[:2] if r.world_m is not None else (np.nan, np.nan)
                                for r in out])
-                d = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
-                same |= d < float(self.merge_.distance_m)
-            if self.merge_.speed_m is not None:  # crossing intruders move apart: not one
+            if merge.speed_m is not None:
                 v = np.array([self._velocity(r.id) for r in out])
-                dv = np.hypot(v[:, None, 0] - v[None, :, 0], v[:, None, 1] - v[None, :, 1])
-                same &= ~(dv > float(self.merge_.speed_m))  # (NaN: not known yet, may merge)
+            same = merge.same(np.array([r.box_xywh_px for r in out]), xy, v)
             drop: set[int] = set()
             order = sorted(range(len(out)), key=lambda i: out[i].id)  # older first
             for a_i, i in enumerate(order):

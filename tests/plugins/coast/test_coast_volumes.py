@@ -745,3 +745,32 @@ def test_colour_share_keeps_a_hidden_intruders_track():
     assert runs["all"][0] == 3 and runs["all"][1]["IDF1"] < 0.8, runs
     assert runs["capped"][0] == 2 and runs["capped"][1]["IDSW"] == 0, runs
     assert runs["capped"][1]["IDF1"] > 0.9, runs
+
+
+def test_merge_part_says_which_pairs_are_one_intruder():
+    """``merge``: boxes overlapping by more than ``iou`` or footprints closer than
+    ``distance_m`` are one intruder, unless their footprints' velocities differ by more than
+    ``speed_m`` (an unknown velocity does not veto)."""
+    from pftrack_coast.volumes import VolumeMerge
+
+    boxes = np.array([[0.0, 0.0, 10.0, 10.0], [1.0, 0.0, 10.0, 10.0], [50.0, 0.0, 10.0, 10.0]])
+    xy = np.array([[0.0, 0.0], [3.0, 0.0], [0.5, 0.0]])
+    v = np.array([[0.0, 0.0], [0.2, 0.0], [np.nan, np.nan]])
+    same = VolumeMerge(iou=0.5).same(boxes, xy, v)  # IoU of the first two: 9/11
+    assert same[0, 1] and same[1, 0] and not same[0, 2] and not same[1, 2]
+    same = VolumeMerge(iou=0.5, distance_m=0.6).same(boxes, xy, v)
+    assert same[0, 1] and same[0, 2] and not same[1, 2]  # 0.5 m apart on the ground
+    same = VolumeMerge(iou=0.5, distance_m=0.6, speed_m=0.1).same(boxes, xy, v)
+    assert not same[0, 1] and same[0, 2]  # 0.2 m/frame apart; NaN: may merge
+
+
+def test_exit_part_counts_a_low_frame():
+    """``exit``: low at or below N_out; with ``established`` a track not yet gathered is low
+    below N_m instead."""
+    from pftrack_coast.volumes import VolumeExit
+
+    paper = VolumeExit(particles=10)
+    assert paper.low(10, False, 50) and not paper.low(11, False, 50)
+    held = VolumeExit(particles=10, established=True)
+    assert held.low(49, False, 50) and not held.low(50, False, 50)
+    assert not held.low(49, True, 50) and held.low(10, True, 50)
