@@ -201,9 +201,7 @@ def component_params(cls: type) -> list[dict[str, Any]]:
         ``Parameters`` section, without its ``Unit:`` sentence), ``numeric`` (whether the
         type or the default is a number or numbers, booleans excluded) and ``allowed`` (what
         a :class:`pftrack.contracts.components.Param` declaration allows, :func:`param_allowed`;
-        ``""`` for a parameter of a hand-written ``__init__``). A parameter that is a mapping of
-        another component's parameters (the class's ``param_parts``: name -> component class)
-        is followed by that component's rows, named ``NAME.KEY``.
+        ``""`` for a parameter of a hand-written ``__init__``).
     """
     from pftrack.contracts.components import Group, _declared
 
@@ -245,9 +243,6 @@ def component_params(cls: type) -> list[dict[str, Any]]:
                      "unit_source": source, "doc": doc,
                      "numeric": is_numeric(typ, p.default),
                      "allowed": param_allowed(declared[p.name]) if p.name in declared else ""})
-        part = getattr(cls, "param_parts", {}).get(p.name)
-        if part is not None:
-            rows += [{**r, "name": f"{p.name}.{r['name']}"} for r in component_params(part)]
     return rows
 
 

@@ -62,11 +62,12 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 from pftrack.contracts.components import (
-    Component,
     Detections,
     Frame,
+    Group,
     Likelihood,
     Param,
+    ParamGroup,
     RunContext,
     Target,
     TrackManager,
@@ -415,8 +416,8 @@ class InsideBoxesLikelihood(Likelihood):
         return np.where(hit, math.log(float(self.inside)), math.log(float(self.outside)))
 
 
-class VolumeEntry(Component):
-    """How a detection group finds an entry (the coastal paper's N_m), part ``entry`` of
+class VolumeEntry(ParamGroup):
+    """How a detection group finds an entry (the coastal paper's N_m), group ``entry`` of
     :class:`VolumeTracks`: a track starts when at least ``particles`` of a detection group's
     particles have likelihood above ``v_pi``, from those of the largest connected patch of the
     image they cover.
@@ -448,8 +449,8 @@ class VolumeEntry(Component):
     blob_block_px: ClassVar[int] = 8
 
 
-class VolumeExit(Component):
-    """When a track ends (the coastal paper's N_out), part ``exit`` of :class:`VolumeTracks`.
+class VolumeExit(ParamGroup):
+    """When a track ends (the coastal paper's N_out), group ``exit`` of :class:`VolumeTracks`.
 
     {params}
     """
@@ -474,8 +475,8 @@ class VolumeExit(Component):
         return n_above <= int(self.particles)
 
 
-class VolumeMask(Component):
-    """Where particles may live, part ``mask`` of :class:`VolumeTracks`: every particle in its
+class VolumeMask(ParamGroup):
+    """Where particles may live, group ``mask`` of :class:`VolumeTracks`: every particle in its
     volume; a detection group's particles off the tracked intruders' image boxes; a track's
     particles in its gate, and off the pixels whose colour a neighbour's template claims.
 
@@ -512,8 +513,8 @@ class VolumeMask(Component):
     colour_share_max_barred: ClassVar[float] = 0.7
 
 
-class VolumeMerge(Component):
-    """When two tracks are one intruder (the younger ends), part ``merge`` of
+class VolumeMerge(ParamGroup):
+    """When two tracks are one intruder (the younger ends), group ``merge`` of
     :class:`VolumeTracks`.
 
     {params}
@@ -557,8 +558,8 @@ class VolumeMerge(Component):
         return same
 
 
-class VolumeReid(Component):
-    """Identities kept across losses and crossings, part ``reid`` of :class:`VolumeTracks`.
+class VolumeReid(ParamGroup):
+    """Identities kept across losses and crossings, group ``reid`` of :class:`VolumeTracks`.
 
     {params}
     """
@@ -595,7 +596,7 @@ class VolumeReid(Component):
     min_frames: ClassVar[int] = 5
 
 
-class VolumeFootprint(Component):
+class VolumeFootprint(ParamGroup):
     """The footprint prior of the support-plane correction and what is output of it, part
     ``footprint`` of :class:`VolumeTracks`.
 
@@ -630,20 +631,14 @@ class VolumeFootprint(Component):
     min_speed: ClassVar[float] = 0.3
 
 
-#: The parts of :class:`VolumeTracks`: parameter name -> the component its mapping builds.
-PARTS: dict[str, type[Component]] = {"entry": VolumeEntry, "exit": VolumeExit,
-                                     "mask": VolumeMask, "merge": VolumeMerge,
-                                     "reid": VolumeReid, "footprint": VolumeFootprint}
-
-
 class VolumeTracks(TrackManager):
     """The coastal paper's entry / exit detection in cuboid volumes, for several intruders at once.
 
     Its parameters are grouped by what they decide: ``entry`` (:class:`VolumeEntry`), ``exit``
     (:class:`VolumeExit`), ``mask`` (:class:`VolumeMask`), ``merge`` (:class:`VolumeMerge`),
     ``reid`` (:class:`VolumeReid`) and ``footprint`` (:class:`VolumeFootprint`), each a
-    mapping of that component's parameters (left out: its defaults), e.g. ``merge: {iou:
-    0.5, frames: 3}``.
+    parameter group given as a mapping (keys left out take their defaults), e.g. ``merge:
+    {iou: 0.5, frames: 3}``.
 
     {params}
 
@@ -683,76 +678,18 @@ class VolumeTracks(TrackManager):
                                    "frames); one that ends sooner was noise and is never "
                                    "output (1: every entry is output at once, the paper).",
                                 unit="frames", low=1)
-    entry: dict | None = Param(None, "When a detection group starts a track: {particles, "
-                                     "idle_frames, gather_frames} (VolumeEntry).")
-    exit: dict | None = Param(None, "When a track ends: {particles, frames, established} "
-                                    "(VolumeExit).")
-    mask: dict | None = Param(None, "Where particles may live: {exclusion_margin, "
-                                    "gate_margin, colour_share} (VolumeMask).")
-    merge: dict | None = Param(None, "When two tracks are one intruder: {iou, distance_m, "
-                                     "frames, speed_m} (VolumeMerge).")
-    reid: dict | None = Param(None, "Identities across losses and crossings: {frames, "
-                                    "distance_m, appearance} (VolumeReid).")
-    footprint: dict | None = Param(None, "The footprint prior and its output: {aspect, "
-                                         "min_travel_m, heading_frames, heading_from, held} "
-                                         "(VolumeFootprint).")
+    entry: VolumeEntry = Group(VolumeEntry, "When a detection group starts a track (N_m).")
+    exit: VolumeExit = Group(VolumeExit, "When a track ends (N_out).")
+    mask: VolumeMask = Group(VolumeMask, "Where particles may live.")
+    merge: VolumeMerge = Group(VolumeMerge, "When two tracks are one intruder.")
+    reid: VolumeReid = Group(VolumeReid, "Identities across losses and crossings.")
+    footprint: VolumeFootprint = Group(VolumeFootprint, "The footprint prior of the "
+                                       "support-plane correction, and what is output of it.")
 
     #: A track is output only while its footprint (the support-plane correction) lies inside
     #: its volume's ground footprint: one view sees an intruder through the volume before it
     #: enters and after it leaves; its footprint says where it is.
     footprint_inside: ClassVar[bool] = True
-    #: The parameters that are mappings of a part's parameters (the configuration reference
-    #: lists the parts' parameters as ``entry.particles``, ``merge.iou``...).
-    param_parts: ClassVar[dict[str, type[Component]]] = PARTS
-
-    # -- the parts --------------------------------------------------------------------------
-
-    def _build_parts(self) -> dict[str, Any]:
-        """The parts (:data:`PARTS`) built from their mappings, checked (kept for
-        :meth:`_parts`)."""
-        parts: dict[str, Any] = {}
-        for key, cls in PARTS.items():
-            spec = getattr(self, key)
-            if spec is None:
-                spec = {}
-            if not isinstance(spec, dict):
-                raise ValueError(  # noqa: TRY004 - a configuration error: exit 2, as all are
-                    f"tracks 'volumes': {key} must be a mapping of {cls.__name__}'s "
-                    f"parameters {sorted(cls.declared_params())}, got {spec!r}")
-            try:
-                parts[key] = cls(**spec)
-            except (TypeError, ValueError) as exc:
-                raise ValueError(f"tracks 'volumes' {key}: {exc}") from None
-        self._built = parts
-        return parts
-
-    def _parts(self) -> dict[str, Any]:
-        parts = self.__dict__.get("_built")
-        return self._build_parts() if parts is None else parts
-
-    @property
-    def entry_(self) -> VolumeEntry:
-        return self._parts()["entry"]  # type: ignore[no-any-return]
-
-    @property
-    def exit_(self) -> VolumeExit:
-        return self._parts()["exit"]  # type: ignore[no-any-return]
-
-    @property
-    def mask_(self) -> VolumeMask:
-        return self._parts()["mask"]  # type: ignore[no-any-return]
-
-    @property
-    def merge_(self) -> VolumeMerge:
-        return self._parts()["merge"]  # type: ignore[no-any-return]
-
-    @property
-    def reid_(self) -> VolumeReid:
-        return self._parts()["reid"]  # type: ignore[no-any-return]
-
-    @property
-    def footprint_(self) -> VolumeFootprint:
-        return self._parts()["footprint"]  # type: ignore[no-any-return]
 
     @classmethod
     def _conformance_example(cls) -> Any:
@@ -788,8 +725,7 @@ class VolumeTracks(TrackManager):
             warm_up()  # before the first frame
 
     def _check_relations(self) -> None:
-        self._build_parts()
-        if self.mask_.colour_share and not self.reid_.appearance:
+        if self.mask.colour_share and not self.reid.appearance:
             raise ValueError("tracks 'volumes': mask.colour_share needs reid.appearance: true "
                              "(it reads the tracks' colour templates)")
 
@@ -910,7 +846,7 @@ class VolumeTracks(TrackManager):
             px = self._pixels(tid, points) if len(lo) else np.zeros((0, 2))
             kernel(np.ascontiguousarray(local), lim, np.ascontiguousarray(px, dtype=np.float64),
                    lo, hi, mode == "gate", out)
-            if mode == "gate" and self.mask_.colour_share and len(lo):
+            if mode == "gate" and self.mask.colour_share and len(lo):
                 out &= self._colour_own(tid, px)
             return out
         inside = volume.contains(points)
@@ -924,7 +860,7 @@ class VolumeTracks(TrackManager):
             hit = ((px[:, None, :] >= lo[None]) & (px[:, None, :] <= hi[None])).all(axis=2)
         if mode == "gate":
             keep = inside & hit[:, 0]
-            if self.mask_.colour_share:
+            if self.mask.colour_share:
                 keep &= self._colour_own(tid, px)
             return keep
         return inside & ~hit.any(axis=1)
@@ -987,11 +923,11 @@ class VolumeTracks(TrackManager):
         count. True where nothing decides (no template ready, no such neighbour, off the image,
         NaN)."""
         keep = np.ones(len(px), dtype=np.bool_)
-        n = int(self.reid_.min_frames)
+        n = int(self.reid.min_frames)
         own = self.templates_.get(tid)
         if own is None or own[1] < n:
             return keep
-        dmin = float(self.mask_.colour_share_distance)
+        dmin = float(self.mask.colour_share_distance)
         others = [self.templates_[k][0] for k in self._neighbours(tid)
                   if k in self.templates_ and self.templates_[k][1] >= n
                   and float(bhattacharyya(self.templates_[k][0], own[0])) >= dmin]
@@ -1000,12 +936,12 @@ class VolumeTracks(TrackManager):
         bins, ok = self._colour_bins(px)
         if not len(bins):
             return keep
-        floor = float(self.mask_.colour_share_floor)
-        limit = float(self.mask_.colour_share_ratio) * (own[0].take(bins) + floor)
+        floor = float(self.mask.colour_share_floor)
+        limit = float(self.mask.colour_share_ratio) * (own[0].take(bins) + floor)
         barred = np.zeros(len(bins), dtype=np.bool_)
         for tpl in others:
             barred |= tpl.take(bins) + floor > limit
-        if np.count_nonzero(barred) > float(self.mask_.colour_share_max_barred) * len(px):
+        if np.count_nonzero(barred) > float(self.mask.colour_share_max_barred) * len(px):
             return keep  # hidden behind the neighbour: nothing of its own to keep to
         keep[np.flatnonzero(ok)[barred]] = False
         return keep
@@ -1023,7 +959,7 @@ class VolumeTracks(TrackManager):
         if not boxes:
             return np.zeros((0, 2)), np.zeros((0, 2))
         b = np.array(boxes)
-        m = float(self.mask_.exclusion_margin)
+        m = float(self.mask.exclusion_margin)
         lo = b[:, :2] - m * b[:, 2:]
         hi = b[:, :2] + (1.0 + m) * b[:, 2:]
         gates = [self.gates_.get(k) for k in self.boxes_]
@@ -1055,7 +991,7 @@ class VolumeTracks(TrackManager):
         if px is None:
             px = self.camera_.project(particles[:, list(engine.motion.position_dims)])
         w, h = frame.size_wh
-        bs = int(self.entry_.blob_block_px)
+        bs = int(self.entry.blob_block_px)
         gw, gh = -(-w // bs), -(-h // bs)
         ok, cells = _blocks_of_pixels(px, bs, (gh, gw))
         if not ok.any():
@@ -1088,17 +1024,17 @@ class VolumeTracks(TrackManager):
         travelled that far), else its particles' mean horizontal velocity once faster than
         min_speed, else None."""
         paths = [self.paths_.get(tid)]
-        if self.footprint_.heading_from == "top":
+        if self.footprint.heading_from == "top":
             paths.insert(0 if tid in self.held_ else 1, self.tops_.get(tid))
         d = None
         for path in paths:
             if path and len(path) >= 2:
                 d = path[-1] - path[0]
-                if float(np.hypot(d[0], d[1])) >= float(self.footprint_.min_travel_m):
+                if float(np.hypot(d[0], d[1])) >= float(self.footprint.min_travel_m):
                     break
                 d = None
         if d is None and velocity is not None and \
-                float(np.hypot(velocity[0], velocity[1])) >= float(self.footprint_.min_speed):
+                float(np.hypot(velocity[0], velocity[1])) >= float(self.footprint.min_speed):
             d = np.asarray(velocity[:2], dtype=np.float64)
         if d is None:
             return None
@@ -1111,7 +1047,7 @@ class VolumeTracks(TrackManager):
         u0, v0, u1, _ = base["ends"]
         g = self.camera_.image_to_ground(np.array([[0.5 * (u0 + u1), v0]]), z_m=base["z"])[0]
         if np.isfinite(g[:2]).all():
-            self.tops_.setdefault(tid, deque(maxlen=int(self.footprint_.heading_frames))).append(
+            self.tops_.setdefault(tid, deque(maxlen=int(self.footprint.heading_frames))).append(
                 np.asarray(g[:2], dtype=np.float64))
 
     def _hold(self, tid: int, base: dict[str, Any]) -> None:
@@ -1120,7 +1056,7 @@ class VolumeTracks(TrackManager):
         cloud's foot (the cloud's 98 % row), in the cloud's middle column, lies outside its volume
         (the cloud may be cut there by the volume)."""
         u0, v0, u1, v1 = base["ends"]
-        bs = float(self.entry_.blob_block_px)
+        bs = float(self.entry.blob_block_px)
         row = (math.floor((v1 - 0.02 * (v1 - v0)) / bs) + 1.0) * bs + 0.5
         vol = self.volumes_[self.tracks_[tid]]
         g = self.camera_.image_to_ground(np.array([[0.5 * (u0 + u1), row]]), z_m=base["z"])[0]
@@ -1149,15 +1085,15 @@ class VolumeTracks(TrackManager):
                                  float(self.support_z_m), 0.02, finite=True)
             if base is not None:
                 across, along = base["across"], base["along"]
-                if self.footprint_.heading_from == "top":
+                if self.footprint.heading_from == "top":
                     self._top_path(t.id, base)
-                if self.footprint_.held:
+                if self.footprint.held:
                     self._hold(t.id, base)
                 vel = t.state[3:5] if len(t.state) >= 6 else None
                 heading = self._heading(t.id, across, vel)
                 extra["heading_deg"] = heading
-                if float(self.footprint_.aspect) != 1.0:  # (a square: the heading is moot)
-                    est = _support_finish(cam, base, aspect=float(self.footprint_.aspect),
+                if float(self.footprint.aspect) != 1.0:  # (a square: the heading is moot)
+                    est = _support_finish(cam, base, aspect=float(self.footprint.aspect),
                                           heading_deg=heading)
                 else:
                     est = _support_finish(cam, base)
@@ -1180,7 +1116,7 @@ class VolumeTracks(TrackManager):
             return record
         record.world_m = est["footprint_m"].copy()
         record.size_m = est["size_m"].copy()
-        path = self.paths_.setdefault(t.id, deque(maxlen=int(self.footprint_.heading_frames)))
+        path = self.paths_.setdefault(t.id, deque(maxlen=int(self.footprint.heading_frames)))
         path.append(est["footprint_m"][:2].copy())
         entry.update(footprint_m=est["footprint_m"], size_m=est["size_m"])
         # the estimate's cuboid, and with a typical size: the one on the footprint and where
@@ -1206,10 +1142,10 @@ class VolumeTracks(TrackManager):
             self.look_[t.id] = prior  # (appearance: a typical intruder on the footprint)
             ahead = boxes[2] if np.isfinite(boxes[2]).all() else prior
             self.ahead_[t.id] = ahead
-            if self.mask_.gate_margin is not None:
+            if self.mask.gate_margin is not None:
                 lo = np.minimum(prior[:2], ahead[:2])
                 hi = np.maximum(prior[:2] + prior[2:], ahead[:2] + ahead[2:])
-                g = float(self.mask_.gate_margin)
+                g = float(self.mask.gate_margin)
                 self.gates_[t.id] = np.concatenate([lo - g * prior[2:],
                                                     hi - lo + 2.0 * g * prior[2:]])
             lo = np.minimum(box[:2], prior[:2])
@@ -1268,11 +1204,11 @@ class VolumeTracks(TrackManager):
             if t is None:
                 continue
             n_above = above(t)
-            if n_above > int(self.exit_.particles):
+            if n_above > int(self.exit.particles):
                 self.established_.add(tid)
-            low = self.exit_.low(n_above, tid in self.established_, self.entry_.particles)
+            low = self.exit.low(n_above, tid in self.established_, self.entry.particles)
             self.low_[tid] = self.low_.get(tid, 0) + 1 if low else 0
-            if self.low_[tid] >= int(self.exit_.frames) or tid not in by_id:
+            if self.low_[tid] >= int(self.exit.frames) or tid not in by_id:
                 self.events_.append({"frame": frame.index, "id": tid,
                                      "volume": self.tracks_[tid], "event": "exit"})
                 engine.remove_target(tid)
@@ -1281,7 +1217,7 @@ class VolumeTracks(TrackManager):
         # one intruder tracked twice (overlapping for merge_frames frames): the younger ends
         overlaps: dict[tuple[int, int], int] = {}
         if len(out) > 1:
-            merge = self.merge_
+            merge = self.merge
             xy = v = None
             if merge.distance_m is not None:
                 xy = np.array([r.world_m[:2] if r.world_m is not None else (np.nan, np.nan)
@@ -1299,8 +1235,8 @@ class VolumeTracks(TrackManager):
                         continue
                     key = (out[i].id, out[j].id)
                     overlaps[key] = self.overlaps_.get(key, 0) + 1
-                    if overlaps[key] >= int(self.merge_.frames):
-                        if self.reid_.appearance and out[i].id in self.shown_ and \
+                    if overlaps[key] >= int(self.merge.frames):
+                        if self.reid.appearance and out[i].id in self.shown_ and \
                                 out[j].id in self.shown_ and \
                                 self._mismatch(frame, out[i], out[j]):
                             # the older is on the younger's person: it goes on under the
@@ -1323,12 +1259,12 @@ class VolumeTracks(TrackManager):
             if ll is None or not np.isfinite(ll).any():
                 self._spread(engine, gid, vol)
                 continue
-            if above(g) >= int(self.entry_.particles):
+            if above(g) >= int(self.entry.particles):
                 pos_dims = list(engine.motion.position_dims)
                 parts, parts_px = self._blob(engine, g.particles, frame,
                                              self._current_pixels(g, g.particles[:, pos_dims]))
                 why = self._refusal(parts, engine, parts_px)
-                if why == "small" and self.gather_.get(gid, 0) < int(self.entry_.gather_frames):
+                if why == "small" and self.gather_.get(gid, 0) < int(self.entry.gather_frames):
                     # too small for an intruder yet: the group keeps gathering on it (the
                     # few particles that hit it are resampled and spread over it)
                     self.gather_[gid] = self.gather_.get(gid, 0) + 1
@@ -1359,12 +1295,12 @@ class VolumeTracks(TrackManager):
                 self._spread(engine, gid, vol)
                 continue
             self.idle_[gid] = self.idle_.get(gid, 0) + 1
-            if self.idle_[gid] >= int(self.entry_.idle_frames):
+            if self.idle_[gid] >= int(self.entry.idle_frames):
                 self._spread(engine, gid, vol)
         for tid in list(self.boxes_):
             if tid not in self.tracks_:
                 del self.boxes_[tid]
-        if self.reid_.appearance:
+        if self.reid.appearance:
             self._appearance(frame, out)
         self.image_ = None  # (colour_share reads the frame while it is weighted, not after)
         return self._reidentified(self._confirmed([r for r in out if self._shown(r)]))
@@ -1373,7 +1309,7 @@ class VolumeTracks(TrackManager):
         """The records with their output ids: a track output for the first time whose
         footprint lies within ``reid.distance_m`` of where an output track ended at most
         ``reid.frames`` frames ago takes up that track's id (the nearest; each id once)."""
-        n, r_m = int(self.reid_.frames), float(self.reid_.distance_m)
+        n, r_m = int(self.reid.frames), float(self.reid.distance_m)
         if n > 0 and self.ended_:
             now = int(self.__dict__.get("frame_", 0))
             self.ended_ = [e for e in self.ended_ if now - e[0] <= n]
@@ -1390,7 +1326,7 @@ class VolumeTracks(TrackManager):
             d = np.hypot(xy[:, 0] - first.world_m[0], xy[:, 1] - first.world_m[1])
             d[np.array([e[0] > first.frame for e in self.ended_])] = np.inf
             k = int(np.argmin(d))
-            if self.reid_.appearance and d[k] <= r_m:  # of the ids within reid_m: the best match
+            if self.reid.appearance and d[k] <= r_m:  # of the ids within reid_m: the best match
                 k = self._best_match(tid, d, r_m, k)
             if d[k] <= r_m:
                 self.alias_[tid] = self.ended_.pop(k)[1]
@@ -1413,7 +1349,7 @@ class VolumeTracks(TrackManager):
         best, cost = k, np.inf
         for i in np.flatnonzero(d <= r_m):
             tpl = self.ended_templates_.get(self.ended_[i][1])
-            if tpl is None or tpl[1] < int(self.reid_.min_frames):
+            if tpl is None or tpl[1] < int(self.reid.min_frames):
                 continue
             c = float(bhattacharyya(h, tpl[0]))
             if c < cost:
@@ -1430,7 +1366,7 @@ class VolumeTracks(TrackManager):
                 self.hists_[r.id] = h
         xy = {r.id: r.world_m[:2] for r in out if r.world_m is not None}
         ids = sorted(xy)
-        near = float(self.reid_.near_m)
+        near = float(self.reid.near_m)
         if ids:
             p = np.array([xy[i] for i in ids])
             d = np.hypot(p[:, None, 0] - p[None, :, 0], p[:, None, 1] - p[None, :, 1])
@@ -1441,7 +1377,7 @@ class VolumeTracks(TrackManager):
         together = {(ids[i], ids[j]) for i, j in zip(*np.nonzero(d < near)) if i < j}
         # pairs together before and now apart (both still live, beyond apart * near, image
         # boxes disjoint): test a swap
-        apart = float(self.reid_.apart)
+        apart = float(self.reid.apart)
         box = {r.id: r.box_xywh_px for r in out}
         for a, b in sorted(self.together_ - together):
             if a not in pos or b not in pos:
@@ -1455,7 +1391,7 @@ class VolumeTracks(TrackManager):
             self._maybe_swap(frame, a, b)
         self.together_ = together
         alone = [tid for tid in ids if not np.any(d[pos[tid]] < 2.0 * near)]
-        rate = float(self.reid_.rate)
+        rate = float(self.reid.rate)
         for tid in alone:
             h = self.hists_.get(tid)
             if h is None:
@@ -1468,13 +1404,13 @@ class VolumeTracks(TrackManager):
         """HSV histogram of a track's region: the image box of a typical intruder
         (``object_size_m``) on its footprint, else its record's box."""
         box = self.look_.get(record.id, record.box_xywh_px)
-        return hsv_histogram(frame.image, box, inner=float(self.reid_.inner))
+        return hsv_histogram(frame.image, box, inner=float(self.reid.inner))
 
     def _mismatch(self, frame: Frame, older: TrackRecord, younger: TrackRecord) -> bool:
         """Two tracks on one intruder merge: whether the older's template matches its region
         worse (by ``VolumeReid.margin``) than the younger's matches its own (the older ends
         then, not the younger). False when either template is not ready."""
-        n = int(self.reid_.min_frames)
+        n = int(self.reid.min_frames)
         costs = []
         for r in (older, younger):
             tpl = self.templates_.get(r.id)
@@ -1482,19 +1418,19 @@ class VolumeTracks(TrackManager):
             if tpl is None or tpl[1] < n or h is None:
                 return False
             costs.append(float(bhattacharyya(h, tpl[0])))
-        return costs[0] > costs[1] + float(self.reid_.margin)
+        return costs[0] > costs[1] + float(self.reid.margin)
 
     def _maybe_swap(self, frame: Frame, a: int, b: int) -> None:
         ta, tb = self.templates_.get(a), self.templates_.get(b)
         ha, hb = self.hists_.get(a), self.hists_.get(b)
-        n = int(self.reid_.min_frames)
+        n = int(self.reid.min_frames)
         if ta is None or tb is None or ha is None or hb is None or min(ta[1], tb[1]) < n:
             return
         if a not in self.shown_ or b not in self.shown_:
             return
         kept = float(bhattacharyya(ha, ta[0]) + bhattacharyya(hb, tb[0]))
         swapped = float(bhattacharyya(ha, tb[0]) + bhattacharyya(hb, ta[0]))
-        if swapped + float(self.reid_.margin) >= kept:
+        if swapped + float(self.reid.margin) >= kept:
             return
         self._swap(frame, a, b)
 
@@ -1528,7 +1464,7 @@ class VolumeTracks(TrackManager):
         """A track's footprint velocity (2,), metres per frame, over its last
         ``VolumeMerge.speed_frames`` footprints (NaN before it has that many)."""
         path = self.paths_.get(tid)
-        k = int(self.merge_.speed_frames)
+        k = int(self.merge.speed_frames)
         if not path or len(path) <= k:
             return np.full(2, np.nan)
         return (path[-1] - path[-1 - k]) / k
@@ -1585,20 +1521,20 @@ class VolumeTracks(TrackManager):
         if not len(px):
             return "none"
         est = None
-        if self.object_size_m is not None or self.merge_.distance_m is not None:
+        if self.object_size_m is not None or self.merge.distance_m is not None:
             # (support_plane_estimate of the finite pixels)
             base = _support_base(self.camera_, px, float(self.support_z_m), 0.02, finite=True)
             if base is None:
                 return "none"
             est = _support_finish(self.camera_, base)
-            if self.merge_.distance_m is not None and self.paths_:
+            if self.merge.distance_m is not None and self.paths_:
                 xy = np.array([p[-1] for p in self.paths_.values() if p])
                 if len(xy) and np.hypot(*(xy - est["footprint_m"][:2]).T).min() \
-                        < float(self.merge_.distance_m):
+                        < float(self.merge.distance_m):
                     return "tracked"
             if self.object_size_m is not None:
                 size = np.asarray(self.object_size_m, dtype=np.float64)
-                f = float(self.entry_.min_size_fraction)
+                f = float(self.entry.min_size_fraction)
                 if est["size_m"][0] < f * size[0] or est["size_m"][1] < f * size[1]:
                     return "small"
         if not self.boxes_:
@@ -1611,5 +1547,5 @@ class VolumeTracks(TrackManager):
         area = max(float(np.prod(hi - lo)), 1e-9)
         b = np.array(list(self.boxes_.values()))
         ov = np.clip(np.minimum(hi, b[:, :2] + b[:, 2:]) - np.maximum(lo, b[:, :2]), 0, None)
-        inside = ov.prod(axis=1) / area > float(self.entry_.spawn_overlap)
+        inside = ov.prod(axis=1) / area > float(self.entry.spawn_overlap)
         return "tracked" if bool(inside.any()) else None

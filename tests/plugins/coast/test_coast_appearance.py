@@ -32,7 +32,7 @@ def _record(frame: int, tid: int, xy, box) -> TrackRecord:
 def _manager(**kw) -> VolumeTracks:
     cam = Camera.look_at((0.0, -40.0, 20.0), (0.0, 0.0, 0.0), (640, 480), fx=600.0)
     m = VolumeTracks(volumes="near", reid={"appearance": True}, **kw)
-    m.reid_.min_frames = 3  # (a fixed setting, 5 in a run: fewer frames here)
+    m.reid.min_frames = 3  # (a fixed setting, 5 in a run: fewer frames here)
     m.setup(RunContext(camera=cam))
     m.shown_ |= {1, 2}
     return m
@@ -107,8 +107,8 @@ def test_no_swap_when_the_tracks_kept_their_people_or_colours_do_not_tell():
 
 
 def test_appearance_is_off_by_default_and_its_fixed_settings_are_no_options():
-    assert VolumeTracks().reid_.appearance is False
-    with pytest.raises(ValueError, match=r"reid: .*unexpected parameters \['rate'\]"):
+    assert VolumeTracks().reid.appearance is False
+    with pytest.raises(ValueError, match="unknown parameter 'reid.rate'"):
         VolumeTracks(volumes="near", reid={"rate": 0.2})
 
 

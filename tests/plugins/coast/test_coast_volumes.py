@@ -21,7 +21,6 @@ from pftrack.geometry.volumes import CuboidVolume
 from pftrack.metrics import evaluate
 from pftrack_basic.motion import ConstantVelocity3DMotion
 from pftrack_coast.volumes import (
-    PARTS,
     InsideBoxesLikelihood,
     VolumeTracks,
     cuboid_box,
@@ -58,16 +57,17 @@ def _tracks(**kw) -> VolumeTracks:
     attributes that are no parameters, e.g. ``mask: {colour_share_max_barred: 1}``) set on the
     built parts."""
     fixed = {}
-    for key, cls in PARTS.items():
-        if key in kw:
+    for key, decl in VolumeTracks.declared_params().items():
+        group = getattr(decl, "group", None)
+        if group is not None and key in kw:
             spec = dict(kw[key])
-            fixed[key] = {k: spec.pop(k) for k in list(spec) if k not in cls.declared_params()}
+            fixed[key] = {k: spec.pop(k) for k in list(spec) if k not in group.declared_params()}
             kw[key] = spec
     tracks = VolumeTracks(**kw)
     for key, values in fixed.items():
         for k, v in values.items():
-            assert hasattr(PARTS[key], k), k
-            setattr(tracks._parts()[key], k, v)
+            assert hasattr(getattr(tracks, key), k), k
+            setattr(getattr(tracks, key), k, v)
     return tracks
 
 
@@ -205,15 +205,16 @@ def test_volume_tracks_bad_parameters_are_named():
         VolumeTracks(volumes="near", object_size_m=(1, 2)).setup(ctx)
     with pytest.raises(ValueError, match="unknown volume 'nowhere'"):
         VolumeTracks(volumes="nowhere").setup(ctx)
-    with pytest.raises(ValueError, match="tracks 'volumes' entry: .*'particles'"):
+    with pytest.raises(ValueError, match="'entry.particles' must be an integer >= 1"):
         VolumeTracks(volumes="near", entry={"particles": 0}).setup(ctx)
-    with pytest.raises(ValueError, match="'gather_frames' must be an integer >= 0"):
+    with pytest.raises(ValueError, match="'entry.gather_frames' must be an integer >= 0"):
         VolumeTracks(volumes="near", entry={"gather_frames": -1}).setup(ctx)
-    with pytest.raises(ValueError, match="volumes' merge: .*'speed_m' must be a number > 0"):
+    with pytest.raises(ValueError, match="'merge.speed_m' must be a number > 0"):
         VolumeTracks(volumes="near", merge={"speed_m": -0.1}).setup(ctx)
-    with pytest.raises(ValueError, match=r"merge: .*unexpected parameters \['merge_iou'\]"):
+    with pytest.raises(ValueError, match=r"unknown parameter 'merge.merge_iou' \(parameters of "
+                                         r"merge: iou, distance_m, frames, speed_m\)"):
         VolumeTracks(volumes="near", merge={"merge_iou": 0.5})
-    with pytest.raises(ValueError, match="exit must be a mapping of VolumeExit's parameters"):
+    with pytest.raises(ValueError, match="'exit' must be a mapping of exit parameters"):
         VolumeTracks(volumes="near", exit=3)
 
 
@@ -520,7 +521,7 @@ def test_heading_from_the_cloud_top_sees_a_car_driving_along_the_view(heading_fr
 
 
 def test_heading_from_and_exit_established_are_checked():
-    with pytest.raises(ValueError, match="'heading_from' must be one of 'footprint', 'top'"):
+    with pytest.raises(ValueError, match="'footprint.heading_from' must be one of 'footprint'"):
         VolumeTracks(volumes=["near"], footprint={"heading_from": "feet"}).setup(
             RunContext(camera=_camera()))
 
@@ -705,7 +706,7 @@ def test_colour_share_in_both_region_paths(monkeypatch):
     image[:] = img[0, 200]
     cols = np.clip(np.floor(px[left]).astype(int), 0, [639, 479])
     image[cols[:, 1], cols[:, 0]] = img[0, 0]
-    tracks.reid_.appearance, tracks.mask_.colour_share = True, True
+    tracks.reid.appearance, tracks.mask.colour_share = True, True
     tracks.image_, tracks.frame_ = image, 10 ** 6
     tracks.templates_ = {tid: (red, 9), 999: (blue, 9)}
     own = tracks._colour_own(tid, px)
