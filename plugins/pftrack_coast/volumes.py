@@ -7,28 +7,29 @@ the one engine (:class:`pftrack.engine.tracker.MultiTargetTracker`):
 * one **detection group** per volume: particles spread uniformly through the cuboid (velocity
   0); a particle outside its volume gets likelihood 0 (``Target.valid_region``); the group is
   filtered like any target (predict, weight, resample) so that it gathers on what changed;
-* **entry** when at least ``entry_particles`` (N_m) of the group's particles have likelihood
+* **entry** when at least ``entry.particles`` (N_m) of the group's particles have likelihood
   above ``v_pi`` in a frame: a **track** starts from the group's particles (those of the largest
   connected patch of the image they cover), and the group is spread uniformly again; also
-  after ``idle_frames`` frames without an entry;
+  after ``entry.idle_frames`` frames without an entry;
 * **several intruders**: the group's particles that project into a tracked intruder's image box
-  (enlarged by ``exclusion_margin``) get likelihood 0, so what a track explains is taken away
+  (enlarged by ``mask.exclusion_margin``) get likelihood 0, so what a track explains is taken away
   from the group and the next intruder can be found; two tracks whose boxes overlap by more
-  than ``merge_iou`` are one intruder and the younger ends;
-* **exit** when no more than ``exit_particles`` (N_out) of a track's particles have likelihood
-  above ``v_pi`` for ``exit_frames`` frames in a row (1: the paper): the track ends.
+  than ``merge.iou`` are one intruder and the younger ends;
+* **exit** when no more than ``exit.particles`` (N_out) of a track's particles have likelihood
+  above ``v_pi`` for ``exit.frames`` frames in a row (1: the paper): the track ends.
 
 Identities beyond the paper (each off by default): a candidate entry too small for an intruder
-keeps its group gathering on it for ``gather_frames`` frames instead of being spread again at
-once (an intruder half-seen by the uniform spread looks small); two tracks moving apart faster
-than ``merge_speed_m`` do not merge (people crossing); a new track starting within ``reid_m`` of
-where an output track ended at most ``reid_frames`` frames before takes up its id; with
-``appearance`` each track keeps an HSV colour histogram of its cuboid's image region (updated while
-no other track is within ``appearance_near_m``), two tracks that were together and separate swap
-their output ids when the swapped histograms match their templates better, and a re-identified
-track takes up the ended id whose template it matches best; with ``colour_share`` two tracks
+keeps its group gathering on it for ``entry.gather_frames`` frames instead of being spread again at
+once (an intruder half-seen by the uniform spread looks small); two tracks moving apart faster than
+``merge.speed_m`` do not merge (people crossing); a new track starting within ``reid.distance_m``
+of where an output track ended at most ``reid.frames`` frames before takes up its id; with
+``reid.appearance`` each track keeps an HSV colour histogram of its cuboid's image region (updated
+while no other track is within ``VolumeReid.near_m``), two tracks that were together and separate
+swap their output ids when the swapped histograms match their templates better, and a re-identified
+track takes up the ended id whose template it matches best; with ``mask.colour_share`` two tracks
 whose gates overlap share the image by colour: a track's particle on a pixel whose colour the
-neighbour's template explains ``colour_share_ratio`` times better than its own gets likelihood 0.
+neighbour's template explains ``VolumeMask.colour_share_ratio`` times better than its own gets
+likelihood 0.
 
 Estimates per frame (each output :class:`~pftrack.contracts.components.TrackRecord`):
 
@@ -44,8 +45,9 @@ Estimates per frame (each output :class:`~pftrack.contracts.components.TrackReco
   plane) and the height (the top row on the vertical over the back of the footprint). The depth
   along the view cannot be seen from one view at a grazing angle (a 2.3 m deep boat at 300 m
   from 20 m up moves its top edge by a third of a pixel); it comes from a footprint prior: a
-  rectangle whose long side (``footprint_aspect`` times the short one) points along the track's
-  direction of travel on the plane (across the view when it has not moved ``min_travel_m``).
+  rectangle whose long side (``footprint.aspect`` times the short one) points along the track's
+  direction of travel on the plane (across the view when it has not moved
+  ``footprint.min_travel_m``).
 
 The image box of the cloud spans its 2 % to 98 % quantiles per image axis, widened to the ends
 of a uniform spread with those quantiles.
@@ -56,14 +58,16 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 from pftrack.contracts.components import (
     Detections,
     Frame,
+    Group,
     Likelihood,
     Param,
+    ParamGroup,
     RunContext,
     Target,
     TrackManager,
@@ -412,8 +416,229 @@ class InsideBoxesLikelihood(Likelihood):
         return np.where(hit, math.log(float(self.inside)), math.log(float(self.outside)))
 
 
+class VolumeEntry(ParamGroup):
+    """How a detection group finds an entry (the coastal paper's N_m), group ``entry`` of
+    :class:`VolumeTracks`: a track starts when at least ``particles`` of a detection group's
+    particles have likelihood above ``v_pi``, from those of the largest connected patch of the
+    image they cover.
+
+    {params}
+    """
+
+    particles: int = Param(50, "N_m: an entry when at least this many particles of a "
+                               "detection group have likelihood above v_pi.", unit="count",
+                           low=1)
+    idle_frames: int = Param(10, "A detection group without an entry for this many frames is "
+                                 "spread uniformly through its volume again.", unit="frames",
+                             low=1)
+    gather_frames: int = Param(
+        0, "With object_size_m: a detection group whose entry candidate is too small "
+        "(min_size_fraction of the typical width or height) keeps gathering on it, without "
+        "being spread again, for up to this many frames (its few hits are resampled and spread "
+        "over the intruder, which then looks its size); 0: it is spread again at once.",
+        unit="frames", low=0)
+
+    #: With object_size_m: an entry whose particles span less than this fraction of the
+    #: typical width or height (on the support plane) is a fringe or noise: no new track.
+    min_size_fraction: ClassVar[float] = 0.5
+    #: An entry whose particles' image box lies more than this fraction inside a tracked
+    #: intruder's box is that intruder's fringe: no new track.
+    spawn_overlap: ClassVar[float] = 0.5
+    #: Cell size (pixels) of the image grid on which a new track takes the largest connected
+    #: patch of its group's particles (the likelihood's blocks).
+    blob_block_px: ClassVar[int] = 8
+
+
+class VolumeExit(ParamGroup):
+    """When a track ends (the coastal paper's N_out), group ``exit`` of :class:`VolumeTracks`.
+
+    {params}
+    """
+
+    particles: int = Param(10, "N_out: a track ends when no more than this many of its "
+                               "particles have likelihood above v_pi.", unit="count", low=0)
+    frames: int = Param(1, "Frames in a row at or below N_out before a track ends (1: the "
+                           "paper).", unit="frames", low=1)
+    established: bool = Param(
+        False, "A track is held to N_out only once it has had more than N_out particles above "
+        "v_pi (its particles have gathered on its intruder); before that it ends when fewer "
+        "than N_m (entry.particles) are (the evidence that started it is gone). False: N_out "
+        "from the first frame (the paper), which ends a new track on an intruder smaller than "
+        "its first frame's spread one frame after its entry.")
+
+    def low(self, n_above: int, gathered: bool, entry_particles: int) -> bool:
+        """Whether a track with ``n_above`` particles above v_pi is low this frame (an exit
+        after ``frames`` low frames in a row). ``gathered``: it has had more than N_out
+        particles above v_pi before; ``entry_particles``: N_m."""
+        if self.established and not gathered:
+            return n_above < int(entry_particles)  # not gathered yet: N_m holds it
+        return n_above <= int(self.particles)
+
+
+class VolumeMask(ParamGroup):
+    """Where particles may live, group ``mask`` of :class:`VolumeTracks`: every particle in its
+    volume; a detection group's particles off the tracked intruders' image boxes; a track's
+    particles in its gate, and off the pixels whose colour a neighbour's template claims.
+
+    {params}
+    """
+
+    exclusion_margin: float = Param(0.2, "A tracked intruder's image box, enlarged by this "
+                                         "fraction of its size per side, is taken away from "
+                                         "the detection groups.", unit="1", low=0.0)
+    gate_margin: float | None = Param(
+        0.5, "With object_size_m: a track's particles live only where they project into the "
+        "image boxes of a cuboid of that size on its last footprint and where its recent "
+        "motion takes it next, enlarged by this fraction of the size per side (one "
+        "intruder's particles do not spread onto a neighbour). None: no gate.", unit="1",
+        low=0.0)
+    colour_share: bool = Param(
+        False, "With reid.appearance: among tracks whose gates overlap, a track's particle "
+        "whose pixel's colour (its bin of the HSV histograms) is more than colour_share_ratio "
+        "times as likely under a neighbouring track's template as under its own gets "
+        "likelihood 0: a neighbour's blob cannot take a track's particles where the colours "
+        "say whose they are. Colour (8-bit BGR) frames only; a grey frame bars nothing.")
+
+    #: colour_share bars a particle whose pixel's colour a neighbour's template explains more
+    #: than this many times better than the track's own.
+    colour_share_ratio: ClassVar[float] = 1.25
+    #: Added to both templates' bin probabilities before colour_share's ratio: a colour
+    #: neither template holds decides nothing.
+    colour_share_floor: ClassVar[float] = 0.01
+    #: colour_share acts only between tracks whose templates lie at least this Bhattacharyya
+    #: distance apart (alike templates decide nothing).
+    colour_share_distance: ClassVar[float] = 0.35
+    #: When colour_share would bar more than this fraction of a track's particles (its
+    #: intruder hidden behind a neighbour), it bars none.
+    colour_share_max_barred: ClassVar[float] = 0.7
+
+
+class VolumeMerge(ParamGroup):
+    """When two tracks are one intruder (the younger ends), group ``merge`` of
+    :class:`VolumeTracks`.
+
+    {params}
+    """
+
+    iou: float = Param(0.5, "Two tracks whose image boxes overlap by more than this for "
+                            "frames frames in a row are one intruder: the younger ends.",
+                       unit="1", low=0.0, high=1.0)
+    distance_m: float | None = Param(
+        None, "Two tracks whose footprints are closer than this (metres) are one intruder too "
+        "(with the same frames), and an entry that close to a track's footprint is that "
+        "track's; None: only the image overlap.", unit="m", low=0.0, low_open=True)
+    frames: int = Param(5, "Frames in a row of overlap before two tracks merge (two "
+                           "intruders crossing overlap for a while and stay two).",
+                        unit="frames", low=1)
+    speed_m: float | None = Param(
+        None, "Two tracks whose footprint velocities (over speed_frames) differ by more than "
+        "this (metres per frame) do not merge however close: two intruders crossing, not one "
+        "tracked twice (which moves as one). None: no velocity test.", unit="m/frame",
+        low=0.0, low_open=True)
+
+    #: Frames over which speed_m's footprint velocities are measured.
+    speed_frames: ClassVar[int] = 4
+
+    def same(self, boxes_xywh_px: np.ndarray, ground_xy: np.ndarray | None,
+             velocities: np.ndarray | None) -> np.ndarray:
+        """Which pairs of K tracks look like one intruder this frame (K, K) bool: image boxes
+        (K, 4) overlapping by more than ``iou``, or footprints ``ground_xy`` (K, 2), metres,
+        closer than ``distance_m``; but not footprint ``velocities`` (K, 2), metres per frame,
+        differing by more than ``speed_m`` (NaN: not known yet, may merge). ``ground_xy`` and
+        ``velocities`` are read only when ``distance_m`` and ``speed_m`` are set."""
+        same = iou_matrix(boxes_xywh_px, boxes_xywh_px) > float(self.iou)
+        if self.distance_m is not None and ground_xy is not None:
+            xy = ground_xy
+            d = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
+            same |= d < float(self.distance_m)
+        if self.speed_m is not None and velocities is not None:
+            v = velocities  # crossing intruders move apart: not one
+            dv = np.hypot(v[:, None, 0] - v[None, :, 0], v[:, None, 1] - v[None, :, 1])
+            same &= ~(dv > float(self.speed_m))
+        return same
+
+
+class VolumeReid(ParamGroup):
+    """Identities kept across losses and crossings, group ``reid`` of :class:`VolumeTracks`.
+
+    {params}
+    """
+
+    frames: int = Param(
+        0, "A new track whose first output footprint lies within distance_m of where an output "
+        "track ended (exit or merge) at most this many frames before takes up that track's id "
+        "(a person lost in an occlusion and found again); 0: every track a new id (the "
+        "paper).", unit="frames", low=0)
+    distance_m: float = Param(1.5, "Distance on the support plane for frames.", unit="m",
+                              low=0.0, low_open=True)
+    appearance: bool = Param(
+        False, "Per-track appearance: an HSV histogram of each track's cuboid image region "
+        "(updated while alone); two tracks that were within near_m and separate swap output "
+        "ids when the swapped histograms match the templates better by margin, a merge ends "
+        "the older track when its template matches its region worse, and re-identification "
+        "takes the best-matching ended id within distance_m (False: positions only).")
+
+    #: Template update rate per frame while a track is alone.
+    rate: ClassVar[float] = 0.1
+    #: Tracks whose footprints are closer than this (metres) are together; a track is alone
+    #: (its template updated) with no other within twice this.
+    near_m: ClassVar[float] = 1.0
+    #: Two tracks together are apart (a swap is tested) once their footprints are farther
+    #: than this times near_m and their image boxes are disjoint.
+    apart: ClassVar[float] = 1.5
+    #: Fraction of a track's image region's width (about its centre) whose colours its
+    #: histogram counts.
+    inner: ClassVar[float] = 0.4
+    #: Bhattacharyya distance (summed over a pair) by which a swapped match must beat the kept
+    #: one.
+    margin: ClassVar[float] = 0.05
+    #: Frames alone before a track's template is used.
+    min_frames: ClassVar[int] = 5
+
+
+class VolumeFootprint(ParamGroup):
+    """The footprint prior of the support-plane correction and what is output of it, part
+    ``footprint`` of :class:`VolumeTracks`.
+
+    {params}
+    """
+
+    aspect: float = Param(1.0, "Length / width of an intruder's footprint (1: a person; about "
+                               "3 for boats and cars).", unit="1", low=0.0, low_open=True)
+    min_travel_m: float = Param(2.0, "A track's heading is the direction of its footprint's "
+                                     "travel over the last heading_frames once it exceeds "
+                                     "this distance (before: across the view).", unit="m",
+                                low=0.0)
+    heading_frames: int = Param(15, "Frames over which the heading is measured.",
+                                unit="frames", low=1)
+    heading_from: str = Param(
+        "footprint", "What min_travel_m's travel is measured on: 'footprint' (the footprint's "
+        "centre) or 'top': the footprint's, but the travel of the particle cloud's top centre "
+        "pixel put on the support plane while the footprint is held (held) or has not yet "
+        "travelled min_travel_m (a point at a constant height h moves there in the same "
+        "direction as the object, scaled by H / (H - h); the top is not held at the volume's "
+        "near face as the foot row is while an intruder is seen through the volume from in "
+        "front of it).", choices=("footprint", "top"))
+    held: bool = Param(
+        False, "A track is not output while its foot row may be held by the volume: while the "
+        "image row of blob_block_px cells (the likelihood's blocks) below the one holding the "
+        "cloud's foot sees the support plane outside the volume, the particles, which live in "
+        "the volume, could not follow an intruder's foot that is nearer than the volume's near "
+        "face, so the footprint may be that face's, not the intruder's.")
+
+    #: Before the footprint has travelled min_travel_m, the heading is the particles' mean
+    #: horizontal velocity once faster than this (metres per time step; state entries 3, 4).
+    min_speed: ClassVar[float] = 0.3
+
+
 class VolumeTracks(TrackManager):
     """The coastal paper's entry / exit detection in cuboid volumes, for several intruders at once.
+
+    Its parameters are grouped by what they decide: ``entry`` (:class:`VolumeEntry`), ``exit``
+    (:class:`VolumeExit`), ``mask`` (:class:`VolumeMask`), ``merge`` (:class:`VolumeMerge`),
+    ``reid`` (:class:`VolumeReid`) and ``footprint`` (:class:`VolumeFootprint`), each a
+    parameter group given as a mapping (keys left out take their defaults), e.g. ``merge:
+    {iou: 0.5, frames: 3}``.
 
     {params}
 
@@ -437,158 +662,34 @@ class VolumeTracks(TrackManager):
         ("near", "far"), "Detection volumes: names (built in, or defined in the shipped "
         "``calib/*.yaml``), 'FILE' (every volume of a volumes YAML) / 'FILE:NAME', or volume "
         "mappings as in a volumes file.")
-    entry_particles: int = Param(50, "N_m: an entry when at least this many particles of a "
-                                     "detection group have likelihood above v_pi.", unit="count",
-                                     low=1)
-    exit_particles: int = Param(10, "N_out: a track ends when no more than this many of its "
-                                    "particles have likelihood above v_pi.", unit="count", low=0)
     v_pi: float = Param(0.5, "Likelihood threshold in (0, 1) of the entry and exit counts.",
                         unit="1", low=0.0, low_open=True, high=1.0, high_open=True)
-    exit_frames: int = Param(1, "Frames in a row at or below N_out before a track ends "
-                                "(1: the paper).", unit="frames", low=1)
-    exit_established: bool = Param(
-        False, "A track is held to N_out only once it has had more than N_out particles above "
-        "v_pi (its particles have gathered on its intruder); before that it ends when fewer "
-        "than N_m are (the evidence that started it is gone). False: N_out from the first "
-        "frame (the paper), which ends a new track on an intruder smaller than its first "
-        "frame's spread one frame after its entry.")
-    idle_frames: int = Param(10, "A detection group without an entry for this many frames is "
-                                 "spread uniformly through its volume again.", unit="frames", low=1)
-    exclusion_margin: float = Param(0.2, "A tracked intruder's image box, enlarged by this "
-                                         "fraction of its size per side, is taken away from "
-                                         "the detection groups.", unit="1", low=0.0)
-    merge_iou: float = Param(0.5, "Two tracks whose image boxes overlap by more than this "
-                                  "for merge_frames frames in a row are one intruder: the "
-                                  "younger ends.", unit="1", low=0.0, high=1.0)
-    merge_distance_m: float | None = Param(
-        None, "Two tracks whose footprints are closer than this (metres) are one intruder too "
-        "(with the same merge_frames); None: only the image overlap.", unit="m",
-        low=0.0, low_open=True)
-    merge_frames: int = Param(5, "Frames in a row of overlap before two tracks merge (two "
-                                 "intruders crossing overlap for a while and stay two).",
-                              unit="frames", low=1)
-    merge_speed_m: float | None = Param(
-        None, "Two tracks whose footprint velocities (over merge_speed_frames) differ by more "
-        "than this (metres per frame) do not merge however close: two intruders crossing, not "
-        "one tracked twice (which moves as one). None: no velocity test.", unit="m/frame",
-        low=0.0, low_open=True)
-    merge_speed_frames: int = Param(4, "Frames over which merge_speed_m's velocities are "
-                                       "measured.", unit="frames", low=1)
-    reid_frames: int = Param(
-        0, "A new track whose first output footprint lies within reid_m of where an output "
-        "track ended (exit or merge) at most this many frames before takes up that track's id "
-        "(a person lost in an occlusion and found again); 0: every track a new id (the "
-        "paper).", unit="frames", low=0)
-    reid_m: float = Param(1.5, "Distance on the support plane for reid_frames.", unit="m",
-                          low=0.0, low_open=True)
-    appearance: bool = Param(
-        False, "Per-track appearance: an HSV histogram of each track's cuboid image region "
-        "(updated while alone); two tracks that were within appearance_near_m and separate "
-        "swap output ids when the swapped histograms match the templates better by "
-        "appearance_margin, and re-identification takes the best-matching ended id within "
-        "reid_m (False: positions only).")
-    appearance_rate: float = Param(0.1, "Template update rate per frame while a track is alone.",
-                                   unit="1", low=0.0, low_open=True, high=1.0)
-    appearance_near_m: float = Param(
-        1.0, "Tracks whose footprints are closer than this are together; a track is alone (its "
-        "template updated) with no other within twice this.", unit="m", low=0.0, low_open=True)
-    appearance_apart: float = Param(
-        1.5, "Two tracks together are apart (a swap is tested) once their footprints are "
-        "farther than this times appearance_near_m and their image boxes are disjoint.",
-        unit="1", low=0.0)
-    appearance_inner: float = Param(
-        0.4, "Fraction of the region's width (about its centre) whose colours are counted.",
-        unit="1", low=0.0, low_open=True, high=1.0)
-    appearance_margin: float = Param(
-        0.05, "Bhattacharyya distance (sum over the pair) by which the swapped match must beat "
-        "the kept one.", unit="1", low=0.0)
-    appearance_min_frames: int = Param(
-        5, "Frames alone before a track's template is used.", unit="frames", low=1)
+    object_size_m: Sequence[float] | None = Param(
+        None, "A typical intruder's size (width across the view, height, depth along it), "
+        "metres: a new track's particles are jittered by half of it (so that a track started "
+        "on part of an intruder soon covers all of it), each track takes away from the "
+        "detection groups at least the image box of a cuboid this size on its footprint, and "
+        "mask.gate_margin gates a track's particles about that box. None: none of these.",
+        unit="m", low=0.0, low_open=True, length=3)
+    support_z_m: float = Param(0.0, "Height of the plane intruders rest on (sea level, the "
+                                    "ground), metres.", unit="m")
     confirm_frames: int = Param(3, "A new track is output once it has lived this many frames "
                                    "(its records from the entry on, so confirmation costs no "
                                    "frames); one that ends sooner was noise and is never "
                                    "output (1: every entry is output at once, the paper).",
                                 unit="frames", low=1)
-    support_z_m: float = Param(0.0, "Height of the plane intruders rest on (sea level, the "
-                                    "ground), metres.", unit="m")
-    footprint_aspect: float = Param(1.0, "Length / width of an intruder's footprint (1: a "
-                                         "person; about 3 for boats and cars).", unit="1",
-                                         low=0.0, low_open=True)
-    min_travel_m: float = Param(2.0, "A track's heading is the direction of its footprint's "
-                                     "travel over the last heading_frames once it exceeds "
-                                     "this distance (before: across the view).", unit="m", low=0.0)
-    heading_frames: int = Param(15, "Frames over which the heading is measured.", unit="frames",
-                                low=1)
-    heading_from: str = Param(
-        "footprint", "What min_travel_m's travel is measured on: 'footprint' (the footprint's "
-        "centre) or 'top': the footprint's, but the travel of the particle cloud's top centre "
-        "pixel put on the support plane while the footprint is held (footprint_held) or has "
-        "not yet travelled min_travel_m (a point at a constant height h moves there in the "
-        "same direction as the object, scaled by H / (H - h); the top is not held at the "
-        "volume's near face as the foot row is while an intruder is seen through the volume "
-        "from in front of it).", choices=("footprint", "top"))
-    min_speed: float = Param(0.3, "Before the footprint has travelled min_travel_m: the heading "
-                                  "is the particles' mean horizontal velocity once faster than "
-                                  "this (metres per time step; state entries 3, 4).", unit="m/dt",
-                                  low=0.0)
-    object_size_m: Sequence[float] | None = Param(
-        None, "A typical intruder's size (width across the view, height, depth along it), "
-        "metres: a new track's particles are jittered by half of it (so that a track started "
-        "on part of an intruder soon covers all of it), and each track takes away from the "
-        "detection groups at least the image box of a cuboid this size on its footprint. "
-        "None: neither.", unit="m", low=0.0, low_open=True, length=3)
-    gate_margin: float | None = Param(
-        0.5, "With object_size_m: a track's particles live only where they project into the "
-        "image boxes of a cuboid of that size on its last footprint and where its recent "
-        "motion takes it next, enlarged by this fraction of the size per side (one "
-        "intruder's particles do not spread onto a neighbour). None: no gate.", unit="1", low=0.0)
-    min_size_fraction: float = Param(
-        0.5, "With object_size_m: an entry whose particles span less than this fraction of the "
-        "typical width or height (on the support plane) is a fringe or noise: no new track.",
-        unit="1", low=0.0)
-    gather_frames: int = Param(
-        0, "With object_size_m: a detection group whose entry candidate is too small "
-        "(min_size_fraction) keeps gathering on it, without being spread again, for up to this "
-        "many frames (its few hits are resampled and spread over the intruder, which then "
-        "looks its size); 0: it is spread again at once.", unit="frames", low=0)
-    spawn_overlap: float = Param(0.5, "An entry whose particles' image box lies more than this "
-                                      "fraction inside a tracked intruder's box is that "
-                                      "intruder's fringe: no new track.", unit="1",
-                                      low=0.0, high=1.0)
-    footprint_inside: bool = Param(
-        True, "Output a track only while its footprint (the support-plane correction) lies "
-        "inside its volume's ground footprint: one view sees an intruder through the volume "
-        "before it enters and after it leaves; its footprint says where it is (False: the "
-        "paper, output while the particles see it).")
-    footprint_held: bool = Param(
-        False, "With footprint_inside: a track is not output while its foot row may be held "
-        "by the volume: while the image row of blob_block_px cells (the likelihood's blocks) "
-        "below the one holding the cloud's foot sees the support plane outside the volume, "
-        "the particles, which live in the volume, could not follow an intruder's foot that "
-        "is nearer than the volume's near face, so the footprint may be that face's, not the "
-        "intruder's.")
-    colour_share: bool = Param(
-        False, "With appearance: among tracks whose gates overlap, a track's particle whose "
-        "pixel's colour (its bin of the HSV histograms) is more than colour_share_ratio times "
-        "as likely under a neighbouring track's template as under its own gets likelihood 0: "
-        "a neighbour's blob cannot take a track's particles where the colours say whose they "
-        "are. Colour (8-bit BGR) frames only; a grey frame bars nothing.")
-    colour_share_ratio: float = Param(
-        1.25, "colour_share's ratio (>= 1; chosen on PETS frames 401-600).", unit="1", low=1.0)
-    colour_share_floor: float = Param(
-        0.01, "Added to both templates' bin probabilities before colour_share's ratio (> 0): "
-        "a colour neither template holds decides nothing.", unit="1", low=0.0, low_open=True)
-    colour_share_distance: float = Param(
-        0.35, "colour_share only between tracks whose templates lie at least this "
-        "Bhattacharyya distance apart (in [0, 1); alike templates decide nothing; chosen on "
-        "PETS frames 401-600).", unit="1", low=0.0, high=1.0, high_open=True)
-    colour_share_max_barred: float = Param(
-        0.7, "When colour_share would bar more than this fraction (in (0, 1]) of a track's "
-        "particles (its intruder hidden behind a neighbour), it bars none.", unit="1",
-        low=0.0, low_open=True, high=1.0)
-    blob_block_px: int = Param(8, "Cell size (pixels) of the image grid on which a new track "
-                                  "takes the largest connected patch of the group's particles.",
-                               unit="px", low=1)
+    entry: VolumeEntry = Group(VolumeEntry, "When a detection group starts a track (N_m).")
+    exit: VolumeExit = Group(VolumeExit, "When a track ends (N_out).")
+    mask: VolumeMask = Group(VolumeMask, "Where particles may live.")
+    merge: VolumeMerge = Group(VolumeMerge, "When two tracks are one intruder.")
+    reid: VolumeReid = Group(VolumeReid, "Identities across losses and crossings.")
+    footprint: VolumeFootprint = Group(VolumeFootprint, "The footprint prior of the "
+                                       "support-plane correction, and what is output of it.")
+
+    #: A track is output only while its footprint (the support-plane correction) lies inside
+    #: its volume's ground footprint: one view sees an intruder through the volume before it
+    #: enters and after it leaves; its footprint says where it is.
+    footprint_inside: ClassVar[bool] = True
 
     @classmethod
     def _conformance_example(cls) -> Any:
@@ -603,7 +704,7 @@ class VolumeTracks(TrackManager):
         cam = Camera.look_at((0.0, -40.0, 20.0), (0.0, 0.0, 0.0), (160, 120), fx=150.0)
         vol = CuboidVolume([0.0, 0.0, 1.0], [60.0, 60.0, 2.0], None, "kit")
         return ConformanceExample(
-            cls(volumes=[vol.to_dict()], entry_particles=3, exit_particles=2,
+            cls(volumes=[vol.to_dict()], entry={"particles": 3}, exit={"particles": 2},
                 object_size_m=(1, 2, 1)),
             context=RunContext(camera=cam),
             engine={"motion": ConstantVelocity3DMotion(position_noise=0.3),
@@ -624,9 +725,9 @@ class VolumeTracks(TrackManager):
             warm_up()  # before the first frame
 
     def _check_relations(self) -> None:
-        if self.colour_share and not self.appearance:
-            raise ValueError("tracks 'volumes': colour_share needs appearance: true (it reads "
-                             "the tracks' colour templates)")
+        if self.mask.colour_share and not self.reid.appearance:
+            raise ValueError("tracks 'volumes': mask.colour_share needs reid.appearance: true "
+                             "(it reads the tracks' colour templates)")
 
     def _start(self) -> None:
         """The volumes resolved and the per-run state made, once."""
@@ -732,7 +833,7 @@ class VolumeTracks(TrackManager):
     def _in_region(self, tid: int, volume: Any, mode: str, points: np.ndarray) -> np.ndarray:
         """Where particles of target ``tid`` may be: in ``volume``, and (``"exclude"``, a
         detection group) outside every tracked intruder's box enlarged by
-        ``exclusion_margin`` and outside its gate, or (``"gate"``, a track) inside its gate.
+        ``mask.exclusion_margin`` and outside its gate, or (``"gate"``, a track) inside its gate.
         For a cuboid, one compiled pass (:func:`pftrack_coast._kernels.region_mask`, the same
         comparisons)."""
         kernel = _kernel("region_mask") if isinstance(volume, CuboidVolume) else None
@@ -745,7 +846,7 @@ class VolumeTracks(TrackManager):
             px = self._pixels(tid, points) if len(lo) else np.zeros((0, 2))
             kernel(np.ascontiguousarray(local), lim, np.ascontiguousarray(px, dtype=np.float64),
                    lo, hi, mode == "gate", out)
-            if mode == "gate" and self.colour_share and len(lo):
+            if mode == "gate" and self.mask.colour_share and len(lo):
                 out &= self._colour_own(tid, px)
             return out
         inside = volume.contains(points)
@@ -759,7 +860,7 @@ class VolumeTracks(TrackManager):
             hit = ((px[:, None, :] >= lo[None]) & (px[:, None, :] <= hi[None])).all(axis=2)
         if mode == "gate":
             keep = inside & hit[:, 0]
-            if self.colour_share:
+            if self.mask.colour_share:
                 keep &= self._colour_own(tid, px)
             return keep
         return inside & ~hit.any(axis=1)
@@ -814,18 +915,19 @@ class VolumeTracks(TrackManager):
         return idx[v[ok].astype(np.intp), u[ok].astype(np.intp)], ok
 
     def _colour_own(self, tid: int, px: np.ndarray) -> np.ndarray:
-        """``colour_share``: whether each pixel (N, 2) is not more than
-        ``colour_share_ratio`` times as likely, by its colour, under a neighbouring track's
-        template as under track ``tid``'s own (both plus ``colour_share_floor``); only
-        neighbours whose gates overlap ``tid``'s and whose templates are ready and lie at
-        least ``colour_share_distance`` from ``tid``'s count. True where nothing decides
-        (no template ready, no such neighbour, off the image, NaN)."""
+        """``mask.colour_share``: whether each pixel (N, 2) is not more than
+        ``VolumeMask.colour_share_ratio`` times as likely, by its colour, under a neighbouring
+        track's template as under track ``tid``'s own (both plus
+        ``VolumeMask.colour_share_floor``); only neighbours whose gates overlap ``tid``'s and whose
+        templates are ready and lie at least ``VolumeMask.colour_share_distance`` from ``tid``'s
+        count. True where nothing decides (no template ready, no such neighbour, off the image,
+        NaN)."""
         keep = np.ones(len(px), dtype=np.bool_)
-        n = int(self.appearance_min_frames)
+        n = int(self.reid.min_frames)
         own = self.templates_.get(tid)
         if own is None or own[1] < n:
             return keep
-        dmin = float(self.colour_share_distance)
+        dmin = float(self.mask.colour_share_distance)
         others = [self.templates_[k][0] for k in self._neighbours(tid)
                   if k in self.templates_ and self.templates_[k][1] >= n
                   and float(bhattacharyya(self.templates_[k][0], own[0])) >= dmin]
@@ -834,12 +936,12 @@ class VolumeTracks(TrackManager):
         bins, ok = self._colour_bins(px)
         if not len(bins):
             return keep
-        floor = float(self.colour_share_floor)
-        limit = float(self.colour_share_ratio) * (own[0].take(bins) + floor)
+        floor = float(self.mask.colour_share_floor)
+        limit = float(self.mask.colour_share_ratio) * (own[0].take(bins) + floor)
         barred = np.zeros(len(bins), dtype=np.bool_)
         for tpl in others:
             barred |= tpl.take(bins) + floor > limit
-        if np.count_nonzero(barred) > float(self.colour_share_max_barred) * len(px):
+        if np.count_nonzero(barred) > float(self.mask.colour_share_max_barred) * len(px):
             return keep  # hidden behind the neighbour: nothing of its own to keep to
         keep[np.flatnonzero(ok)[barred]] = False
         return keep
@@ -847,7 +949,7 @@ class VolumeTracks(TrackManager):
     def _region_boxes(self, tid: int, mode: str) -> tuple[np.ndarray, np.ndarray]:
         """The image boxes of :meth:`_in_region` as corners ``lo``, ``hi`` (B, 2): a track's
         gate (``"gate"``; none without one), or the tracked intruders' boxes enlarged by
-        ``exclusion_margin`` and widened to their gates (``"exclude"``)."""
+        ``mask.exclusion_margin`` and widened to their gates (``"exclude"``)."""
         if mode == "gate":
             gate = self.gates_.get(tid)
             if gate is None:
@@ -857,7 +959,7 @@ class VolumeTracks(TrackManager):
         if not boxes:
             return np.zeros((0, 2)), np.zeros((0, 2))
         b = np.array(boxes)
-        m = float(self.exclusion_margin)
+        m = float(self.mask.exclusion_margin)
         lo = b[:, :2] - m * b[:, 2:]
         hi = b[:, :2] + (1.0 + m) * b[:, 2:]
         gates = [self.gates_.get(k) for k in self.boxes_]
@@ -881,15 +983,15 @@ class VolumeTracks(TrackManager):
 
     def _blob(self, engine: Any, particles: np.ndarray, frame: Frame,
               px: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """The particles of the largest 8-connected patch (in cells of ``blob_block_px``) of
-        the image they cover, resampled to the engine's count, and their pixels (``px``: the
-        particles' pixels when known, else projected)."""
+        """The particles of the largest 8-connected patch (in cells of
+        ``VolumeEntry.blob_block_px``) of the image they cover, resampled to the engine's count,
+        and their pixels (``px``: the particles' pixels when known, else projected)."""
         import cv2
 
         if px is None:
             px = self.camera_.project(particles[:, list(engine.motion.position_dims)])
         w, h = frame.size_wh
-        bs = int(self.blob_block_px)
+        bs = int(self.entry.blob_block_px)
         gw, gh = -(-w // bs), -(-h // bs)
         ok, cells = _blocks_of_pixels(px, bs, (gh, gw))
         if not ok.any():
@@ -922,17 +1024,17 @@ class VolumeTracks(TrackManager):
         travelled that far), else its particles' mean horizontal velocity once faster than
         min_speed, else None."""
         paths = [self.paths_.get(tid)]
-        if self.heading_from == "top":
+        if self.footprint.heading_from == "top":
             paths.insert(0 if tid in self.held_ else 1, self.tops_.get(tid))
         d = None
         for path in paths:
             if path and len(path) >= 2:
                 d = path[-1] - path[0]
-                if float(np.hypot(d[0], d[1])) >= float(self.min_travel_m):
+                if float(np.hypot(d[0], d[1])) >= float(self.footprint.min_travel_m):
                     break
                 d = None
         if d is None and velocity is not None and \
-                float(np.hypot(velocity[0], velocity[1])) >= float(self.min_speed):
+                float(np.hypot(velocity[0], velocity[1])) >= float(self.footprint.min_speed):
             d = np.asarray(velocity[:2], dtype=np.float64)
         if d is None:
             return None
@@ -945,16 +1047,16 @@ class VolumeTracks(TrackManager):
         u0, v0, u1, _ = base["ends"]
         g = self.camera_.image_to_ground(np.array([[0.5 * (u0 + u1), v0]]), z_m=base["z"])[0]
         if np.isfinite(g[:2]).all():
-            self.tops_.setdefault(tid, deque(maxlen=int(self.heading_frames))).append(
+            self.tops_.setdefault(tid, deque(maxlen=int(self.footprint.heading_frames))).append(
                 np.asarray(g[:2], dtype=np.float64))
 
     def _hold(self, tid: int, base: dict[str, Any]) -> None:
-        """``footprint_held``: track ``tid`` is in ``held_`` while the support-plane point of
-        the first pixel row of the ``blob_block_px`` cells below the cell row holding its
-        cloud's foot (the cloud's 98 % row), in the cloud's middle column, lies outside its
-        volume (the cloud may be cut there by the volume)."""
+        """``footprint.held``: track ``tid`` is in ``held_`` while the support-plane point of the
+        first pixel row of the ``VolumeEntry.blob_block_px`` cells below the cell row holding its
+        cloud's foot (the cloud's 98 % row), in the cloud's middle column, lies outside its volume
+        (the cloud may be cut there by the volume)."""
         u0, v0, u1, v1 = base["ends"]
-        bs = float(self.blob_block_px)
+        bs = float(self.entry.blob_block_px)
         row = (math.floor((v1 - 0.02 * (v1 - v0)) / bs) + 1.0) * bs + 0.5
         vol = self.volumes_[self.tracks_[tid]]
         g = self.camera_.image_to_ground(np.array([[0.5 * (u0 + u1), row]]), z_m=base["z"])[0]
@@ -983,15 +1085,15 @@ class VolumeTracks(TrackManager):
                                  float(self.support_z_m), 0.02, finite=True)
             if base is not None:
                 across, along = base["across"], base["along"]
-                if self.heading_from == "top":
+                if self.footprint.heading_from == "top":
                     self._top_path(t.id, base)
-                if self.footprint_held:
+                if self.footprint.held:
                     self._hold(t.id, base)
                 vel = t.state[3:5] if len(t.state) >= 6 else None
                 heading = self._heading(t.id, across, vel)
                 extra["heading_deg"] = heading
-                if float(self.footprint_aspect) != 1.0:  # (a square: the heading is moot)
-                    est = _support_finish(cam, base, aspect=float(self.footprint_aspect),
+                if float(self.footprint.aspect) != 1.0:  # (a square: the heading is moot)
+                    est = _support_finish(cam, base, aspect=float(self.footprint.aspect),
                                           heading_deg=heading)
                 else:
                     est = _support_finish(cam, base)
@@ -1014,7 +1116,7 @@ class VolumeTracks(TrackManager):
             return record
         record.world_m = est["footprint_m"].copy()
         record.size_m = est["size_m"].copy()
-        path = self.paths_.setdefault(t.id, deque(maxlen=int(self.heading_frames)))
+        path = self.paths_.setdefault(t.id, deque(maxlen=int(self.footprint.heading_frames)))
         path.append(est["footprint_m"][:2].copy())
         entry.update(footprint_m=est["footprint_m"], size_m=est["size_m"])
         # the estimate's cuboid, and with a typical size: the one on the footprint and where
@@ -1040,10 +1142,10 @@ class VolumeTracks(TrackManager):
             self.look_[t.id] = prior  # (appearance: a typical intruder on the footprint)
             ahead = boxes[2] if np.isfinite(boxes[2]).all() else prior
             self.ahead_[t.id] = ahead
-            if self.gate_margin is not None:
+            if self.mask.gate_margin is not None:
                 lo = np.minimum(prior[:2], ahead[:2])
                 hi = np.maximum(prior[:2] + prior[2:], ahead[:2] + ahead[2:])
-                g = float(self.gate_margin)
+                g = float(self.mask.gate_margin)
                 self.gates_[t.id] = np.concatenate([lo - g * prior[2:],
                                                     hi - lo + 2.0 * g * prior[2:]])
             lo = np.minimum(box[:2], prior[:2])
@@ -1102,14 +1204,11 @@ class VolumeTracks(TrackManager):
             if t is None:
                 continue
             n_above = above(t)
-            if n_above > int(self.exit_particles):
+            if n_above > int(self.exit.particles):
                 self.established_.add(tid)
-            if self.exit_established and tid not in self.established_:
-                low = n_above < int(self.entry_particles)  # not gathered yet: N_m holds it
-            else:
-                low = n_above <= int(self.exit_particles)
+            low = self.exit.low(n_above, tid in self.established_, self.entry.particles)
             self.low_[tid] = self.low_.get(tid, 0) + 1 if low else 0
-            if self.low_[tid] >= int(self.exit_frames) or tid not in by_id:
+            if self.low_[tid] >= int(self.exit.frames) or tid not in by_id:
                 self.events_.append({"frame": frame.index, "id": tid,
                                      "volume": self.tracks_[tid], "event": "exit"})
                 engine.remove_target(tid)
@@ -1118,17 +1217,14 @@ class VolumeTracks(TrackManager):
         # one intruder tracked twice (overlapping for merge_frames frames): the younger ends
         overlaps: dict[tuple[int, int], int] = {}
         if len(out) > 1:
-            boxes = np.array([r.box_xywh_px for r in out])
-            same = iou_matrix(boxes, boxes) > float(self.merge_iou)
-            if self.merge_distance_m is not None:
+            merge = self.merge
+            xy = v = None
+            if merge.distance_m is not None:
                 xy = np.array([r.world_m[:2] if r.world_m is not None else (np.nan, np.nan)
                                for r in out])
-                d = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
-                same |= d < float(self.merge_distance_m)
-            if self.merge_speed_m is not None:  # crossing intruders move apart: not one
+            if merge.speed_m is not None:
                 v = np.array([self._velocity(r.id) for r in out])
-                dv = np.hypot(v[:, None, 0] - v[None, :, 0], v[:, None, 1] - v[None, :, 1])
-                same &= ~(dv > float(self.merge_speed_m))  # (NaN: not known yet, may merge)
+            same = merge.same(np.array([r.box_xywh_px for r in out]), xy, v)
             drop: set[int] = set()
             order = sorted(range(len(out)), key=lambda i: out[i].id)  # older first
             for a_i, i in enumerate(order):
@@ -1139,8 +1235,8 @@ class VolumeTracks(TrackManager):
                         continue
                     key = (out[i].id, out[j].id)
                     overlaps[key] = self.overlaps_.get(key, 0) + 1
-                    if overlaps[key] >= int(self.merge_frames):
-                        if self.appearance and out[i].id in self.shown_ and \
+                    if overlaps[key] >= int(self.merge.frames):
+                        if self.reid.appearance and out[i].id in self.shown_ and \
                                 out[j].id in self.shown_ and \
                                 self._mismatch(frame, out[i], out[j]):
                             # the older is on the younger's person: it goes on under the
@@ -1163,12 +1259,12 @@ class VolumeTracks(TrackManager):
             if ll is None or not np.isfinite(ll).any():
                 self._spread(engine, gid, vol)
                 continue
-            if above(g) >= int(self.entry_particles):
+            if above(g) >= int(self.entry.particles):
                 pos_dims = list(engine.motion.position_dims)
                 parts, parts_px = self._blob(engine, g.particles, frame,
                                              self._current_pixels(g, g.particles[:, pos_dims]))
                 why = self._refusal(parts, engine, parts_px)
-                if why == "small" and self.gather_.get(gid, 0) < int(self.gather_frames):
+                if why == "small" and self.gather_.get(gid, 0) < int(self.entry.gather_frames):
                     # too small for an intruder yet: the group keeps gathering on it (the
                     # few particles that hit it are resampled and spread over it)
                     self.gather_[gid] = self.gather_.get(gid, 0) + 1
@@ -1199,21 +1295,21 @@ class VolumeTracks(TrackManager):
                 self._spread(engine, gid, vol)
                 continue
             self.idle_[gid] = self.idle_.get(gid, 0) + 1
-            if self.idle_[gid] >= int(self.idle_frames):
+            if self.idle_[gid] >= int(self.entry.idle_frames):
                 self._spread(engine, gid, vol)
         for tid in list(self.boxes_):
             if tid not in self.tracks_:
                 del self.boxes_[tid]
-        if self.appearance:
+        if self.reid.appearance:
             self._appearance(frame, out)
         self.image_ = None  # (colour_share reads the frame while it is weighted, not after)
         return self._reidentified(self._confirmed([r for r in out if self._shown(r)]))
 
     def _reidentified(self, out: list[TrackRecord]) -> list[TrackRecord]:
         """The records with their output ids: a track output for the first time whose
-        footprint lies within ``reid_m`` of where an output track ended at most
-        ``reid_frames`` frames ago takes up that track's id (the nearest; each id once)."""
-        n, r_m = int(self.reid_frames), float(self.reid_m)
+        footprint lies within ``reid.distance_m`` of where an output track ended at most
+        ``reid.frames`` frames ago takes up that track's id (the nearest; each id once)."""
+        n, r_m = int(self.reid.frames), float(self.reid.distance_m)
         if n > 0 and self.ended_:
             now = int(self.__dict__.get("frame_", 0))
             self.ended_ = [e for e in self.ended_ if now - e[0] <= n]
@@ -1230,7 +1326,7 @@ class VolumeTracks(TrackManager):
             d = np.hypot(xy[:, 0] - first.world_m[0], xy[:, 1] - first.world_m[1])
             d[np.array([e[0] > first.frame for e in self.ended_])] = np.inf
             k = int(np.argmin(d))
-            if self.appearance and d[k] <= r_m:  # of the ids within reid_m: the best match
+            if self.reid.appearance and d[k] <= r_m:  # of the ids within reid_m: the best match
                 k = self._best_match(tid, d, r_m, k)
             if d[k] <= r_m:
                 self.alias_[tid] = self.ended_.pop(k)[1]
@@ -1253,7 +1349,7 @@ class VolumeTracks(TrackManager):
         best, cost = k, np.inf
         for i in np.flatnonzero(d <= r_m):
             tpl = self.ended_templates_.get(self.ended_[i][1])
-            if tpl is None or tpl[1] < int(self.appearance_min_frames):
+            if tpl is None or tpl[1] < int(self.reid.min_frames):
                 continue
             c = float(bhattacharyya(h, tpl[0]))
             if c < cost:
@@ -1270,7 +1366,7 @@ class VolumeTracks(TrackManager):
                 self.hists_[r.id] = h
         xy = {r.id: r.world_m[:2] for r in out if r.world_m is not None}
         ids = sorted(xy)
-        near = float(self.appearance_near_m)
+        near = float(self.reid.near_m)
         if ids:
             p = np.array([xy[i] for i in ids])
             d = np.hypot(p[:, None, 0] - p[None, :, 0], p[:, None, 1] - p[None, :, 1])
@@ -1281,7 +1377,7 @@ class VolumeTracks(TrackManager):
         together = {(ids[i], ids[j]) for i, j in zip(*np.nonzero(d < near)) if i < j}
         # pairs together before and now apart (both still live, beyond apart * near, image
         # boxes disjoint): test a swap
-        apart = float(self.appearance_apart)
+        apart = float(self.reid.apart)
         box = {r.id: r.box_xywh_px for r in out}
         for a, b in sorted(self.together_ - together):
             if a not in pos or b not in pos:
@@ -1295,7 +1391,7 @@ class VolumeTracks(TrackManager):
             self._maybe_swap(frame, a, b)
         self.together_ = together
         alone = [tid for tid in ids if not np.any(d[pos[tid]] < 2.0 * near)]
-        rate = float(self.appearance_rate)
+        rate = float(self.reid.rate)
         for tid in alone:
             h = self.hists_.get(tid)
             if h is None:
@@ -1308,13 +1404,13 @@ class VolumeTracks(TrackManager):
         """HSV histogram of a track's region: the image box of a typical intruder
         (``object_size_m``) on its footprint, else its record's box."""
         box = self.look_.get(record.id, record.box_xywh_px)
-        return hsv_histogram(frame.image, box, inner=float(self.appearance_inner))
+        return hsv_histogram(frame.image, box, inner=float(self.reid.inner))
 
     def _mismatch(self, frame: Frame, older: TrackRecord, younger: TrackRecord) -> bool:
         """Two tracks on one intruder merge: whether the older's template matches its region
-        worse (by ``appearance_margin``) than the younger's matches its own (the older ends
+        worse (by ``VolumeReid.margin``) than the younger's matches its own (the older ends
         then, not the younger). False when either template is not ready."""
-        n = int(self.appearance_min_frames)
+        n = int(self.reid.min_frames)
         costs = []
         for r in (older, younger):
             tpl = self.templates_.get(r.id)
@@ -1322,19 +1418,19 @@ class VolumeTracks(TrackManager):
             if tpl is None or tpl[1] < n or h is None:
                 return False
             costs.append(float(bhattacharyya(h, tpl[0])))
-        return costs[0] > costs[1] + float(self.appearance_margin)
+        return costs[0] > costs[1] + float(self.reid.margin)
 
     def _maybe_swap(self, frame: Frame, a: int, b: int) -> None:
         ta, tb = self.templates_.get(a), self.templates_.get(b)
         ha, hb = self.hists_.get(a), self.hists_.get(b)
-        n = int(self.appearance_min_frames)
+        n = int(self.reid.min_frames)
         if ta is None or tb is None or ha is None or hb is None or min(ta[1], tb[1]) < n:
             return
         if a not in self.shown_ or b not in self.shown_:
             return
         kept = float(bhattacharyya(ha, ta[0]) + bhattacharyya(hb, tb[0]))
         swapped = float(bhattacharyya(ha, tb[0]) + bhattacharyya(hb, ta[0]))
-        if swapped + float(self.appearance_margin) >= kept:
+        if swapped + float(self.reid.margin) >= kept:
             return
         self._swap(frame, a, b)
 
@@ -1366,9 +1462,9 @@ class VolumeTracks(TrackManager):
 
     def _velocity(self, tid: int) -> np.ndarray:
         """A track's footprint velocity (2,), metres per frame, over its last
-        ``merge_speed_frames`` footprints (NaN before it has that many)."""
+        ``VolumeMerge.speed_frames`` footprints (NaN before it has that many)."""
         path = self.paths_.get(tid)
-        k = int(self.merge_speed_frames)
+        k = int(self.merge.speed_frames)
         if not path or len(path) <= k:
             return np.full(2, np.nan)
         return (path[-1] - path[-1 - k]) / k
@@ -1412,10 +1508,11 @@ class VolumeTracks(TrackManager):
     def _refusal(self, particles: np.ndarray, engine: Any,
                  px: np.ndarray | None = None) -> str | None:
         """Why ``particles`` are not a new intruder: ``"small"`` (smaller than
-        ``min_size_fraction`` of ``object_size_m``), ``"tracked"`` (on a tracked one's footprint,
-        ``merge_distance_m``, or mostly -- ``spawn_overlap`` -- inside a tracked intruder's image
-        box), ``"none"`` (no footprint: nothing projects, or the cloud's foot row misses the
-        support plane); None: a new intruder. ``px``: the particles' pixels when known."""
+        ``VolumeEntry.min_size_fraction`` of ``object_size_m``), ``"tracked"`` (on a tracked one's
+        footprint, ``merge.distance_m``, or mostly -- ``VolumeEntry.spawn_overlap`` -- inside a
+        tracked intruder's image box), ``"none"`` (no footprint: nothing projects, or the cloud's
+        foot row misses the support plane); None: a new intruder. ``px``: the particles' pixels
+        when known."""
         if px is None:
             px = self.camera_.project(particles[:, list(engine.motion.position_dims)])
         fine = _finite_rows(px)
@@ -1424,20 +1521,20 @@ class VolumeTracks(TrackManager):
         if not len(px):
             return "none"
         est = None
-        if self.object_size_m is not None or self.merge_distance_m is not None:
+        if self.object_size_m is not None or self.merge.distance_m is not None:
             # (support_plane_estimate of the finite pixels)
             base = _support_base(self.camera_, px, float(self.support_z_m), 0.02, finite=True)
             if base is None:
                 return "none"
             est = _support_finish(self.camera_, base)
-            if self.merge_distance_m is not None and self.paths_:
+            if self.merge.distance_m is not None and self.paths_:
                 xy = np.array([p[-1] for p in self.paths_.values() if p])
                 if len(xy) and np.hypot(*(xy - est["footprint_m"][:2]).T).min() \
-                        < float(self.merge_distance_m):
+                        < float(self.merge.distance_m):
                     return "tracked"
             if self.object_size_m is not None:
                 size = np.asarray(self.object_size_m, dtype=np.float64)
-                f = float(self.min_size_fraction)
+                f = float(self.entry.min_size_fraction)
                 if est["size_m"][0] < f * size[0] or est["size_m"][1] < f * size[1]:
                     return "small"
         if not self.boxes_:
@@ -1450,5 +1547,5 @@ class VolumeTracks(TrackManager):
         area = max(float(np.prod(hi - lo)), 1e-9)
         b = np.array(list(self.boxes_.values()))
         ov = np.clip(np.minimum(hi, b[:, :2] + b[:, 2:]) - np.maximum(lo, b[:, :2]), 0, None)
-        return "tracked" if bool((ov.prod(axis=1) / area > float(self.spawn_overlap)).any()) \
-            else None
+        inside = ov.prod(axis=1) / area > float(self.entry.spawn_overlap)
+        return "tracked" if bool(inside.any()) else None

@@ -20,6 +20,8 @@ from pftrack.contracts.stages import (
     End,
     FrameView,
     Initiator,
+    Mask,
+    Masker,
     Merger,
     Reidentifier,
     Reporter,
@@ -133,13 +135,15 @@ def test_roles_run_in_the_documented_order_and_see_tracks_read_only():
     stages = [_logged(Merger, "merge")(), _logged(Initiator, "initiate", _births)(),
               _logged(Initiator, "scheduled")(), _logged(Terminator, "terminate")(),
               _logged(Confirmer, "confirm", confirm)(), _logged(Reporter, "report")(),
-              _logged(Sizer, "resize")(), _logged(Reidentifier, "observe")()]
+              _logged(Sizer, "resize")(), _logged(Reidentifier, "observe")(),
+              _logged(Masker, "mask")()]
     _Log.calls = []
     rows = _rows(StagedTracks(stages=stages))
     assert len(rows) and writes and set(writes) == {"refused"}
     # one frame with live tracks: before the predict, then after the estimates in ROLES order
     frame = ["initiator.scheduled", "reidentifier.observe", "sizer.resize", "reporter.report",
-             "confirmer.confirm", "terminator.terminate", "merger.merge", "initiator.initiate"]
+             "confirmer.confirm", "terminator.terminate", "merger.merge", "initiator.initiate",
+             "masker.mask"]
     assert [c.split(".")[0] for c in frame[1:]] == list(ROLES)
     assert _Log.calls[:len(frame)] == frame
     assert _Log.calls[len(frame):2 * len(frame)] == frame
@@ -216,3 +220,53 @@ def test_a_stage_list_reads_pixels_only_through_its_stages():
 
     assert readers(["detection-births", "hit-confirmation", "duplicate-merge"]) == []
     assert readers(["colour-reid", "detection-births"]) == ["stage 'colour-reid'"]
+
+
+class _LeftHalf:
+    """A picklable region: x below ``x_max`` (pixels)."""
+
+    def __init__(self, x_max: float) -> None:
+        self.x_max = x_max
+
+    def __call__(self, positions: np.ndarray) -> np.ndarray:
+        return positions[:, 0] < self.x_max
+
+
+def test_a_maskers_regions_reach_the_weighting_and_can_be_lifted():
+    """A masker's :class:`Mask` sets where a track's particles may live: from the next frame
+    on, its particles beyond the region get likelihood 0 (-inf); a mask of None lifts it; the
+    tracks end only by the filter's rules (the rows are those without masks until then)."""
+    seen: list[tuple[int, float]] = []
+
+    class Halves(Masker):
+        def mask(self, view: FrameView):
+            # every track kept left of its own estimate's x, until frame 10: lifted
+            lift = view.frame.index >= 10
+            return [Mask(t.id, None if lift else _LeftHalf(float(t.state[0])))
+                    for t in view.tracks]
+
+    class Spy(Reidentifier):
+        def observe(self, view: FrameView):
+            seen.append((view.frame.index, len(view.tracks)))
+
+    births = {"type": "unmatched-births", "params": {"min_score": 0.0}}
+    tracks = StagedTracks(stages=[births, Halves(), Spy()])
+    sc = synthetic_scene(seed=3, n_frames=14)
+    tracks.setup(RunContext())
+    eng = MultiTargetTracker(_KitWalk(), _KitNearest(), ImageBoxObservation(20, 40),
+                             tracks=tracks, associator=_KitAssociator(), detection_driven=True,
+                             n_particles=64, init_spread=2.0, max_misses=3,
+                             rng=np.random.default_rng(3))
+    barred = {}
+    for f in sc.frames:
+        eng.step(f, sc.detections(f.index))
+        barred[f.index] = sum(int(np.isneginf(t.log_likelihoods).sum()) for t in eng.targets
+                              if t.log_likelihoods is not None)
+        if f.index >= 10:
+            assert all(t.valid_region is None for t in eng.targets)
+        elif eng.targets:
+            assert all(isinstance(t.valid_region, _LeftHalf) for t in eng.targets)
+    assert seen and max(n for _, n in seen) >= 2
+    # particles right of the last estimate were barred while the masks held, none after
+    assert sum(v for k, v in barred.items() if k <= 10) > 0
+    assert sum(v for k, v in barred.items() if k > 10) == 0

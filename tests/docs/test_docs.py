@@ -104,23 +104,27 @@ def test_report_writers_are_listed(page):
 
 def test_param_declarations_give_type_doc_and_unit():
     from pftrack.host import get_host
+    from pftrack_coast.volumes import VolumeEntry, VolumeFootprint
 
     rows = {r["name"]: r for r in pftrack_docs.component_params(
         get_host().get("tracks", "volumes"))}
-    assert rows["entry_particles"]["default"] == 50 and rows["entry_particles"]["type"] == "int"
-    assert rows["entry_particles"]["doc"].startswith("N_m:")
+    entry = {r["name"]: r for r in pftrack_docs.component_params(VolumeEntry)}
+    footprint = {r["name"]: r for r in pftrack_docs.component_params(VolumeFootprint)}
+    assert entry["particles"]["default"] == 50 and entry["particles"]["type"] == "int"
+    assert entry["particles"]["doc"].startswith("N_m:")
     assert rows["object_size_m"]["unit"] == "m"
     # what a declaration allows is shown as the schema's keys show theirs
     assert rows["v_pi"]["allowed"] == "(0, 1)"
-    assert rows["entry_particles"]["allowed"] == "[1, ∞)"
-    assert rows["heading_from"]["allowed"] == "one of `footprint`, `top`"
+    assert entry["particles"]["allowed"] == "[1, ∞)"
+    assert footprint["heading_from"]["allowed"] == "one of `footprint`, `top`"
     assert rows["object_size_m"]["allowed"] == "(0, ∞); length 3"
 
 
 def test_component_tables_show_what_each_declared_parameter_allows(page):
     rows = _rows(page[page.index("(config-tracks-volumes)="):], "#### `volumes`")
     assert rows["v_pi"][3].endswith("Allowed: (0, 1).")
-    assert rows["merge_speed_m"][3].endswith("Allowed: (0, ∞).")
+    assert rows["merge.speed_m"][3].endswith("Allowed: (0, ∞).")
+    assert rows["entry.particles"][3].endswith("Allowed: [1, ∞).")
     # a parameter group: its row, then one row per key with its dotted name
     rows = _rows(page[page.index("(config-detector-svm)="):], "#### `svm`")
     assert rows["train"][:3] == ["mapping", "—", "—"] and "`train.C`" in rows["train"][3]
@@ -319,7 +323,6 @@ def test_units_read_from_the_code_are_the_right_ones():
         "likelihood.detection.sigma": "detection heights",
         "tracks.confirmed.confirm_hits": "count",
         "tracks.confirmed.confirm_window": "frames",
-        "tracks.volumes.min_speed": "m/dt",
         "motion.constant-velocity-3d.position_noise": "state units per √dt",
         "scene.soccer.fps": "frames/s",
         "scene.walkers.noise_sigma": "grey levels",

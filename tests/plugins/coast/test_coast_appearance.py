@@ -31,7 +31,8 @@ def _record(frame: int, tid: int, xy, box) -> TrackRecord:
 
 def _manager(**kw) -> VolumeTracks:
     cam = Camera.look_at((0.0, -40.0, 20.0), (0.0, 0.0, 0.0), (640, 480), fx=600.0)
-    m = VolumeTracks(volumes="near", appearance=True, appearance_min_frames=3, **kw)
+    m = VolumeTracks(volumes="near", reid={"appearance": True}, **kw)
+    m.reid.min_frames = 3  # (a fixed setting, 5 in a run: fewer frames here)
     m.setup(RunContext(camera=cam))
     m.shown_ |= {1, 2}
     return m
@@ -105,14 +106,10 @@ def test_no_swap_when_the_tracks_kept_their_people_or_colours_do_not_tell():
     assert m.alias_ == {} and m.events_ == []
 
 
-def test_appearance_is_off_by_default_and_bad_parameters_are_named():
-    assert VolumeTracks().appearance is False
-    cam = Camera.look_at((0.0, -40.0, 20.0), (0.0, 0.0, 0.0), (640, 480), fx=600.0)
-    ctx = RunContext(camera=cam)
-    with pytest.raises(ValueError, match="appearance_rate"):
-        VolumeTracks(volumes="near", appearance_rate=0.0).setup(ctx)
-    with pytest.raises(ValueError, match="appearance_near_m"):
-        VolumeTracks(volumes="near", appearance_near_m=-1.0).setup(ctx)
+def test_appearance_is_off_by_default_and_its_fixed_settings_are_no_options():
+    assert VolumeTracks().reid.appearance is False
+    with pytest.raises(ValueError, match="unknown parameter 'reid.rate'"):
+        VolumeTracks(volumes="near", reid={"rate": 0.2})
 
 
 @pytest.mark.parametrize("bins", [(8, 4, 4), (16, 8, 8), (5, 3, 7)])

@@ -52,13 +52,33 @@ def _boxes(cam: Camera, centres: np.ndarray) -> np.ndarray:
     return obs.to_boxes(np.column_stack([centres, np.zeros((len(centres), 3))]))
 
 
+def _tracks(**kw) -> VolumeTracks:
+    """A ``VolumeTracks`` with ``kw``; the fixed settings in its parts' mappings (class
+    attributes that are no parameters, e.g. ``mask: {colour_share_max_barred: 1}``) set on the
+    built parts."""
+    fixed = {}
+    for key, decl in VolumeTracks.declared_params().items():
+        group = getattr(decl, "group", None)
+        if group is not None and key in kw:
+            spec = dict(kw[key])
+            fixed[key] = {k: spec.pop(k) for k in list(spec) if k not in group.declared_params()}
+            kw[key] = spec
+    tracks = VolumeTracks(**kw)
+    for key, values in fixed.items():
+        for k, v in values.items():
+            assert hasattr(getattr(tracks, key), k), k
+            setattr(getattr(tracks, key), k, v)
+    return tracks
+
+
 def _run(seed: int = 0, n_frames: int = 80, walk=None, colours=None, **params):
     cam = _camera()
     vol = CuboidVolume([0.0, 0.0, 1.25], [30.0, 30.0, 2.5], None, "yard")
-    kw = dict(volumes=[vol.to_dict()], entry_particles=5, exit_particles=100,
-              object_size_m=(0.5, 1.75, 0.5), merge_distance_m=0.6)
-    kw.update(params)
-    tracks = VolumeTracks(**kw)
+    kw: dict = dict(volumes=[vol.to_dict()], entry={"particles": 5}, exit={"particles": 100},
+                    object_size_m=(0.5, 1.75, 0.5), merge={"distance_m": 0.6})
+    for k, v in params.items():  # a part's mapping adds to the one above
+        kw[k] = {**kw[k], **v} if isinstance(kw.get(k), dict) else v
+    tracks = _tracks(**kw)
     obs = CameraVolumeObservation(camera=cam, particle_box="point")
     ctx = RunContext(camera=cam)
     for c in (tracks, obs):
@@ -151,7 +171,7 @@ def test_appearance_on_a_colourless_image_keeps_the_tracks_and_learns_templates(
     """On a black image every histogram is the same: appearance can tell no one apart, so the
     tracks are those of positions alone, while each track that was alone has a template."""
     off = _run(seed=3, n_frames=40)
-    on = _run(seed=3, n_frames=40, appearance=True, appearance_min_frames=2)
+    on = _run(seed=3, n_frames=40, reid={"appearance": True, "min_frames": 2})
     assert np.array_equal(off[2], on[2]) and len(on[2]) > 20
     assert not [e for e in on[1].events_ if e["event"] == "swapped"]
     live = set(on[1].tracks_)
@@ -185,14 +205,17 @@ def test_volume_tracks_bad_parameters_are_named():
         VolumeTracks(volumes="near", object_size_m=(1, 2)).setup(ctx)
     with pytest.raises(ValueError, match="unknown volume 'nowhere'"):
         VolumeTracks(volumes="nowhere").setup(ctx)
-    with pytest.raises(ValueError, match="entry_particles"):
-        VolumeTracks(volumes="near", entry_particles=0).setup(ctx)
-    with pytest.raises(ValueError, match="'gather_frames' must be an integer >= 0"):
-        VolumeTracks(volumes="near", gather_frames=-1).setup(ctx)
-    with pytest.raises(ValueError, match="'merge_speed_frames' must be an integer >= 1"):
-        VolumeTracks(volumes="near", merge_speed_frames=0).setup(ctx)
-    with pytest.raises(ValueError, match="'merge_speed_m' must be a number > 0"):
-        VolumeTracks(volumes="near", merge_speed_m=-0.1).setup(ctx)
+    with pytest.raises(ValueError, match="'entry.particles' must be an integer >= 1"):
+        VolumeTracks(volumes="near", entry={"particles": 0}).setup(ctx)
+    with pytest.raises(ValueError, match="'entry.gather_frames' must be an integer >= 0"):
+        VolumeTracks(volumes="near", entry={"gather_frames": -1}).setup(ctx)
+    with pytest.raises(ValueError, match="'merge.speed_m' must be a number > 0"):
+        VolumeTracks(volumes="near", merge={"speed_m": -0.1}).setup(ctx)
+    with pytest.raises(ValueError, match=r"unknown parameter 'merge.merge_iou' \(parameters of "
+                                         r"merge: iou, distance_m, frames, speed_m\)"):
+        VolumeTracks(volumes="near", merge={"merge_iou": 0.5})
+    with pytest.raises(ValueError, match="'exit' must be a mapping of exit parameters"):
+        VolumeTracks(volumes="near", exit=3)
 
 
 def test_engine_target_region_masks_likelihood_and_set_particles_checks_shape():
@@ -309,8 +332,8 @@ def test_gather_frames_keeps_a_too_small_candidate_gathering_before_spreading_ag
 
         VolumeTracks._spread = spy
         try:
-            engine, tracks, rows, *_ = _run(n_frames=30, min_size_fraction=10.0,
-                                             gather_frames=g, idle_frames=1000)
+            engine, tracks, rows, *_ = _run(n_frames=30, entry={
+                "min_size_fraction": 10.0, "gather_frames": g, "idle_frames": 1000})
         finally:
             VolumeTracks._spread = orig
         assert len(rows) == 0  # nothing is large enough to be an intruder
@@ -344,8 +367,8 @@ def _cross(n_frames: int) -> dict[int, np.ndarray]:
 def test_merge_speed_keeps_two_people_crossing_apart(speed):
     """Two tracks close on the ground for merge_frames frames merge (one intruder tracked
     twice), unless their footprints move apart faster than merge_speed_m: two crossing."""
-    engine, tracks, rows, gt, vol, truth = _run(n_frames=60, walk=_cross, merge_distance_m=1.0,
-                                                merge_frames=2, merge_speed_m=speed)
+    engine, tracks, rows, gt, vol, truth = _run(n_frames=60, walk=_cross, merge={
+        "distance_m": 1.0, "frames": 2, "speed_m": speed})
     merged = [e for e in tracks.events_ if e["event"] == "merged"]
     m = evaluate(gt, rows, metric="world", threshold=1.0)
     if speed is None:
@@ -465,8 +488,9 @@ def test_heading_from_the_cloud_top_sees_a_car_driving_along_the_view(heading_fr
     from pftrack_coast.volumes import _support_base, _support_finish
 
     cam, frames = _car_through_the_near_volume()
-    tracks = VolumeTracks(volumes=["near"], footprint_aspect=3.0, min_travel_m=3.0,
-                          heading_frames=15, heading_from=heading_from, footprint_held=True)
+    tracks = VolumeTracks(volumes=["near"], footprint={
+        "aspect": 3.0, "min_travel_m": 3.0, "heading_frames": 15, "heading_from": heading_from,
+        "held": True})
     tracks.setup(RunContext(camera=cam))
     tracks.tracks_[1] = "near"
     fronts: deque = deque(maxlen=15)
@@ -497,8 +521,9 @@ def test_heading_from_the_cloud_top_sees_a_car_driving_along_the_view(heading_fr
 
 
 def test_heading_from_and_exit_established_are_checked():
-    with pytest.raises(ValueError, match="'heading_from' must be one of 'footprint', 'top'"):
-        VolumeTracks(volumes=["near"], heading_from="feet").setup(RunContext(camera=_camera()))
+    with pytest.raises(ValueError, match="'footprint.heading_from' must be one of 'footprint'"):
+        VolumeTracks(volumes=["near"], footprint={"heading_from": "feet"}).setup(
+            RunContext(camera=_camera()))
 
 
 def test_exit_established_holds_a_new_track_to_n_m_until_it_gathers():
@@ -506,12 +531,12 @@ def test_exit_established_holds_a_new_track_to_n_m_until_it_gathers():
     of 2000 particles at first): with the paper's rule each track ends one frame after its
     entry and is never output; with exit_established the same run keeps each person one track
     until they leave: the very tracks of N_out = 100, which new tracks pass at once."""
-    _, paper, rows_p, gt, _, _ = _run(exit_particles=1500)
+    _, paper, rows_p, gt, _, _ = _run(exit={"particles": 1500})
     exits = [e for e in paper.events_ if e["event"] == "exit"]
     entries = [e for e in paper.events_ if e["event"] == "entry"]
     assert len(entries) > 10 and len(exits) >= len(entries) - 2
     assert len(rows_p) == 0
-    _, est, rows, gt, _, _ = _run(exit_particles=1500, exit_established=True)
+    _, est, rows, gt, _, _ = _run(exit={"particles": 1500, "established": True})
     m = evaluate(gt, rows, metric="world", threshold=1.0)
     assert m["MOTA"] > 0.7 and m["IDF1"] > 0.8
     assert len(np.unique(rows[:, 1])) == 2
@@ -528,7 +553,7 @@ def test_footprint_held_while_the_car_is_seen_from_in_front_of_the_volume():
     from pftrack_coast.volumes import _support_base
 
     cam, frames = _car_through_the_near_volume(30)
-    tracks = VolumeTracks(volumes=["near"], footprint_held=True, blob_block_px=8)
+    tracks = VolumeTracks(volumes=["near"], footprint={"held": True})
     tracks.setup(RunContext(camera=cam))
     tracks.tracks_[1] = "near"
     held, fronts = [], []
@@ -610,7 +635,8 @@ def _two_colours() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def _colour_tracks(**params) -> VolumeTracks:
     img, red, blue = _two_colours()
-    tracks = VolumeTracks(volumes=["near"], appearance=True, colour_share=True, **params)
+    tracks = _tracks(volumes=["near"], reid={"appearance": True},
+                     mask={"colour_share": True, **params})
     tracks._start()
     tracks.frame_, tracks.image_ = 7, img
     tracks.tracks_ = {1: "near", 2: "near", 3: "near"}
@@ -664,16 +690,9 @@ def test_colour_share_ratio_and_floor_are_the_bar():
         assert (blue[b] + 0.01 > ratio * (0.5 * blue[b] + 0.01)) == barred
 
 
-@pytest.mark.parametrize("params, name", [
-    (dict(colour_share=True, appearance=False), "colour_share needs appearance"),
-    (dict(colour_share_ratio=0.9), "colour_share_ratio"),
-    (dict(colour_share_floor=0.0), "colour_share_floor"),
-    (dict(colour_share_distance=1.0), "colour_share_distance"),
-    (dict(colour_share_max_barred=0.0), "colour_share_max_barred"),
-])
-def test_colour_share_parameters_are_checked(params, name):
-    with pytest.raises(ValueError, match=name):
-        VolumeTracks(volumes=["near"], **params)
+def test_colour_share_parameters_are_checked():
+    with pytest.raises(ValueError, match="mask.colour_share needs reid.appearance"):
+        VolumeTracks(volumes=["near"], mask={"colour_share": True}, reid={"appearance": False})
 
 
 def test_colour_share_in_both_region_paths(monkeypatch):
@@ -687,7 +706,7 @@ def test_colour_share_in_both_region_paths(monkeypatch):
     image[:] = img[0, 200]
     cols = np.clip(np.floor(px[left]).astype(int), 0, [639, 479])
     image[cols[:, 1], cols[:, 0]] = img[0, 0]
-    tracks.appearance, tracks.colour_share = True, True
+    tracks.reid.appearance, tracks.mask.colour_share = True, True
     tracks.image_, tracks.frame_ = image, 10 ** 6
     tracks.templates_ = {tid: (red, 9), 999: (blue, 9)}
     own = tracks._colour_own(tid, px)
@@ -717,13 +736,42 @@ def test_colour_share_keeps_a_hidden_intruders_track():
     colour_share."""
     red, blue = (20, 20, 220), (220, 30, 20)
     runs = {}
-    for name, kw in (("off", {}), ("all", dict(colour_share=True, colour_share_max_barred=1.0)),
-                     ("capped", dict(colour_share=True))):
+    for name, kw in (("off", {}), ("all", {"colour_share": True, "colour_share_max_barred": 1.0}),
+                     ("capped", {"colour_share": True})):
         _, tracks, rows, gt, _, _ = _run(seed=0, walk=_pass, colours=(red, blue),
-                                         appearance=True, **kw)
+                                         reid={"appearance": True}, mask=kw)
         runs[name] = (len(np.unique(rows[:, 1])), evaluate(gt, rows, metric="world",
                                                              threshold=1.0))
     assert runs["off"][0] == 2 and runs["off"][1]["IDSW"] == 0, runs
     assert runs["all"][0] == 3 and runs["all"][1]["IDF1"] < 0.8, runs
     assert runs["capped"][0] == 2 and runs["capped"][1]["IDSW"] == 0, runs
     assert runs["capped"][1]["IDF1"] > 0.9, runs
+
+
+def test_merge_part_says_which_pairs_are_one_intruder():
+    """``merge``: boxes overlapping by more than ``iou`` or footprints closer than
+    ``distance_m`` are one intruder, unless their footprints' velocities differ by more than
+    ``speed_m`` (an unknown velocity does not veto)."""
+    from pftrack_coast.volumes import VolumeMerge
+
+    boxes = np.array([[0.0, 0.0, 10.0, 10.0], [1.0, 0.0, 10.0, 10.0], [50.0, 0.0, 10.0, 10.0]])
+    xy = np.array([[0.0, 0.0], [3.0, 0.0], [0.5, 0.0]])
+    v = np.array([[0.0, 0.0], [0.2, 0.0], [np.nan, np.nan]])
+    same = VolumeMerge(iou=0.5).same(boxes, xy, v)  # IoU of the first two: 9/11
+    assert same[0, 1] and same[1, 0] and not same[0, 2] and not same[1, 2]
+    same = VolumeMerge(iou=0.5, distance_m=0.6).same(boxes, xy, v)
+    assert same[0, 1] and same[0, 2] and not same[1, 2]  # 0.5 m apart on the ground
+    same = VolumeMerge(iou=0.5, distance_m=0.6, speed_m=0.1).same(boxes, xy, v)
+    assert not same[0, 1] and same[0, 2]  # 0.2 m/frame apart; NaN: may merge
+
+
+def test_exit_part_counts_a_low_frame():
+    """``exit``: low at or below N_out; with ``established`` a track not yet gathered is low
+    below N_m instead."""
+    from pftrack_coast.volumes import VolumeExit
+
+    paper = VolumeExit(particles=10)
+    assert paper.low(10, False, 50) and not paper.low(11, False, 50)
+    held = VolumeExit(particles=10, established=True)
+    assert held.low(49, False, 50) and not held.low(50, False, 50)
+    assert not held.low(49, True, 50) and held.low(10, True, 50)

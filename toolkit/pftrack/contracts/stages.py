@@ -1,9 +1,9 @@
 """The contract of a track lifecycle stage: what a stage sees (:class:`FrameView`,
 :class:`TrackView`, :class:`ModelView`), the decisions it returns (:class:`Birth`, :class:`End`,
 :class:`Confirm`, :class:`Hide`, :class:`OutputBox`, :class:`Resize`,
-:class:`AppearanceScores`) and the stage base classes, one per role (:class:`Initiator`,
-:class:`Confirmer`, :class:`Terminator`, :class:`Merger`, :class:`Reidentifier`, :class:`Sizer`,
-:class:`Reporter`).
+:class:`AppearanceScores`, :class:`Mask`) and the stage base classes, one per role
+(:class:`Initiator`, :class:`Confirmer`, :class:`Terminator`, :class:`Merger`,
+:class:`Reidentifier`, :class:`Sizer`, :class:`Reporter`, :class:`Masker`).
 
 The runner that calls the stages in their fixed order and applies their decisions to the
 engine is :class:`pftrack.engine.lifecycle.LifecycleTracks`; its docstring gives the order.
@@ -37,6 +37,8 @@ __all__ = [
     "Hide",
     "Initiator",
     "LifecycleStage",
+    "Mask",
+    "Masker",
     "Merger",
     "ModelView",
     "OutputBox",
@@ -300,7 +302,27 @@ class AppearanceScores:
     scores: Mapping[int, np.ndarray | None]
 
 
-Decision = Birth | End | Confirm | Hide | OutputBox | Resize | AppearanceScores
+@dataclass(frozen=True)
+class Mask:
+    """Where a live track's particles may live from its next weighting on: a particle whose
+    position ``region`` says False for gets likelihood 0 (``Target.valid_region``). Unlike the
+    run's own valid region, leaving it does not end the track. A track keeps its mask until a
+    later :class:`Mask` replaces it.
+
+    Attributes
+    ----------
+    track_id : int
+    region : callable or None
+        ``region(positions (N, P)) -> bool (N,)``, positions in the motion model's state
+        space (pixels or world metres); None: anywhere (the mask is lifted). It is kept for the
+        frames to come, so it should be picklable and hold neither the engine nor a track.
+    """
+
+    track_id: int
+    region: Callable[[np.ndarray], np.ndarray] | None
+
+
+Decision = Birth | End | Confirm | Hide | OutputBox | Resize | AppearanceScores | Mask
 
 
 # --------------------------------------------------------------------------------------------
@@ -417,9 +439,23 @@ class Reporter(LifecycleStage):
         return ()
 
 
+class Masker(LifecycleStage):
+    """Says where each track's particles may live (a track kept in its volume, off its
+    neighbours)."""
+
+    role: ClassVar[str] = "masker"
+
+    def mask(self, view: FrameView) -> Sequence[Mask]:
+        """:class:`Mask` decisions: called last each frame, after the births (the masks hold
+        from the next frame's weighting on), and before the predict step when given births
+        started tracks. Default: none."""
+        return ()
+
+
 #: The roles in the order the runner calls them after the estimates (the initiator's
-#: ``starts`` and the reidentifier's ``scores`` run before the predict step).
+#: ``scheduled``, the reidentifier's ``scores`` and, after given births, the masker run before
+#: the predict step too).
 ROLES: tuple[str, ...] = ("reidentifier", "sizer", "reporter", "confirmer", "terminator",
-                          "merger", "initiator")
+                          "merger", "initiator", "masker")
 
 

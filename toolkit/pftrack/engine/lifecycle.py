@@ -6,17 +6,19 @@ contract (as Stone Soup's tracker loop has an initiator and a deleter, each a co
 own). A stage sees the frame and the live tracks read-only (:class:`FrameView`,
 :class:`TrackView`), keeps its own per-track state keyed by track id, and returns decisions
 (:class:`Birth`, :class:`End`, :class:`Confirm`, :class:`Hide`, :class:`OutputBox`,
-:class:`Resize`, :class:`AppearanceScores`). No stage receives the engine; one runner,
-:class:`LifecycleTracks`, calls the stages and applies their decisions: births and ends through
-the engine's public methods (``add_target``, ``remove_target``, ``record``), and the per-target
-fields the engine reads but has no method for (``Target.appearance_scores``,
-``Target.box_wh_px``, a newborn's ``frames_tracked``) by setting them on its targets.
+:class:`Resize`, :class:`AppearanceScores`, :class:`Mask`). No stage receives the engine; one
+runner, :class:`LifecycleTracks`, calls the stages and applies their decisions: births and ends
+through the engine's public methods (``add_target``, ``remove_target``, ``record``), and the
+per-target fields the engine reads but has no method for (``Target.appearance_scores``,
+``Target.box_wh_px``, ``Target.valid_region``, a newborn's ``frames_tracked``) by setting them
+on its targets.
 
 Roles and the order the runner calls them in, each frame::
 
     detections
       -> before predict:
-           1. initiator.scheduled      births due at this frame (given boxes)
+           1. initiator.scheduled      births due at this frame (given boxes); when there were
+                                       some, masker.mask (as in 10)
            2. reidentifier.scores      each track's appearance similarity to the detections,
                                        for the associator (``Target.appearance_scores``)
       -> the engine: predict, associate, weight, estimate, resample, the filter's own deaths
@@ -34,6 +36,8 @@ Roles and the order the runner calls them in, each frame::
            9. initiator.initiate       new tracks from the detections no track explains; each
                                        output at once, or held back while a confirmer says it
                                        is tentative
+          10. masker.mask              where each track's particles may live from the next
+                                       weighting on (``Target.valid_region``)
       -> list[TrackRecord]
 
 Stages of one role run in the order they are listed, each seeing the tracks as they were when
@@ -69,6 +73,7 @@ from pftrack.contracts.stages import (
     FrameView,
     Hide,
     LifecycleStage,
+    Mask,
     ModelView,
     OutputBox,
     TrackView,
@@ -219,6 +224,14 @@ class LifecycleTracks(TrackManager):
                     withdrawn.add(d.track_id)
                 engine.remove_target(d.track_id)
 
+    def _apply_masks(self, engine: Any, view: FrameView) -> None:
+        """Ask the maskers and set the live tracks' ``Target.valid_region``."""
+        live = {t.id: t for t in engine.targets}
+        for s in self.by_role_["masker"]:
+            for d in s.mask(view):
+                if isinstance(d, Mask) and d.track_id in live:
+                    live[d.track_id].valid_region = d.region
+
     # -- the engine's two calls -------------------------------------------------------------
 
     def before_frame(self, engine: Any, frame: Frame, detections: Detections | None) -> None:
@@ -233,8 +246,12 @@ class LifecycleTracks(TrackManager):
         seen, seen_detections = self._read_only(frame, detections)
         if roles["initiator"]:
             view = self._view(engine, seen, seen_detections, every, frozenset(), models)
+            n = len(engine.targets)
             for s in roles["initiator"]:
                 self._apply_births(engine, frame, s.scheduled(view), None)
+            if roles["masker"] and len(engine.targets) != n:
+                self._apply_masks(engine, self._view(engine, seen, seen_detections, every,
+                                                     frozenset(), models))
         if roles["reidentifier"]:
             view = self._view(engine, seen, seen_detections, every, frozenset(), models)
             live = {t.id: t for t in engine.targets}
@@ -334,6 +351,8 @@ class LifecycleTracks(TrackManager):
             v = view()
         for s in roles["initiator"]:
             self._apply_births(engine, frame, s.initiate(v), out)
+        if roles["masker"]:
+            self._apply_masks(engine, view())
         return out
 
 
