@@ -292,11 +292,7 @@ def test_the_param_machinery_is_importable_from_components_and_params():
 #: Registered classes that still take their parameters in a hand-written ``__init__`` (their
 #: values are then checked only by annotated type, in a configuration), with why. This list
 #: only shrinks: a class converted to Param must leave it (the test below says so).
-HAND_WRITTEN = {
-    "pftrack.engine.lifecycle.ManualTracks":
-        "an __init__ without parameters; module (the engine's lifecycle) not yet converted",
-    "pftrack.engine.lifecycle.StagedTracks": "module not yet converted (stages: a list of specs)",
-}
+HAND_WRITTEN: dict[str, str] = {}
 
 
 def _registered_classes():

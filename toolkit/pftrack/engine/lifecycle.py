@@ -60,6 +60,7 @@ import numpy as np
 from pftrack.contracts.components import (
     Detections,
     Frame,
+    Param,
     RunContext,
     Target,
     TrackManager,
@@ -362,15 +363,12 @@ class StagedTracks(LifecycleTracks):
     params: {stages: [{type: detection-births, params: {min_score: 0.5}}, hit-confirmation,
     duplicate-merge]}}`` (a full example: the docs page "How tracks start, are confirmed and end").
 
-    Parameters
-    ----------
-    stages : list
-        The stages, each a registered stage name or ``{type: NAME, params: {...}}``; stages of
-        one role run in this order.
+    {params}
     """
 
-    def __init__(self, stages: list[Any] | None = None) -> None:
-        self.stages = stages
+    stages: list[Any] | None = Param(
+        None, "The stages, each a registered stage name or ``{type: NAME, params: {...}}``; "
+        "stages of one role run in this order (none: no stages, as ``manual``).")
 
     def setup(self, context: RunContext) -> None:
         """Build the stages through the run's host and hand each the context."""
@@ -403,6 +401,3 @@ class ManualTracks(LifecycleTracks):
     """The default track management: no stages. Targets are added by the caller
     (:meth:`pftrack.engine.tracker.MultiTargetTracker.add_target`), end only by the filter's own
     rules, and every live target's estimate is output. No parameters."""
-
-    def __init__(self) -> None:
-        """No parameters."""
