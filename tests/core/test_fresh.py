@@ -104,6 +104,12 @@ def test_track_command_on_a_pets_slice(tmp_path, capsys):
     assert sum("its world frame is its own" in x for x in s["messages"]) == 1
     assert sorted(p.suffix for p in (out / "report").iterdir()) and \
         all(p.suffix == ".png" for p in (out / "report").iterdir())
+    # frames per second of the work for the frames; writing the outputs (the report's images)
+    # is a cost per run, given apart, and the whole run's time includes it
+    assert 0 < s["outputs_cpu_s"] < s["cpu_seconds"]
+    assert s["frames_per_second_cpu"] == pytest.approx(
+        60 / (s["cpu_seconds"] - s["outputs_cpu_s"]))
+    assert s["frames_per_second"] == pytest.approx(60 / (s["seconds"] - s["outputs_s"]))
 
 
 @needs_pets

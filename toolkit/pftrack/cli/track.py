@@ -71,7 +71,8 @@ def handler(args: argparse.Namespace) -> int:
         s = res.summary
         keys = ("tracks_file", "frames", "tracks", "preset", "detector", "detector_choice",
                 "camera", "camera_trust",
-                "camera_file", "frames_per_second", "frames_per_second_cpu", "metrics")
+                "camera_file", "frames_per_second", "frames_per_second_cpu", "outputs_cpu_s",
+                "cpu_seconds", "metrics")
         print(json.dumps({k: s[k] for k in keys if k in s}, indent=2, default=float))
         sys.stdout.flush()
     return 0

@@ -100,6 +100,7 @@ from pftrack.geometry.boxes import foot_points
 from pftrack.geometry.people_model import (
     PeopleCameraFit,
     _distort_slants,
+    _fixed_rotation,
     _predict_heights,
     _rotation,
     _undistort_boxes,
@@ -205,7 +206,7 @@ def _predict_slants(params: np.ndarray, feet: np.ndarray, hgt: np.ndarray,
     point ``K R e_z``), at the middle of the rows
     :func:`~pftrack.workflows.calibrate.measure_slants` uses."""
     f = math.exp(params[0])
-    R = _rotation(params[1], params[2])
+    R = _fixed_rotation(params[1], params[2])
     rz = R[:, 2]
     v_mid = feet[:, 1] - (1 - top_fraction / 2) * hgt
     return ((feet[:, 0] - centre[0]) * rz[2] - f * rz[0]) / (
@@ -233,6 +234,10 @@ def _solve(p0: np.ndarray, feet: np.ndarray, hgt: np.ndarray, centre: np.ndarray
         s_sd = sigma_s * (1.0 if slant_scale is None else slant_scale[has])
         # where each lean was measured: the box's centre column, the middle of its rows
         s_at = np.column_stack([s_feet[:, 0], s_feet[:, 1] - (1 - top_fraction / 2) * s_hgt])
+        # _distort_slants' constants of the fit (its offsets and squared radii), inlined
+        ds = s_at - centre
+        r2s = float(centre @ centre)
+        dds = np.sum(ds * ds, axis=1)
     if use_dist:
         # the undistortion is a function of the observed (distorted) pixels: their offsets from
         # the centre and squared radii are constants of the fit (_undistort_boxes, inlined)
@@ -259,19 +264,22 @@ def _solve(p0: np.ndarray, feet: np.ndarray, hgt: np.ndarray, centre: np.ndarray
         r[~np.isfinite(r)] = 10.0 / sigma  # foot above the horizon: a large, bounded residual
         if slants is not None:
             if use_dist:
-                pred_s = _distort_slants(s_at, _predict_slants(p, fu[has], hu[has], centre,
-                                                               top_fraction), k, centre)
+                su = _predict_slants(p, fu[has], hu[has], centre, top_fraction)
+                a = 2 * k / r2s
+                c = a * (ds[:, 0] * su + ds[:, 1]) / (1.0 + k * dds / r2s + a * dds)
+                pred_s = (su - c * ds[:, 0]) / (1.0 - c * ds[:, 1])
                 rs = (s_obs - pred_s) / s_sd
             else:
                 rs = (s_obs - _predict_slants(p, s_feet, s_hgt, centre, top_fraction)) / s_sd
             r = np.concatenate([r, np.where(np.isfinite(rs), rs, 10.0)])
+        priors = []
         if fit_focal:
-            r = np.append(r, (p[0] - log_f0) / PRIOR_LOG_FOCAL_SD)
+            priors.append((p[0] - log_f0) / PRIOR_LOG_FOCAL_SD)
         if fit_roll:
-            r = np.append(r, p[2] / math.radians(PRIOR_ROLL_SD_DEG))
+            priors.append(p[2] / math.radians(PRIOR_ROLL_SD_DEG))
         if fit_dist:
-            r = np.append(r, p[4] / PRIOR_DISTORTION_SD)
-        return r
+            priors.append(p[4] / PRIOR_DISTORTION_SD)
+        return np.concatenate([r, priors]) if priors else r
 
     lo = np.array([math.log(20.0), -math.radians(89), -math.radians(45), math.log(0.05), -0.5])
     hi = np.array([math.log(1e5), math.radians(89), math.radians(45), math.log(1e4), 0.5])

@@ -9,6 +9,7 @@ the box heights and leans such a camera predicts for people at given foot points
 
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -27,6 +28,22 @@ def _rotation(tilt: float, roll: float) -> np.ndarray:
     rx = np.array([[1.0, 0.0, 0.0], [0.0, ct, -st], [0.0, st, ct]])
     rz = np.array([[cr, -sr, 0.0], [sr, cr, 0.0], [0.0, 0.0, 1.0]])
     return rz @ rx @ _R0
+
+
+@lru_cache(maxsize=64)
+def _rotation_cached(tilt: float, roll: float, tilt_sign: float, roll_sign: float
+                     ) -> np.ndarray:
+    R = _rotation(tilt, roll)
+    R.setflags(write=False)
+    return R
+
+
+def _fixed_rotation(tilt: float, roll: float) -> np.ndarray:
+    """:func:`_rotation`, read-only, remembered for the last angles asked (a least-squares
+    fit asks for the same angles while it varies the focal length or the camera height);
+    keyed by the angles' signs too, so that -0.0 gets its own matrix."""
+    t, r = float(tilt), float(roll)
+    return _rotation_cached(t, r, math.copysign(1.0, t), math.copysign(1.0, r))
 
 
 def camera_from_parameters(focal_px: float, tilt_deg: float, roll_deg: float,
@@ -126,7 +143,7 @@ def _predict_heights(params: np.ndarray, feet: np.ndarray, centre: np.ndarray,
     ground in front of the camera or the head is behind it."""
     f = math.exp(params[0])
     hc = math.exp(params[3])
-    R = _rotation(params[1], params[2])
+    R = _fixed_rotation(params[1], params[2])
     xn = (feet - centre) / f
     d = np.column_stack([xn, np.ones(len(feet))]) @ R  # world directions (R.T @ d per row)
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -272,41 +272,103 @@ def measure_silhouettes(video: Any, boxes_xywh: Any, frames: Any, *, warmup: int
         ``slant`` (du/dv, dimensionless), ``top`` and ``bottom`` rows of the silhouette (pixels,
         the bottom exclusive: the height is ``bottom - top``); NaN where not measured.
     """
-    import cv2
-
     from pftrack.workflows.pipeline import iter_frames
 
     b = np.asarray(boxes_xywh, dtype=np.float64).reshape(-1, np.shape(boxes_xywh)[-1])[:, :4]
     fr = np.asarray(frames, dtype=np.int64).reshape(-1)
     if len(fr) != len(b):
         raise ValueError(f"measure_silhouettes: {len(b)} boxes but {len(fr)} frames")
-    if int(every) < 1:
-        raise ValueError(f"measure_silhouettes: every must be >= 1, got {every}")
-    if not 0 < scale <= 1:
-        raise ValueError(f"measure_silhouettes: scale must be in (0, 1], got {scale}")
     out = np.full((len(b), 3), np.nan)
+    meter = SilhouetteMeter(int(fr.min()) if len(fr) else 1, warmup=warmup,
+                            min_row_fill=min_row_fill, search_pad=search_pad,
+                            side_pad=side_pad, top_fraction=top_fraction, min_fill=min_fill,
+                            every=every, scale=scale)
     if not len(b):
         return out
-    first, last = int(fr.min()), int(fr.max())
-    mog = cv2.createBackgroundSubtractorMOG2(history=200, varThreshold=16, detectShadows=True)
+    first, last = meter.first, int(fr.max())
     order = np.argsort(fr, kind="stable")
     starts = np.searchsorted(fr[order], np.arange(first, last + 2))
-    for frame in iter_frames(video, max(1, first - warmup * every), last):
-        if (frame.index - first) % every:
-            continue
+    for frame in iter_frames(video, meter.start, last):
+        fg = meter.learn(frame.index, frame.image)
+        if fg is not None:
+            k = frame.index - first
+            idx = order[starts[k]:starts[k + 1]]
+            out[idx] = meter.measure(fg, b[idx])
+    return out
+
+
+class SilhouetteMeter:
+    """:func:`measure_silhouettes`, one frame at a time, for a pass over the video that
+    decodes the frames anyway (a detection pass): its background model learns the frames
+    ``start, start + every, ...`` (:meth:`learn`, in order; :meth:`sees` says which) and
+    :meth:`measure` measures boxes in a frame's foreground. The arithmetic is
+    :func:`measure_silhouettes`' (its parameters; ``first`` is the first frame with a box).
+    """
+
+    def __init__(self, first: int, *, warmup: int = 20, min_row_fill: float = 0.2,
+                 search_pad: float = 0.3, side_pad: float = 0.5,
+                 top_fraction: float = SILHOUETTE_TOP_FRACTION, min_fill: float = 0.2,
+                 every: int = 1, scale: float = 1.0) -> None:
+        import cv2
+
+        if int(every) < 1:
+            raise ValueError(f"measure_silhouettes: every must be >= 1, got {every}")
+        if not 0 < scale <= 1:
+            raise ValueError(f"measure_silhouettes: scale must be in (0, 1], got {scale}")
+        self.first, self.every, self.scale = int(first), int(every), float(scale)
+        self.min_row_fill, self.search_pad, self.side_pad = min_row_fill, search_pad, side_pad
+        self.top_fraction, self.min_fill = top_fraction, min_fill
+        #: the first frame the background model learns (``warmup`` of its frames before
+        #: ``first``, from frame 1)
+        self.start = max(1, self.first - int(warmup) * self.every)
+        self.mog = cv2.createBackgroundSubtractorMOG2(history=200, varThreshold=16,
+                                                      detectShadows=True)
+
+    def sees(self, index: int) -> bool:
+        """Whether the background model learns frame ``index`` (from :attr:`start`, every
+        ``every``-th frame counted from ``first``)."""
+        return index >= self.start and (index - self.first) % self.every == 0
+
+    @staticmethod
+    def model_input(image: np.ndarray, scale: float) -> np.ndarray:
+        """The background model's input for a BGR ``image``: resized by ``scale``."""
+        import cv2
+
         if scale == 1:
-            fg = mog.apply(frame.image) == 255
-        else:
-            small = mog.apply(cv2.resize(frame.image, None, fx=scale, fy=scale,
-                                         interpolation=cv2.INTER_AREA))
-            fg = cv2.resize(small, frame.image.shape[1::-1],
-                            interpolation=cv2.INTER_NEAREST) == 255
-        if frame.index < first:
-            continue
-        k = frame.index - first
+            return image
+        return cv2.resize(image, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+
+    def learn(self, index: int, image: np.ndarray | None,
+              small: np.ndarray | None = None) -> np.ndarray | None:
+        """The background model learns frame ``index`` (BGR ``image``, or its
+        :meth:`model_input` ``small`` when kept from earlier); its foreground (bool, the
+        image's size) from ``first`` on, else None (also for a frame it does not see)."""
+        import cv2
+
+        if not self.sees(index):
+            return None
+        if small is None:
+            small = self.model_input(image, self.scale)  # type: ignore[arg-type]
+        fg_small = self.mog.apply(small)
+        if index < self.first or image is None:
+            return None
+        if self.scale == 1:
+            return fg_small == 255
+        return cv2.resize(fg_small, image.shape[1::-1], interpolation=cv2.INTER_NEAREST) == 255
+
+    def measure(self, fg: np.ndarray, boxes_xywh: np.ndarray) -> np.ndarray:
+        """Each box's (K, >=4, px) silhouette in the foreground ``fg``: ``slant``, ``top``,
+        ``bottom`` (K, 3) as :func:`measure_silhouettes` returns them; NaN where not
+        measured."""
+        import cv2
+
+        search_pad, side_pad = self.search_pad, self.side_pad
+        min_fill, min_row_fill, top_fraction = self.min_fill, self.min_row_fill, self.top_fraction
+        b = np.asarray(boxes_xywh, dtype=np.float64).reshape(-1, np.shape(boxes_xywh)[-1])
+        out = np.full((len(b), 3), np.nan)
         H, W = fg.shape
-        for i in order[starts[k]:starts[k + 1]]:
-            x, y, w, h = b[i]
+        for i in range(len(b)):
+            x, y, w, h = b[i, :4]
             xa, xb = max(round(x + 0.25 * w), 0), min(round(x + 0.75 * w), W)
             ya, yb = max(round(y - search_pad * h), 0), min(round(y + (1 + search_pad) * h), H)
             if xb - xa < 3 or yb - ya < 10:
@@ -341,7 +403,7 @@ def measure_silhouettes(video: Any, boxes_xywh: Any, frames: Any, *, warmup: int
             rr = np.flatnonzero(ok).astype(np.float64)
             rc = rr - rr.mean()
             out[i, 0] = float(rc @ (cols - cols.mean()) / (rc @ rc))
-    return out
+        return out
 
 
 def estimate_camera_from_video(video: Any, boxes: Any = None, first: int = 1,
@@ -351,6 +413,7 @@ def estimate_camera_from_video(video: Any, boxes: Any = None, first: int = 1,
                                lean: bool = True, silhouettes: bool | None = None,
                                silhouette_every: int = 1, silhouette_scale: float = 1.0,
                                min_score: float = 0.0, host: Any = None,
+                               silhouettes_measured: np.ndarray | None = None,
                                **fit_kw: Any) -> tuple[PeopleCameraFit, np.ndarray, str]:
     """A camera from a video alone: people detected (or given), their lean measured, the fit.
 
@@ -386,6 +449,11 @@ def estimate_camera_from_video(video: Any, boxes: Any = None, first: int = 1,
         frames, and only boxes in those frames are measured.
     silhouette_scale : float
         :func:`measure_silhouettes`' ``scale``.
+    silhouettes_measured : ndarray, shape (N, 3), optional
+        The silhouettes of ``boxes`` measured already (:func:`measure_silhouettes`' output for
+        them with ``silhouette_every`` and ``silhouette_scale``, e.g. by a
+        :class:`SilhouetteMeter` fed during a detection pass): its pass over the video is not
+        made again.
     min_score : float
         Detections scoring below are dropped (detection only).
     host : pftrack.host.Host, optional
@@ -428,8 +496,14 @@ def estimate_camera_from_video(video: Any, boxes: Any = None, first: int = 1,
     use_lean = lean and fit_kw.get("focal_px") is None
     if np.all(rows[:, 4] >= 1):
         if silhouettes:
-            sil = measure_silhouettes(video, rows[:, :4], rows[:, 4], every=silhouette_every,
-                                      scale=silhouette_scale)
+            if silhouettes_measured is not None:
+                sil = np.asarray(silhouettes_measured, dtype=np.float64)
+                if sil.shape != (len(rows), 3):
+                    raise ValueError(f"estimate_camera_from_video: silhouettes_measured has "
+                                     f"shape {sil.shape}, not ({len(rows)}, 3) for the boxes")
+            else:
+                sil = measure_silhouettes(video, rows[:, :4], rows[:, 4],
+                                          every=silhouette_every, scale=silhouette_scale)
             fit_boxes, refined = refine_boxes_by_silhouettes(rows[:, :4], sil)
             slants = sil[:, 0] if use_lean else None
             source += f"; {int(refined.sum())} of {len(rows)} boxes' rows from silhouettes"

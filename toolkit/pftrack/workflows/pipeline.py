@@ -432,7 +432,9 @@ class RunResult:
     another run on the same frames); ``timing``: seconds per frame for detection and tracking;
     ``metrics``: :func:`evaluate_tracks` when ground truth was given; ``uncertainty``: the
     spread of each row's estimate (M, 9), rows in ``rows``' order
-    (:func:`pftrack.engine.tracker.records_uncertainty`).
+    (:func:`pftrack.engine.tracker.records_uncertainty`). With an output folder, ``timing``
+    also has ``outputs_s`` and ``outputs_cpu_s``: the seconds (wall, CPU) of writing the
+    outputs, the report's images included (a cost per run, not per frame).
     """
 
     rows: np.ndarray
@@ -623,7 +625,11 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
                         "frame_numbers_verified": source.report.numbers_trusted})
     result = RunResult(rows, dets_out, timing, metrics, None, n, spread_rows)
     if out_dir is not None:
+        import time
+
+        t0, c0 = time.perf_counter(), time.process_time()
         result.out_dir = write_outputs(out_dir, cfg, result, keep_frames, gt_rows)
+        timing.update(outputs_s=time.perf_counter() - t0, outputs_cpu_s=time.process_time() - c0)
     return result
 
 

