@@ -4,7 +4,8 @@
 (:mod:`pftrack.workflows.track`), on PETS 2009 S2.L1, and scores it:
 
 * the built-in ``hog-people`` detector (OpenCV's INRIA people model, no training), run once;
-* a camera estimated from those detections alone (:func:`pftrack.workflows.track.estimate_camera`:
+* a camera estimated from those detections alone
+  (:func:`pftrack.workflows.track_camera.estimate_camera`:
   :func:`pftrack.geometry.people.estimate_camera_from_people` on every 2nd of the first 600
   frames' confident detections, mean person height 1.7 m, their top and bottom rows and the
   focal length and the lens's radial distortion from their silhouettes' lean in the moving

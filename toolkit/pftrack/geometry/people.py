@@ -102,7 +102,7 @@ from pftrack.geometry.people_model import (
     _distort_slants,
     _fixed_rotation,
     _predict_heights,
-    _rotation,
+    _rotation,  # noqa: F401 - re-exported
     _undistort_boxes,
     camera_from_parameters,
     horizon_row,

@@ -221,7 +221,8 @@ class PeopleCameraFit:
         pinhole, as without leans or with ``fit_distortion=False``).
     trust : dict or None
         Whether the camera can be trusted to track on, with the figures behind the verdict,
-        when a caller checked it (:func:`pftrack.workflows.track.camera_trust`); None: not checked.
+        when a caller checked it (:func:`pftrack.workflows.track_camera.camera_trust`); None:
+        not checked.
     boxes_xywh : ndarray (N, 4) or None
         The boxes as fitted (``x, y, w, h`` pixels, one row per input box, in their order):
         with silhouettes (:func:`~pftrack.workflows.calibrate.estimate_camera_from_video`),
