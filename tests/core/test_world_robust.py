@@ -55,6 +55,21 @@ def test_points_past_the_lens_models_field_get_pixels_outside_the_image():
     assert np.isnan(cam.project_beyond_lens(np.array([[0.0, -1.0, 0.0]]))).all()
 
 
+def test_tsai_field_edge_scale_is_three_halves_as_the_bisection_finds():
+    """Tsai's lens with kappa1 < 0 ends where r_u = r_d (1 + kappa1 r_d^2) stops growing; the
+    radial scale there is 3/2 in closed form, which a bisection on the model finds too."""
+    from pftrack.geometry.lens import TsaiDistortion
+
+    cam = waist_camera()
+    assert isinstance(cam.distortion, TsaiDistortion) and cam.distortion.kappa1 < 0
+    rng = np.random.default_rng(0)
+    ang = rng.uniform(0, 2 * np.pi, 50)
+    xy = 3.0 * np.column_stack([np.cos(ang), np.sin(ang)])  # beyond the field, every way
+    np.testing.assert_array_equal(cam.distortion.edge_scale(xy), np.full(50, 1.5))
+    np.testing.assert_allclose(cam._bisected_edge_scale(xy), 1.5, atol=2e-4)
+    assert TsaiDistortion(0.1).edge_scale(xy) is None  # barrel-free: no edge
+
+
 def test_a_person_taller_than_the_picture_and_cut_by_its_edge_has_a_finite_box():
     cam = waist_camera()
     obs = CameraBoxObservation(cam, height_m=1.7, width_ratio=0.34)

@@ -366,7 +366,8 @@ class Camera:
 
         Such a point keeps its pinhole direction from the principal point and its pinhole
         radius, times the lens's radial scale at the edge of the lens model's field along that
-        direction (found by a vectorised bisection): continuous where the model ends and rising
+        direction (the model's own :meth:`~pftrack.geometry.lens.LensDistortion.edge_scale`,
+        3/2 for Tsai's, or found by a vectorised bisection): continuous where the model ends and rising
         outward beyond it, so the point lands outside the image, further out the further out
         it is. A lens model fitted to an image covers the image, so these pixels only ever
         describe things outside the picture: the head of a tall person cut by the frame's top,
@@ -394,6 +395,20 @@ class Camera:
             return px
         xy = pc[front, :2] / pc[front, 2:3]
         d = self.distortion
+        known = d.edge_scale(xy)
+        scale = self._bisected_edge_scale(xy) if known is None else known
+        xd = xy * scale[:, None]
+        u = self.K[0, 0] * xd[:, 0] + self.K[0, 1] * xd[:, 1] + self.K[0, 2]
+        v = self.K[1, 1] * xd[:, 1] + self.K[1, 2]
+        rows = np.flatnonzero(bad)[front]
+        px[rows, 0] = u
+        px[rows, 1] = v
+        return px
+
+    def _bisected_edge_scale(self, xy: np.ndarray) -> np.ndarray:
+        """The lens's radial scale at the edge of its field along each ideal point's direction
+        (N, 2), found by bisection on the fraction of the point's radius it maps."""
+        d = self.distortion
         lo = np.zeros(len(xy))
         hi = np.ones(len(xy))
         for _ in range(40):  # the largest fraction of the ray's radius the lens model maps
@@ -405,14 +420,7 @@ class Camera:
         xd_edge = d.distort(edge)
         with np.errstate(divide="ignore", invalid="ignore"):
             scale = np.hypot(xd_edge[:, 0], xd_edge[:, 1]) / np.hypot(edge[:, 0], edge[:, 1])
-        scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
-        xd = xy * scale[:, None]
-        u = self.K[0, 0] * xd[:, 0] + self.K[0, 1] * xd[:, 1] + self.K[0, 2]
-        v = self.K[1, 1] * xd[:, 1] + self.K[1, 2]
-        rows = np.flatnonzero(bad)[front]
-        px[rows, 0] = u
-        px[rows, 1] = v
-        return px
+        return np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
 
     def project_rows(self, points_world_m: Any) -> np.ndarray:
         """:meth:`project` of T sets of points at once: (T, N, 3) metres -> (T, N, 2) pixels,

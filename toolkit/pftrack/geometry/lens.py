@@ -31,6 +31,13 @@ class LensDistortion(ABC):
     def params(self) -> dict[str, float]:
         """The coefficients by name (dimensionless, on normalised coordinates)."""
 
+    def edge_scale(self, xy_u: np.ndarray) -> np.ndarray | None:
+        """The radial scale (distorted radius over undistorted radius) at the edge of the
+        field where :meth:`distort` has a value, along the direction of each ideal point
+        (N, 2), when the model knows it in closed form; None: it does not (a caller finds the
+        edge by bisection)."""
+        return None
+
     @property
     def is_identity(self) -> bool:
         return all(v == 0.0 for v in self.params().values())
@@ -167,6 +174,15 @@ class TsaiDistortion(LensDistortion):
         xy = np.asarray(xy_d, dtype=np.float64)
         r2 = np.sum(xy * xy, axis=1, keepdims=True)
         return xy * (1.0 + self.kappa1 * r2)
+
+    def edge_scale(self, xy_u: np.ndarray) -> np.ndarray | None:
+        """With ``kappa1 < 0`` the field ends where ``r_u = r_d (1 + kappa1 r_d^2)`` stops
+        growing, at ``r_d = 1 / sqrt(-3 kappa1)`` and ``r_u = 2/3`` of that, in every
+        direction: the scale there is exactly 3/2. With ``kappa1 >= 0`` the field has no edge
+        (None)."""
+        if self.kappa1 >= 0:
+            return None
+        return np.full(len(np.asarray(xy_u)), 1.5)
 
     def distort(self, xy_u: np.ndarray) -> np.ndarray:
         xy = np.asarray(xy_u, dtype=np.float64)
