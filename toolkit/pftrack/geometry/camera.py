@@ -367,11 +367,12 @@ class Camera:
         Such a point keeps its pinhole direction from the principal point and its pinhole
         radius, times the lens's radial scale at the edge of the lens model's field along that
         direction (the model's own :meth:`~pftrack.geometry.lens.LensDistortion.edge_scale`,
-        3/2 for Tsai's, or found by a vectorised bisection): continuous where the model ends and rising
-        outward beyond it, so the point lands outside the image, further out the further out
-        it is. A lens model fitted to an image covers the image, so these pixels only ever
-        describe things outside the picture: the head of a tall person cut by the frame's top,
-        a particle beside the image. Points at or behind the camera's centre plane stay NaN.
+        3/2 for Tsai's, or found by a vectorised bisection): continuous where the model ends
+        and rising outward beyond it, so the point lands outside the image, further out the
+        further out it is. A lens model fitted to an image covers the image, so these pixels
+        only ever describe things outside the picture: the head of a tall person cut by the
+        frame's top, a particle beside the image. Points at or behind the camera's centre plane
+        stay NaN.
 
         Parameters
         ----------
