@@ -51,9 +51,9 @@ detector.
   within 20 m (``COAST_MATCH_M``: a block spans tens of metres of sea along the line of sight).
 
 Tracking parameters were chosen on frames 201-400 (``--frames 201:400``); the identity ones
-(``gather_frames``, ``exit_frames``, ``merge_speed_m``, ``reid_frames``, ``reid_m``,
-``colour_share``) on frames 401-600, the first half of the test frames: 601-795 alone
-(``--frames 601:795``) are unseen.
+(``entry.gather_frames``, ``exit.frames``, ``merge.speed_m``, ``reid.frames``,
+``reid.distance_m``, ``mask.colour_share``) on frames 401-600, the first half of the test
+frames: 601-795 alone (``--frames 601:795``) are unseen.
 """
 
 from __future__ import annotations
@@ -342,8 +342,9 @@ def _pets09(args: argparse.Namespace, root: Path, say: Any) -> dict[str, Any]:
         out["setup"] = {"frames": f"{first}:{last}", "train_frames": cfg["detector"]["train"][
             "frames"], "particles_per_group": int(cfg["tracker"]["n_particles"]),
             "volume": volume.to_dict(), "seed": args.seed,
-            "tuned_on": "frames 201:400 (tracking parameters); gather_frames, exit_frames, "
-                        "merge_speed_m, reid_frames, reid_m, colour_share on 401:600"}
+            "tuned_on": "frames 201:400 (tracking parameters); entry.gather_frames, "
+                        "exit.frames, merge.speed_m, reid.frames, reid.distance_m, "
+                        "mask.colour_share on 401:600"}
     finally:
         if tmp is not None:
             tmp.cleanup()
@@ -529,9 +530,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 WHY_NOT = {
     "pets09 IDF1_world >= 0.6": "from frame 600 on people walk in groups of two to four: two "
     "live tracks on neighbours swap where their colours do not tell them apart "
-    "(colour_share needs templates >= colour_share_distance apart), and a track merged into "
+    "(mask.colour_share needs templates far enough apart), and a track merged into "
     "its neighbour's comes back under another id unless it is found again within "
-    "reid_frames and reid_m",
+    "reid.frames and reid.distance_m",
     "pets09 entry and exit within 10 frames for >= 80 % of people": "a person first found "
     "late, or lost before leaving, is outside",
     "pets09 frames_per_second_3x5000 >= 100": "the frames with 3 groups (one detection group, "

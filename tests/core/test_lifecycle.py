@@ -180,13 +180,14 @@ def _explicit_stages(cfg: dict) -> dict:
 @pytest.mark.slow
 @pytest.mark.skipif(not (_DATA / "vtest.avi").is_file(), reason="PETS 2009 data not found")
 @pytest.mark.parametrize(("preset", "n_rows", "sha"), [
-    ("people-image", 160, "151467fee14733132885501e16f302c5bfba1d6cc04275fcd3bb384ff013cdf5"),
+    ("people-image", 160, "084a23fc6b2daa8bf5d247baefc688e14d80a19cb1651dca48d7b61b6cb22bbb"),
     ("people-ground", 150, "704f667d8e41dfac8a7bf837b8872c0463dae915319c606eaf6eafffcb350a27"),
 ])
 def test_presets_track_pets_as_their_explicit_stages(preset, n_rows, sha, tmp_path):
     """PETS frames 1-40 with the bench's simulated noisy detections (seed 0), seed 0: the
     presets' ``confirmed`` tracks and the same written as their explicit stages give the same
-    rows, and those rows (rounded to 1e-6) are the ones measured when this was written."""
+    rows, and those rows (rounded to 1e-6) are the ones measured when this was written (the
+    image-plane preset's with their ground positions through the camera, its boxes' feet)."""
     from pftrack.io.detections import read_detections
     from pftrack.workflows.pipeline import load_config, run_pipeline
     from pftrack_bench.own_detections import simulate_detections
@@ -203,6 +204,12 @@ def test_presets_track_pets_as_their_explicit_stages(preset, n_rows, sha, tmp_pa
     assert np.array_equal(rows[0], rows[1])
     assert rows[0].shape == (n_rows, 10)
     assert hashlib.sha256(np.round(rows[0], 6).tobytes()).hexdigest() == sha
+    if preset == "people-image":  # image-plane rows on the ground: their boxes' feet
+        from pftrack.geometry.boxes import foot_points
+        from pftrack.geometry.formats import load_camera
+
+        feet = load_camera(_DATA / "View_001.xml").image_to_ground(foot_points(rows[0][:, 2:6]))
+        np.testing.assert_allclose(rows[0][:, 7:10], feet)
 
 
 def test_a_stage_list_reads_pixels_only_through_its_stages():

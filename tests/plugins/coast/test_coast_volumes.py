@@ -404,7 +404,7 @@ def test_pets09_gathering_exit_hysteresis_and_reid_keep_identities(tmp_path):
 
     video, gt_path, cam_path = pets09_files()
     cfg = load_config("pets09-volume")
-    cfg["tracks"]["params"]["colour_share"] = False
+    cfg["tracks"]["params"]["mask"]["colour_share"] = False
     camera = load_camera(cam_path)
     model = str(tmp_path / "eig.npz")
     train_detector(video, gt_path, "1:120", out=model, cfg=cfg, camera=camera)
@@ -412,8 +412,11 @@ def test_pets09_gathering_exit_hysteresis_and_reid_keep_identities(tmp_path):
     gt = read_ground_truth(gt_path, 401, 520)
     volume = resolve_volume(cfg["tracks"]["params"]["volumes"])
     paper = copy.deepcopy(cfg)
-    paper["tracks"]["params"].update(gather_frames=0, exit_frames=1, merge_speed_m=None,
-                                     reid_frames=0)
+    pp = paper["tracks"]["params"]
+    pp["entry"]["gather_frames"] = 0
+    pp["exit"]["frames"] = 1
+    pp["merge"]["speed_m"] = None
+    pp["reid"]["frames"] = 0
     new = score_pets(gt, track_frames(cfg, frames, camera, 0, model), volume)
     old = score_pets(gt, track_frames(paper, frames, camera, 0, model), volume)
     assert new["IDF1_world"] >= old["IDF1_world"] + 0.05, (new, old)
@@ -599,15 +602,17 @@ def test_coast_car_along_the_view_is_one_track_with_its_length_along_it(tmp_path
     first, last, volume = scene.volume_events()[car.id]
     assert volume == "near"
 
-    def run(**params):
+    def run(exit=None, footprint=None):
         cfg = load_config("coast-volumes")
-        cfg["tracks"]["params"].update(params)
+        p = cfg["tracks"]["params"]
+        p["exit"] = {**p["exit"], **(exit or {})}
+        p["footprint"] = {**p["footprint"], **(footprint or {})}
         engine = build_engine(cfg, camera=scene.camera_, fps=5.0, seed=0,
                               detector_model=tmp_path / "coast.npz")
         return engine, [r for f in frames for r in engine.step(f)]
 
-    engine, records = run(exit_established=False, heading_from="footprint",
-                          footprint_held=False)
+    engine, records = run(exit={"established": False},
+                          footprint={"heading_from": "footprint", "held": False})
     entries = sum(e["event"] == "entry" for e in engine.tracks.events_)
     assert entries > 5 and len(records) < entries  # fragments, most never output
     engine, records = run()
