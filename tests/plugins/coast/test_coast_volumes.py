@@ -784,3 +784,30 @@ def test_exit_part_counts_a_low_frame():
     held = VolumeExit(particles=10, established=True)
     assert held.low(49, False, 50) and not held.low(50, False, 50)
     assert not held.low(49, True, 50) and held.low(10, True, 50)
+
+
+def test_what_moved_out_of_volumes_still_imports_and_unpickles_from_it():
+    """The manager's parts live in modules of their own; every name of ``volumes.__all__`` is
+    the moved object itself, and a pickle naming the old module loads."""
+    import pickle
+
+    from pftrack_coast import (
+        likelihood,
+        volume_colour,
+        volume_geometry,
+        volume_params,
+        volumes,
+    )
+
+    homes = (volume_geometry, volume_colour, volume_params, likelihood)
+    for name in volumes.__all__:
+        obj = getattr(volumes, name)
+        if name != "VolumeTracks":
+            assert any(getattr(m, name, None) is obj for m in homes), name
+    assert volumes.InsideBoxesLikelihood.__module__ == "pftrack_coast.likelihood"
+    entry = volumes.VolumeEntry(particles=7)
+    old = pickle.dumps(entry, protocol=0).replace(b"pftrack_coast.volume_params\n",
+                                                  b"pftrack_coast.volumes\n")
+    assert b"pftrack_coast.volumes\n" in old
+    back = pickle.loads(old)
+    assert type(back) is volume_params.VolumeEntry and back.particles == 7
