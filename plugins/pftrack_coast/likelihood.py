@@ -10,10 +10,15 @@ of size 0), find the block it falls into, and return ``log f`` with
 outside the image or in an untrained block gets likelihood 0 (``log f = -inf``), never NaN.
 
 Without a camera (image-plane tracking), each particle's box centre pixel is used instead.
+
+Also here: the OpenCV MOG2 foreground fraction for comparison
+(:class:`ForegroundFractionLikelihood`), and a perfect foreground made of the frame's detection
+boxes for tests (:class:`InsideBoxesLikelihood`).
 """
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Sequence
 from typing import Any
@@ -23,7 +28,8 @@ from pftrack.contracts.components import Detections, Frame, Likelihood, Param, R
 
 from pftrack_coast.eigenspace import BlockEigenspaceModel
 
-__all__ = ["EigenspaceLikelihood", "ForegroundFractionLikelihood"]
+__all__ = ["EigenspaceLikelihood", "ForegroundFractionLikelihood",
+           "InsideBoxesLikelihood"]
 
 
 def _blocks_of_pixels(px: np.ndarray, block_size: int, grid_shape: tuple[int, int],
@@ -338,3 +344,30 @@ class ForegroundFractionLikelihood(Likelihood):
         ok, blocks = _blocks_of_pixels(px, int(self.block_size), self.grid_)
         out[ok] = self.log_f_[blocks]
         return out
+
+
+class InsideBoxesLikelihood(Likelihood):
+    """A particle's likelihood is ``inside`` when its pixel lies in one of the frame's
+    detection boxes, ``outside`` elsewhere (0 without detections): a perfect foreground mask
+    made of boxes, for tests and the conformance kit's run of
+    :class:`~pftrack_coast.volumes.VolumeTracks` (boxes of size 0, ``particle_box="point"``, are
+    read as the particles' pixels).
+
+    {params}
+    """
+
+    inside: float = Param(0.95, "Likelihood inside a box.")
+    outside: float = Param(1e-3, "Likelihood outside every box.")
+
+    def begin_frame(self, frame: Frame, targets: Sequence[Target],
+                    detections: Detections | None = None) -> None:
+        self.boxes_ = detections.boxes_xywh_px if detections is not None else np.zeros((0, 4))
+
+    def log_likelihood(self, boxes_xywh_px: np.ndarray, target: Target) -> np.ndarray:
+        b = np.asarray(boxes_xywh_px, dtype=np.float64)
+        px = b[:, :2] + 0.5 * b[:, 2:]
+        d = self.boxes_
+        with np.errstate(invalid="ignore"):
+            hit = ((px[:, None, :] >= d[None, :, :2])
+                   & (px[:, None, :] <= d[None, :, :2] + d[None, :, 2:])).all(axis=2).any(axis=1)
+        return np.where(hit, math.log(float(self.inside)), math.log(float(self.outside)))

@@ -91,7 +91,7 @@ def intruders_image(image_bgr: np.ndarray, camera, volumes, engine, estimates,
             continue
         from pftrack.geometry.volumes import _BOX_EDGES
 
-        from pftrack_coast.volumes import _axes, cuboid_corners
+        from pftrack_coast.volume_geometry import _axes, cuboid_corners
 
         across, along = _axes(camera, e["footprint_m"][:2])
         centre = e["footprint_m"] + np.array([0.0, 0.0, 0.5 * e["size_m"][1]])

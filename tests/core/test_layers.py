@@ -32,7 +32,7 @@ The rules, each a test below:
 
 And one rule on size: no module of the core or of the built-in plugins is longer than
 :data:`MAX_LINES` (a longer one does several jobs; split it by job and re-export what moved from
-the old path), except those in :data:`OVER_THE_LIMIT`.
+the old path).
 """
 
 from __future__ import annotations
@@ -70,11 +70,6 @@ CALL_TIME_UPWARD: dict[tuple[str, str], str] = {
 
 #: The longest a module of ``toolkit/pftrack`` or ``plugins/`` may be, in lines.
 MAX_LINES = 800
-#: Modules longer than :data:`MAX_LINES`, each being split on another branch now (paths from the
-#: repository's root). The list only shrinks: a module back under the limit leaves it.
-OVER_THE_LIMIT = frozenset({
-    "plugins/pftrack_coast/volumes.py",
-})
 
 
 def _modules() -> dict[str, Path]:
@@ -251,9 +246,7 @@ def test_no_module_is_longer_than_the_limit():
     root = TOOLKIT.parent
     lines = _line_counts(root)
     assert {"toolkit/pftrack/engine/tracker.py", "plugins/pftrack_world/soccer.py"} <= set(lines)
-    over = {path: n for path, n in lines.items() if n > MAX_LINES}
-    assert {p: n for p, n in over.items() if p not in OVER_THE_LIMIT} == {}
-    assert OVER_THE_LIMIT - set(over) == set()  # a module split below the limit leaves the list
+    assert {path: n for path, n in lines.items() if n > MAX_LINES} == {}
 
 
 def test_the_size_check_counts_lines(tmp_path):

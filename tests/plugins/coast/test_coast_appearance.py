@@ -34,7 +34,7 @@ def _manager(**kw) -> VolumeTracks:
     m = VolumeTracks(volumes="near", reid={"appearance": True}, **kw)
     m.reid.min_frames = 3  # (a fixed setting, 5 in a run: fewer frames here)
     m.setup(RunContext(camera=cam))
-    m.shown_ |= {1, 2}
+    m.identities_.shown_ |= {1, 2}
     return m
 
 
@@ -67,17 +67,22 @@ def test_bhattacharyya_distance_values():
     assert bhattacharyya(np.stack([p, q]), q) == pytest.approx([np.sqrt(1 - np.sqrt(0.5)), 0])
 
 
+def _appearance(m: VolumeTracks, frame: Frame, out: list[TrackRecord]) -> None:
+    """The manager's appearance step on ``out`` (its identities' histograms, templates, swaps)."""
+    m.identities_.appearance(frame, out, m.look_, m.tracks_)
+
+
 def _meet(m: VolumeTracks, exchanged: bool, img_after: np.ndarray) -> list[TrackRecord]:
     """Tracks 1 (on the red person) and 2 (blue) apart for 5 frames, together at frame 6,
     apart at frame 7 -- each on the other's person when ``exchanged``."""
     img = _image()
     for f in range(1, 6):
-        m._appearance(Frame(f, img), [_record(f, 1, (0, 0), BOX_A), _record(f, 2, (5, 0), BOX_B)])
-    m._appearance(Frame(6, img), [_record(6, 1, (0, 0), BOX_A), _record(6, 2, (0.5, 0), BOX_B)])
+        _appearance(m, Frame(f, img), [_record(f, 1, (0, 0), BOX_A), _record(f, 2, (5, 0), BOX_B)])
+    _appearance(m, Frame(6, img), [_record(6, 1, (0, 0), BOX_A), _record(6, 2, (0.5, 0), BOX_B)])
     a, b = ((5, 0), BOX_B), ((0, 0), BOX_A)
     out = [_record(7, 1, *(a if exchanged else b)), _record(7, 2, *(b if exchanged else a))]
-    m._appearance(Frame(7, img_after), out)
-    return m._reidentified(out)
+    _appearance(m, Frame(7, img_after), out)
+    return m.identities_.reidentified(out, 7, m.tracks_)
 
 
 def test_two_tracks_that_exchanged_people_while_together_swap_their_ids():
@@ -85,25 +90,25 @@ def test_two_tracks_that_exchanged_people_while_together_swap_their_ids():
     out = _meet(m, exchanged=True, img_after=_image())
     # engine track 1 now sees blue: it is output as 2, and track 2 (on red) as 1
     assert {r.id: tuple(r.world_m[:2]) for r in out} == {2: (5.0, 0.0), 1: (0.0, 0.0)}
-    assert m.alias_ == {1: 2, 2: 1}
+    assert m.identities_.alias_ == {1: 2, 2: 1}
     assert [e["event"] for e in m.events_] == ["swapped"]
     # the templates follow the people: track 1's template is now the blue one
-    assert bhattacharyya(m.templates_[1][0], hsv_histogram(_image(), BOX_B)) < 0.05
+    assert bhattacharyya(m.identities_.templates_[1][0], hsv_histogram(_image(), BOX_B)) < 0.05
 
 
 def test_no_swap_when_the_tracks_kept_their_people_or_colours_do_not_tell():
     m = _manager()
     out = _meet(m, exchanged=False, img_after=_image())
-    assert sorted(r.id for r in out) == [1, 2] and m.alias_ == {} and m.events_ == []
+    assert sorted(r.id for r in out) == [1, 2] and m.identities_.alias_ == {} and m.events_ == []
     # both people dressed alike: positions alone, no swap
     m = _manager()
     grey = _image(RED, RED)
     for f in range(1, 6):
-        m._appearance(Frame(f, grey), [_record(f, 1, (0, 0), BOX_A),
+        _appearance(m, Frame(f, grey), [_record(f, 1, (0, 0), BOX_A),
                                        _record(f, 2, (5, 0), BOX_B)])
-    m._appearance(Frame(6, grey), [_record(6, 1, (0, 0), BOX_A), _record(6, 2, (0.5, 0), BOX_B)])
-    m._appearance(Frame(7, grey), [_record(7, 1, (5, 0), BOX_B), _record(7, 2, (0, 0), BOX_A)])
-    assert m.alias_ == {} and m.events_ == []
+    _appearance(m, Frame(6, grey), [_record(6, 1, (0, 0), BOX_A), _record(6, 2, (0.5, 0), BOX_B)])
+    _appearance(m, Frame(7, grey), [_record(7, 1, (5, 0), BOX_B), _record(7, 2, (0, 0), BOX_A)])
+    assert m.identities_.alias_ == {} and m.events_ == []
 
 
 def test_appearance_is_off_by_default_and_its_fixed_settings_are_no_options():

@@ -13,7 +13,7 @@ from pftrack_bench.coast import speed_3x5000, speed_runs
 from pftrack_coast import likelihood as likelihood_module
 from pftrack_coast import volumes as volumes_module
 from pftrack_coast._kernels import blocks_of_pixels
-from pftrack_coast.volumes import _quantiles
+from pftrack_coast.volume_geometry import _quantiles
 
 from tests.plugins.coast.test_coast_volumes import _run
 

@@ -175,10 +175,10 @@ def test_appearance_on_a_colourless_image_keeps_the_tracks_and_learns_templates(
     assert np.array_equal(off[2], on[2]) and len(on[2]) > 20
     assert not [e for e in on[1].events_ if e["event"] == "swapped"]
     live = set(on[1].tracks_)
-    assert live and live <= set(on[1].templates_)
-    assert all(n >= 2 for _, n in on[1].templates_.values())
-    assert all(h.sum() == pytest.approx(1.0) and h[0] == pytest.approx(1.0)
-               for h, _ in on[1].templates_.values())  # black: hue, saturation, value bin 0
+    assert live and live <= set(on[1].identities_.templates_)
+    assert all(n >= 2 for _, n in on[1].identities_.templates_.values())
+    assert all(h.sum() == pytest.approx(1.0) and h[0] == pytest.approx(1.0)  # black: hue,
+               for h, _ in on[1].identities_.templates_.values())  # saturation, value bin 0
 
 
 def test_detection_group_stays_in_its_volume_and_off_tracked_people():
@@ -488,7 +488,7 @@ def test_heading_from_the_cloud_top_sees_a_car_driving_along_the_view(heading_fr
     the footprint's), and the corrected depth within 0.7 m of the true 4.7 m."""
     from collections import deque
 
-    from pftrack_coast.volumes import _support_base, _support_finish
+    from pftrack_coast.volume_geometry import _support_base, _support_finish
 
     cam, frames = _car_through_the_near_volume()
     tracks = VolumeTracks(volumes=["near"], footprint={
@@ -496,15 +496,16 @@ def test_heading_from_the_cloud_top_sees_a_car_driving_along_the_view(heading_fr
         "held": True})
     tracks.setup(RunContext(camera=cam))
     tracks.tracks_[1] = "near"
+    near = tracks.volumes_["near"]
     fronts: deque = deque(maxlen=15)
-    tracks.paths_[1] = fronts
+    tracks.footprints_.paths_[1] = fronts
     headings, depths = [], []
     for px in frames:
         base = _support_base(cam, px, 0.0, 0.02)
         if heading_from == "top":
-            tracks._top_path(1, base)
-        tracks._hold(1, base)
-        heading = tracks._heading(1, base["across"])
+            tracks.footprints_.add_top(1, cam, base)
+        tracks.footprints_.hold(1, cam, base, near, tracks.entry.blob_block_px)
+        heading = tracks.footprints_.heading(1, base["across"])
         est = _support_finish(cam, base, aspect=3.0, heading_deg=heading)
         fronts.append(est["footprint_m"][:2].copy())
         headings.append(heading)
@@ -515,7 +516,7 @@ def test_heading_from_the_cloud_top_sees_a_car_driving_along_the_view(heading_fr
         assert all(h is None for h in headings)
         assert np.max(depths) < 1.0  # the length across the view: wrong
         return
-    top = np.array(tracks.tops_[1])
+    top = np.array(tracks.footprints_.tops_[1])
     assert np.hypot(*(top[-1] - top[0])) > 0.6 * 14  # the top travels with the car (0.6 m/f)
     known = [k for k, h in enumerate(headings) if h is not None]
     assert known and known[0] <= 6  # 3 m at 0.6 m/frame (scaled by H / (H - h) > 1)
@@ -553,17 +554,18 @@ def test_footprint_held_while_the_car_is_seen_from_in_front_of_the_volume():
     the foot sees the plane inside the volume. Within 8 px cells at about 100 m (6 m of
     ground per cell) the release comes between the near end's crossing and one cell (6 m)
     later; the footprint output after it is within 1.5 m of the car's true near end."""
-    from pftrack_coast.volumes import _support_base
+    from pftrack_coast.volume_geometry import _support_base
 
     cam, frames = _car_through_the_near_volume(30)
     tracks = VolumeTracks(volumes=["near"], footprint={"held": True})
     tracks.setup(RunContext(camera=cam))
     tracks.tracks_[1] = "near"
+    near = tracks.volumes_["near"]
     held, fronts = [], []
     for px in frames:
         base = _support_base(cam, px, 0.0, 0.02)
-        tracks._hold(1, base)
-        held.append(1 in tracks.held_)
+        tracks.footprints_.hold(1, cam, base, near, tracks.entry.blob_block_px)
+        held.append(1 in tracks.footprints_.held_)
         fronts.append(base["front"][1])
     near_end = 86.0 + 0.6 * np.arange(len(frames)) - 2.35  # the car's end nearest the camera
     assert held[0] and not held[-1]
@@ -645,7 +647,7 @@ def _colour_tracks(**params) -> VolumeTracks:
     tracks._start()
     tracks.frame_, tracks.image_ = 7, img
     tracks.tracks_ = {1: "near", 2: "near", 3: "near"}
-    tracks.templates_ = {1: (red, 9), 2: (blue, 9), 3: (blue, 9)}
+    tracks.identities_.templates_ = {1: (red, 9), 2: (blue, 9), 3: (blue, 9)}
     tracks.gates_ = {1: np.array([100.0, 0.0, 80.0, 200.0]),
                      2: np.array([130.0, 0.0, 80.0, 200.0]),
                      3: np.array([260.0, 0.0, 30.0, 30.0])}
@@ -664,10 +666,12 @@ def test_colour_share_bars_a_tracks_pixels_whose_colour_a_neighbour_explains_bet
     assert tracks._colour_own(1, px).tolist() == [True, False, True, True, True, True, False]
     assert tracks._colour_own(2, px).tolist() == [False, True, True, True, True, False, True]
     assert tracks._colour_own(3, px).all()  # its gate overlaps no other
-    tracks.templates_[2] = (tracks.templates_[2][0], 4)  # not ready (appearance_min_frames 5)
+    templates = tracks.identities_.templates_
+    templates[2] = (templates[2][0], 4)  # not ready (appearance_min_frames 5)
     assert tracks._colour_own(1, px).all()
     tracks = _colour_tracks()
-    tracks.templates_[2] = tracks.templates_[1]  # alike templates decide nothing
+    templates = tracks.identities_.templates_
+    templates[2] = templates[1]  # alike templates decide nothing
     assert tracks._colour_own(1, px).all()
     tracks = _colour_tracks()
     del tracks.tracks_[2]  # an ended track does not count
@@ -689,7 +693,7 @@ def test_colour_share_ratio_and_floor_are_the_bar():
     for ratio, barred in ((1.25, True), (3.0, False)):
         tracks = _colour_tracks(colour_share_ratio=ratio, colour_share_distance=0.1,
                                 colour_share_max_barred=1.0)
-        tracks.templates_[1] = (0.5 * red + 0.5 * blue, 9)
+        tracks.identities_.templates_[1] = (0.5 * red + 0.5 * blue, 9)
         assert tracks._colour_own(1, px).tolist() == [not barred]
         b = blue.argmax()
         assert (blue[b] + 0.01 > ratio * (0.5 * blue[b] + 0.01)) == barred
@@ -713,7 +717,7 @@ def test_colour_share_in_both_region_paths(monkeypatch):
     image[cols[:, 1], cols[:, 0]] = img[0, 0]
     tracks.reid.appearance, tracks.mask.colour_share = True, True
     tracks.image_, tracks.frame_ = image, 10 ** 6
-    tracks.templates_ = {tid: (red, 9), 999: (blue, 9)}
+    tracks.identities_.templates_ = {tid: (red, 9), 999: (blue, 9)}
     own = tracks._colour_own(tid, px)
     # barred: exactly the pixels on blue inside the box of the gates
     g = np.array(list(tracks.gates_.values()))
@@ -780,3 +784,30 @@ def test_exit_part_counts_a_low_frame():
     held = VolumeExit(particles=10, established=True)
     assert held.low(49, False, 50) and not held.low(50, False, 50)
     assert not held.low(49, True, 50) and held.low(10, True, 50)
+
+
+def test_what_moved_out_of_volumes_still_imports_and_unpickles_from_it():
+    """The manager's parts live in modules of their own; every name of ``volumes.__all__`` is
+    the moved object itself, and a pickle naming the old module loads."""
+    import pickle
+
+    from pftrack_coast import (
+        likelihood,
+        volume_colour,
+        volume_geometry,
+        volume_params,
+        volumes,
+    )
+
+    homes = (volume_geometry, volume_colour, volume_params, likelihood)
+    for name in volumes.__all__:
+        obj = getattr(volumes, name)
+        if name != "VolumeTracks":
+            assert any(getattr(m, name, None) is obj for m in homes), name
+    assert volumes.InsideBoxesLikelihood.__module__ == "pftrack_coast.likelihood"
+    entry = volumes.VolumeEntry(particles=7)
+    old = pickle.dumps(entry, protocol=0).replace(b"pftrack_coast.volume_params\n",
+                                                  b"pftrack_coast.volumes\n")
+    assert b"pftrack_coast.volumes\n" in old
+    back = pickle.loads(old)
+    assert type(back) is volume_params.VolumeEntry and back.particles == 7
