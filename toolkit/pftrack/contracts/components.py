@@ -724,6 +724,12 @@ class ObservationModel(Component):
     def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:
         """A box (4,) -> the position (P,) in state space that would produce it (for births)."""
 
+    def box_height_in_state(self, box_xywh_px: np.ndarray) -> float | None:
+        """The height of a box (4,) in state-space position units, at that box: how far one
+        box height reaches in the state (pixels for an image-plane model). None (the default)
+        when the model cannot say; the engine's ``birth_velocity_spread`` needs it."""
+        return None
+
     def world_position(self, state: np.ndarray) -> np.ndarray | None:
         """Ground position (x, y, z) in world metres of a state (D,), or None when the model
         has no world frame (image-plane tracking)."""

@@ -150,6 +150,10 @@ _TRACKER = Field("tracker", "mapping",
           "Particles of a target redrawn around its matched detection (init_spread) before "
           "weighting: a mixture of the motion prior and the detections; 0: prior alone.",
           range=(0.0, 1.0)),
+    Field("birth_velocity_spread", "float", 0.0, "box heights per dt",
+          "Std of a new target's particle velocities, in heights of the box it starts from "
+          "(image-plane observations): speeds held as hypotheses from the first frame; 0: "
+          "every target starts at rest.", range=(0.0, None)),
     Field("target_size", "float", 1.0, "m", "Default target size (adaptive motion noise).",
           range=(0.0, None)),
 ))

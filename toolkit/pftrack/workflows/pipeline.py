@@ -71,7 +71,7 @@ CONFIG_KEYS = {"name", "description", "state", "observation", "motion", "likelih
 RUN_OUTPUTS = ("tracks.txt", "tracks_uncertainty.csv", "metrics.json", "report")
 TRACKER_KEYS = {"n_particles", "resampling", "ess_threshold", "dt", "init_spread",
                 "recover_spread", "max_misses", "min_log_likelihood", "kill_out_of_view",
-                "detection_proposal", "target_size"}
+                "detection_proposal", "birth_velocity_spread", "target_size"}
 
 
 # --------------------------------------------------------------------------------------------
