@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import copy
 import inspect
+import math
 import os
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator, Sequence
@@ -287,6 +288,14 @@ class RunContext:
 
             self.host = get_host()
         return self.host
+
+    def frames(self, seconds: float) -> int:
+        """A duration in seconds as a whole number of frames at ``fps`` (rounded, half to
+        even): what a parameter given in seconds means in this run."""
+        if not (math.isfinite(seconds) and seconds >= 0):
+            raise ValueError(f"a duration must be a finite number of seconds >= 0, got "
+                             f"{seconds!r}")
+        return int(round(float(seconds) * float(self.fps)))
 
 
 # --------------------------------------------------------------------------------------------

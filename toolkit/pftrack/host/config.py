@@ -143,6 +143,10 @@ _TRACKER = Field("tracker", "mapping",
     Field("max_misses", "int", None, "frames",
           "A target dies after this many consecutive frames without support.",
           range=(0, None), nullable=True),
+    Field("max_misses_s", "float", None, "s",
+          "max_misses in seconds of video: round(max_misses_s * fps) frames at the run's frame "
+          "rate (the same time on a 7 and on a 30 frames-per-second video); not with "
+          "max_misses.", range=(0.0, None), nullable=True),
     Field("min_log_likelihood", "float", None, "log-likelihood",
           "A frame supports a target whose best particle reaches this.", nullable=True),
     Field("kill_out_of_view", "bool", True, "", "A target dies when its box leaves the image."),
