@@ -61,10 +61,10 @@ From Python, e.g. a modified preset against the peers on the tune part::
     from pftrack_bench import own_detections as bod
 
     cfg = load_config("people-image")
-    cfg["tracker"]["max_misses"] = 40
+    cfg["tracker"]["max_misses_s"] = 4.0
     r = bod.run_benchmark(part="tune", levels=["clean", "noisy"], seeds=[0, 1, 2],
                           trackers=["bytetrack", "norfair"],
-                          extra=[bod.pftrack_config_entry("people-image-40", cfg)])
+                          extra=[bod.pftrack_config_entry("people-image-4s", cfg)])
     print(bod.format_table(r))
 
 :func:`simulate_detections`, :func:`hog_detections`, :func:`run_pftrack_config` and

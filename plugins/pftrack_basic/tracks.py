@@ -396,6 +396,10 @@ class OutputBoxReporter(Reporter):
     hide_after_misses: int | None = Param(
         None, "A confirmed track is not output in frames where it has gone more than this many "
         "frames without a matched detection. None: always output.", unit="frames")
+    hide_after_s: float | None = Param(
+        None, "hide_after_misses in seconds of video: round(hide_after_s * fps) frames at the "
+        "run's frame rate, so that a track is hidden after the same time on a 7 and on a 30 "
+        "frames-per-second video. Not with hide_after_misses.", unit="s", low=0.0)
     box_from_detection: float = Param(
         0.0, "Weight w of a track's matched detection in its output box: (1 - w) * estimate's "
         "box + w * detection's box (0: the estimate's box alone). Only the output box; the "
@@ -407,6 +411,16 @@ class OutputBoxReporter(Reporter):
         0.3, "box_from_detection moves a box only towards a detection that overlaps it by at "
         "least this intersection over union: a detection the associator matched from further "
         "away (it gates by distance) may be someone else's.", unit="1", low=0.0, high=1.0)
+
+    def _check_relations(self) -> None:
+        if self.hide_after_misses is not None and self.hide_after_s is not None:
+            raise ValueError("output-boxes: give hide_after_misses (frames) or hide_after_s "
+                             "(seconds), not both")
+
+    def setup(self, context: RunContext) -> None:
+        """The frames a track may miss before it is hidden, at the run's frame rate."""
+        self.hide_frames_ = (self.hide_after_misses if self.hide_after_s is None
+                             else context.frames(self.hide_after_s))
 
     def report(self, view: FrameView) -> list[OutputBox | Hide]:
         out: list[OutputBox | Hide] = []
@@ -421,7 +435,7 @@ class OutputBoxReporter(Reporter):
                 for t, ok_t, e, d in zip(pairs, ok, est, det, strict=True):
                     if ok_t:
                         out.append(OutputBox(t.id, (1.0 - w) * e + w * d))
-        hide = self.hide_after_misses
+        hide = self.__dict__.get("hide_frames_", self.hide_after_misses)
         if hide is not None:
             out.extend(Hide(t.id) for t in view.tracks if t.misses > hide)
         return out
@@ -474,6 +488,9 @@ class ConfirmedTracks(LifecycleTracks):
                                            low_open=True)
     hide_after_misses: int | None = Param(None, "Frames without a detection after which a "
                                           "live target is not output.", unit="frames", low=0)
+    hide_after_s: float | None = Param(None, "hide_after_misses in seconds of video (frames "
+                                       "at the run's frame rate); not with hide_after_misses.",
+                                       unit="s", low=0.0)
     end_at_border: bool = Param(False, "End a target that missed its detection when its box "
                                 "leaves the image (stage border-exit).")
     appearance: dict | None = Param(None, "{bins, sigma, update_rate, region}: a colour model "
@@ -495,8 +512,10 @@ class ConfirmedTracks(LifecycleTracks):
         stages: list[LifecycleStage] = []
         if self.appearance is not None:
             stages.append(ColourReidentifier(**self.appearance))
-        if self.hide_after_misses is not None or self.box_from_detection != 0.0:
+        if (self.hide_after_misses is not None or self.hide_after_s is not None
+                or self.box_from_detection != 0.0):
             stages.append(OutputBoxReporter(hide_after_misses=self.hide_after_misses,
+                                            hide_after_s=self.hide_after_s,
                                             box_from_detection=self.box_from_detection,
                                             box_min_iou=self.box_min_iou))
         stages.append(HitConfirmer(confirm_hits=self.confirm_hits,

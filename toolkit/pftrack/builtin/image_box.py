@@ -81,3 +81,7 @@ class ImageBoxObservation(ObservationModel):
     def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:
         b = np.asarray(box_xywh_px, dtype=np.float64)
         return np.array([b[0] + 0.5 * b[2], b[1] + 0.5 * b[3]])
+
+    def box_height_in_state(self, box_xywh_px: np.ndarray) -> float | None:
+        """The box's height in pixels: the state is in pixels."""
+        return float(np.asarray(box_xywh_px, dtype=np.float64)[3])

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import copy
 import inspect
+import math
 import os
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator, Sequence
@@ -287,6 +288,14 @@ class RunContext:
 
             self.host = get_host()
         return self.host
+
+    def frames(self, seconds: float) -> int:
+        """A duration in seconds as a whole number of frames at ``fps`` (rounded, half to
+        even): what a parameter given in seconds means in this run."""
+        if not (math.isfinite(seconds) and seconds >= 0):
+            raise ValueError(f"a duration must be a finite number of seconds >= 0, got "
+                             f"{seconds!r}")
+        return int(round(float(seconds) * float(self.fps)))
 
 
 # --------------------------------------------------------------------------------------------
@@ -723,6 +732,12 @@ class ObservationModel(Component):
     @abstractmethod
     def position_from_box(self, box_xywh_px: np.ndarray) -> np.ndarray:
         """A box (4,) -> the position (P,) in state space that would produce it (for births)."""
+
+    def box_height_in_state(self, box_xywh_px: np.ndarray) -> float | None:
+        """The height of a box (4,) in state-space position units, at that box: how far one
+        box height reaches in the state (pixels for an image-plane model). None (the default)
+        when the model cannot say; the engine's ``birth_velocity_spread`` needs it."""
+        return None
 
     def world_position(self, state: np.ndarray) -> np.ndarray | None:
         """Ground position (x, y, z) in world metres of a state (D,), or None when the model

@@ -162,6 +162,18 @@ class MultiTargetTracker:
         found again, which the detection likelihood can weight; with the prior alone a
         matched detection a few particle spreads away supports none of them. 0: the motion
         prior alone (no random draws). Unit: 1.
+    birth_velocity_spread : float
+        Std of a new target's particle velocities (zero mean), in heights of the box it is
+        started from per unit of ``dt``: a target started from a box (a detection) holds
+        hypotheses of its speed from the first frame, the fast and the slow, and the first
+        matched detections keep the ones that fit, instead of starting at rest and catching up
+        through the velocity noise. In box heights because an image-plane speed scales with
+        the person's size in the image (a person near a low camera crosses hundreds of pixels
+        a second, a distant one a few). Needs a motion model with ``velocity_dims`` and an
+        observation model that gives a box's height in state units
+        (:meth:`~pftrack.contracts.components.ObservationModel.box_height_in_state`: the
+        image-plane ones); targets started from a position without a box start at rest. 0:
+        every target starts at rest (no random draws). Unit: box heights per dt.
     valid_region : callable, optional
         ``f(positions (N, P)) -> bool (N,)``; particles outside get likelihood zero (the coastal
         paper: particles leaving the volume) and a target whose estimate leaves it dies.
@@ -191,7 +203,7 @@ class MultiTargetTracker:
                  detector: Detector | None = None, associator: Associator | None = None,
                  detection_driven: bool | None = None, max_misses: int | None = None,
                  min_log_likelihood: float | None = None, kill_out_of_view: bool = True,
-                 detection_proposal: float = 0.0,
+                 detection_proposal: float = 0.0, birth_velocity_spread: float = 0.0,
                  valid_region: Callable[[np.ndarray], np.ndarray] | None = None,
                  target_size: float = 1.0, rng: np.random.Generator | None = None,
                  backend: str = "auto") -> None:
@@ -207,6 +219,21 @@ class MultiTargetTracker:
                 or not 0.0 <= detection_proposal <= 1.0):
             raise ValueError(f"tracker.detection_proposal must be a number in [0, 1], got "
                              f"{detection_proposal!r}")
+        if (isinstance(birth_velocity_spread, bool)
+                or not isinstance(birth_velocity_spread, (int, float))
+                or not birth_velocity_spread >= 0.0 or not math.isfinite(birth_velocity_spread)):
+            raise ValueError(f"tracker.birth_velocity_spread must be a finite number >= 0, got "
+                             f"{birth_velocity_spread!r}")
+        if birth_velocity_spread > 0.0:
+            if getattr(motion, "velocity_dims", None) is None:
+                raise ValueError(f"tracker.birth_velocity_spread: the motion model "
+                                 f"{self._who(motion)} has no velocity (velocity_dims)")
+            if (type(observation).box_height_in_state
+                    is ObservationModel.box_height_in_state):
+                raise ValueError(f"tracker.birth_velocity_spread: the observation model "
+                                 f"{self._who(observation)} cannot give a box's height in "
+                                 "state units (box_height_in_state); use it with an "
+                                 "image-plane observation, or set it to 0")
         if resampling not in RESAMPLERS:
             raise ValueError(f"resampling scheme {resampling!r} unknown; choose one of "
                              f"{sorted(RESAMPLERS)}")
@@ -228,6 +255,7 @@ class MultiTargetTracker:
         self.min_log_likelihood = min_log_likelihood
         self.kill_out_of_view = kill_out_of_view
         self.detection_proposal = float(detection_proposal)
+        self.birth_velocity_spread = float(birth_velocity_spread)
         self.valid_region = valid_region
         self.target_size = float(target_size)
         self.rng = rng
@@ -311,6 +339,8 @@ class MultiTargetTracker:
         self._next_id = max(self._next_id, int(target_id) + 1)
         particles = self.motion.init_states(position, self.n_particles, self.rng,
                                             spread=self.init_spread)
+        if self.birth_velocity_spread > 0.0 and box_xywh_px is not None:
+            self._spread_velocities(particles, np.asarray(box_xywh_px, dtype=np.float64))
         weights = self._uniform
         state = weighted_mean(particles, weights)
         state[list(self.motion.position_dims)] = position  # the given position, not its sample mean
@@ -324,6 +354,16 @@ class MultiTargetTracker:
                                            self._uniform_log)
         self.likelihood.init_target(frame, target)
         return target
+
+    def _spread_velocities(self, particles: np.ndarray, box_xywh_px: np.ndarray) -> None:
+        """Draw a new target's particle velocities (in place): zero mean, std
+        ``birth_velocity_spread`` times the box's height in state units, per axis."""
+        height = self.observation.box_height_in_state(box_xywh_px)
+        if height is None or not math.isfinite(height) or height <= 0.0:
+            return  # a box with no usable height: the target starts at rest
+        vel = list(self.motion.velocity_dims)  # type: ignore[attr-defined]
+        std = self.birth_velocity_spread * float(height)
+        particles[:, vel] = self.rng.standard_normal((len(particles), len(vel))) * std
 
     def set_particles(self, target_id: int, particles: np.ndarray) -> Target:
         """Replace a live target's particles (N, D) with equal weights (the coastal paper's

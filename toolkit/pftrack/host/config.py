@@ -143,6 +143,10 @@ _TRACKER = Field("tracker", "mapping",
     Field("max_misses", "int", None, "frames",
           "A target dies after this many consecutive frames without support.",
           range=(0, None), nullable=True),
+    Field("max_misses_s", "float", None, "s",
+          "max_misses in seconds of video: round(max_misses_s * fps) frames at the run's frame "
+          "rate (the same time on a 7 and on a 30 frames-per-second video); not with "
+          "max_misses.", range=(0.0, None), nullable=True),
     Field("min_log_likelihood", "float", None, "log-likelihood",
           "A frame supports a target whose best particle reaches this.", nullable=True),
     Field("kill_out_of_view", "bool", True, "", "A target dies when its box leaves the image."),
@@ -150,6 +154,10 @@ _TRACKER = Field("tracker", "mapping",
           "Particles of a target redrawn around its matched detection (init_spread) before "
           "weighting: a mixture of the motion prior and the detections; 0: prior alone.",
           range=(0.0, 1.0)),
+    Field("birth_velocity_spread", "float", 0.0, "box heights per dt",
+          "Std of a new target's particle velocities, in heights of the box it starts from "
+          "(image-plane observations): speeds held as hypotheses from the first frame; 0: "
+          "every target starts at rest.", range=(0.0, None)),
     Field("target_size", "float", 1.0, "m", "Default target size (adaptive motion noise).",
           range=(0.0, None)),
 ))

@@ -70,8 +70,9 @@ CONFIG_KEYS = {"name", "description", "state", "observation", "motion", "likelih
 # what a run owns in its --out folder
 RUN_OUTPUTS = ("tracks.txt", "tracks_uncertainty.csv", "metrics.json", "report")
 TRACKER_KEYS = {"n_particles", "resampling", "ess_threshold", "dt", "init_spread",
-                "recover_spread", "max_misses", "min_log_likelihood", "kill_out_of_view",
-                "detection_proposal", "target_size"}
+                "recover_spread", "max_misses", "max_misses_s", "min_log_likelihood",
+                "kill_out_of_view",
+                "detection_proposal", "birth_velocity_spread", "target_size"}
 
 
 # --------------------------------------------------------------------------------------------
@@ -350,6 +351,12 @@ def build_engine(cfg: dict[str, Any], *, camera: Camera | None = None, fps: floa
         if component is not None:
             component.setup(context)
     topts = dict(cfg.get("tracker") or {})
+    seconds = topts.pop("max_misses_s", None)
+    if seconds is not None:
+        if topts.get("max_misses") is not None:
+            raise ValueError(f"config {cfg.get('_source', '')}: give tracker.max_misses "
+                             "(frames) or tracker.max_misses_s (seconds), not both")
+        topts["max_misses"] = context.frames(float(seconds))
     dt = topts.pop("dt", "auto")
     dt = 1.0 / float(fps) if dt in (None, "auto") else float(dt)
     return MultiTargetTracker(
