@@ -290,18 +290,15 @@ class RunContext:
         return self.host
 
     def frames(self, seconds: float) -> int:
-        """A duration in seconds as a whole number of frames at ``fps`` (rounded, half to
-        even): what a parameter given in seconds means in this run."""
+        """A duration in seconds as whole frames at ``fps`` (rounded half to even)."""
         if not (math.isfinite(seconds) and seconds >= 0):
-            raise ValueError(f"a duration must be a finite number of seconds >= 0, got "
-                             f"{seconds!r}")
+            raise ValueError(f"a duration must be a finite number of seconds >= 0: {seconds!r}")
         return int(round(float(seconds) * float(self.fps)))
 
 
 # --------------------------------------------------------------------------------------------
 # Component base
 # --------------------------------------------------------------------------------------------
-
 
 
 class Component(ABC):
