@@ -47,6 +47,7 @@ figures are reported on 201-795. Nothing else was learnt from PETS.
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
 import time
 from typing import Any
@@ -140,6 +141,21 @@ def norfair_tracks(detections: dict, frames: range, min_score: float, *,
     receives ``wall_s`` and ``cpu_s``: seconds spent in norfair's update calls alone."""
     from norfair import Detection, Tracker
 
+    # norfair's IoU distance logs a warning for each crossed box of its own estimates (see the
+    # sort below); a run can print hundreds, so its level is raised for the length of the run
+    distances_log = logging.getLogger("norfair.distances")
+    level = distances_log.level
+    distances_log.setLevel(logging.ERROR)
+    try:
+        return _norfair_rows(Tracker, Detection, detections, frames, min_score,
+                             distance_threshold, hit_counter_max, initialization_delay, timing)
+    finally:
+        distances_log.setLevel(level)
+
+
+def _norfair_rows(Tracker: Any, Detection: Any, detections: dict, frames: range,
+                  min_score: float, distance_threshold: float, hit_counter_max: int,
+                  initialization_delay: int, timing: dict | None) -> np.ndarray:
     tracker = Tracker(distance_function="iou", distance_threshold=distance_threshold,
                       hit_counter_max=hit_counter_max,
                       initialization_delay=initialization_delay)
