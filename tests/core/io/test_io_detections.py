@@ -96,3 +96,45 @@ def test_run_tracks_a_det_file_from_the_cli_and_from_yaml(tmp_path):
     assert main([*args, "--out", str(tmp_path / "b")]) == 0
     a, b = read_mot(tmp_path / "a" / "tracks.txt"), read_mot(tmp_path / "b" / "tracks.txt")
     assert a.shape == b.shape and np.allclose(a, b)
+
+
+def test_negative_scores_are_kept_and_only_minus_one_means_no_score(tmp_path):
+    p = tmp_path / "det.txt"
+    p.write_text("1,-1,0,0,10,20,-0.25\n1,-1,5,5,10,20,-1\n1,-1,9,9,10,20,2.5\n")
+    assert np.allclose(read_detections(p)[1].scores, [-0.25, 1.0, 2.5])
+
+
+def test_scores_off_the_probability_scale_are_named_with_the_thresholds_they_meet():
+    from pftrack.workflows.pipeline import load_config, score_scale_warning
+
+    cfg = load_config("people-image")
+    boxes = np.array([[0, 0, 10, 20], [5, 5, 10, 20], [9, 9, 10, 20], [1, 1, 10, 20]], float)
+    off = {1: Detections(boxes, np.array([-1.5, 0.2, 0.7, 3.0]))}
+    line = score_scale_warning(cfg, off, "det.txt")
+    assert "det.txt" in line and "-1.5 to 3" in line
+    assert "tracks.params.min_score = 0.5" in line and "associator.params.high_score = 0.5" in line
+    assert "50% of the detections" in line
+    inside = {1: Detections(boxes, np.array([0.0, 0.2, 0.7, 1.0]))}
+    assert score_scale_warning(cfg, inside, "det.txt") == ""
+    # nothing in the configuration reads scores: nothing to say
+    bare = {k: v for k, v in cfg.items() if k not in ("tracks", "associator")}
+    assert score_scale_warning(bare, off, "det.txt") == ""
+
+
+@needs_pets
+def test_pftrack_run_warns_of_scores_off_the_scale(tmp_path):
+    import warnings
+
+    from pftrack.workflows.pipeline import DetectionScoreWarning, run_pipeline
+
+    gt = np.loadtxt(PETS / "gt.txt", delimiter=",")
+    gt = gt[gt[:, 0] <= 5]
+    rows = np.column_stack([gt[:, 0], -np.ones(len(gt)), gt[:, 2:6], np.full(len(gt), 7.0)])
+    det = tmp_path / "det.txt"
+    np.savetxt(det, rows, delimiter=",", fmt="%.3f")
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        run_pipeline("people-image", video=PETS / "vtest.avi", frames=(1, 5), detections=det,
+                     progress=False, report=False)
+    lines = [str(w.message) for w in said if issubclass(w.category, DetectionScoreWarning)]
+    assert len(lines) == 1 and str(det) in lines[0] and "from 7 to 7" in lines[0]

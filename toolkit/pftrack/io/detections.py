@@ -5,7 +5,7 @@ A ``det.txt`` has one detection per line, ``frame,id,left,top,width,height,conf[
 (MOTChallenge: ``id`` is -1, ``conf`` the detector's score; frames numbered from 1 as the
 ground truth's, MOT frame N = video frame N - 1). Any MOT file reads (a ``gt.txt`` or another
 tracker's ``tracks.txt`` too): ids are ignored. A missing ``conf`` column (or -1 written for it)
-reads as score 1.
+reads as score 1; other scores are kept as they are.
 """
 
 from __future__ import annotations
@@ -57,7 +57,9 @@ def read_detections(path: str | os.PathLike[str], camera: Camera | None = None,
         bad = int(np.flatnonzero(rows[:, 4] * rows[:, 5] <= 0)[0])
         raise ValueError(f"detections {path}: row {bad + 1} has an empty box "
                          f"(width {rows[bad, 4]}, height {rows[bad, 5]})")
-    scores = np.where(rows[:, 6] < 0, 1.0, rows[:, 6])
+    # -1 is MOTChallenge's "no score"; any other value is the detector's own, negative ones
+    # included (a linear detector's margin)
+    scores = np.where(rows[:, 6] == -1.0, 1.0, rows[:, 6])
     if min_score is not None:
         keep = scores >= float(min_score)
         rows, scores = rows[keep], scores[keep]

@@ -51,6 +51,7 @@ if TYPE_CHECKING:
     from pftrack.geometry.camera import Camera, CameraSpec
 
 __all__ = [
+    "DetectionScoreWarning",
     "RunResult",
     "build_detector",
     "build_engine",
@@ -61,6 +62,7 @@ __all__ = [
     "read_ground_truth",
     "rows_on_ground",
     "run_pipeline",
+    "score_scale_warning",
     "train_detector",
 ]
 
@@ -282,6 +284,39 @@ def train_detector(video: str | os.PathLike[str], gt: str | os.PathLike[str],
 # --------------------------------------------------------------------------------------------
 # The tracking loop
 # --------------------------------------------------------------------------------------------
+
+
+class DetectionScoreWarning(UserWarning):
+    """Given detections whose scores are not on the 0-1 scale the configuration's score
+    thresholds are written for."""
+
+
+def score_scale_warning(cfg: dict[str, Any], detections: dict[int, Detections],
+                        source: str) -> str:
+    """A message when given detections score outside 0-1 while the configuration's score
+    thresholds (``tracks.params.min_score``, ``associator.params.high_score``) read scores as
+    probabilities; empty when they are in range or nothing reads them."""
+    scores = [d.scores for d in detections.values() if len(d.scores)]
+    if not scores:
+        return ""
+    every = np.concatenate(scores)
+    lo, hi = float(every.min()), float(every.max())
+    if lo >= 0.0 and hi <= 1.0:
+        return ""
+    used = []
+    for section, key in (("tracks", "min_score"), ("associator", "high_score")):
+        part = cfg.get(section)
+        value = (part.get("params") or {}).get(key) if isinstance(part, dict) else None
+        if value is not None:
+            used.append(f"{section}.params.{key} = {value:g}")
+    if not used:
+        return ""
+    share = float(np.mean(every >= 0.5))
+    return (f"detections {source}: scores range from {lo:.3g} to {hi:.3g}, not 0-1; this "
+            f"configuration reads scores as probabilities ({', '.join(used)}), so "
+            f"{share:.0%} of the detections count as confident. Rescale the scores to 0-1 "
+            "(a detector's probability of a person), or set those parameters on your scale "
+            "(a copy of the preset: pftrack presets --show NAME)")
 
 
 def _valid_region(rect: Sequence[float] | None):
@@ -542,7 +577,13 @@ def run_pipeline(config: str | os.PathLike[str] | dict[str, Any], *, video: str 
     if isinstance(detections, (str, os.PathLike)):
         from pftrack.io.detections import read_detections
 
+        source_name = str(detections)
         detections = read_detections(detections, camera=cam)
+        line = score_scale_warning(cfg, detections, source_name)
+        if line:
+            import warnings
+
+            warnings.warn(line, DetectionScoreWarning, stacklevel=2)
     detector = None
     if detections is None and cfg.get("detector") and \
             (cfg["detector"].get("detect", True) if isinstance(cfg["detector"], dict) else True):

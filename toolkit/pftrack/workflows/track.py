@@ -549,6 +549,12 @@ def track_video(video: str | os.PathLike[str], out_dir: str | os.PathLike[str] |
     if cfg.get("state", "world") == "world" and cam is not None:
         dets = with_ground_points(dets, cam)
     messages.extend(check_thresholds(cfg))
+    if detections is not None:
+        from pftrack.workflows.pipeline import score_scale_warning
+
+        scale = score_scale_warning(cfg, dets, det_source.removeprefix("file "))
+        if scale:
+            messages.append(scale)
     static = _StaticFilter(video, static_rule, keep_static)
     # 3. track
     import warnings
