@@ -225,3 +225,15 @@ def test_a_thing_that_never_moves_is_left_out_and_listed(tmp_path):
     assert any("static things" in m and "--keep-static" in m for m in res.messages)
     sid, rows, _ = runs[True]
     assert sid in rows[:, 1] and len(np.unique(rows[:, 1])) == 2
+
+
+@needs_pets
+def test_given_scores_off_the_probability_scale_are_said(tmp_path):
+    det = tmp_path / "det.txt"
+    det.write_text("".join(f"{f},-1,{100 + 2 * f},100,30,90,{40 + f}\n" for f in range(1, 11)))
+    res = track_video(PETS / "vtest.avi", tmp_path / "o", detections=det, frames="1:10",
+                      report=False)
+    said = [m for m in res.messages if "not 0-1" in m]
+    assert len(said) == 1 and str(det) in said[0] and "from 41 to 50" in said[0]
+    assert "tracks.params.min_score = 0.5" in said[0]
+    assert res.summary["tracks"] == 1  # tracked all the same
