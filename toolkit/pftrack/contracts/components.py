@@ -249,8 +249,8 @@ class Assignment:
     def from_matches(cls, matches: Sequence[tuple[int, int]] | np.ndarray, n_tracks: int,
                      n_detections: int) -> Assignment:
         m = np.asarray(matches, dtype=np.intp).reshape(-1, 2)
-        ut = np.setdiff1d(np.arange(n_tracks), m[:, 0]).astype(np.intp)
-        ud = np.setdiff1d(np.arange(n_detections), m[:, 1]).astype(np.intp)
+        ut = np.delete(np.arange(n_tracks, dtype=np.intp), m[:, 0])  # sorted, as setdiff1d
+        ud = np.delete(np.arange(n_detections, dtype=np.intp), m[:, 1])
         return cls(m, ut, ud)
 
 
