@@ -366,10 +366,6 @@ class ConstantAccelerationMotion(MotionModel):
         "predicted to stop speeding up or turning after about this long instead of "
         "accelerating for ever; None keeps it constant (the paper).", unit="dt",
         low=0.0, low_open=True)
-    velocity_time: float | None = Param(
-        None, "How long a velocity lasts: each step keeps exp(-dt / velocity_time) of it, so "
-        "an unobserved target is predicted to slow down over about this long (people stop, "
-        "turn back, wait); None keeps it.", unit="dt", low=0.0, low_open=True)
 
     @property
     def state_dim(self) -> int:
@@ -417,21 +413,17 @@ class ConstantAccelerationMotion(MotionModel):
         return std
 
     def _damped(self) -> bool:
-        return self.acceleration_time is not None or self.velocity_time is not None
+        return self.acceleration_time is not None
 
     def transition_matrix(self, dt: float) -> np.ndarray:
         """C of eq. 2 for a step ``dt``, shape (6, 6).
 
-        With ``velocity_time`` ``T_v`` or ``acceleration_time`` ``T_a``, the factors
-        ``r_v = exp(-dt / T_v)`` and ``r_a = exp(-dt / T_a)`` scale the velocity's and the
-        acceleration's rows: ``p' = p + dt v + dt^2/2 a``, ``v' = r_v (v + dt a)``,
-        ``a' = r_a a``.
+        With ``acceleration_time`` ``T_a``, the factor ``r_a = exp(-dt / T_a)`` scales the
+        acceleration's rows: ``p' = p + dt v + dt^2/2 a``, ``v' = v + dt a``, ``a' = r_a a``.
         """
         c = np.eye(6)
         c[0, 2] = c[1, 3] = c[2, 4] = c[3, 5] = dt
         c[0, 4] = c[1, 5] = 0.5 * dt * dt
-        if self.velocity_time is not None:
-            c[2:4] *= math.exp(-dt / float(self.velocity_time))
         if self.acceleration_time is not None:
             c[4:6] *= math.exp(-dt / float(self.acceleration_time))
         return c

@@ -27,25 +27,14 @@ def _frame_key(frame: Frame) -> tuple[int, int]:
 
 
 class _TemplateLikelihood(Likelihood):
-    """Per-target templates (``templates_``, by target id): taken in the target's first frame
-    (:meth:`init_target`), blended ``T <- (1 - a) T + a T(estimate)`` with ``a = update_rate``
-    each frame the target had support, measured at its last estimate in the previous frame
-    (:meth:`begin_frame`). A subclass says what a frame is reduced to (:meth:`_prepare`, kept
-    with the previous frame's), how a template is measured in it (:meth:`_measure`) and what a
-    new target starts from (:meth:`_first_template`)."""
-
-    update_rate: float
+    """Per-target templates (``templates_``, by target id), taken in the target's first frame
+    (:meth:`init_target`) and kept, as the soccer paper does: a template that followed the
+    estimates would drift onto whoever the track wrongly follows. A subclass says what a frame
+    is reduced to (:meth:`_prepare`) and what a new target's template is
+    (:meth:`_first_template`)."""
 
     def _prepare(self, frame: Frame) -> Any:
-        """The current frame's reduced form (cached per frame; the previous one kept)."""
-        raise NotImplementedError
-
-    def _previous(self) -> Any:
-        """The previous frame's reduced form, or None."""
-        raise NotImplementedError
-
-    def _measure(self, source: Any, box: np.ndarray) -> np.ndarray | None:
-        """A template at ``box`` in a reduced frame; None where it cannot be measured whole."""
+        """The current frame's reduced form (cached per frame)."""
         raise NotImplementedError
 
     def _first_template(self, source: Any, box: np.ndarray) -> np.ndarray:
@@ -65,15 +54,6 @@ class _TemplateLikelihood(Likelihood):
         if not hasattr(self, "templates_"):
             self.templates_ = {}
         self._prepare(frame)
-        a = float(self.update_rate)
-        prev = self._previous()
-        if a > 0 and prev is not None:
-            # targets' boxes are still last frame's estimates: read them in last frame's image
-            for t in targets:
-                if t.id in self.templates_ and t.frames_tracked > 0:
-                    m = self._measure(prev, t.box_xywh_px)
-                    if m is not None:
-                        self.templates_[t.id] = (1 - a) * self.templates_[t.id] + a * m
 
 
 # --------------------------------------------------------------------------------------------
@@ -106,10 +86,6 @@ class NCCLikelihood(_TemplateLikelihood):
     region: Sequence[float] | None = Param(
         None, "Part of each box compared, fractions of its width and height.",
         unit="1", low=0.0, high=1.0, length=4)
-    update_rate: float = Param(
-        0.0,
-        "Template update ``T <- (1 - a) T + a T(estimate)`` each frame the target had support "
-        "(0, the paper: never).", unit="1/frame", low=0.0, high=1.0)
     min_valid: float = Param(
         0.5, "Windows with less than this fraction of their cells inside the image get ``p_C = "
         "eps``.", unit="1", low=0.0, high=1.0)
@@ -124,7 +100,6 @@ class NCCLikelihood(_TemplateLikelihood):
         if getattr(self, "frame_key_", None) != key:
             img = frame.image
             grey = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
-            self.prev_integral_ = getattr(self, "integral_", None)
             self.integral_ = integral_image(grey)
             self.frame_key_ = key
         return self.integral_
@@ -133,13 +108,6 @@ class NCCLikelihood(_TemplateLikelihood):
         means, valid = cell_means(integral, sub_boxes(boxes, self.region), self.grid_wh)
         k = means.shape[1] * means.shape[2]
         return means.reshape(len(means), k), valid.reshape(len(valid), k)
-
-    def _previous(self) -> np.ndarray | None:
-        return getattr(self, "prev_integral_", None)
-
-    def _measure(self, source: np.ndarray, box: np.ndarray) -> np.ndarray | None:
-        vals, valid = self._cells(source, box[None])
-        return vals[0] if valid[0].all() else None
 
     def _first_template(self, source: np.ndarray, box: np.ndarray) -> np.ndarray:
         vals, valid = self._cells(source, box[None])
@@ -260,9 +228,6 @@ class EMDLikelihood(_TemplateLikelihood):
         "Part of each box histogrammed, fractions of its width and height (default: the "
         "middle, less background beside the legs and above the head).",
         unit="1", low=0.0, high=1.0, length=4)
-    update_rate: float = Param(
-        0.0, "Template update each frame the target had support (0: never, as the paper).",
-        unit="1/frame", low=0.0, high=1.0)
 
     def _check_relations(self) -> None:
         check_region(self.region, type(self).__name__)
@@ -279,7 +244,6 @@ class EMDLikelihood(_TemplateLikelihood):
                 img = cv2.cvtColor(img, cv2.COLOR_BGR2HSV_FULL)
             elif self.colour_space == "lab":
                 img = cv2.cvtColor(img, cv2.COLOR_BGR2LAB)
-            self.prev_quantised_ = getattr(self, "quantised_", None)
             self.quantised_ = ((img.astype(np.uint16) * int(self.bins)) >> 8).astype(np.uint8)
             self.frame_key_ = key
         return self.quantised_
@@ -298,9 +262,6 @@ class EMDLikelihood(_TemplateLikelihood):
         counts = counts.reshape(n, 3, B)
         k = valid.sum(axis=1).astype(np.float64)
         return counts / np.maximum(k, 1.0)[:, None, None], k
-
-    def _previous(self) -> np.ndarray | None:
-        return getattr(self, "prev_quantised_", None)
 
     def _measure(self, quantised: np.ndarray, box: np.ndarray) -> np.ndarray | None:
         """Exact histogram (3, bins) of every pixel of the box's region (None if outside)."""

@@ -85,24 +85,24 @@ def test_constant_acceleration_without_noise_is_C_of_eq2():
     assert np.allclose(x[0, 2:4], [3 + 0.5 * t, -1 + 0.2 * t])
 
 
-def test_constant_acceleration_with_manoeuvre_and_velocity_times_decays_them():
-    """acceleration_time T_a and velocity_time T_v keep exp(-dt / T) of the acceleration and
-    the velocity each step: an unobserved target stops accelerating, then slows down."""
+def test_constant_acceleration_with_a_manoeuvre_time_decays_the_acceleration():
+    """acceleration_time T_a keeps exp(-dt / T_a) of the acceleration each step: an unobserved
+    target stops accelerating and walks on at the speed it reached."""
     rng = np.random.default_rng(3)
     m = ConstantAccelerationMotion(position_noise=0.0, velocity_noise=0.0, acceleration_noise=0.0,
-                                   acceleration_time=10.0, velocity_time=50.0)
+                                   acceleration_time=10.0)
     x0 = np.array([[1.0, 2.0, 3.0, -1.0, 0.5, 0.2]])
     x = x0
     for _ in range(20):
         x = m.predict(x, 1.0, rng)
     assert np.allclose(x[0, 4:], x0[0, 4:] * np.exp(-2.0), rtol=1e-12)
-    # the velocity: v_k = r_v (v_{k-1} + a_{k-1}), written out
+    # the velocity: v_k = v_{k-1} + a_{k-1}, written out
     v, a, p = x0[0, 2:4].copy(), x0[0, 4:].copy(), x0[0, :2].copy()
     for _ in range(20):
         p = p + v + 0.5 * a
-        v, a = np.exp(-1 / 50) * (v + a), np.exp(-1 / 10) * a
+        v, a = v + a, np.exp(-1 / 10) * a
     assert np.allclose(x[0, 2:4], v, rtol=1e-12) and np.allclose(x[0, :2], p, rtol=1e-12)
-    # without the times the acceleration stays (the paper); with only one, only it decays
+    # without it the acceleration stays (the paper); the velocity is never damped
     c = ConstantAccelerationMotion(acceleration_time=4.0).transition_matrix(2.0)
     assert c[4, 4] == pytest.approx(np.exp(-0.5)) and c[2, 2] == 1.0 and c[2, 4] == 2.0
     # large clouds take the same matrix (the compiled update writes out the undamped one)
@@ -114,8 +114,7 @@ def test_constant_acceleration_with_manoeuvre_and_velocity_times_decays_them():
 
 def test_damped_constant_acceleration_rows_equal_one_target_at_a_time():
     m = ConstantAccelerationMotion(position_noise=0.1, velocity_noise=0.5,
-                                   acceleration_noise=0.1, acceleration_time=10.0,
-                                   velocity_time=30.0)
+                                   acceleration_noise=0.1, acceleration_time=10.0)
     s = np.random.default_rng(1).normal(0, 3, (3, 50, 6))
     targets = [_target(frames_tracked=k + 1, size=1.0) for k in range(3)]
     rows = m.predict_rows(s, 1.0, np.random.default_rng(9), targets)
