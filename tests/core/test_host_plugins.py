@@ -76,6 +76,11 @@ def test_installed_plugin_is_listed_as_third_party(sample_site):
     assert list(plugins).index("sample") > list(plugins).index("world")
     text = _run(sample_site, ["-m", "pftrack", "plugins"]).stdout
     assert "sample 0.3.1 (third-party" in text and "sample-drift" in text
+    # its parameters are counted with the built-ins', and its preset is seen to use them
+    inv = json.loads(_run(sample_site, ["-m", "pftrack", "plugins", "--params", "--json"]).stdout)
+    drift = next(r for r in inv["components"] if r["name"] == "sample-drift")
+    assert (drift["plugin"], drift["names"]) == ("sample", ["velocity_px", "sigma_px"])
+    assert "sample-dots" in drift["presets"]
 
 
 _RUN_SAMPLE = r"""
