@@ -814,3 +814,34 @@ def test_what_moved_out_of_volumes_still_imports_and_unpickles_from_it():
     assert b"pftrack_coast.volumes\n" in old
     back = pickle.loads(old)
     assert type(back) is volume_params.VolumeEntry and back.particles == 7
+
+
+def test_the_stages_share_one_book_and_hold_no_target_and_no_engine():
+    """The manager's work is done by its stages, all on one book; pickled, neither the stages
+    nor the book reach a target or the engine (the targets' regions are the book's)."""
+    import io
+    import pickle
+
+    from pftrack.contracts.components import Target
+    from pftrack_coast.volume_book import VolumeRegion
+
+    engine, tracks, rows, *_ = _run(n_frames=20)
+    assert len(rows) and tracks.tracks_
+    assert [type(s).__name__ for s in tracks.stages_] == [
+        "VolumeGroups", "VolumeExits", "VolumeEstimator", "VolumeMerger", "VolumeEntries",
+        "VolumeMasker"]
+    assert all(s.book is tracks.book_ for s in tracks.stages_)
+    found = []
+
+    class Spy(pickle.Pickler):
+        def persistent_id(self, obj):
+            if isinstance(obj, (Target, MultiTargetTracker)):
+                found.append(type(obj).__name__)
+            return None
+
+    Spy(io.BytesIO()).dump(tracks.stages_)
+    assert found == []
+    for t in engine.targets:  # every target's region is the book's, in its own volume
+        region = t.valid_region.region
+        assert isinstance(region, VolumeRegion) and region.book is tracks.book_
+        assert region.mode == ("exclude" if t.id in tracks.groups_ else "gate")
