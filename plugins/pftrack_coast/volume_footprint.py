@@ -11,8 +11,9 @@ height moves there in the direction of the object); before either, the particles
 horizontal velocity once faster than ``VolumeFootprint.min_speed``. With ``footprint.held`` a
 track's foot row may be held by its volume's near face (:meth:`TrackFootprints.hold`).
 
-:class:`TrackFootprints` holds these paths for one run, keyed by engine target id; the manager
-owns one.
+:class:`TrackFootprints` holds these paths for one run, keyed by engine target id; the
+manager's :class:`~pftrack_coast.volume_book.VolumeBook` holds one, which the estimator stage
+fills.
 """
 
 from __future__ import annotations

@@ -13,8 +13,10 @@ output id of each track, its colour template, and the rules that change output i
 * **colour share** (``mask.colour_share``): which of a track's pixels a neighbouring track's
   template claims by their colour.
 
-:class:`VolumeIdentities` holds this state for one run, keyed by engine target id; the manager
-owns one and calls it from its hooks.
+:class:`VolumeIdentities` holds this state for one run, keyed by engine target id; the
+manager's :class:`~pftrack_coast.volume_book.VolumeBook` holds one: the merger stage asks it
+which of two tracks on one intruder goes on, and the manager gives the output records their ids
+through it.
 """
 
 from __future__ import annotations
@@ -156,7 +158,7 @@ class VolumeIdentities:
         (``volumes``: track id -> volume name, for the events)."""
         self.hists_ = {}
         for r in out:
-            h = self._hist(frame, r, look)
+            h = self._hist(frame, r.id, r.box_xywh_px, look)
             if h is not None:
                 self.hists_[r.id] = h
         xy = {r.id: r.world_m[:2] for r in out if r.world_m is not None}
@@ -195,23 +197,25 @@ class VolumeIdentities:
             self.templates_[tid] = (h.copy(), 1) if tpl is None else \
                 ((1.0 - rate) * tpl[0] + rate * h, tpl[1] + 1)
 
-    def _hist(self, frame: Frame, record: TrackRecord,
+    def _hist(self, frame: Frame, tid: int, box_xywh_px: np.ndarray,
               look: Mapping[int, np.ndarray]) -> np.ndarray | None:
-        """HSV histogram of a track's region: its box in ``look`` (the image box of a typical
-        intruder, ``object_size_m``, on its footprint), else its record's box."""
-        box = look.get(record.id, record.box_xywh_px)
+        """HSV histogram of track ``tid``'s region: its box in ``look`` (the image box of a
+        typical intruder, ``object_size_m``, on its footprint), else ``box_xywh_px`` (its
+        record's box)."""
+        box = look.get(tid, box_xywh_px)
         return hsv_histogram(frame.image, box, inner=float(self.reid.inner))
 
-    def mismatch(self, frame: Frame, older: TrackRecord, younger: TrackRecord,
-                 look: Mapping[int, np.ndarray]) -> bool:
+    def mismatch(self, frame: Frame, older: int, younger: int,
+                 boxes: Mapping[int, np.ndarray], look: Mapping[int, np.ndarray]) -> bool:
         """Two tracks on one intruder merge: whether the older's template matches its region
         worse (by ``VolumeReid.margin``) than the younger's matches its own (the older ends
-        then, not the younger). False when either template is not ready."""
+        then, not the younger). ``boxes``: track id -> its output box of this frame (4,) xywh
+        px. False when either template is not ready."""
         n = int(self.reid.min_frames)
         costs = []
-        for r in (older, younger):
-            tpl = self.templates_.get(r.id)
-            h = self._hist(frame, r, look)
+        for tid in (older, younger):
+            tpl = self.templates_.get(tid)
+            h = self._hist(frame, tid, boxes[tid], look)
             if tpl is None or tpl[1] < n or h is None:
                 return False
             costs.append(float(bhattacharyya(h, tpl[0])))

@@ -23,6 +23,8 @@ from pftrack.contracts.stages import (
     Mask,
     Masker,
     Merger,
+    OutputBox,
+    Particles,
     Reidentifier,
     Reporter,
     Sizer,
@@ -277,3 +279,83 @@ def test_a_maskers_regions_reach_the_weighting_and_can_be_lifted():
     # particles right of the last estimate were barred while the masks held, none after
     assert sum(v for k, v in barred.items() if k <= 10) > 0
     assert sum(v for k, v in barred.items() if k > 10) == 0
+
+
+class _BoxedHalf:
+    """A picklable region that reads the particles' boxes: the box's left edge below
+    ``x_max`` (pixels); records each call's boxes."""
+
+    def __init__(self, x_max: float, calls: list) -> None:
+        self.x_max, self.calls = x_max, calls
+
+    def __call__(self, positions: np.ndarray, boxes: np.ndarray | None) -> np.ndarray:
+        self.calls.append((len(positions), None if boxes is None else boxes.shape,
+                           None if boxes is None else boxes.flags.writeable))
+        return boxes[:, 0] < self.x_max
+
+
+def test_births_with_particles_and_particles_decisions_apply_in_the_order_returned():
+    """An initiator's generator: a :class:`Birth` carrying particles starts a track with
+    exactly them (after the engine's own draws), every stage hears of it before the generator
+    goes on, and a :class:`Particles` decision then replaces them; the stage draws from the
+    run's generator (``FrameView.rng`` is the engine's); tracks show their particles,
+    log-likelihoods, particle boxes and resample index read-only; a :class:`Mask` with
+    ``boxes`` gets the weighted particles' boxes; an :class:`OutputBox` sets the record's
+    ground position and size."""
+    seen: dict = {"rng": [], "started": [], "views": [], "calls": []}
+
+    class Seeded(Initiator):
+        def initiate(self, view: FrameView):
+            seen["rng"].append(view.rng)
+            m = view.models
+            if view.frame.index != 2:
+                return
+            first = np.zeros((m.n_particles, m.state_dim))
+            first[:, :2] = 40.0
+            b = Birth(position=np.array([40.0, 40.0]), particles=first, supported=False)
+            yield b
+            tid = seen["started"][-1]
+            yield Particles(tid, view.rng.normal(80.0, 1.0, (m.n_particles, m.state_dim)))
+
+        def track_started(self, track, birth):
+            seen["started"].append(track.id)
+            seen["born"] = track.particles.copy()
+
+    class Spy(Reporter):
+        def report(self, view: FrameView):
+            seen["views"].append(view.tracks)
+            return [OutputBox(t.id, t.box_xywh_px, world_m=np.array([1.0, 2.0, 0.0]),
+                              size_m=np.array([0.5, 1.7, 0.5])) for t in view.tracks]
+
+    class Boxed(Masker):
+        def mask(self, view: FrameView):
+            return [Mask(t.id, _BoxedHalf(70.0, seen["calls"]), boxes=True)
+                    for t in view.tracks]
+
+    tracks = StagedTracks(stages=[Seeded(), Spy(), Boxed()])
+    tracks.setup(RunContext())
+    rng = np.random.default_rng(3)
+    eng = MultiTargetTracker(_KitWalk(), _KitNearest(), ImageBoxObservation(20, 40),
+                             tracks=tracks, n_particles=16, rng=rng)
+    sc = synthetic_scene(seed=3, n_frames=4)
+    records = {f.index: eng.step(f, sc.detections(f.index)) for f in sc.frames}
+    assert seen["rng"] and all(r is rng for r in seen["rng"])
+    assert len(seen["started"]) == 1
+    np.testing.assert_array_equal(seen["born"][:, :2], np.full((16, 2), 40.0))
+    # the birth's record is of its given particles' mean; then the Particles decision moved it
+    (born,) = records[2]
+    np.testing.assert_array_equal(born.state[:2], [40.0, 40.0])
+    t = eng.targets[0]
+    assert np.abs(t.state[:2] - 80.0).max() < 20.0  # the particles set after the birth
+    # later frames: the views hold the particles read-only, the records the reported fields
+    (v,) = seen["views"][-1]
+    for a in (v.particles, v.log_likelihoods, v.particle_boxes_xywh_px, v.resample_index):
+        assert a is not None and not a.flags.writeable
+    (r,) = records[4]
+    np.testing.assert_array_equal(r.world_m, [1.0, 2.0, 0.0])
+    np.testing.assert_array_equal(r.size_m, [0.5, 1.7, 0.5])
+    # the mask read the boxes of the 16 particles being weighted, read-only
+    assert seen["calls"] and all(c == (16, (16, 4), False) for c in seen["calls"])
+    barred = np.isneginf(t.log_likelihoods)
+    assert 0 < barred.sum() < 16  # the particles whose box's left edge is right of x = 70
+    np.testing.assert_array_equal(barred, t.particle_boxes_xywh_px[:, 0] >= 70.0)

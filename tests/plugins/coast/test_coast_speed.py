@@ -11,7 +11,7 @@ import pytest
 from pftrack.geometry import camera as camera_module
 from pftrack_bench.coast import speed_3x5000, speed_runs
 from pftrack_coast import likelihood as likelihood_module
-from pftrack_coast import volumes as volumes_module
+from pftrack_coast import volume_book as volume_book_module
 from pftrack_coast._kernels import blocks_of_pixels
 from pftrack_coast.volume_geometry import _quantiles
 
@@ -20,7 +20,7 @@ from tests.plugins.coast.test_coast_volumes import _run
 
 def _no_kernels(monkeypatch: pytest.MonkeyPatch) -> None:
     """Every coastal-paper kernel off: the numpy paths (as PFTRACK_NO_JIT=1)."""
-    monkeypatch.setattr(volumes_module, "_kernel", lambda name: None)
+    monkeypatch.setattr(volume_book_module, "_kernel", lambda name: None)
     monkeypatch.setattr(camera_module, "_ROWS_KERNEL", [None])
     monkeypatch.setenv("PFTRACK_NO_JIT", "1")
     from pftrack.filter import _jit
@@ -52,9 +52,9 @@ def test_region_kernel_equals_the_numpy_region(monkeypatch):
     rng = np.random.default_rng(0)
     pts = np.concatenate([vol.sample(3000, rng), rng.normal(0.0, 20.0, (1000, 3))])
     gid, tid = next(iter(tracks.groups_)), next(iter(tracks.tracks_))
-    fast = [tracks._in_region(i, vol, m, pts) for i, m in ((gid, "exclude"), (tid, "gate"))]
-    monkeypatch.setattr(volumes_module, "_kernel", lambda name: None)
-    slow = [tracks._in_region(i, vol, m, pts) for i, m in ((gid, "exclude"), (tid, "gate"))]
+    fast = [tracks.book_.in_region(i, vol, m, pts) for i, m in ((gid, "exclude"), (tid, "gate"))]
+    monkeypatch.setattr(volume_book_module, "_kernel", lambda name: None)
+    slow = [tracks.book_.in_region(i, vol, m, pts) for i, m in ((gid, "exclude"), (tid, "gate"))]
     for a, b in zip(fast, slow):
         assert a.dtype == b.dtype == bool and np.array_equal(a, b)
     assert 0 < fast[0].sum() < 3000 and 0 < fast[1].sum() < 100  # both masks do something

@@ -20,6 +20,7 @@ from pftrack.geometry.camera import Camera
 from pftrack.geometry.volumes import CuboidVolume
 from pftrack.metrics import evaluate
 from pftrack_basic.motion import ConstantVelocity3DMotion
+from pftrack_coast.volume_groups import VolumeGroups
 from pftrack_coast.volumes import (
     InsideBoxesLikelihood,
     VolumeTracks,
@@ -324,18 +325,18 @@ def test_gather_frames_keeps_a_too_small_candidate_gathering_before_spreading_ag
     counts = {}
     for g in (0, 3):
         spreads: list[int] = []
-        orig = VolumeTracks._spread
+        orig = VolumeGroups._spread
 
-        def spy(self, engine, tid, volume, _orig=orig, _log=spreads):
+        def spy(self, view, tid, volume, _orig=orig, _log=spreads):
             _log.append(tid)
-            return _orig(self, engine, tid, volume)
+            return _orig(self, view, tid, volume)
 
-        VolumeTracks._spread = spy
+        VolumeGroups._spread = spy
         try:
             engine, tracks, rows, *_ = _run(n_frames=30, entry={
                 "min_size_fraction": 10.0, "gather_frames": g, "idle_frames": 1000})
         finally:
-            VolumeTracks._spread = orig
+            VolumeGroups._spread = orig
         assert len(rows) == 0  # nothing is large enough to be an intruder
         counts[g] = len(spreads)
     # the first spread is the start; then one per refused frame, against one per 4
@@ -347,13 +348,15 @@ def test_refusal_reasons_and_tracked_before_small():
     cam = _camera()
     tid = next(iter(tracks.tracks_))
     t = next(t for t in engine.targets if t.id == tid)
-    assert tracks._refusal(t.particles, engine) == "tracked"  # its own particles: on a track
+    refusal = tracks.stage(VolumeGroups).refusal
+    pos = list(engine.motion.position_dims)
+    assert refusal(t.particles, pos) == "tracked"  # its own particles: on a track
     far = np.zeros((50, 6))
     far[:, :3] = [0.0, 14.0, 0.5] + np.random.default_rng(1).uniform(-0.02, 0.02, (50, 3))
-    assert tracks._refusal(far, engine) == "small"  # a 4 cm speck, far from every track
+    assert refusal(far, pos) == "small"  # a 4 cm speck, far from every track
     behind = np.zeros((50, 6))
     behind[:, :3] = cam.center_m - 5 * cam.optical_axis
-    assert tracks._refusal(behind, engine) == "none"
+    assert refusal(behind, pos) == "none"
 
 
 def _cross(n_frames: int) -> dict[int, np.ndarray]:
@@ -426,13 +429,13 @@ def test_pets09_gathering_exit_hysteresis_and_reid_keep_identities(tmp_path):
     assert new["MOTA_world"] > 0.5, new
 
 
-def _with_a_neighbour(tracks: VolumeTracks) -> tuple[int, np.ndarray, np.ndarray]:
-    """A live track's id, its particles' positions and their pixels (projected again), with a
-    neighbour (id 999) whose gate is the track's."""
+def _with_a_neighbour(engine, tracks: VolumeTracks) -> tuple[int, np.ndarray, np.ndarray]:
+    """A live track's id, its particles' positions and their pixels (projected again: the
+    region is asked without the particles' boxes), with a neighbour (id 999) whose gate is the
+    track's."""
     tid = next(iter(tracks.tracks_))
-    t = tracks.targets_[tid]
+    t = next(t for t in engine.targets if t.id == tid)
     pts = t.particles[:, :3].copy()
-    t.particle_boxes_xywh_px = None  # projected again: the pixels of these points
     tracks.tracks_[999] = tracks.tracks_[tid]
     tracks.gates_[999] = tracks.gates_[tid].copy()
     return tid, pts, tracks.camera_.project(pts)
@@ -442,15 +445,15 @@ def _same_in_both_region_paths(monkeypatch, tracks: VolumeTracks, tid: int, vol,
                                option: str) -> None:
     """The track's region with ``option`` on is the region without it and ``own``, in the
     compiled and in the numpy path."""
-    from pftrack_coast import volumes as volumes_module
+    from pftrack_coast import volume_book
 
-    fast = tracks._in_region(tid, vol, "gate", pts)
-    setattr(tracks, option, False)
-    plain = tracks._in_region(tid, vol, "gate", pts)
+    fast = tracks.book_.in_region(tid, vol, "gate", pts)
+    setattr(tracks.mask, option, False)
+    plain = tracks.book_.in_region(tid, vol, "gate", pts)
     assert np.array_equal(fast, plain & own)
-    setattr(tracks, option, True)
-    monkeypatch.setattr(volumes_module, "_kernel", lambda name: None)
-    assert np.array_equal(tracks._in_region(tid, vol, "gate", pts), fast)
+    setattr(tracks.mask, option, True)
+    monkeypatch.setattr(volume_book, "_kernel", lambda name: None)
+    assert np.array_equal(tracks.book_.in_region(tid, vol, "gate", pts), fast)
 
 
 def _car_through_the_near_volume(n: int = 24):
@@ -663,25 +666,25 @@ def test_colour_share_bars_a_tracks_pixels_whose_colour_a_neighbour_explains_bet
     px = np.array([[120.0, 50.0], [160.0, 50.0], [140.0, 190.0], [-5.0, 50.0],
                    [np.nan, np.nan], [149.9, 10.0], [150.0, 10.0]])
     tracks = _colour_tracks()
-    assert tracks._colour_own(1, px).tolist() == [True, False, True, True, True, True, False]
-    assert tracks._colour_own(2, px).tolist() == [False, True, True, True, True, False, True]
-    assert tracks._colour_own(3, px).all()  # its gate overlaps no other
+    assert tracks.book_.colour_own(1, px).tolist() == [True, False, True, True, True, True, False]
+    assert tracks.book_.colour_own(2, px).tolist() == [False, True, True, True, True, False, True]
+    assert tracks.book_.colour_own(3, px).all()  # its gate overlaps no other
     templates = tracks.identities_.templates_
     templates[2] = (templates[2][0], 4)  # not ready (appearance_min_frames 5)
-    assert tracks._colour_own(1, px).all()
+    assert tracks.book_.colour_own(1, px).all()
     tracks = _colour_tracks()
     templates = tracks.identities_.templates_
     templates[2] = templates[1]  # alike templates decide nothing
-    assert tracks._colour_own(1, px).all()
+    assert tracks.book_.colour_own(1, px).all()
     tracks = _colour_tracks()
     del tracks.tracks_[2]  # an ended track does not count
-    assert tracks._colour_own(1, px).all()
+    assert tracks.book_.colour_own(1, px).all()
     tracks = _colour_tracks()
     tracks.image_ = tracks.image_[:, :, 0].copy()  # grey: no colours
-    assert tracks._colour_own(1, px).all()
+    assert tracks.book_.colour_own(1, px).all()
     # more than colour_share_max_barred of the particles barred (2 of 7): none is
-    assert _colour_tracks(colour_share_max_barred=0.25)._colour_own(1, px).all()
-    assert not _colour_tracks(colour_share_max_barred=0.3)._colour_own(1, px).all()
+    assert _colour_tracks(colour_share_max_barred=0.25).book_.colour_own(1, px).all()
+    assert not _colour_tracks(colour_share_max_barred=0.3).book_.colour_own(1, px).all()
 
 
 def test_colour_share_ratio_and_floor_are_the_bar():
@@ -694,7 +697,7 @@ def test_colour_share_ratio_and_floor_are_the_bar():
         tracks = _colour_tracks(colour_share_ratio=ratio, colour_share_distance=0.1,
                                 colour_share_max_barred=1.0)
         tracks.identities_.templates_[1] = (0.5 * red + 0.5 * blue, 9)
-        assert tracks._colour_own(1, px).tolist() == [not barred]
+        assert tracks.book_.colour_own(1, px).tolist() == [not barred]
         b = blue.argmax()
         assert (blue[b] + 0.01 > ratio * (0.5 * blue[b] + 0.01)) == barred
 
@@ -707,7 +710,7 @@ def test_colour_share_parameters_are_checked():
 def test_colour_share_in_both_region_paths(monkeypatch):
     """The compiled and the numpy region of a track bar the same pixels with colour_share."""
     engine, tracks, rows, gt, vol, _ = _run(seed=2, n_frames=40)
-    tid, pts, px = _with_a_neighbour(tracks)
+    tid, pts, px = _with_a_neighbour(engine, tracks)
     left = px[:, 0] < np.median(px[:, 0])
     # the frame: the track's left pixels red, the rest blue; the neighbour blue
     img, red, blue = _two_colours()
@@ -718,7 +721,7 @@ def test_colour_share_in_both_region_paths(monkeypatch):
     tracks.reid.appearance, tracks.mask.colour_share = True, True
     tracks.image_, tracks.frame_ = image, 10 ** 6
     tracks.identities_.templates_ = {tid: (red, 9), 999: (blue, 9)}
-    own = tracks._colour_own(tid, px)
+    own = tracks.book_.colour_own(tid, px)
     # barred: exactly the pixels on blue inside the box of the gates
     g = np.array(list(tracks.gates_.values()))
     u, v = np.floor(px[:, 0]).astype(int), np.floor(px[:, 1]).astype(int)
@@ -811,3 +814,34 @@ def test_what_moved_out_of_volumes_still_imports_and_unpickles_from_it():
     assert b"pftrack_coast.volumes\n" in old
     back = pickle.loads(old)
     assert type(back) is volume_params.VolumeEntry and back.particles == 7
+
+
+def test_the_stages_share_one_book_and_hold_no_target_and_no_engine():
+    """The manager's work is done by its stages, all on one book; pickled, neither the stages
+    nor the book reach a target or the engine (the targets' regions are the book's)."""
+    import io
+    import pickle
+
+    from pftrack.contracts.components import Target
+    from pftrack_coast.volume_book import VolumeRegion
+
+    engine, tracks, rows, *_ = _run(n_frames=20)
+    assert len(rows) and tracks.tracks_
+    assert [type(s).__name__ for s in tracks.stages_] == [
+        "VolumeGroups", "VolumeExits", "VolumeEstimator", "VolumeMerger", "VolumeEntries",
+        "VolumeMasker"]
+    assert all(s.book is tracks.book_ for s in tracks.stages_)
+    found = []
+
+    class Spy(pickle.Pickler):
+        def persistent_id(self, obj):
+            if isinstance(obj, (Target, MultiTargetTracker)):
+                found.append(type(obj).__name__)
+            return None
+
+    Spy(io.BytesIO()).dump(tracks.stages_)
+    assert found == []
+    for t in engine.targets:  # every target's region is the book's, in its own volume
+        region = t.valid_region.region
+        assert isinstance(region, VolumeRegion) and region.book is tracks.book_
+        assert region.mode == ("exclude" if t.id in tracks.groups_ else "gate")

@@ -1,8 +1,8 @@
 """The contract of a track lifecycle stage: what a stage sees (:class:`FrameView`,
 :class:`TrackView`, :class:`ModelView`), the decisions it returns (:class:`Birth`, :class:`End`,
 :class:`Confirm`, :class:`Hide`, :class:`OutputBox`, :class:`Resize`,
-:class:`AppearanceScores`, :class:`Mask`) and the stage base classes, one per role
-(:class:`Initiator`, :class:`Confirmer`, :class:`Terminator`, :class:`Merger`,
+:class:`AppearanceScores`, :class:`Mask`, :class:`Particles`) and the stage base classes, one
+per role (:class:`Initiator`, :class:`Confirmer`, :class:`Terminator`, :class:`Merger`,
 :class:`Reidentifier`, :class:`Sizer`, :class:`Reporter`, :class:`Masker`).
 
 The runner that calls the stages in their fixed order and applies their decisions to the
@@ -12,7 +12,7 @@ Plugin authors import these names from :mod:`pftrack.lifecycle`.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -42,6 +42,7 @@ __all__ = [
     "Merger",
     "ModelView",
     "OutputBox",
+    "Particles",
     "Reidentifier",
     "Reporter",
     "ROLES",
@@ -94,6 +95,18 @@ class TrackView:
         keeps one per track.
     tentative : bool
         Not yet confirmed (its records are held back until a confirmer confirms it).
+    particles : ndarray, shape (N, D), read-only, or None
+        The track's current particles (after this frame's resampling), in the motion model's
+        state space; equally weighted once resampled.
+    log_likelihoods : ndarray, shape (N,), read-only, or None
+        Each particle's log-likelihood at this frame's weighting (-inf: barred by a region;
+        None before the track's first weighting).
+    particle_boxes_xywh_px : ndarray, shape (N, 4), read-only, or None
+        The image boxes (xywh px) the observation model gave the particles that were weighted
+        this frame (points: width and height 0).
+    resample_index : ndarray of int, shape (N,), read-only, or None
+        Which weighted particle each current particle copies (None: the particles were set
+        since, e.g. at birth).
     """
 
     id: int
@@ -105,6 +118,10 @@ class TrackView:
     detection: DetectionMatch | None
     box_wh_px: tuple[float, float] | None
     tentative: bool
+    particles: np.ndarray | None = None
+    log_likelihoods: np.ndarray | None = None
+    particle_boxes_xywh_px: np.ndarray | None = None
+    resample_index: np.ndarray | None = None
 
     @classmethod
     def of(cls, t: Target, tentative: bool) -> TrackView:
@@ -113,7 +130,10 @@ class TrackView:
             d = DetectionMatch(_frozen(d.box_xywh_px), d.score, d.index)  # type: ignore[arg-type]
         return cls(id=t.id, state=_frozen(t.state), box_xywh_px=_frozen(t.box_xywh_px),  # type: ignore[arg-type]
                    age=t.age, misses=t.misses, frames_tracked=t.frames_tracked,
-                   detection=d, box_wh_px=t.box_wh_px, tentative=tentative)
+                   detection=d, box_wh_px=t.box_wh_px, tentative=tentative,
+                   particles=_frozen(t.particles), log_likelihoods=_frozen(t.log_likelihoods),
+                   particle_boxes_xywh_px=_frozen(t.particle_boxes_xywh_px),
+                   resample_index=_frozen(t.resample_index))
 
 
 @dataclass(frozen=True)
@@ -128,6 +148,11 @@ class ModelView:
         The entries that are its velocity (None: the motion model has none).
     dt : float
         Time step per frame, in the motion model's unit (frames or seconds).
+    n_particles : int
+        Particles per track (the shape of :attr:`Birth.particles` and :attr:`Particles.particles`
+        is ``(n_particles, state_dim)``); 0: not known.
+    state_dim : int
+        Entries of a state (D); 0: not known.
     """
 
     position_dims: tuple[int, ...]
@@ -138,6 +163,8 @@ class ModelView:
     _world: Callable[[np.ndarray], np.ndarray | None]
     _region: Callable[[np.ndarray], np.ndarray] | None
     _log_likelihood: Callable[[np.ndarray, int], np.ndarray]
+    n_particles: int = 0
+    state_dim: int = 0
 
     def boxes(self, states: np.ndarray, track_id: int | None = None) -> np.ndarray:
         """States (N, D) -> image boxes (N, 4) xywh px, with track ``track_id``'s own box size
@@ -185,6 +212,11 @@ class FrameView:
         if a stage ended it in this frame: what a birth should not take again.
     models : ModelView
         Boxes, positions and likelihoods from the run's models.
+    rng : numpy.random.Generator or None
+        The run's random generator (the engine's own): a stage that draws (particles spread
+        through a volume, a subsample) draws from it, so that a run is fixed by its seed. The
+        draws are part of the run's one sequence: a stage draws in the order its decisions
+        are applied (see :class:`Particles`). None: a view built without a run.
     """
 
     frame: Frame
@@ -193,6 +225,7 @@ class FrameView:
     unmatched: np.ndarray
     claimed: frozenset[int]
     models: ModelView
+    rng: np.random.Generator | None = None
 
     def track(self, track_id: int) -> TrackView | None:
         """The live track ``track_id``, or None."""
@@ -227,6 +260,11 @@ class Birth:
         Skip this birth when its box overlaps a live track's box, or the box of a track born
         before it in this frame, by more than this intersection over union (unit: 1). None: no
         test.
+    particles : ndarray, shape (N, D), optional
+        The track's particles (the engine's particle count, the motion model's state space),
+        equally weighted: they replace the ones the engine draws about ``position`` (those are
+        drawn all the same, so a birth draws from the run's generator as any other), and the
+        estimate becomes their mean. None: the engine's own.
     """
 
     box_xywh_px: np.ndarray | None = None
@@ -235,6 +273,7 @@ class Birth:
     detection_index: int | None = None
     supported: bool = True
     max_iou: float | None = None
+    particles: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -273,10 +312,23 @@ class Hide:
 @dataclass(frozen=True)
 class OutputBox:
     """The box (4,) xywh px that the track's record of this frame carries (the output only:
-    the filter's state is its own)."""
+    the filter's state is its own), and optionally its ground position and size.
+
+    Attributes
+    ----------
+    track_id : int
+    box_xywh_px : ndarray, shape (4,)
+    world_m : ndarray, shape (3,), optional
+        The record's ground position (``TrackRecord.world_m``), world metres; None: the
+        engine's.
+    size_m : ndarray, shape (3,), optional
+        The record's object size (``TrackRecord.size_m``), metres; None: the engine's.
+    """
 
     track_id: int
     box_xywh_px: np.ndarray
+    world_m: np.ndarray | None = None
+    size_m: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -316,13 +368,30 @@ class Mask:
         ``region(positions (N, P)) -> bool (N,)``, positions in the motion model's state
         space (pixels or world metres); None: anywhere (the mask is lifted). It is kept for the
         frames to come, so it should be picklable and hold neither the engine nor a track.
+    boxes : bool
+        Whether ``region`` is called with the particles' image boxes as well:
+        ``region(positions (N, P), boxes (N, 4) xywh px or None) -> bool (N,)``, the boxes the
+        observation model gave the particles being weighted (read-only; None when the track
+        has none of this frame), so that a region drawn in the image need not project the
+        particles again.
     """
 
     track_id: int
-    region: Callable[[np.ndarray], np.ndarray] | None
+    region: Callable[..., np.ndarray] | None
+    boxes: bool = False
 
 
-Decision = Birth | End | Confirm | Hide | OutputBox | Resize | AppearanceScores | Mask
+@dataclass(frozen=True)
+class Particles:
+    """Replace a live track's particles (N, D) with these, equally weighted (a detection group
+    spread again through its volume); its estimate becomes their mean. Returned by an initiator
+    among its births, and applied in the order returned."""
+
+    track_id: int
+    particles: np.ndarray
+
+
+Decision = Birth | End | Confirm | Hide | OutputBox | Resize | AppearanceScores | Mask | Particles
 
 
 # --------------------------------------------------------------------------------------------
@@ -356,15 +425,22 @@ class Initiator(LifecycleStage):
 
     role: ClassVar[str] = "initiator"
 
-    def scheduled(self, view: FrameView) -> Sequence[Birth]:
+    def scheduled(self, view: FrameView) -> Iterable[Birth | Particles]:
         """Births due at this frame, applied before the predict step (tracks from given boxes).
         Default: none."""
         return ()
 
-    def initiate(self, view: FrameView) -> Sequence[Birth]:
+    def initiate(self, view: FrameView) -> Iterable[Birth | Particles]:
         """Births from this frame's detections, applied after the estimates (``view.unmatched``
         and ``view.claimed`` say which detections no track explains), in the order returned.
-        Default: none."""
+        Default: none.
+
+        Both methods may return :class:`Particles` decisions among the births, and may be
+        generators: each decision is applied before the next is asked for, and every stage is
+        told of a birth (:meth:`LifecycleStage.track_started`, with the new track's id) before
+        the generator goes on -- so a stage can start a track and then set its particles, and
+        its draws from ``view.rng`` fall between the engine's own in the order given.
+        """
         return ()
 
 

@@ -6,9 +6,10 @@ contract (as Stone Soup's tracker loop has an initiator and a deleter, each a co
 own). A stage sees the frame and the live tracks read-only (:class:`FrameView`,
 :class:`TrackView`), keeps its own per-track state keyed by track id, and returns decisions
 (:class:`Birth`, :class:`End`, :class:`Confirm`, :class:`Hide`, :class:`OutputBox`,
-:class:`Resize`, :class:`AppearanceScores`, :class:`Mask`). No stage receives the engine; one
-runner, :class:`LifecycleTracks`, calls the stages and applies their decisions: births and ends
-through the engine's public methods (``add_target``, ``remove_target``, ``record``), and the
+:class:`Resize`, :class:`AppearanceScores`, :class:`Mask`, :class:`Particles`). No stage
+receives the engine; one runner, :class:`LifecycleTracks`, calls the stages and applies their
+decisions: births, particles and ends through the engine's public methods (``add_target``,
+``set_particles``, ``remove_target``, ``record``), and the
 per-target fields the engine reads but has no method for (``Target.appearance_scores``,
 ``Target.box_wh_px``, ``Target.valid_region``, a newborn's ``frames_tracked``) by setting them
 on its targets.
@@ -17,8 +18,8 @@ Roles and the order the runner calls them in, each frame::
 
     detections
       -> before predict:
-           1. initiator.scheduled      births due at this frame (given boxes); when there were
-                                       some, masker.mask (as in 10)
+           1. initiator.scheduled      births due at this frame (given boxes, detection
+                                       groups); when there were some, masker.mask (as in 10)
            2. reidentifier.scores      each track's appearance similarity to the detections,
                                        for the associator (``Target.appearance_scores``)
       -> the engine: predict, associate, weight, estimate, resample, the filter's own deaths
@@ -35,13 +36,16 @@ Roles and the order the runner calls them in, each frame::
                                        record of this frame is withdrawn
            9. initiator.initiate       new tracks from the detections no track explains; each
                                        output at once, or held back while a confirmer says it
-                                       is tentative
+                                       is tentative (with :class:`Particles` decisions among
+                                       them, applied in the order returned)
           10. masker.mask              where each track's particles may live from the next
                                        weighting on (``Target.valid_region``)
       -> list[TrackRecord]
 
 Stages of one role run in the order they are listed, each seeing the tracks as they were when
-the role began. Every stage is told of each track that starts
+the role began. An initiator's decisions are applied one at a time as it returns them (a
+generator is resumed after each), and every stage hears of a birth before the next decision is
+asked for. Every stage is told of each track that starts
 (:meth:`LifecycleStage.track_started`) and ends, whoever ended it
 (:meth:`LifecycleStage.track_ended`), to keep or drop its per-track state.
 
@@ -77,6 +81,7 @@ from pftrack.contracts.stages import (
     Mask,
     ModelView,
     OutputBox,
+    Particles,
     TrackView,
     _frozen,
 )
@@ -164,7 +169,9 @@ class LifecycleTracks(TrackManager):
         vel = getattr(motion, "velocity_dims", None)
         return ModelView(tuple(motion.position_dims), None if vel is None else tuple(vel),
                          float(engine.dt), boxes, obs.position_from_box, obs.world_position,
-                         engine.valid_region, log_likelihood)
+                         engine.valid_region, log_likelihood,
+                         int(getattr(engine, "n_particles", 0)),
+                         int(getattr(motion, "state_dim", 0)))
 
     @staticmethod
     def _read_only(frame: Frame, detections: Detections | None,
@@ -182,18 +189,23 @@ class LifecycleTracks(TrackManager):
         tent = self.tentative_
         return FrameView(frame=frame, detections=detections,
                          tracks=tuple(TrackView.of(t, t.id in tent) for t in engine.targets),
-                         unmatched=unmatched, claimed=claimed, models=models)
+                         unmatched=unmatched, claimed=claimed, models=models, rng=engine.rng)
 
     # -- applying decisions -----------------------------------------------------------------
 
-    def _apply_births(self, engine: Any, frame: Frame, births: Iterable[Birth],
+    def _apply_births(self, engine: Any, frame: Frame, births: Iterable[Birth | Particles],
                       out: list[TrackRecord] | None) -> None:
-        """Start the tracks; ``out`` (after the estimates): their first records go there, or
-        are held back while tentative."""
+        """Start the tracks (and set the particles of :class:`Particles` decisions), one
+        decision at a time in the order given; ``out`` (after the estimates): the new tracks'
+        first records go there, or are held back while tentative."""
         from pftrack.geometry.boxes import iou_matrix
 
         confirmers = self.by_role_["confirmer"]
         for b in births:
+            if isinstance(b, Particles):
+                if any(t.id == b.track_id for t in engine.targets):
+                    engine.set_particles(b.track_id, b.particles)
+                continue
             if b.max_iou is not None and b.box_xywh_px is not None:
                 taken = [t.box_xywh_px for t in engine.targets]
                 if taken and iou_matrix(np.asarray(b.box_xywh_px, dtype=np.float64),
@@ -201,6 +213,8 @@ class LifecycleTracks(TrackManager):
                     continue
             t = engine.add_target(frame, b.position, box_xywh_px=b.box_xywh_px,
                                   target_id=b.track_id)
+            if b.particles is not None:
+                engine.set_particles(t.id, b.particles)
             if b.supported:
                 t.frames_tracked = 1
             tentative = any(c.tentative(b) for c in confirmers)
@@ -226,12 +240,31 @@ class LifecycleTracks(TrackManager):
                 engine.remove_target(d.track_id)
 
     def _apply_masks(self, engine: Any, view: FrameView) -> None:
-        """Ask the maskers and set the live tracks' ``Target.valid_region``."""
+        """Ask the maskers and set the live tracks' ``Target.valid_region`` (a region that
+        reads the particles' boxes, ``Mask.boxes``, through :class:`_BoxedRegion`)."""
         live = {t.id: t for t in engine.targets}
         for s in self.by_role_["masker"]:
             for d in s.mask(view):
                 if isinstance(d, Mask) and d.track_id in live:
-                    live[d.track_id].valid_region = d.region
+                    t = live[d.track_id]
+                    t.valid_region = _BoxedRegion(d.region, t) if d.boxes and \
+                        d.region is not None else d.region
+
+    @staticmethod
+    def _apply_outputs(decisions: Iterable[Any], by_id: dict[int, TrackRecord],
+                       hidden: set[int]) -> None:
+        """Apply :class:`OutputBox` decisions to the records ``by_id`` (each record owns its
+        box: written in place) and gather the :class:`Hide` decisions' ids in ``hidden``."""
+        for d in decisions:
+            if isinstance(d, Hide):
+                hidden.add(d.track_id)
+            elif isinstance(d, OutputBox) and d.track_id in by_id:
+                r = by_id[d.track_id]
+                r.box_xywh_px[:] = d.box_xywh_px
+                if d.world_m is not None:
+                    r.world_m = np.array(d.world_m, dtype=np.float64)
+                if d.size_m is not None:
+                    r.size_m = np.array(d.size_m, dtype=np.float64)
 
     # -- the engine's two calls -------------------------------------------------------------
 
@@ -306,11 +339,7 @@ class LifecycleTracks(TrackManager):
                 v = view()
         hidden: set[int] = set()
         for s in roles["reporter"]:
-            for d in s.report(v):
-                if isinstance(d, Hide):
-                    hidden.add(d.track_id)
-                elif isinstance(d, OutputBox) and d.track_id in by_id:
-                    by_id[d.track_id].box_xywh_px[:] = d.box_xywh_px  # each record owns its box
+            self._apply_outputs(s.report(v), by_id, hidden)
         tentative = self.tentative_
         out: list[TrackRecord] = []
         withdrawn: set[int] = set()
@@ -355,6 +384,19 @@ class LifecycleTracks(TrackManager):
         if roles["masker"]:
             self._apply_masks(engine, view())
         return out
+
+
+class _BoxedRegion:
+    """A :class:`Mask` region that reads the particles' image boxes (``Mask.boxes``), as the
+    engine's ``Target.valid_region``: called with the positions being weighted, it passes the
+    region those positions and the target's particle boxes of this frame (read-only; None when
+    the target has none). Picklable when the region is."""
+
+    def __init__(self, region: Any, target: Target) -> None:
+        self.region, self.target = region, target
+
+    def __call__(self, positions: np.ndarray) -> np.ndarray:
+        return self.region(positions, _frozen(self.target.particle_boxes_xywh_px))
 
 
 class StagedTracks(LifecycleTracks):
