@@ -265,13 +265,17 @@ class VolumeTracks(LifecycleTracks):
         """The volumes resolved and the per-run state made, once."""
         if "book_" in self.__dict__:
             return
-        from pftrack.geometry.volumes import CuboidVolume, load_volumes, resolve_volume
+        from pftrack.geometry.volumes import (
+            CuboidVolume,
+            Volume,
+            _volume_from_dict,
+            load_volumes,
+            resolve_volume,
+        )
 
         specs = [self.volumes] if isinstance(self.volumes, str) or \
             not isinstance(self.volumes, (list, tuple)) else list(self.volumes)
         vols: dict[str, Any] = {}
-        from pftrack.geometry.volumes import Volume, _volume_from_dict
-
         for spec in specs:
             if isinstance(spec, Volume):
                 vols[getattr(spec, "name", f"volume{len(vols)}")] = spec
