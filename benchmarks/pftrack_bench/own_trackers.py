@@ -142,6 +142,25 @@ def run_pftrack_config(config: str | os.PathLike[str] | dict[str, Any],
     return res.rows
 
 
+def reads_images(config: dict[str, Any]) -> bool:
+    """Whether a loaded configuration's tracking reads the frames' pixels when it is given
+    detections: a likelihood term other than ``detection`` (colour, templates, foreground),
+    or a colour model per track (``tracks.appearance``)."""
+
+    def image_likelihood(spec: Any) -> bool:
+        if not isinstance(spec, dict):
+            return False
+        kind = spec.get("type")
+        if kind == "composite":
+            terms = (spec.get("params") or {}).get("terms") or []
+            return any(image_likelihood(t.get("likelihood") if isinstance(t, dict) else None)
+                       for t in terms)
+        return kind is not None and kind != "detection"
+
+    tracks = (config.get("tracks") or {}).get("params") or {}
+    return image_likelihood(config.get("likelihood")) or tracks.get("appearance") is not None
+
+
 def pftrack_config_entry(name: str, config: str | os.PathLike[str] | dict[str, Any]
                          ) -> TrackerEntry:
     """A tracker entry running pftrack with ``config`` (see :func:`run_pftrack_config`)."""
@@ -150,7 +169,19 @@ def pftrack_config_entry(name: str, config: str | os.PathLike[str] | dict[str, A
     cfg = load_config(config)  # checked now, not after the first cell
     src = str(config) if not isinstance(config, dict) else cfg.get("_source", "dict")
     return TrackerEntry(name, "pftrack", lambda inp: _pftrack_run(cfg, inp),
-                        {"config": src, "preset": cfg.get("name")})
+                        {"config": src, "preset": cfg.get("name"),
+                         "image_term": reads_images(cfg)})
+
+
+def boxes_only_config() -> dict[str, Any]:
+    """``people-image`` without its image term: the same association, motion and lifecycle,
+    and no colour model per track (``tracks.appearance: null``), so that tracking reads the
+    detections alone. The bench's speed goal for tracking on detections alone is judged on it."""
+    from pftrack.workflows.pipeline import load_config
+
+    cfg = load_config("people-image")
+    cfg["tracks"]["params"]["appearance"] = None
+    return cfg
 
 
 def _pftrack_track(inp: TrackInput) -> TrackResult:
@@ -255,8 +286,9 @@ def _roboflow(cls_name: str, needs_frame: bool = False) -> Callable[[TrackInput]
 
 
 def default_trackers() -> dict[str, TrackerEntry]:
-    """The bench's trackers by name: pftrack's ``people-image`` and ``track`` (ground plane),
-    and the peers ``norfair``, ``bytetrack``, ``sort``, ``ocsort``, ``botsort``."""
+    """The bench's trackers by name: pftrack's ``people-image``, ``people-image-boxes``
+    (:func:`boxes_only_config`) and ``track`` (ground plane), and the peers ``norfair``,
+    ``bytetrack``, ``sort``, ``ocsort``, ``botsort``."""
     import trackers
 
     version = getattr(trackers, "__version__", None)
@@ -272,11 +304,18 @@ def default_trackers() -> dict[str, TrackerEntry]:
     return {
         "people-image": TrackerEntry(
             "people-image", "pftrack", lambda inp: _pftrack_run("people-image", inp),
-            {"command": "pftrack run people-image --video V --detections det.txt"}),
+            {"command": "pftrack run people-image --video V --detections det.txt",
+             "image_term": True}),
+        "people-image-boxes": TrackerEntry(
+            "people-image-boxes", "pftrack", lambda inp: _pftrack_run(boxes_only_config(), inp),
+            {"command": "pftrack run people-image --video V --detections det.txt with "
+                        "tracks.appearance: null (detections alone, no image term)",
+             "image_term": False}),
         "track": TrackerEntry(
             "track", "pftrack", _pftrack_track,
             {"command": "pftrack track V --detections det.txt (camera estimated from the "
-                        "detections, people-image placed on the ground through it)"}),
+                        "detections, people-image placed on the ground through it)",
+             "image_term": True}),
         "norfair": TrackerEntry("norfair", "peer", _norfair, dict(NORFAIR_SETTINGS)),
         "bytetrack": TrackerEntry("bytetrack", "peer", _roboflow("ByteTrackTracker"),
                                   rf("ByteTrackTracker")),

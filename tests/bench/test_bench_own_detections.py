@@ -197,6 +197,45 @@ def _result(video, cells):
     return r
 
 
+def test_speed_goals_by_whether_a_tracker_reads_images():
+    # 100 frames a cell: ByteTrack 0.10 s -> 1 ms a frame
+    cells = [_cell(v, "clean", 0, *t) for v in ("pets09", "mot17-09") for t in (
+        ("boxes", "pftrack", 0.6, 0.7, 3, 0.08),       # 0.8 ms: faster than ByteTrack
+        ("slow-boxes", "pftrack", 0.6, 0.7, 3, 0.12),  # 1.2 ms: slower
+        ("colour", "pftrack", 0.6, 0.7, 3, 0.45 if v == "pets09" else 2.0),  # 4.5 ms on PETS
+        ("bytetrack", "peer", 0.5, 0.7, 5, 0.10))]
+    r = _result("pets09", cells)
+    r["trackers"] = {"boxes": {"kind": "pftrack", "image_term": False},
+                     "slow-boxes": {"kind": "pftrack", "image_term": False},
+                     "colour": {"kind": "pftrack", "image_term": True},
+                     "bytetrack": {"kind": "peer"}}
+    r["goals"] = bod.judge_goals(r)
+    sp = {n: t["speed"] for n, t in r["goals"]["trackers"].items()}
+    assert sp["boxes"]["met"] is True and sp["boxes"]["ratio_to_bytetrack"] == pytest.approx(0.8)
+    assert sp["slow-boxes"]["met"] is False
+    # judged on PETS alone (4.5 ms), not on the whole run (12.25 ms) nor against ByteTrack
+    assert sp["colour"]["pets09_cpu_ms_per_frame"] == pytest.approx(4.5)
+    assert r["speed"]["colour"]["cpu_ms_per_frame"] == pytest.approx(12.25)
+    assert sp["colour"]["met"] is True and sp["colour"]["image_term"] is True
+    r["cells"] = [c if c["tracker"] != "colour" or c["video"] != "pets09" else
+                  {**c, "cpu_s": 0.55} for c in cells]
+    r["speed"] = bod._speed(r["cells"])
+    assert bod.judge_goals(r)["trackers"]["colour"]["speed"]["met"] is False  # 5.5 ms
+    assert "no slower than ByteTrack" in bod.format_table(r)
+
+
+def test_which_configurations_read_images():
+    from pftrack.workflows.pipeline import load_config
+    from pftrack_bench.own_trackers import boxes_only_config, reads_images
+
+    assert reads_images(load_config("people-image")) is True  # a colour model per track
+    assert reads_images(boxes_only_config()) is False
+    assert reads_images(load_config("people-colour")) is True  # a colour likelihood term
+    trackers = bod.default_trackers()
+    assert trackers["people-image-boxes"].settings["image_term"] is False
+    assert trackers["people-image"].settings["image_term"] is True
+
+
 def test_goals_against_the_best_peer_per_figure_and_merged_runs():
     a = _result("pets09", [
         _cell("pets09", "clean", s, *t) for s in (0, 1) for t in (
