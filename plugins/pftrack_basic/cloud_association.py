@@ -16,6 +16,21 @@ confident detections first, against every track; then the less confident ones, o
 the tracks left unmatched that were seen in the last frames. A weak detection continues a
 track that is being followed through an occlusion, but does not re-find a track lost long ago,
 nor start one (track management starts tracks from unmatched confident detections only).
+
+A third pass re-finds lost tracks. A track unseen for a while keeps predicting, and its cloud
+spreads with every frame (the motion model's noise is what lets a followed person turn and
+speed up); after a second or two hidden behind someone, the cloud covers so much of the image
+that no detection is likely under it, and the person who steps out again would start a new
+track. So the confident detections left unmatched are also offered to the tracks left
+unmatched that have gone ``recent_misses`` frames or more without one and were hidden behind
+another track when last seen (at least ``covered`` of their box under another track's box),
+through a gate on what a person can do while hidden (``refind``): the detection's box centre
+within ``margin`` plus
+``speed`` times the seconds lost of the track's last matched box (both in that box's heights),
+its height within a factor ``exp(size)`` of that box's, and its colour similarity, when the
+track management supplies one, at least ``min_appearance``. The pairs that pass are matched
+at once by the Hungarian method on the distance and height ratio as fractions of the gate,
+plus the appearance cost.
 """
 
 from __future__ import annotations
@@ -23,9 +38,17 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from pftrack.contracts.components import Assignment, Associator, Detections, Param, Target
+from pftrack.contracts.components import (
+    Assignment,
+    Associator,
+    Detections,
+    Group,
+    Param,
+    ParamGroup,
+    Target,
+)
 
-__all__ = ["CloudAssociator", "cloud_cost"]
+__all__ = ["CloudAssociator", "Refind", "cloud_cost"]
 
 _INFEASIBLE = 1e9
 # the assumed scatter counts as this many measured pairs; the measurement keeps the last
@@ -34,6 +57,8 @@ _PRIOR_PAIRS = 50
 _WINDOW = 1000
 # the measured scatter is kept within these multiples of the assumed one
 _SCATTER_RANGE = (0.25, 2.0)
+# frames per second when the run does not say (RunContext's own default)
+_DEFAULT_FPS = 25.0
 
 
 def _particle_boxes(t: Target) -> np.ndarray:
@@ -144,6 +169,35 @@ def _solve(cost: np.ndarray, max_cost: float) -> list[tuple[int, int]]:
     return [(int(i), int(j)) for i, j in zip(rows, cols) if feasible[i, j]]
 
 
+class Refind(ParamGroup):
+    """How a lost track is re-found (group ``refind`` of :class:`CloudAssociator`): a
+    confident detection left unmatched may continue a track unmatched for ``recent_misses``
+    frames or more that was hidden behind another track when last seen, when it lies where the
+    person could have walked to while hidden, has about their height and, when colour is
+    known, their colours.
+
+    {params}
+    """
+
+    speed: float = Param(0.5, "How far a hidden person may have walked, per second lost, in "
+                         "heights of the track's last matched box (0.5: about 0.85 m/s for "
+                         "a person 1.7 m tall).", unit="heights/s", low=0.0)
+    margin: float = Param(0.3, "Distance allowed at once, whatever the time lost, in heights "
+                          "of the track's last matched box (the box's own scatter and a "
+                          "step).", unit="heights", low=0.0)
+    size: float = Param(0.2, "Largest |log| of the ratio of the detection's height to the "
+                        "last matched box's (0.2: within 18 % smaller to 22 % larger).",
+                        unit="1", low=0.0, low_open=True)
+    covered: float = Param(0.5, "Only a track this much of whose box (a fraction of its "
+                           "area) another track's box covered when it was last matched is "
+                           "re-found: a person lost behind someone, not a detector's passing "
+                           "miss of a thing that stands still.", unit="1", low=0.0,
+                           high=1.0)
+    min_appearance: float = Param(0.5, "Least colour similarity (Target.appearance_scores, "
+                                  "0-1) of the detection to the track, when the track "
+                                  "management supplies one.", unit="1", low=0.0, high=1.0)
+
+
 class CloudAssociator(Associator):
     """Global association on each track's predicted likelihood of each detection, confident
     detections first (see the module docstring).
@@ -191,14 +245,21 @@ class CloudAssociator(Associator):
                                      "-log(Target.appearance_scores), when the track "
                                      "management sets them (0: motion only). NaN scores bar "
                                      "the pair.", unit="1", low=0.0)
+    refind: Refind = Group(Refind, "How a lost track is re-found by a confident detection "
+                           "its cloud no longer explains.")
 
     def setup(self, context: object) -> None:
-        """Start a run: the scatter is the assumed one until this run's pairs measure it."""
+        """Start a run: the scatter is the assumed one until this run's pairs measure it; the
+        run's frame rate converts the frames a track was lost into seconds."""
+        self._fps = float(getattr(context, "fps", 0.0) or _DEFAULT_FPS)
         self._reset()
 
     def _reset(self) -> None:
-        """Forget the measured scatter: a new run starts from the assumed values."""
+        """Forget the measured scatter and the tracks' last matched boxes: a new run starts
+        from the assumed values."""
         self._residuals = np.zeros((0, 3))
+        self._last_box: dict[int, np.ndarray] = {}
+        self._hidden: dict[int, bool] = {}
         self.scatter_ = (float(self.sigma), float(self.sigma), float(self.sigma_size))
         self._scatter_now = self.scatter_
 
@@ -273,6 +334,7 @@ class CloudAssociator(Associator):
     def associate(self, targets: Sequence[Target], detections: Detections) -> Assignment:
         """Match targets to detections; ``Assignment.matches`` rows are (target, detection)."""
         T, K = len(targets), len(detections)
+        self._note_hidden(targets)
         cost, centre, height = self._costs(targets, detections)
         self.cost_ = cost
         gate = float(self.max_cost)
@@ -288,4 +350,83 @@ class CloudAssociator(Associator):
                 matches += [(int(recent[i]), int(low[j])) for i, j in _solve(sub, gate)]
         misses = np.array([t.misses for t in targets], dtype=np.intp)
         self._learn(detections, matches, misses, centre, height)
+        matches += self._refind(targets, detections, matches, high)
+        self._remember(targets, detections, matches)
         return Assignment.from_matches(matches, T, K)
+
+    def _refind(self, targets: Sequence[Target], detections: Detections,
+                matches: list[tuple[int, int]], high: np.ndarray) -> list[tuple[int, int]]:
+        """The third pass: lost tracks against the confident detections left unmatched,
+        through the ``refind`` gate (see the module docstring)."""
+        if not hasattr(self, "_last_box"):
+            self._reset()
+        taken_t = {i for i, _ in matches}
+        taken_d = {j for _, j in matches}
+        lost = [i for i, t in enumerate(targets) if i not in taken_t and t.id in self._last_box
+                and t.misses >= int(self.recent_misses) and self._hidden.get(t.id, False)]
+        free = [int(j) for j in high if int(j) not in taken_d]
+        if not lost or not free:
+            return []
+        g = self.refind
+        last = np.array([self._last_box[targets[i].id] for i in lost])  # (L, 4)
+        db = detections.boxes_xywh_px[free]  # (F, 4)
+        h = np.maximum(last[:, 3], 1e-6)
+        seconds = np.array([targets[i].misses + 1 for i in lost]) / getattr(
+            self, "_fps", _DEFAULT_FPS)
+        reach = float(g.margin) + float(g.speed) * seconds  # (L,) heights
+        dist = np.hypot(*((db[None, :, :2] + 0.5 * db[None, :, 2:])
+                          - (last[:, None, :2] + 0.5 * last[:, None, 2:])).transpose(2, 0, 1))
+        with np.errstate(divide="ignore", invalid="ignore"):  # no reach: nothing passes
+            dist = dist / h[:, None] / reach[:, None]  # fraction of the reach
+        ratio = np.abs(np.log(np.maximum(db[None, :, 3], 1e-6) / h[:, None])) / float(g.size)
+        cost = np.where((dist <= 1.0) & (ratio <= 1.0), dist + ratio, np.inf)
+        K = len(detections)
+        for r, i in enumerate(lost):
+            a = targets[i].appearance_scores
+            if a is None or len(a) != K:
+                continue
+            a = np.asarray(a, dtype=np.float64)[free]
+            ok = np.isfinite(a) & (a >= float(g.min_appearance))
+            with np.errstate(divide="ignore"):
+                cost[r] = np.where(ok, cost[r] - np.log(np.where(ok, a, 1.0)), np.inf)
+        feasible = np.isfinite(cost)
+        if not feasible.any():
+            return []
+        from scipy.optimize import linear_sum_assignment
+
+        rows, cols = linear_sum_assignment(np.where(feasible, cost, _INFEASIBLE))
+        return [(lost[r], free[c]) for r, c in zip(rows, cols) if feasible[r, c]]
+
+    def _note_hidden(self, targets: Sequence[Target]) -> None:
+        """For each track matched in the previous frame, whether at least ``refind.covered``
+        of its box lies under another track's box (both as estimated then): kept until it is
+        matched again, it says whether a track that goes unseen was lost behind someone."""
+        if not hasattr(self, "_hidden"):
+            self._reset()
+        seen = [i for i, t in enumerate(targets) if t.misses == 0]
+        if not seen:
+            return
+        b = np.array([np.asarray(t.box_xywh_px, dtype=np.float64) for t in targets])  # (T, 4)
+        s = b[seen]  # (S, 4)
+        w = (np.minimum(s[:, None, 0] + s[:, None, 2], b[None, :, 0] + b[None, :, 2])
+             - np.maximum(s[:, None, 0], b[None, :, 0]))
+        h = (np.minimum(s[:, None, 1] + s[:, None, 3], b[None, :, 1] + b[None, :, 3])
+             - np.maximum(s[:, None, 1], b[None, :, 1]))
+        inter = np.clip(w, 0.0, None) * np.clip(h, 0.0, None)  # (S, T)
+        inter[np.arange(len(seen)), seen] = 0.0  # not covered by itself
+        with np.errstate(invalid="ignore", divide="ignore"):
+            frac = inter.max(axis=1) / np.maximum(s[:, 2] * s[:, 3], 1e-6)
+        for k, i in enumerate(seen):
+            self._hidden[targets[i].id] = bool(frac[k] >= float(self.refind.covered))
+
+    def _remember(self, targets: Sequence[Target], detections: Detections,
+                  matches: list[tuple[int, int]]) -> None:
+        """Each live track's last matched detection box (the re-find gate's origin)."""
+        for i, j in matches:
+            self._last_box[targets[i].id] = np.array(detections.boxes_xywh_px[j],
+                                                     dtype=np.float64)
+        live = {t.id for t in targets}
+        for k in [k for k in self._last_box if k not in live]:
+            del self._last_box[k]
+        for k in [k for k in self._hidden if k not in live]:
+            del self._hidden[k]

@@ -204,3 +204,89 @@ def test_only_pairs_of_tracks_seen_in_the_previous_frame_are_measured():
 def test_a_bad_parameter_is_named(name, value):
     with pytest.raises(ValueError, match=name):
         CloudAssociator(**{name: value})
+
+
+def _seen_then_lost(a: CloudAssociator, misses: int, *, behind: bool = True, **kw) -> Target:
+    """Track 1 matched at (200, 300), 100 px tall (40 wide), with track 2 10 px to its right
+    (three quarters of its box under track 2's: hidden behind it) or 100 px away (``behind``
+    False); then lost for ``misses`` frames, its cloud spread over 2000 px (no detection is
+    likely under it)."""
+    x2 = 210.0 if behind else 300.0
+    seen, other = _target(1, (200.0, 300.0), 2.0), _target(2, (x2, 300.0), 2.0, seed=5)
+    m = a.associate([other, seen], _dets([(x2, 300.0), (200.0, 300.0)], [0.9, 0.9])).matches
+    assert sorted(m.tolist()) == [[0, 0], [1, 1]]
+    a.associate([other, seen], _dets([(x2, 300.0), (200.0, 300.0)], [0.9, 0.9]))
+    return _target(1, (200.0, 300.0), 2000.0, misses=misses, **kw)
+
+
+def test_a_lost_track_is_re_found_where_the_person_could_have_walked():
+    # at 25 frames a second, lost for 1 s (24 misses: matched 25 frames ago): the reach is
+    # margin 0.3 + speed 0.5 x 1 s = 0.8 heights of its last box = 80 px
+    a = _assoc()
+    lost = _seen_then_lost(a, 24)
+    d = _dets([(270.0, 300.0)], [0.9])  # 70 px away
+    assert a.associate([lost], d).matches.tolist() == [[0, 0]]
+    assert a.cost_[0, 0] > a.max_cost  # the cloud alone would not have taken it
+    a = _assoc()
+    lost = _seen_then_lost(a, 24)
+    assert len(a.associate([lost], _dets([(290.0, 300.0)], [0.9])).matches) == 0  # 90 px
+    # after 2 s the reach is 1.3 heights: 90 px is within it
+    a = _assoc()
+    lost = _seen_then_lost(a, 49)
+    assert a.associate([lost], _dets([(290.0, 300.0)], [0.9])).matches.tolist() == [[0, 0]]
+
+
+def test_a_re_found_detection_has_the_height_colours_and_confidence_of_the_track():
+    a = _assoc()
+    lost = _seen_then_lost(a, 24)
+    # 30 % taller: |log 1.3| = 0.26 > size 0.2; 15 % taller passes
+    assert len(a.associate([lost], _dets([(220.0, 300.0)], [0.9], h=130.0)).matches) == 0
+    assert a.associate([lost], _dets([(220.0, 300.0)], [0.9], h=115.0)).matches.tolist() == \
+        [[0, 0]]
+    # a weak detection (below high_score) does not re-find a lost track
+    a = _assoc()
+    lost = _seen_then_lost(a, 24)
+    assert len(a.associate([lost], _dets([(220.0, 300.0)], [0.4])).matches) == 0
+    # colours: below min_appearance bars the pair, above it passes
+    lost.appearance_scores = np.array([0.4])
+    assert len(a.associate([lost], _dets([(220.0, 300.0)], [0.9])).matches) == 0
+    lost.appearance_scores = np.array([0.6])
+    assert a.associate([lost], _dets([(220.0, 300.0)], [0.9])).matches.tolist() == [[0, 0]]
+
+
+def test_only_tracks_lost_behind_another_for_recent_misses_frames_are_re_found():
+    a = _assoc(recent_misses=2)
+    lost = _seen_then_lost(a, 1)  # one miss: not yet lost
+    assert len(a.associate([lost], _dets([(220.0, 300.0)], [0.9])).matches) == 0
+    # lost in the open (no track over it when last seen): a passing miss, not re-found
+    a = _assoc()
+    lost = _seen_then_lost(a, 24, behind=False)
+    assert len(a.associate([lost], _dets([(220.0, 300.0)], [0.9])).matches) == 0
+    assert a._hidden == {1: False}
+    # a track this associator never matched has no last box to reach from
+    never = _target(7, (200.0, 300.0), 2000.0, misses=30)
+    assert len(_assoc().associate([never], _dets([(200.0, 300.0)], [0.9])).matches) == 0
+    # two people side by side, each half behind the other, both lost: the detection 90 px
+    # from track 1's last box is beyond its reach (80 px), so track 2 takes it (75 px) and
+    # track 1 the other (50 px)
+    a = _assoc()
+    s1, s2 = _target(1, (200.0, 300.0), 2.0, seed=1), _target(2, (215.0, 300.0), 2.0, seed=2)
+    for _ in range(2):
+        a.associate([s1, s2], _dets([(200.0, 300.0), (215.0, 300.0)], [0.9, 0.9]))
+    l1 = _target(1, (300.0, 300.0), 2000.0, misses=24, seed=1)
+    l2 = _target(2, (300.0, 300.0), 2000.0, misses=24, seed=2)
+    m = a.associate([l1, l2], _dets([(290.0, 300.0), (150.0, 300.0)], [0.9, 0.9])).matches
+    assert sorted(m.tolist()) == [[0, 1], [1, 0]]
+    # an ended track is forgotten
+    a.associate([], _dets([], []))
+    assert a._last_box == {}
+
+
+@pytest.mark.parametrize(("value", "match"), [({"size": 0.0}, "refind.size"),
+                                              ({"covered": 1.2}, "refind.covered"),
+                                              ({"min_appearance": 1.5}, "refind.min_appearance"),
+                                              ({"speed": -1.0}, "refind.speed"),
+                                              ({"speeed": 1.0}, "speeed")])
+def test_a_bad_refind_parameter_is_named(value, match):
+    with pytest.raises(ValueError, match=match):
+        CloudAssociator(refind=value)
