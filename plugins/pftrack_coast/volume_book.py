@@ -83,6 +83,8 @@ class VolumeBook:
         A track's consecutive frames with at most ``exit.particles`` above ``v_pi``.
     above : dict[int, int]
         This frame's count of a target's particles with likelihood above ``v_pi``.
+    leaving : set[int]
+        The tracks that leave their volumes in this frame (``exit``): not estimated, ended.
     established : set[int]
         Tracks that have had more than ``exit.particles`` particles above ``v_pi``.
     boxes : dict[int, ndarray]
@@ -94,8 +96,18 @@ class VolumeBook:
         Consecutive frames two tracks (older, younger) were one intruder by ``merge``.
     outputs : dict[int, OutputBox]
         This frame's estimate of each estimated track (box, ground position, size).
-    pending : dict[int, list of TrackRecord]
-        Tracks not yet confirmed (``confirm_frames``), with their held-back records.
+    hidden : set[int]
+        This frame's estimated tracks whose records are not output (not inside their volumes).
+    shown : dict[int, int]
+        Frames in which a track's record was output or held back to be (not hidden).
+    first_shown : dict[int, tuple[int, ndarray]]
+        A track's first such frame and its ground position (3,) there, metres.
+    pending : set[int]
+        Tracks not yet confirmed (``confirm_frames``): their records are held back.
+    births : dict[int, tuple]
+        What each birth being applied starts: ``("group", volume)`` or ``("track", volume,
+        n_above)``, by ``id`` of its :class:`~pftrack.contracts.stages.Birth` (until the stages
+        hear of it).
     estimates, events : list of dict
         The manager's ``estimates_`` and ``events_``.
     footprints : TrackFootprints
@@ -124,6 +136,7 @@ class VolumeBook:
         self.gather: dict[int, int] = {}
         self.low: dict[int, int] = {}
         self.above: dict[int, int] = {}
+        self.leaving: set[int] = set()
         self.established: set[int] = set()
         self.boxes: dict[int, np.ndarray] = {}
         self.gates: dict[int, np.ndarray] = {}
@@ -131,7 +144,11 @@ class VolumeBook:
         self.ahead: dict[int, np.ndarray] = {}
         self.overlaps: dict[tuple[int, int], int] = {}
         self.outputs: dict[int, OutputBox] = {}
-        self.pending: dict[int, list[Any]] = {}
+        self.hidden: set[int] = set()
+        self.shown: dict[int, int] = {}
+        self.first_shown: dict[int, tuple[int, np.ndarray]] = {}
+        self.pending: set[int] = set()
+        self.births: dict[int, tuple] = {}
         self.masked: set[int] = set()
         self.estimates: list[dict[str, Any]] = []
         self.events: list[dict[str, Any]] = []
@@ -148,10 +165,11 @@ class VolumeBook:
                             path[-1] if tid in self.tracks and tid not in self.pending
                             and path else None)
         self.footprints.end(tid)
-        self.established.discard(tid)
-        self.masked.discard(tid)
+        for s in (self.established, self.masked, self.pending, self.leaving, self.hidden):
+            s.discard(tid)
         for d in (self.groups, self.tracks, self.idle, self.low, self.above, self.boxes,
-                  self.pending, self.gates, self.gather, self.look, self.ahead, self.outputs):
+                  self.gates, self.gather, self.look, self.ahead, self.outputs, self.shown,
+                  self.first_shown):
             d.pop(tid, None)
 
     # -- where particles may live -----------------------------------------------------------
@@ -296,4 +314,7 @@ class VolumeMasker(Masker):
             book.masked.add(t.id)
             out.append(Mask(t.id, VolumeRegion(book, book.volumes[name], t.id, mode),
                             boxes=True))
+        for tid in list(book.boxes):  # (the groups keep off live tracks only)
+            if tid not in book.tracks:
+                del book.boxes[tid]
         return out

@@ -53,11 +53,6 @@ class VolumeGroups(Initiator):
     def __init__(self, book: VolumeBook) -> None:
         self.book = book
 
-    def _born(self) -> dict[int, Any]:
-        """What the birth being applied is: ``("group", volume)`` or ``("track", volume,
-        n_above)``, by ``id`` of its :class:`Birth` (until :meth:`track_started` hears of it)."""
-        return self.__dict__.setdefault("born_", {})
-
     # -- decisions ------------------------------------------------------------------------------
 
     def _spread(self, view: FrameView, tid: int, volume: Any) -> Particles:
@@ -81,12 +76,12 @@ class VolumeGroups(Initiator):
             return
         for name, vol in book.volumes.items():
             b = Birth(position=np.asarray(vol.center_m, float), supported=False)
-            self._born()[id(b)] = ("group", name)
+            self.book.births[id(b)] = ("group", name)
             yield b  # (track_started hears of it before this goes on)
             yield self._spread(view, self.started_, vol)
 
     def track_started(self, track: TrackView, birth: Birth) -> None:
-        what = self._born().pop(id(birth), None)
+        what = self.book.births.pop(id(birth), None)
         if what is None:
             return
         self.started_ = track.id
@@ -139,7 +134,7 @@ class VolumeGroups(Initiator):
                     parts[:, pos_dims] = _clip_into(vol, parts[:, pos_dims])
                 pos = parts[:, pos_dims].mean(axis=0)
                 b = Birth(position=pos, particles=parts, supported=False)
-                self._born()[id(b)] = ("track", name, n_above)
+                self.book.births[id(b)] = ("track", name, n_above)
                 yield b
                 yield self._spread(view, gid, vol)
                 continue

@@ -15,8 +15,9 @@ output id of each track, its colour template, and the rules that change output i
 
 :class:`VolumeIdentities` holds this state for one run, keyed by engine target id; the
 manager's :class:`~pftrack_coast.volume_book.VolumeBook` holds one: the merger stage asks it
-which of two tracks on one intruder goes on, and the manager gives the output records their ids
-through it.
+which of two tracks on one intruder goes on, and the reidentifier stage
+(:class:`~pftrack_coast.volume_stages.VolumeReidentifier`) learns the templates and gives the
+output records their ids through it.
 """
 
 from __future__ import annotations
@@ -100,38 +101,51 @@ class VolumeIdentities:
 
     def reidentified(self, out: list[TrackRecord], now: int,
                      volumes: Mapping[int, str]) -> list[TrackRecord]:
-        """The records with their output ids: a track output for the first time whose
-        footprint lies within ``reid.distance_m`` of where an output track ended at most
-        ``reid.frames`` frames before frame ``now`` takes up that track's id (the nearest; each
-        id once). ``volumes``: track id -> volume name, for the events."""
+        """The records with their output ids (:meth:`reidentify` of the tracks ``out`` outputs
+        for the first time, each from its first record in ``out``); ``volumes``: track id ->
+        volume name, for the events."""
+        first: dict[int, tuple[int, np.ndarray | None]] = {}
+        for r in out:
+            if r.id not in self.shown_ and r.id not in first:
+                first[r.id] = (r.frame, r.world_m)
+        self.reidentify(first, now, volumes)
+        for r in out:
+            if r.id in self.alias_:
+                r.id = self.alias_[r.id]
+        return out
+
+    def reidentify(self, first: Mapping[int, tuple[int, np.ndarray | None]], now: int,
+                   volumes: Mapping[int, str]) -> None:
+        """Frame ``now``'s tracks output for the first time (``first``: track id -> the frame
+        and ground position (3,), metres, of its first output record): one whose footprint lies
+        within ``reid.distance_m`` of where an output track ended at most ``reid.frames``
+        frames before frame ``now`` takes up that track's id (the nearest; each id once; its
+        output id is then :meth:`output_id`). ``volumes``: track id -> volume name, for the
+        events."""
         n, r_m = int(self.reid.frames), float(self.reid.distance_m)
         if n > 0 and self.ended_:
             self.ended_ = [e for e in self.ended_ if now - e[0] <= n]
-        new = sorted({r.id for r in out if r.id not in self.shown_})
+        new = sorted(tid for tid in first if tid not in self.shown_)
         for tid in new:
             self.shown_.add(tid)
             if n <= 0 or not self.ended_:
                 continue
-            first = next(r for r in out if r.id == tid)
-            if first.world_m is None:
+            frame, world_m = first[tid]
+            if world_m is None:
                 continue
             # (a track confirmed late outputs from its entry on: only ids ended by then)
             xy = np.array([e[2] for e in self.ended_])
-            d = np.hypot(xy[:, 0] - first.world_m[0], xy[:, 1] - first.world_m[1])
-            d[np.array([e[0] > first.frame for e in self.ended_])] = np.inf
+            d = np.hypot(xy[:, 0] - world_m[0], xy[:, 1] - world_m[1])
+            d[np.array([e[0] > frame for e in self.ended_])] = np.inf
             k = int(np.argmin(d))
             if self.reid.appearance and d[k] <= r_m:  # of the ids within reid_m: the best match
                 k = self._best_match(tid, d, r_m, k)
             if d[k] <= r_m:
                 self.alias_[tid] = self.ended_.pop(k)[1]
-                self.events.append({"frame": first.frame, "id": tid, "volume":
+                self.events.append({"frame": frame, "id": tid, "volume":
                                     volumes.get(tid), "event": "reidentified",
                                     "as": self.alias_[tid]})
-                self._rename_estimates(tid, self.alias_[tid], first.frame)
-        for r in out:
-            if r.id in self.alias_:
-                r.id = self.alias_[r.id]
-        return out
+                self._rename_estimates(tid, self.alias_[tid], frame)
 
     def _best_match(self, tid: int, d: np.ndarray, r_m: float, k: int) -> int:
         """Of the ended ids within ``r_m`` (distances ``d`` to ``self.ended_``), the one whose
@@ -152,16 +166,26 @@ class VolumeIdentities:
 
     def appearance(self, frame: Frame, out: list[TrackRecord], look: Mapping[int, np.ndarray],
                    volumes: Mapping[int, str]) -> None:
-        """Histograms of this frame's tracks (``look``: track id -> the image box of a typical
-        intruder on its footprint, else its record's box); templates updated for tracks alone;
-        pairs that were together and have separated swap output ids when appearance says so
-        (``volumes``: track id -> volume name, for the events)."""
+        """:meth:`appearance_of` this frame's records ``out`` (their boxes and ground
+        positions)."""
+        self.appearance_of(frame, {r.id: r.box_xywh_px for r in out},
+                           {r.id: r.world_m for r in out}, look, volumes)
+
+    def appearance_of(self, frame: Frame, boxes: Mapping[int, np.ndarray],
+                      world: Mapping[int, np.ndarray | None], look: Mapping[int, np.ndarray],
+                      volumes: Mapping[int, str]) -> None:
+        """Histograms of this frame's tracks (``boxes``: track id -> its estimate's image box
+        (4,) xywh px; ``world``: its ground position (3,), metres, or None; ``look``: track
+        id -> the image box of a typical intruder on its footprint, read instead of its box
+        when given); templates updated for tracks alone; pairs that were together and have
+        separated swap output ids when appearance says so (``volumes``: track id -> volume
+        name, for the events)."""
         self.hists_ = {}
-        for r in out:
-            h = self._hist(frame, r.id, r.box_xywh_px, look)
+        for tid, b in boxes.items():
+            h = self._hist(frame, tid, b, look)
             if h is not None:
-                self.hists_[r.id] = h
-        xy = {r.id: r.world_m[:2] for r in out if r.world_m is not None}
+                self.hists_[tid] = h
+        xy = {tid: w[:2] for tid, w in world.items() if w is not None}
         ids = sorted(xy)
         near = float(self.reid.near_m)
         if ids:
@@ -175,7 +199,7 @@ class VolumeIdentities:
         # pairs together before and now apart (both still live, beyond apart * near, image
         # boxes disjoint): test a swap
         apart = float(self.reid.apart)
-        box = {r.id: r.box_xywh_px for r in out}
+        box = boxes
         for a, b in sorted(self.together_ - together):
             if a not in pos or b not in pos:
                 continue

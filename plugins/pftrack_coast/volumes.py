@@ -46,23 +46,27 @@ Estimates per frame (each output :class:`~pftrack.contracts.components.TrackReco
   the plane (across the view when it has not moved ``footprint.min_travel_m``); see
   :mod:`pftrack_coast.volume_geometry`.
 
-The manager is a :class:`~pftrack.engine.lifecycle.LifecycleTracks` whose work is done by
-lifecycle stages, each with a narrow contract, sharing one
-:class:`~pftrack_coast.volume_book.VolumeBook` (the per-track state, keyed by engine target id):
-:class:`~pftrack_coast.volume_groups.VolumeGroups` (initiator: the detection groups and the
-tracks they start, as :class:`~pftrack.contracts.stages.Birth` decisions carrying particles),
-:class:`~pftrack_coast.volume_stages.VolumeExits` (terminator),
-:class:`~pftrack_coast.volume_stages.VolumeEstimator` (reporter: the estimates),
-:class:`~pftrack_coast.volume_stages.VolumeMerger` (merger),
-:class:`~pftrack_coast.volume_stages.VolumeEntries` (reporter: the footprint inside the volume)
-and :class:`~pftrack_coast.volume_book.VolumeMasker` (masker: where particles may live, as
-:class:`~pftrack.contracts.stages.Mask` decisions). No stage receives the engine. The manager
-calls them in its own order and applies their decisions: before the predict step the groups
-(started and spread on the first frame) and their masks; after the estimates the exits, the
-estimates, the merges, the groups' new tracks and spreads, the new targets' masks, and the
-entries test. It then learns the tracks' colours (``reid.appearance``), holds each new track's
-records back until ``confirm_frames`` and gives the records their output ids
-(:mod:`pftrack_coast.volume_identity`).
+The manager is a :class:`~pftrack.engine.lifecycle.LifecycleTracks`: a fixed list of lifecycle
+stages, each with a narrow contract, sharing one :class:`~pftrack_coast.volume_book.VolumeBook`
+(the per-track state, keyed by engine target id), which the generic runner calls in its
+documented order and whose decisions it applies; no stage receives the engine. Before the
+predict step: :class:`~pftrack_coast.volume_groups.VolumeGroups` (initiator: on the first frame
+the detection groups, as :class:`~pftrack.contracts.stages.Birth` decisions spread through their
+volumes) and :class:`~pftrack_coast.volume_book.VolumeMasker` (masker: where particles may live,
+as :class:`~pftrack.contracts.stages.Mask` decisions). After the estimates, the reporters
+:class:`~pftrack_coast.volume_stages.VolumeCounts` (the particles above ``v_pi``: which tracks
+leave), :class:`~pftrack_coast.volume_stages.VolumeEstimator` (the estimates; the groups and the
+leaving tracks are not output) and :class:`~pftrack_coast.volume_stages.VolumeEntries` (the
+footprint inside the volume); :class:`~pftrack_coast.volume_stages.VolumeConfirmer` (confirmer,
+with ``confirm_frames`` above 1: a new track's records held back until it has been shown that
+many frames); :class:`~pftrack_coast.volume_stages.VolumeExits` (terminator);
+:class:`~pftrack_coast.volume_stages.VolumeMerger` (merger); the groups' new tracks and spreads
+(:class:`~pftrack.contracts.stages.Birth` decisions carrying particles,
+:class:`~pftrack.contracts.stages.Particles`), each new track's first record carrying its
+estimate; the new targets' masks; and last
+:class:`~pftrack_coast.volume_stages.VolumeReidentifier` (reidentifier: the tracks' colours with
+``reid.appearance``, and the records' output ids as
+:class:`~pftrack.contracts.stages.OutputAs` decisions, :mod:`pftrack_coast.volume_identity`).
 The geometry (:mod:`pftrack_coast.volume_geometry`), the colour histograms
 (:mod:`pftrack_coast.volume_colour`), the parameter groups (:mod:`pftrack_coast.volume_params`)
 and the tracks' footprints (:mod:`pftrack_coast.volume_footprint`) live in modules of their own,
@@ -82,9 +86,8 @@ from pftrack.contracts.components import (
     Param,
     RunContext,
     Target,
-    TrackRecord,
 )
-from pftrack.contracts.stages import LifecycleStage, _frozen
+from pftrack.contracts.stages import LifecycleStage
 from pftrack.engine.lifecycle import LifecycleTracks
 
 from pftrack_coast.likelihood import InsideBoxesLikelihood
@@ -108,10 +111,13 @@ from pftrack_coast.volume_params import (
     VolumeReid,
 )
 from pftrack_coast.volume_stages import (
+    VolumeConfirmer,
+    VolumeCounts,
     VolumeEntries,
     VolumeEstimator,
     VolumeExits,
     VolumeMerger,
+    VolumeReidentifier,
 )
 
 if TYPE_CHECKING:
@@ -302,12 +308,16 @@ class VolumeTracks(LifecycleTracks):
             reid=self.reid, footprint=self.footprint)
 
     def build_stages(self) -> list[LifecycleStage]:
-        """The stages, all on one book: groups, exits, the estimator, the merger, entries and
-        the masker."""
+        """The stages, all on one book: the groups, the counts, the estimator, the entries,
+        the confirmer (``confirm_frames`` above 1), the exits, the merger, the masker and the
+        reidentifier (the reporters run in this order)."""
         self._start()
         b = self.book_
-        return [VolumeGroups(b), VolumeExits(b), VolumeEstimator(b), VolumeMerger(b),
-                VolumeEntries(b), VolumeMasker(b)]
+        confirm: list[LifecycleStage] = [] if int(self.confirm_frames) <= 1 else \
+            [VolumeConfirmer(b, int(self.confirm_frames))]
+        return [VolumeGroups(b), VolumeCounts(b), VolumeEstimator(b), VolumeEntries(b),
+                *confirm, VolumeExits(b), VolumeMerger(b), VolumeMasker(b),
+                VolumeReidentifier(b)]
 
     def stage(self, cls: type) -> Any:
         """The stage of class ``cls`` (e.g. ``stage(VolumeGroups)``)."""
@@ -328,7 +338,7 @@ class VolumeTracks(LifecycleTracks):
     # -- the hooks ----------------------------------------------------------------------------
 
     def before_frame(self, engine: Any, frame: Frame, detections: Detections | None) -> None:
-        """The camera, then the stages (the groups start on the first frame)."""
+        """The camera resolved (the run's, else the observation model's), then the runner."""
         self._start()
         self._camera(engine)
         super().before_frame(engine, frame, detections)
@@ -338,68 +348,3 @@ class VolumeTracks(LifecycleTracks):
         stages are told."""
         self.book_.end(target.id)
         super().end_target(target)
-
-    def after_frame(self, engine: Any, frame: Frame, detections: Detections | None,
-                    records: list[TrackRecord], unmatched_detections: np.ndarray,
-                    ) -> list[TrackRecord]:
-        """Exits, estimates, merges, the groups' new tracks and spreads, the new targets' masks
-        and the entries test (the stages, in that order), then the tracks' colours, the records
-        held back until confirmed, and their output ids."""
-        self._stages()
-        book = self.book_
-        models = self._models(engine)
-        seen, seen_detections = self._read_only(frame, detections)
-        unmatched = _frozen(np.asarray(unmatched_detections))
-
-        def view() -> Any:
-            return self._view(engine, seen, seen_detections, unmatched,  # type: ignore[arg-type]
-                              frozenset(), models)
-
-        by_id = {r.id: r for r in records}
-        ended: set[int] = set()
-        self._end(engine, self.stage(VolumeExits).terminate(view()), ended)
-        v = view()
-        estimates = self.stage(VolumeEstimator).report(v)
-        hidden: set[int] = set()
-        self._apply_outputs(estimates, by_id, hidden)
-        out = [by_id[d.track_id] for d in estimates if d.track_id in by_id]
-        merged: set[int] = set()
-        self._end(engine, self.stage(VolumeMerger).merge(v), merged)
-        out = [r for r in out if r.id not in merged]
-        n = len(out)
-        self._apply_births(engine, frame, self.stage(VolumeGroups).initiate(view()), out)
-        born = {r.id: r for r in out[n:]}
-        self._apply_outputs([book.outputs[i] for i in born], born, hidden)
-        if int(self.confirm_frames) > 1:
-            for tid in born:
-                book.pending[tid] = []
-        self._apply_masks(engine, view())
-        for tid in list(book.boxes):
-            if tid not in book.tracks:
-                del book.boxes[tid]
-        if self.reid.appearance:
-            book.identities.appearance(frame, out, book.look, book.tracks)
-        book.image = None  # (colour_share reads the frame while it is weighted, not after)
-        hidden.update(h.track_id for h in self.stage(VolumeEntries).report(v))
-        return book.identities.reidentified(
-            self._confirmed([r for r in out if r.id not in hidden]), int(book.frame),
-            book.tracks)
-
-    def _confirmed(self, out: list[TrackRecord]) -> list[TrackRecord]:
-        """The records to output: a track's from its entry on once it has lived
-        ``confirm_frames`` frames."""
-        n = int(self.confirm_frames)
-        if n <= 1:
-            return out
-        pending = self.book_.pending
-        shown = []
-        for r in out:
-            buf = pending.get(r.id)
-            if buf is None:
-                shown.append(r)
-                continue
-            buf.append(r)
-            if len(buf) >= n:
-                shown.extend(buf)
-                del pending[r.id]
-        return shown

@@ -19,10 +19,12 @@ from pftrack.contracts.stages import (
     Confirmer,
     End,
     FrameView,
+    Hide,
     Initiator,
     Mask,
     Masker,
     Merger,
+    OutputAs,
     OutputBox,
     Particles,
     Reidentifier,
@@ -143,9 +145,9 @@ def test_roles_run_in_the_documented_order_and_see_tracks_read_only():
     rows = _rows(StagedTracks(stages=stages))
     assert len(rows) and writes and set(writes) == {"refused"}
     # one frame with live tracks: before the predict, then after the estimates in ROLES order
-    frame = ["initiator.scheduled", "reidentifier.observe", "sizer.resize", "reporter.report",
-             "confirmer.confirm", "terminator.terminate", "merger.merge", "initiator.initiate",
-             "masker.mask"]
+    frame = ["initiator.scheduled", "sizer.resize", "reporter.report", "confirmer.confirm",
+             "terminator.terminate", "merger.merge", "initiator.initiate", "masker.mask",
+             "reidentifier.observe"]
     assert [c.split(".")[0] for c in frame[1:]] == list(ROLES)
     assert _Log.calls[:len(frame)] == frame
     assert _Log.calls[len(frame):2 * len(frame)] == frame
@@ -372,3 +374,129 @@ def test_births_with_particles_and_particles_decisions_apply_in_the_order_return
     barred = np.isneginf(t.log_likelihoods)
     assert 0 < barred.sum() < 16  # the particles whose box's left edge is right of x = 70
     np.testing.assert_array_equal(barred, t.particle_boxes_xywh_px[:, 0] >= 70.0)
+
+
+_BIRTHS = {"type": "unmatched-births", "params": {"min_score": 0.0}}
+
+
+def _ids_by_frame(rows: np.ndarray) -> dict[int, set[int]]:
+    out: dict[int, set[int]] = {}
+    for f, i in rows[:, :2].astype(int):
+        out.setdefault(int(f), set()).add(int(i))
+    return out
+
+
+def test_output_as_gives_this_frames_records_another_id():
+    """A reidentifier's :class:`OutputAs` relabels the track's records output in that frame
+    only, after every other stage (the reidentifier is called last)."""
+
+    class Renamer(Reidentifier):
+        def observe(self, view: FrameView):
+            if view.frame.index % 2:
+                return None
+            return [OutputAs(t.id, 100 + t.id) for t in view.tracks]
+
+    plain = _rows(StagedTracks(stages=[_BIRTHS]))
+    renamed = _rows(StagedTracks(stages=[_BIRTHS, Renamer()]))
+    even = renamed[:, 0] % 2 == 0
+    assert even.any() and (~even).any()
+    np.testing.assert_array_equal(renamed[even, 1], plain[even, 1] + 100)
+    np.testing.assert_array_equal(renamed[~even, 1], plain[~even, 1])
+    np.testing.assert_array_equal(renamed[:, [0, 2, 3, 4, 5]], plain[:, [0, 2, 3, 4, 5]])
+
+
+class _ConfirmSecond(Confirmer):
+    """Confirms a tentative track in its second frame (``at_end`` as given)."""
+
+    def __init__(self, at_end: bool = False) -> None:
+        self.at_end = at_end
+        self.age: dict[int, int] = {}
+
+    def track_started(self, track, birth):
+        self.age[track.id] = 1
+
+    def confirm(self, view: FrameView):
+        out = []
+        for t in view.tracks:
+            if t.tentative and t.id in self.age:
+                self.age[t.id] += 1
+                if self.age[t.id] >= 2:
+                    out.append(Confirm(t.id, at_end=self.at_end))
+        return out
+
+
+class _EndNewlyConfirmed(Merger):
+    """Ends every track the first time it sees it confirmed (its first frame after its birth
+    frame, when :class:`_ConfirmSecond` confirmed it)."""
+
+    def __init__(self) -> None:
+        self.seen: set[int] = set()
+
+    def merge(self, view: FrameView):
+        new = [t.id for t in view.tracks if not t.tentative and t.id not in self.seen]
+        self.seen.update(t.id for t in view.tracks)
+        return [End(tid, "test") for tid in new]
+
+
+def test_confirm_at_end_outputs_the_held_records_only_if_the_track_is_still_live():
+    """:class:`Confirm` outputs the held records now (a merger of the same frame withdraws
+    only that frame's record); with ``at_end`` at the end of the frame, and none of a track
+    a later stage ended in it."""
+
+    now = _rows(StagedTracks(stages=[_BIRTHS, _ConfirmSecond(), _EndNewlyConfirmed()]))
+    late = _rows(StagedTracks(stages=[_BIRTHS, _ConfirmSecond(at_end=True),
+                                      _EndNewlyConfirmed()]))
+    kept = _rows(StagedTracks(stages=[_BIRTHS, _ConfirmSecond(at_end=True)]))
+    plain = _rows(StagedTracks(stages=[_BIRTHS]))
+    # confirmed at once, then merged: the birth frame's record is output, the second not
+    assert len(now) > 0 and len(late) == 0
+    ids, counts = np.unique(now[:, 1], return_counts=True)
+    assert len(ids) > 1 and (counts == 1).all()
+    # nothing ends them: the same records as without a confirmer
+    np.testing.assert_array_equal(kept[np.lexsort((kept[:, 1], kept[:, 0]))],
+                                  plain[np.lexsort((plain[:, 1], plain[:, 0]))])
+
+
+def test_a_confirmer_may_drop_the_records_hidden_while_tentative_and_births_are_reported():
+    """``Confirmer.holds_hidden`` False: a tentative track's records a reporter hides are not
+    output on confirmation (True: they are); :meth:`Reporter.report_started` gives a new
+    track's first record its box, or hides it."""
+
+    class HideOdd(Reporter):
+        def report(self, view: FrameView):
+            return [Hide(t.id) for t in view.tracks if view.frame.index % 2]
+
+        def report_started(self, track, birth):
+            if birth.box_xywh_px is None:
+                return ()
+            box = np.asarray(birth.box_xywh_px, dtype=np.float64) + 1000.0
+            return [Hide(track.id)] if track.id % 2 else [OutputBox(track.id, box)]
+
+    class Window(_ConfirmSecond):
+        def confirm(self, view: FrameView):
+            out = []
+            for t in view.tracks:
+                if t.tentative and t.id in self.age:
+                    self.age[t.id] += 1
+                    if self.age[t.id] >= 3:
+                        out.append(Confirm(t.id))
+            return out
+
+    class Dropping(Window):
+        holds_hidden = False
+
+    held = _rows(StagedTracks(stages=[_BIRTHS, HideOdd(), Window()]))
+    dropped = _rows(StagedTracks(stages=[_BIRTHS, HideOdd(), Dropping()]))
+    births = {}
+    for f, i, *box in held.tolist():
+        births.setdefault(int(i), (int(f), box))
+    # held: every track's birth record is output (its box moved by report_started when even)
+    even = [i for i in births if i % 2 == 0]
+    assert even and all(births[i][1][0] > 900.0 for i in even)
+    # dropped: no record of an odd frame while tentative, no hidden birth record
+    drop_ids = _ids_by_frame(dropped)
+    for i, (f0, _) in births.items():
+        hidden = {f0: bool(i % 2), f0 + 1: bool((f0 + 1) % 2)}  # (birth: report_started)
+        for f, hid in hidden.items():
+            assert (i in drop_ids.get(f, ())) == (not hid), (i, f)
+    assert len(dropped) < len(held)

@@ -828,8 +828,8 @@ def test_the_stages_share_one_book_and_hold_no_target_and_no_engine():
     engine, tracks, rows, *_ = _run(n_frames=20)
     assert len(rows) and tracks.tracks_
     assert [type(s).__name__ for s in tracks.stages_] == [
-        "VolumeGroups", "VolumeExits", "VolumeEstimator", "VolumeMerger", "VolumeEntries",
-        "VolumeMasker"]
+        "VolumeGroups", "VolumeCounts", "VolumeEstimator", "VolumeEntries", "VolumeConfirmer",
+        "VolumeExits", "VolumeMerger", "VolumeMasker", "VolumeReidentifier"]
     assert all(s.book is tracks.book_ for s in tracks.stages_)
     found = []
 
@@ -845,3 +845,32 @@ def test_the_stages_share_one_book_and_hold_no_target_and_no_engine():
         region = t.valid_region.region
         assert isinstance(region, VolumeRegion) and region.book is tracks.book_
         assert region.mode == ("exclude" if t.id in tracks.groups_ else "gate")
+
+
+def test_the_generic_runner_calls_each_stage_once_a_frame_in_its_order(monkeypatch):
+    """``volumes`` has no runner of its own: each frame after the estimates the lifecycle
+    runner calls every stage once, in the roles' documented order (the reporters as listed:
+    counts, estimator, entries)."""
+    from pftrack.engine.lifecycle import LifecycleTracks
+    from pftrack_coast import volume_book, volume_stages
+
+    assert VolumeTracks.after_frame is LifecycleTracks.after_frame
+    calls: list[str] = []
+    order = [(volume_stages.VolumeCounts, "report"), (volume_stages.VolumeEstimator, "report"),
+             (volume_stages.VolumeEntries, "report"), (volume_stages.VolumeConfirmer, "confirm"),
+             (volume_stages.VolumeExits, "terminate"), (volume_stages.VolumeMerger, "merge"),
+             (VolumeGroups, "initiate"), (volume_book.VolumeMasker, "mask"),
+             (volume_stages.VolumeReidentifier, "observe")]
+
+    def logging(method, label: str):
+        def logged(self, *a, **k):
+            calls.append(label)
+            return method(self, *a, **k)
+        return logged
+
+    for cls, name in order:
+        monkeypatch.setattr(cls, name, logging(getattr(cls, name), f"{cls.__name__}.{name}"))
+    _run(n_frames=8)
+    frame = [f"{cls.__name__}.{name}" for cls, name in order]
+    # the first frame masks the groups before the predict step too
+    assert calls == ["VolumeMasker.mask"] + frame * 8

@@ -1,6 +1,6 @@
 """The contract of a track lifecycle stage: what a stage sees (:class:`FrameView`,
 :class:`TrackView`, :class:`ModelView`), the decisions it returns (:class:`Birth`, :class:`End`,
-:class:`Confirm`, :class:`Hide`, :class:`OutputBox`, :class:`Resize`,
+:class:`Confirm`, :class:`Hide`, :class:`OutputBox`, :class:`OutputAs`, :class:`Resize`,
 :class:`AppearanceScores`, :class:`Mask`, :class:`Particles`) and the stage base classes, one
 per role (:class:`Initiator`, :class:`Confirmer`, :class:`Terminator`, :class:`Merger`,
 :class:`Reidentifier`, :class:`Sizer`, :class:`Reporter`, :class:`Masker`).
@@ -41,6 +41,7 @@ __all__ = [
     "Masker",
     "Merger",
     "ModelView",
+    "OutputAs",
     "OutputBox",
     "Particles",
     "Reidentifier",
@@ -297,9 +298,19 @@ class End:
 
 @dataclass(frozen=True)
 class Confirm:
-    """A tentative track is believed: its records from birth on are output now."""
+    """A tentative track is believed: its records from birth on are output.
+
+    Attributes
+    ----------
+    track_id : int
+    at_end : bool
+        Output the held records at the end of the frame, after the terminators, mergers and
+        initiators, and only if the track is still live then (a track that a later stage of
+        this frame ends was never output). False: output now.
+    """
 
     track_id: int
+    at_end: bool = False
 
 
 @dataclass(frozen=True)
@@ -329,6 +340,25 @@ class OutputBox:
     box_xywh_px: np.ndarray
     world_m: np.ndarray | None = None
     size_m: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class OutputAs:
+    """Output the track's records of this frame under the id ``output_id`` instead of its own
+    (held-back records output in this frame included): an identity that carries on a track
+    that ended, or two tracks that exchanged their objects. Returned by a reidentifier's
+    :meth:`Reidentifier.observe`; it holds for this frame only (a track output under another
+    id every frame is told so every frame).
+
+    Attributes
+    ----------
+    track_id : int
+    output_id : int
+        The id its records carry (positive).
+    """
+
+    track_id: int
+    output_id: int
 
 
 @dataclass(frozen=True)
@@ -391,7 +421,8 @@ class Particles:
     particles: np.ndarray
 
 
-Decision = Birth | End | Confirm | Hide | OutputBox | Resize | AppearanceScores | Mask | Particles
+Decision = (Birth | End | Confirm | Hide | OutputBox | OutputAs | Resize | AppearanceScores | Mask
+            | Particles)
 
 
 # --------------------------------------------------------------------------------------------
@@ -448,6 +479,10 @@ class Confirmer(LifecycleStage):
     """Holds new tracks tentative until they are believed."""
 
     role: ClassVar[str] = "confirmer"
+    #: Whether a tentative track's records that a reporter hides (:class:`Hide`) are held back
+    #: and output on confirmation like the others (True), or dropped (False: a confirmation
+    #: outputs only the records that were shown in their frame).
+    holds_hidden: ClassVar[bool] = True
 
     def tentative(self, birth: Birth) -> bool:
         """Whether a track started by ``birth`` begins tentative (its records held back until
@@ -456,7 +491,8 @@ class Confirmer(LifecycleStage):
 
     def confirm(self, view: FrameView) -> Sequence[Confirm | End]:
         """:class:`Confirm` the tentative tracks now believed, :class:`End` those given up
-        (``view.tracks[i].tentative`` says which are tentative)."""
+        (``view.tracks[i].tentative`` says which are tentative). Called after the reporters:
+        this frame's :class:`Hide` decisions are known."""
         return ()
 
 
@@ -482,7 +518,8 @@ class Merger(LifecycleStage):
 
 
 class Reidentifier(LifecycleStage):
-    """Keeps an appearance model per track and scores detections against it."""
+    """Keeps an appearance model per track, scores detections against it, and may say under
+    which id a track's records are output."""
 
     role: ClassVar[str] = "reidentifier"
 
@@ -491,8 +528,12 @@ class Reidentifier(LifecycleStage):
         leave them unset)."""
         return None
 
-    def observe(self, view: FrameView) -> None:
-        """After the estimates: learn from the detections matched to the tracks."""
+    def observe(self, view: FrameView) -> Sequence[OutputAs] | None:
+        """Last in the frame, after the masks: learn from the frame's tracks as they end it
+        (those ended in this frame gone, those started in it present; ``detection``: the
+        detection matched to each), and return :class:`OutputAs` decisions for the tracks
+        whose records of this frame are output under another id. Default: nothing."""
+        return None
 
 
 class Sizer(LifecycleStage):
@@ -514,6 +555,13 @@ class Reporter(LifecycleStage):
         """:class:`OutputBox` and :class:`Hide` decisions for this frame. Default: none."""
         return ()
 
+    def report_started(self, track: TrackView, birth: Birth) -> Sequence[OutputBox | Hide]:
+        """:class:`OutputBox` and :class:`Hide` decisions for the first record of a track an
+        initiator starts after the estimates (called after every stage heard of it,
+        :meth:`LifecycleStage.track_started`; a hidden first record is not output, nor held
+        back when the confirmers drop hidden records). Default: none."""
+        return ()
+
 
 class Masker(LifecycleStage):
     """Says where each track's particles may live (a track kept in its volume, off its
@@ -522,16 +570,16 @@ class Masker(LifecycleStage):
     role: ClassVar[str] = "masker"
 
     def mask(self, view: FrameView) -> Sequence[Mask]:
-        """:class:`Mask` decisions: called last each frame, after the births (the masks hold
-        from the next frame's weighting on), and before the predict step when given births
-        started tracks. Default: none."""
+        """:class:`Mask` decisions: called after the births (the masks hold from the next
+        frame's weighting on), and before the predict step when given births started tracks.
+        Default: none."""
         return ()
 
 
 #: The roles in the order the runner calls them after the estimates (the initiator's
 #: ``scheduled``, the reidentifier's ``scores`` and, after given births, the masker run before
 #: the predict step too).
-ROLES: tuple[str, ...] = ("reidentifier", "sizer", "reporter", "confirmer", "terminator",
-                          "merger", "initiator", "masker")
+ROLES: tuple[str, ...] = ("sizer", "reporter", "confirmer", "terminator", "merger",
+                          "initiator", "masker", "reidentifier")
 
 

@@ -6,13 +6,13 @@ contract (as Stone Soup's tracker loop has an initiator and a deleter, each a co
 own). A stage sees the frame and the live tracks read-only (:class:`FrameView`,
 :class:`TrackView`), keeps its own per-track state keyed by track id, and returns decisions
 (:class:`Birth`, :class:`End`, :class:`Confirm`, :class:`Hide`, :class:`OutputBox`,
-:class:`Resize`, :class:`AppearanceScores`, :class:`Mask`, :class:`Particles`). No stage
-receives the engine; one runner, :class:`LifecycleTracks`, calls the stages and applies their
-decisions: births, particles and ends through the engine's public methods (``add_target``,
-``set_particles``, ``remove_target``, ``record``), and the
-per-target fields the engine reads but has no method for (``Target.appearance_scores``,
-``Target.box_wh_px``, ``Target.valid_region``, a newborn's ``frames_tracked``) by setting them
-on its targets.
+:class:`OutputAs`, :class:`Resize`, :class:`AppearanceScores`, :class:`Mask`,
+:class:`Particles`). No stage receives the engine; one runner, :class:`LifecycleTracks`, calls
+the stages and applies their decisions: births, particles and ends through the engine's public
+methods (``add_target``, ``set_particles``, ``remove_target``, ``record``), output ids on the
+records it returns, and the per-target fields the engine reads but has no method for
+(``Target.appearance_scores``, ``Target.box_wh_px``, ``Target.valid_region``, a newborn's
+``frames_tracked``) by setting them on its targets.
 
 Roles and the order the runner calls them in, each frame::
 
@@ -24,22 +24,30 @@ Roles and the order the runner calls them in, each frame::
                                        for the associator (``Target.appearance_scores``)
       -> the engine: predict, associate, weight, estimate, resample, the filter's own deaths
       -> after the estimates (``records``: this frame's estimate of each live track):
-           3. reidentifier.observe     per-track appearance models learn from matched detections
-           4. sizer.resize             each track's own box size (``Target.box_wh_px``)
-           5. reporter.report          this frame's output boxes, tracks hidden from the output
-           6. confirmer.confirm        tentative -> confirmed (their held-back records are
-                                       output from birth on), or ended unconfirmed
-           7. terminator.terminate     other ends (left the picture, a given last frame)
+           3. sizer.resize             each track's own box size (``Target.box_wh_px``)
+           4. reporter.report          this frame's output boxes, tracks hidden from the output
+           5. confirmer.confirm        tentative -> confirmed (their held-back records are
+                                       output from birth on, now or with ``Confirm.at_end`` at
+                                       the end of the frame), or ended unconfirmed
+           6. terminator.terminate     other ends (left the picture, a given last frame)
               the output is assembled here: the records just confirmed, then the records of
               the confirmed tracks that are neither ended (``End.output`` False) nor hidden
-           8. merger.merge             two confirmed tracks that are one object: one ends, its
+           7. merger.merge             two confirmed tracks that are one object: one ends, its
                                        record of this frame is withdrawn
-           9. initiator.initiate       new tracks from the detections no track explains; each
+           8. initiator.initiate       new tracks from the detections no track explains; each
                                        output at once, or held back while a confirmer says it
                                        is tentative (with :class:`Particles` decisions among
-                                       them, applied in the order returned)
-          10. masker.mask              where each track's particles may live from the next
+                                       them, applied in the order returned); the reporters'
+                                       ``report_started`` gives each first record its box or
+                                       hides it
+           9. masker.mask              where each track's particles may live from the next
                                        weighting on (``Target.valid_region``)
+              the records confirmed with ``Confirm.at_end`` whose tracks are still live join
+              the output
+          10. reidentifier.observe     per-track appearance models learn from the frame's
+                                       tracks (matched detections, this frame's estimates);
+                                       :class:`OutputAs` decisions give the output records
+                                       their output ids
       -> list[TrackRecord]
 
 Stages of one role run in the order they are listed, each seeing the tracks as they were when
@@ -80,6 +88,7 @@ from pftrack.contracts.stages import (
     LifecycleStage,
     Mask,
     ModelView,
+    OutputAs,
     OutputBox,
     Particles,
     TrackView,
@@ -201,6 +210,8 @@ class LifecycleTracks(TrackManager):
         from pftrack.geometry.boxes import iou_matrix
 
         confirmers = self.by_role_["confirmer"]
+        reporters = self.by_role_["reporter"]
+        holds_hidden = all(c.holds_hidden for c in confirmers)
         for b in births:
             if isinstance(b, Particles):
                 if any(t.id == b.track_id for t in engine.targets):
@@ -218,17 +229,23 @@ class LifecycleTracks(TrackManager):
             if b.supported:
                 t.frames_tracked = 1
             tentative = any(c.tentative(b) for c in confirmers)
-            if out is not None:
-                rec = engine.record(frame, t)
-                if tentative:
-                    self.tentative_[t.id] = [rec]
-                else:
-                    out.append(rec)
-            elif tentative:
+            rec = engine.record(frame, t) if out is not None else None
+            if tentative:
                 self.tentative_[t.id] = []
             view = TrackView.of(t, tentative)
             for s in self.stages_:
                 s.track_started(view, b)
+            if rec is None or out is None:
+                continue
+            hidden: set[int] = set()
+            for s in reporters:
+                self._apply_outputs(s.report_started(view, b), {t.id: rec}, hidden)
+            shown = t.id not in hidden
+            if tentative:
+                if shown or holds_hidden:
+                    self.tentative_[t.id].append(rec)
+            elif shown:
+                out.append(rec)
 
     def _end(self, engine: Any, decisions: Iterable[Any], withdrawn: set[int]) -> None:
         """Apply the :class:`End` decisions; the ended tracks whose record of this frame is
@@ -300,7 +317,7 @@ class LifecycleTracks(TrackManager):
     def after_frame(self, engine: Any, frame: Frame, detections: Detections | None,
                     records: list[TrackRecord], unmatched_detections: np.ndarray,
                     ) -> list[TrackRecord]:
-        """Steps 3-9 (see the module docstring); returns the records to output now."""
+        """Steps 3-10 (see the module docstring); returns the records to output now."""
         stages = self._stages()
         if not stages:
             return records
@@ -317,8 +334,6 @@ class LifecycleTracks(TrackManager):
                               claimed, models)
 
         v = view()
-        for s in roles["reidentifier"]:
-            s.observe(v)
         by_id = {r.id: r for r in records}
         if roles["sizer"]:
             live = {t.id: t for t in engine.targets}
@@ -343,16 +358,21 @@ class LifecycleTracks(TrackManager):
         tentative = self.tentative_
         out: list[TrackRecord] = []
         withdrawn: set[int] = set()
+        at_end: dict[int, list[TrackRecord]] = {}  # confirmed, output at the end if still live
         if roles["confirmer"]:
+            holds_hidden = all(c.holds_hidden for c in roles["confirmer"])
             for tid, held in tentative.items():
-                if tid in by_id:
+                if tid in by_id and (holds_hidden or tid not in hidden):
                     held.append(by_id[tid])
             decided = False
             for s in roles["confirmer"]:
                 for d in s.confirm(v):
                     decided = True
                     if isinstance(d, Confirm) and d.track_id in tentative:
-                        out.extend(tentative.pop(d.track_id))
+                        if d.at_end:
+                            at_end[d.track_id] = tentative.pop(d.track_id)
+                        else:
+                            out.extend(tentative.pop(d.track_id))
                     elif isinstance(d, End):
                         self._end(engine, [d], withdrawn)
             if decided:
@@ -365,6 +385,7 @@ class LifecycleTracks(TrackManager):
         if ended:
             v = view()
         flushed = {id(r) for r in out}
+        flushed.update(id(r) for held in at_end.values() for r in held)
         for r in records:
             if (r.id not in withdrawn and r.id not in tentative and id(r) not in flushed
                     and r.id not in hidden):
@@ -383,6 +404,22 @@ class LifecycleTracks(TrackManager):
             self._apply_births(engine, frame, s.initiate(v), out)
         if roles["masker"]:
             self._apply_masks(engine, view())
+        if at_end:
+            alive = {t.id for t in engine.targets}
+            for tid, held in at_end.items():
+                if tid in alive:
+                    out.extend(held)
+        if roles["reidentifier"]:
+            v = view()
+            output_as: dict[int, int] = {}
+            for s in roles["reidentifier"]:
+                for d in s.observe(v) or ():
+                    if isinstance(d, OutputAs):
+                        output_as[d.track_id] = int(d.output_id)
+            if output_as:
+                for r in out:
+                    if r.id in output_as:
+                        r.id = output_as[r.id]
         return out
 
 
