@@ -185,7 +185,7 @@ class Refind(ParamGroup):
     margin: float = Param(0.3, "Distance allowed at once, whatever the time lost, in heights "
                           "of the track's last matched box (the box's own scatter and a "
                           "step).", unit="heights", low=0.0)
-    size: float = Param(0.2, "Largest |log| of the ratio of the detection's height to the "
+    size: float = Param(0.2, "Largest absolute log of the ratio of the detection's height to the "
                         "last matched box's (0.2: within 18 % smaller to 22 % larger).",
                         unit="1", low=0.0, low_open=True)
     covered: float = Param(0.5, "Only a track this much of whose box (a fraction of its "
