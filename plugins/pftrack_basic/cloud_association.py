@@ -47,6 +47,7 @@ from pftrack.contracts.components import (
     ParamGroup,
     Target,
 )
+from pftrack.geometry.boxes import covered_fraction
 
 __all__ = ["CloudAssociator", "Refind", "cloud_cost"]
 
@@ -334,6 +335,8 @@ class CloudAssociator(Associator):
     def associate(self, targets: Sequence[Target], detections: Detections) -> Assignment:
         """Match targets to detections; ``Assignment.matches`` rows are (target, detection)."""
         T, K = len(targets), len(detections)
+        if not hasattr(self, "_hidden"):  # used without setup
+            self._reset()
         self._note_hidden(targets)
         cost, centre, height = self._costs(targets, detections)
         self.cost_ = cost
@@ -358,8 +361,6 @@ class CloudAssociator(Associator):
                 matches: list[tuple[int, int]], high: np.ndarray) -> list[tuple[int, int]]:
         """The third pass: lost tracks against the confident detections left unmatched,
         through the ``refind`` gate (see the module docstring)."""
-        if not hasattr(self, "_last_box"):
-            self._reset()
         taken_t = {i for i, _ in matches}
         taken_d = {j for _, j in matches}
         lost = [i for i, t in enumerate(targets) if i not in taken_t and t.id in self._last_box
@@ -401,21 +402,13 @@ class CloudAssociator(Associator):
         """For each track matched in the previous frame, whether at least ``refind.covered``
         of its box lies under another track's box (both as estimated then): kept until it is
         matched again, it says whether a track that goes unseen was lost behind someone."""
-        if not hasattr(self, "_hidden"):
-            self._reset()
         seen = [i for i, t in enumerate(targets) if t.misses == 0]
         if not seen:
             return
         b = np.array([np.asarray(t.box_xywh_px, dtype=np.float64) for t in targets])  # (T, 4)
-        s = b[seen]  # (S, 4)
-        w = (np.minimum(s[:, None, 0] + s[:, None, 2], b[None, :, 0] + b[None, :, 2])
-             - np.maximum(s[:, None, 0], b[None, :, 0]))
-        h = (np.minimum(s[:, None, 1] + s[:, None, 3], b[None, :, 1] + b[None, :, 3])
-             - np.maximum(s[:, None, 1], b[None, :, 1]))
-        inter = np.clip(w, 0.0, None) * np.clip(h, 0.0, None)  # (S, T)
-        inter[np.arange(len(seen)), seen] = 0.0  # not covered by itself
-        with np.errstate(invalid="ignore", divide="ignore"):
-            frac = inter.max(axis=1) / np.maximum(s[:, 2] * s[:, 3], 1e-6)
+        cover = covered_fraction(b[seen][:, None], b[None])  # (S, T)
+        cover[np.arange(len(seen)), seen] = 0.0  # not covered by itself
+        frac = cover.max(axis=1)
         for k, i in enumerate(seen):
             self._hidden[targets[i].id] = bool(frac[k] >= float(self.refind.covered))
 

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 from pftrack.contracts.stages import Birth, FrameView, Initiator, Particles, TrackView
+from pftrack.geometry.boxes import covered_fraction
 
 from pftrack_coast.likelihood import _blocks_of_pixels
 from pftrack_coast.volume_book import VolumeBook
@@ -223,9 +224,6 @@ class VolumeGroups(Initiator):
             box = est["box_xywh_px"]
         else:
             box = cloud_box(px) if len(px) >= 2 else np.concatenate([px[0], np.zeros(2)])
-        lo, hi = box[:2], box[:2] + box[2:]
-        area = max(float(np.prod(hi - lo)), 1e-9)
         b = np.array(list(book.boxes.values()))
-        ov = np.clip(np.minimum(hi, b[:, :2] + b[:, 2:]) - np.maximum(lo, b[:, :2]), 0, None)
-        inside = ov.prod(axis=1) / area > float(book.entry.spawn_overlap)
+        inside = covered_fraction(box, b) > float(book.entry.spawn_overlap)
         return "tracked" if bool(inside.any()) else None

@@ -9,6 +9,7 @@ import pytest
 from pftrack.geometry.boxes import (
     box_iou,
     clip_boxes,
+    covered_fraction,
     foot_points,
     iou_matrix,
     nms,
@@ -94,3 +95,18 @@ def test_figure_png_closes_the_figure():
     img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
     assert img.shape == (50, 100, 3)
     assert not plt.fignum_exists(fig.number)
+
+
+def test_covered_fraction_is_the_intersection_over_the_first_boxs_area():
+    a = np.array([0.0, 0.0, 40.0, 100.0])
+    # 30 of its 40 px width under b, its whole height: three quarters
+    assert covered_fraction(a, np.array([10.0, -10.0, 40.0, 200.0])) == 0.75
+    # not symmetric: b (a larger box) is covered by a over 3000 of its 8000 px^2
+    assert covered_fraction(np.array([10.0, -10.0, 40.0, 200.0]), a) == 3000.0 / 8000.0
+    # broadcast (2, 1, 4) x (1, 3, 4): apart, inside, the same box
+    aa = np.array([a, [100.0, 0.0, 10.0, 10.0]])[:, None]
+    bb = np.array([[500.0, 0.0, 5.0, 5.0], [-5.0, -5.0, 60.0, 200.0], a])[None]
+    np.testing.assert_array_equal(covered_fraction(aa, bb), [[0.0, 1.0, 1.0], [0.0, 0.0, 0.0]])
+    # no area or not a number: 0
+    assert covered_fraction(np.array([0.0, 0.0, 0.0, 10.0]), a) == 0.0
+    assert covered_fraction(np.array([np.nan, 0.0, 4.0, 10.0]), a) == 0.0

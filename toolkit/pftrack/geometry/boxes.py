@@ -11,7 +11,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["box_iou", "clip_boxes", "foot_points", "iou_matrix", "nms", "sub_boxes"]
+__all__ = ["box_iou", "clip_boxes", "covered_fraction", "foot_points", "iou_matrix", "nms",
+           "sub_boxes"]
 
 _EPS = np.finfo(float).eps
 
@@ -48,6 +49,34 @@ def box_iou(a_xywh_px: np.ndarray, b_xywh_px: np.ndarray) -> np.ndarray:
     ok = (area_a > _EPS) & (area_b > _EPS) & (union > _EPS)  # False for NaN too
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(ok, inter / np.where(ok, union, 1.0), 0.0)
+
+
+def covered_fraction(a_xywh_px: np.ndarray, b_xywh_px: np.ndarray) -> np.ndarray:
+    """The fraction of each box ``a``'s area that box ``b`` covers (their intersection over
+    ``a``'s area), broadcast against each other: how much of a person is behind another, how
+    much of a candidate lies inside a tracked box.
+
+    Parameters
+    ----------
+    a_xywh_px, b_xywh_px : array_like, shape (..., 4)
+        Boxes (left, top, width, height) in pixels.
+
+    Returns
+    -------
+    ndarray, shape (...), float64
+        In [0, 1]; 0 where ``a`` has no area (areas from the corners, as :func:`box_iou`).
+    """
+    a = np.asarray(a_xywh_px, dtype=np.float64)
+    b = np.asarray(b_xywh_px, dtype=np.float64)
+    ax0, ay0 = a[..., 0], a[..., 1]
+    ax1, ay1 = ax0 + a[..., 2], ay0 + a[..., 3]
+    bx0, by0 = b[..., 0], b[..., 1]
+    inter = (np.maximum(np.minimum(ax1, bx0 + b[..., 2]) - np.maximum(ax0, bx0), 0)
+             * np.maximum(np.minimum(ay1, by0 + b[..., 3]) - np.maximum(ay0, by0), 0))
+    area = (ax1 - ax0) * (ay1 - ay0)
+    ok = area > _EPS  # False for NaN too
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(ok, inter / np.where(ok, area, 1.0), 0.0)
 
 
 def iou_matrix(a_xywh_px: np.ndarray, b_xywh_px: np.ndarray) -> np.ndarray:
