@@ -26,7 +26,7 @@ from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from pftrack.contracts.components import Frame, TrackRecord
+from pftrack.contracts.components import Frame
 
 from pftrack_coast.volume_colour import bhattacharyya, hsv_histogram
 
@@ -99,21 +99,6 @@ class VolumeIdentities:
         self.alias_.pop(tid, None)
         self.shown_.discard(tid)
 
-    def reidentified(self, out: list[TrackRecord], now: int,
-                     volumes: Mapping[int, str]) -> list[TrackRecord]:
-        """The records with their output ids (:meth:`reidentify` of the tracks ``out`` outputs
-        for the first time, each from its first record in ``out``); ``volumes``: track id ->
-        volume name, for the events."""
-        first: dict[int, tuple[int, np.ndarray | None]] = {}
-        for r in out:
-            if r.id not in self.shown_ and r.id not in first:
-                first[r.id] = (r.frame, r.world_m)
-        self.reidentify(first, now, volumes)
-        for r in out:
-            if r.id in self.alias_:
-                r.id = self.alias_[r.id]
-        return out
-
     def reidentify(self, first: Mapping[int, tuple[int, np.ndarray | None]], now: int,
                    volumes: Mapping[int, str]) -> None:
         """Frame ``now``'s tracks output for the first time (``first``: track id -> the frame
@@ -163,13 +148,6 @@ class VolumeIdentities:
             if c < cost:
                 best, cost = int(i), c
         return best
-
-    def appearance(self, frame: Frame, out: list[TrackRecord], look: Mapping[int, np.ndarray],
-                   volumes: Mapping[int, str]) -> None:
-        """:meth:`appearance_of` this frame's records ``out`` (their boxes and ground
-        positions)."""
-        self.appearance_of(frame, {r.id: r.box_xywh_px for r in out},
-                           {r.id: r.world_m for r in out}, look, volumes)
 
     def appearance_of(self, frame: Frame, boxes: Mapping[int, np.ndarray],
                       world: Mapping[int, np.ndarray | None], look: Mapping[int, np.ndarray],

@@ -68,8 +68,10 @@ def test_bhattacharyya_distance_values():
 
 
 def _appearance(m: VolumeTracks, frame: Frame, out: list[TrackRecord]) -> None:
-    """The manager's appearance step on ``out`` (its identities' histograms, templates, swaps)."""
-    m.identities_.appearance(frame, out, m.look_, m.tracks_)
+    """The reidentifier stage's appearance step on the records ``out`` (the identities'
+    histograms, templates, swaps)."""
+    m.identities_.appearance_of(frame, {r.id: r.box_xywh_px for r in out},
+                                {r.id: r.world_m for r in out}, m.look_, m.tracks_)
 
 
 def _meet(m: VolumeTracks, exchanged: bool, img_after: np.ndarray) -> list[TrackRecord]:
@@ -82,7 +84,12 @@ def _meet(m: VolumeTracks, exchanged: bool, img_after: np.ndarray) -> list[Track
     a, b = ((5, 0), BOX_B), ((0, 0), BOX_A)
     out = [_record(7, 1, *(a if exchanged else b)), _record(7, 2, *(b if exchanged else a))]
     _appearance(m, Frame(7, img_after), out)
-    return m.identities_.reidentified(out, 7, m.tracks_)
+    ids = m.identities_
+    ids.reidentify({r.id: (r.frame, r.world_m) for r in out if r.id not in ids.shown_}, 7,
+                   m.tracks_)
+    for r in out:
+        r.id = ids.output_id(r.id)
+    return out
 
 
 def test_two_tracks_that_exchanged_people_while_together_swap_their_ids():
