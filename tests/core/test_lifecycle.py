@@ -406,10 +406,12 @@ def test_output_as_gives_this_frames_records_another_id():
 
 
 class _ConfirmSecond(Confirmer):
-    """Confirms a tentative track in its second frame (``at_end`` as given)."""
+    """Confirms a tentative track in its second frame (its ``frames``-th; ``at_end`` as
+    given)."""
 
-    def __init__(self, at_end: bool = False) -> None:
+    def __init__(self, at_end: bool = False, frames: int = 2) -> None:
         self.at_end = at_end
+        self.frames = frames
         self.age: dict[int, int] = {}
 
     def track_started(self, track, birth):
@@ -420,7 +422,7 @@ class _ConfirmSecond(Confirmer):
         for t in view.tracks:
             if t.tentative and t.id in self.age:
                 self.age[t.id] += 1
-                if self.age[t.id] >= 2:
+                if self.age[t.id] >= self.frames:
                     out.append(Confirm(t.id, at_end=self.at_end))
         return out
 
@@ -472,21 +474,11 @@ def test_a_confirmer_may_drop_the_records_hidden_while_tentative_and_births_are_
             box = np.asarray(birth.box_xywh_px, dtype=np.float64) + 1000.0
             return [Hide(track.id)] if track.id % 2 else [OutputBox(track.id, box)]
 
-    class Window(_ConfirmSecond):
-        def confirm(self, view: FrameView):
-            out = []
-            for t in view.tracks:
-                if t.tentative and t.id in self.age:
-                    self.age[t.id] += 1
-                    if self.age[t.id] >= 3:
-                        out.append(Confirm(t.id))
-            return out
-
-    class Dropping(Window):
+    class Dropping(_ConfirmSecond):
         holds_hidden = False
 
-    held = _rows(StagedTracks(stages=[_BIRTHS, HideOdd(), Window()]))
-    dropped = _rows(StagedTracks(stages=[_BIRTHS, HideOdd(), Dropping()]))
+    held = _rows(StagedTracks(stages=[_BIRTHS, HideOdd(), _ConfirmSecond(frames=3)]))
+    dropped = _rows(StagedTracks(stages=[_BIRTHS, HideOdd(), Dropping(frames=3)]))
     births = {}
     for f, i, *box in held.tolist():
         births.setdefault(int(i), (int(f), box))
