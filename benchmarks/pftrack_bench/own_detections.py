@@ -383,8 +383,7 @@ def _summarise(cells: list[dict[str, Any]]) -> list[dict[str, Any]]:
             s[f"{k}_max"] = float(v.max()) if len(v) else None
             s[f"{k}_sd"] = float(v.std(ddof=1)) if len(v) > 1 else None
         frames = sum(c["n_frames"] for c in ok)
-        cpu = sum(c["cpu_s"] for c in ok)
-        s["cpu_ms_per_frame"] = 1000.0 * cpu / frames if frames else None
+        s["cpu_ms_per_frame"] = _ms_per_frame(mine)
         s["wall_ms_per_frame"] = 1000.0 * sum(c["wall_s"] for c in ok) / frames if frames \
             else None
         out.append(s)

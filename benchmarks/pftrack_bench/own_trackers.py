@@ -301,21 +301,24 @@ def default_trackers() -> dict[str, TrackerEntry]:
         return {"package": f"trackers {version}", "class": cls,
                 "arguments": "defaults; frame_rate = the video's"}
 
+    from pftrack.workflows.pipeline import load_config
+
+    people = reads_images(load_config("people-image"))  # `track` tracks with it too
     return {
         "people-image": TrackerEntry(
             "people-image", "pftrack", lambda inp: _pftrack_run("people-image", inp),
             {"command": "pftrack run people-image --video V --detections det.txt",
-             "image_term": True}),
+             "image_term": people}),
         "people-image-boxes": TrackerEntry(
             "people-image-boxes", "pftrack", lambda inp: _pftrack_run(boxes_only_config(), inp),
             {"command": "pftrack run people-image --video V --detections det.txt with "
                         "tracks.appearance: null (detections alone, no image term)",
-             "image_term": False}),
+             "image_term": reads_images(boxes_only_config())}),
         "track": TrackerEntry(
             "track", "pftrack", _pftrack_track,
             {"command": "pftrack track V --detections det.txt (camera estimated from the "
                         "detections, people-image placed on the ground through it)",
-             "image_term": True}),
+             "image_term": people}),
         "norfair": TrackerEntry("norfair", "peer", _norfair, dict(NORFAIR_SETTINGS)),
         "bytetrack": TrackerEntry("bytetrack", "peer", _roboflow("ByteTrackTracker"),
                                   rf("ByteTrackTracker")),
