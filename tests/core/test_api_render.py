@@ -38,6 +38,19 @@ def test_overlay_ellipse_is_drawn_where_and_as_large_as_the_sd():
     assert 78 <= ys.min() <= 81 and 119 <= ys.max() <= 122
 
 
+def test_a_record_without_a_spread_draws_nothing_and_warns_nothing():
+    import warnings
+
+    img = np.zeros((200, 300, 3), np.uint8)
+    xyxy = np.array([[100.0, 50.0, 140.0, 150.0], [10.0, 10.0, 30.0, 60.0]])
+    sd = np.array([[5.0, 10.0, 5.0, 10.0], [np.nan] * 4])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = draw_uncertainty(img, xyxy, sd, np.array([1, 2]), k=2.0)
+    alone = draw_uncertainty(img, xyxy[:1], sd[:1], np.array([1]), k=2.0)
+    np.testing.assert_array_equal(out, alone)
+
+
 def test_topview_draws_the_ellipses(tmp_path):
     from pftrack.render.topview import render_topview
 

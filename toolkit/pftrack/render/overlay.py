@@ -356,8 +356,9 @@ def draw_uncertainty(image_bgr: np.ndarray, xyxy: np.ndarray, xyxy_sd: np.ndarra
     cov[:, 0, 0], cov[:, 1, 1] = s[:, 0] ** 2, s[:, 1] ** 2
     outlines = covariance_ellipses(centres, cov, k=k)
     colours = track_colours_rgb(ids)[:, ::-1]
-    ok = np.isfinite(outlines).all(axis=(1, 2))
-    pts = np.round(outlines * (1 << _SHIFT)).astype(np.int32)
+    ok = np.isfinite(outlines).all(axis=(1, 2))  # a record without a spread draws nothing
+    pts = np.zeros(outlines.shape, dtype=np.int32)
+    pts[ok] = np.round(outlines[ok] * (1 << _SHIFT)).astype(np.int32)
     for c in np.unique(colours[ok], axis=0):
         sel = ok & np.all(colours == c, axis=1)
         col = tuple(int(v) for v in c)
