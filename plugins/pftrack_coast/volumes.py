@@ -80,8 +80,6 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 from pftrack.contracts.components import (
-    Detections,
-    Frame,
     Group,
     Param,
     RunContext,
@@ -251,11 +249,12 @@ class VolumeTracks(LifecycleTracks):
     image_: np.ndarray | None = _shared("image", "The frame's image while it is tracked.")
 
     def setup(self, context: RunContext) -> None:
-        """The volumes resolved, the run's camera (else the observation model's, at the first
-        frame), and the stages built."""
+        """The volumes resolved, the run's camera taken, and the stages built."""
         self._start()
-        if context.camera is not None:
-            self.book_.camera = context.camera
+        if context.camera is None:
+            raise ValueError("tracks 'volumes': needs the run's camera (--camera PATH, or a "
+                             "camera given to the observation model)")
+        self.book_.camera = context.camera
         super().setup(context)
         if _kernel("region_mask") is not None:
             from pftrack_coast._kernels import warm_up
@@ -322,26 +321,6 @@ class VolumeTracks(LifecycleTracks):
     def stage(self, cls: type) -> Any:
         """The stage of class ``cls`` (e.g. ``stage(VolumeGroups)``)."""
         return next(s for s in self._stages() if type(s) is cls)
-
-    def _camera(self, engine: Any) -> Camera:
-        """The run's camera, else the observation model's (kept in the book)."""
-        cam = self.book_.camera
-        if cam is None:
-            get = getattr(engine.observation, "get_camera", None)
-            cam = get() if get is not None else None
-            if cam is None:
-                raise ValueError("tracks 'volumes': needs a camera (the run's, or the "
-                                 "observation model's)")
-            self.book_.camera = cam
-        return cam
-
-    # -- the hooks ----------------------------------------------------------------------------
-
-    def before_frame(self, engine: Any, frame: Frame, detections: Detections | None) -> None:
-        """The camera resolved (the run's, else the observation model's), then the runner."""
-        self._start()
-        self._camera(engine)
-        super().before_frame(engine, frame, detections)
 
     def end_target(self, target: Target) -> None:
         """The book forgets the target (an output track's id may be taken up again), then the

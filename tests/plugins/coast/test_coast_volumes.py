@@ -874,3 +874,66 @@ def test_the_generic_runner_calls_each_stage_once_a_frame_in_its_order(monkeypat
     frame = [f"{cls.__name__}.{name}" for cls, name in order]
     # the first frame masks the groups before the predict step too
     assert calls == ["VolumeMasker.mask"] + frame * 8
+
+
+def test_volume_tracks_take_the_camera_given_to_the_observation_model():
+    """A camera given to the observation model (not on the command line) is the run's: the
+    track manager has it from setup on; with no camera anywhere the manager names what it needs."""
+    from pathlib import Path
+
+    from pftrack.geometry.formats import load_camera
+    from pftrack.workflows.pipeline import build_engine, load_config
+
+    path = Path(__file__).resolve().parents[3] / "calib" / "coast_camera.yaml"
+    cfg = load_config("coast-volumes")
+    cfg["likelihood"] = {"type": "mog2-fraction", "params": {}}  # no model file to load
+    cfg["observation"]["params"]["camera"] = str(path)
+    engine = build_engine(cfg, fps=5.0, seed=0)
+    cam = engine.tracks.camera_
+    assert cam is engine.observation.get_camera()
+    sea = np.array([[0.0, 200.0, 0.0]])  # 200 m out from the mast's foot
+    assert np.isfinite(cam.project(sea)).all()
+    assert np.array_equal(cam.project(sea), load_camera(path).project(sea))
+    with pytest.raises(ValueError, match=r"tracks 'volumes': needs the run's camera"):
+        build_engine({**cfg, "observation": {"type": "camera-volume", "params": {}}},
+                     fps=5.0, seed=0)
+
+
+def test_a_track_confirmed_in_the_frame_it_merges_is_never_output(monkeypatch):
+    """A second person appears 1.5 m beside a tracked one at frame 12 and closes in: its track
+    merges into the older one at frame 15. Confirmed in that same frame (``Confirm.at_end``), it
+    was a duplicate and none of its records is output; confirmed one frame sooner, its records
+    from its entry to the frame before the merge are."""
+    from pftrack_coast import volume_stages
+
+    confirmed: list[tuple[int, int]] = []
+    confirm = volume_stages.VolumeConfirmer.confirm
+
+    def logged(self, view):
+        out = confirm(self, view)
+        confirmed.extend((view.frame.index, c.track_id) for c in out)
+        return out
+
+    monkeypatch.setattr(volume_stages.VolumeConfirmer, "confirm", logged)
+
+    def walk(n_frames: int) -> dict[int, np.ndarray]:
+        out = {}
+        for f in range(1, n_frames + 1):
+            x = -10.0 + 0.3 * (f - 1)
+            c = [[x, 0.0, 0.875]]
+            if f >= 12:
+                c.append([x + max(1.5 - 0.6 * (f - 12), 0.2), 0.0, 0.875])
+            out[f] = np.array(c)
+        return out
+
+    for confirm_frames, shown in ((4, False), (3, True)):
+        confirmed.clear()
+        _, tracks, mot, *_ = _run(n_frames=24, walk=walk, merge={"frames": 1},
+                                  confirm_frames=confirm_frames)
+        events = [(e["frame"], e["id"], e["event"]) for e in tracks.events_]
+        assert events == [(1, 2, "entry"), (12, 3, "entry"), (15, 3, "merged")]
+        assert (15 if not shown else 14, 3) in confirmed
+        assert sorted(mot[mot[:, 1] == 3, 0].astype(int).tolist()) == \
+            ([12, 13, 14] if shown else [])
+        assert mot[mot[:, 1] == 2, 0].astype(int).tolist() == \
+            list(range(1, 25))  # the first track, every frame

@@ -382,8 +382,12 @@ def build_engine(cfg: dict[str, Any], *, camera: Camera | None = None, fps: floa
                        if cfg.get("associator") else None),
         "tracks": host.build("tracks", tracks_spec),
     }
-    for component in parts.values():
-        if component is not None:
+    parts["observation"].setup(context)
+    if context.camera is None and getattr(parts["observation"], "camera", None) is not None:
+        # a camera given to the observation model is the run's: the other parts see it too
+        context.camera = parts["observation"].get_camera()
+    for key, component in parts.items():
+        if component is not None and key != "observation":
             component.setup(context)
     topts = dict(cfg.get("tracker") or {})
     seconds = topts.pop("max_misses_s", None)
