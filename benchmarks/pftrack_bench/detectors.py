@@ -72,7 +72,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "../shared/data)")
     parser.add_argument("--detector", action="append", default=None, metavar="NAME[:P=V,...]",
                         help="detector plugin to measure, optionally with parameters "
-                             "(e.g. ssdlite-people:fine_height=576); repeatable; default "
+                             "(e.g. ssdlite-people:input_height=384); repeatable; default "
                              "hog-people and ssdlite-people; the first is the baseline of the "
                              "speed ratios and the precision-matched comparison")
     parser.add_argument("--every", type=int, default=5, metavar="K",

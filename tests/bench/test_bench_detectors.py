@@ -77,7 +77,7 @@ def test_bin_names():
 
 def test_parse_spec():
     assert B.parse_spec("hog-people") == ("hog-people", {})
-    assert B.parse_spec("ssdlite-people:fine_height=576, threshold=0.3") == (
-        "ssdlite-people", {"fine_height": 576, "threshold": 0.3})
+    assert B.parse_spec("ssdlite-people:input_height=384, threshold=0.3") == (
+        "ssdlite-people", {"input_height": 384, "threshold": 0.3})
     with pytest.raises(ValueError, match="--detector ssdlite-people:576"):
         B.parse_spec("ssdlite-people:576")

@@ -75,10 +75,8 @@ def test_bad_parameters_name_the_parameter():
                          ({"input_height": 300.5}, "input_height"),
                          ({"width_scale": 0.0}, "width_scale"),
                          ({"score_scale": -1.0}, "score_scale"), ({"threads": -1}, "threads"),
-                         ({"fine_height": 16}, "fine_height"),
-                         ({"fine_max_px": 0.0}, "fine_max_px"),
                          ({"max_aspect": -1.0}, "max_aspect"),
-                         ({"edge_aspect": 0.01}, "edge_aspect")):
+                         ({"max_aspect": 0.01}, "max_aspect")):
         with pytest.raises(ValueError, match=rf"(?i)ssdlite.*\b{name}\b"):
             SSDLitePeopleDetector(**params)
 
@@ -117,14 +115,12 @@ def test_calibration_is_a_monotone_probability():
 @needs_pets
 @pytest.mark.parametrize(("params", "min_recall", "min_precision"),
                          [({"threshold": 0.5}, 0.36, 0.65), ({"threshold": 0.2}, 0.62, 0.6),
-                          ({"threshold": 0.5, "fine_height": 576}, 0.6, 0.78),
                           ({}, 0.55, 0.62)])
 def test_finds_the_ground_truth_people_on_pets_frames(params, min_recall, min_precision):
     """Every 20th frame of PETS 1-200 (56 counted people, 60-100 px tall, small for this
     network's 300 px input): measured recall / precision at IoU 0.5 are 0.43 / 0.75 (24 of
-    56 found) at threshold 0.5, 0.71 / 0.69 (40) at 0.2, 0.68 / 0.86 (38) at 0.5 with the
-    finer pass at 576 px, and 0.64 / 0.72 (36) at the defaults (threshold 0.3); the bounds
-    leave room for OpenCV builds' rounding."""
+    56 found) at threshold 0.5, 0.71 / 0.69 (40) at 0.2 and 0.64 / 0.72 (36) at the defaults
+    (threshold 0.3); the bounds leave room for OpenCV builds' rounding."""
     from pftrack_bench.detectors import score
 
     det = _build(**params)
@@ -165,30 +161,13 @@ def test_a_wide_box_is_dropped_before_it_can_suppress_the_people_inside_it():
                       [600.0, 60, 70, 180]])
     z = np.array([3.0, 2.0, 1.5, 1.0])
     det = SSDLitePeopleDetector(nms_iou=0.2)  # IoU of the group box with each person: 0.26
-    det._pass = lambda image, min_logit, height: (boxes, z)  # type: ignore[method-assign]
+    det._pass = lambda image, min_logit: (boxes, z)  # type: ignore[method-assign]
     image = np.zeros((400, 800, 3), np.uint8)
     b, kept = det.detect_logits(image, -10.0)
     assert kept.tolist() == [2.0, 1.5, 1.0]  # the group box is gone, both people kept
     det.max_aspect = 0.0  # no limit: the group box suppresses the two people under it
     b, kept = det.detect_logits(image, -10.0)
     assert kept.tolist() == [3.0, 1.0]
-
-
-def test_people_cut_by_the_left_or_right_edge_are_widened_outwards():
-    from pftrack_world.dnn_people import SSDLitePeopleDetector, complete_at_edges
-
-    boxes = np.array([[0.0, 10, 20, 100],     # cut by the left edge: 20 of 40 px seen
-                      [585.0, 10, 15, 100],   # cut by the right edge of a 600 px frame
-                      [300.0, 10, 20, 100],   # inside: unchanged
-                      [1.0, 10, 50, 100]])    # at the edge but already wide enough
-    out = complete_at_edges(boxes, 600, 0.4)
-    np.testing.assert_allclose(out, [[-20.0, 10, 40, 100], [585.0, 10, 40, 100],
-                                     [300.0, 10, 20, 100], [1.0, 10, 50, 100]])
-    assert boxes[0, 0] == 0.0  # a new array
-    det = SSDLitePeopleDetector(edge_aspect=0.4)
-    det._pass = lambda image, min_logit, height: (boxes[:1], np.array([1.0]))  # type: ignore
-    b, _ = det.detect_logits(np.zeros((300, 600, 3), np.uint8), -10.0)
-    np.testing.assert_allclose(b, [[-20.0, 10, 40, 100]])
 
 
 def test_with_detector_replaces_the_preset_detector():
