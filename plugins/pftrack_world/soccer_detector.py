@@ -43,7 +43,8 @@ class PitchBlobDetector(Detector):
 
     Notes
     -----
-    Detections carry ``points_world_m``: the ground point under each box's bottom centre.
+    Detections carry ``points_world_m``: the ground point under each box's bottom centre. Each
+    box is that of a ``height_m`` player standing there (:meth:`model_boxes`), not the blob's.
     Scores are the blob's foreground fill of its box times its height agreement (times
     ``split_score`` for the parts of a split blob), in (0, 1].
     """
@@ -68,7 +69,6 @@ class PitchBlobDetector(Detector):
         "background) once :meth:`fit` has learned it from frames of the empty pitch, so "
         "players who stand still are never absorbed into the background.",
         unit="1/frame", high=1.0)
-    detect_shadows: bool = Param(True, "MOG2 marks shadows (then counted as background).")
     height_m: float = Param(
         1.8, "Player height (its cuboid gives the expected box at each foot point).",
         unit="m", low=0.0, low_open=True)
@@ -91,13 +91,6 @@ class PitchBlobDetector(Detector):
         "fringe) to the player's centre, away from the camera, added to ``points_world_m``. "
         "0.7 m removes the mean depth bias on the soccer scene with the soccer paper's camera "
         "(measured: mean error along the viewing direction -0.57 m at 0.3, ~0 at 0.7).", unit="m")
-    boxes: str = Param(
-        "model",
-        '``"model"``: each detection\'s box is the box of a ``height_m`` player standing at '
-        "its ``points_world_m`` (:meth:`model_boxes`), the convention of the tracker's "
-        ":class:`~pftrack.builtin.world_observation.CameraBoxObservation`, so foot points compare "
-        'without the bias of the blob\'s lowest pixel; ``"blob"``: the (split) blob\'s own '
-        "bounding box.", choices=("model", "blob"))
     warmup_frames: int = Param(
         1, "Frames at the start of a stream that only teach the background (unless fitted).",
         unit="frames", low=0)
@@ -207,7 +200,7 @@ class PitchBlobDetector(Detector):
         self.region_ = np.ascontiguousarray(region[y0:y1, x0:x1])
         self.subtractor_ = cv2.createBackgroundSubtractorMOG2(
             history=int(self.history), varThreshold=float(self.var_threshold),
-            detectShadows=bool(self.detect_shadows))
+            detectShadows=True)  # shadows marked, then counted as background
         self.frames_seen_ = 0
         self.image_shape_ = tuple(shape)
         if self._fitted():
@@ -309,11 +302,13 @@ class PitchBlobDetector(Detector):
         away = world[:, :2] - self.camera_.center_m[None, :2]
         away /= np.maximum(np.linalg.norm(away, axis=1, keepdims=True), 1e-9)
         world[:, :2] += float(self.foot_depth_m) * away
-        if self.boxes == "model":
-            boxes_a = self.model_boxes(world)
-            ok = np.isfinite(boxes_a).all(axis=1)
-            boxes_a, world = boxes_a[ok], world[ok]
-            scores = list(np.asarray(scores)[ok])
+        # each box that of a height_m player standing at the ground point (the tracker's
+        # CameraBoxObservation convention): foot points compare without the bias of the blob's
+        # lowest pixel
+        boxes_a = self.model_boxes(world)
+        ok = np.isfinite(boxes_a).all(axis=1)
+        boxes_a, world = boxes_a[ok], world[ok]
+        scores = list(np.asarray(scores)[ok])
         return Detections(boxes_a, np.asarray(scores, dtype=np.float64), world)
 
     def model_boxes(self, points_world_m: np.ndarray) -> np.ndarray:
