@@ -350,7 +350,9 @@ def build_engine(cfg: dict[str, Any], *, camera: Camera | None = None, fps: floa
                  detector_model: str | os.PathLike[str] | None = None) -> MultiTargetTracker:
     """The tracking engine of a configuration: observation model, motion, likelihood,
     associator and track management built by name through the host, each set up with the run's
-    :class:`~pftrack.contracts.components.RunContext` (camera, fps). The detector is built and run
+    :class:`~pftrack.contracts.components.RunContext` (camera, fps), the observation model first:
+    a camera given to it (``observation.params.camera``) is the run's when ``camera`` is None,
+    and the other parts are set up with it. The detector is built and run
     separately (:func:`build_detector`), so that its time is measured on its own; its detections
     are handed to :meth:`~pftrack.engine.tracker.MultiTargetTracker.step`. ``detector_model`` (a
     file the detector saved) is in the components' context, for those that read it.
