@@ -17,6 +17,21 @@ __all__ = ["box_iou", "clip_boxes", "covered_fraction", "foot_points", "iou_matr
 _EPS = np.finfo(float).eps
 
 
+def _intersection(a_xywh_px: np.ndarray, b_xywh_px: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The intersection area of boxes ``a`` and ``b`` (broadcast) and each one's area, all
+    from the corners (TrackEval's order of operations), px^2."""
+    a = np.asarray(a_xywh_px, dtype=np.float64)
+    b = np.asarray(b_xywh_px, dtype=np.float64)
+    ax0, ay0 = a[..., 0], a[..., 1]
+    ax1, ay1 = ax0 + a[..., 2], ay0 + a[..., 3]
+    bx0, by0 = b[..., 0], b[..., 1]
+    bx1, by1 = bx0 + b[..., 2], by0 + b[..., 3]
+    inter = (np.maximum(np.minimum(ax1, bx1) - np.maximum(ax0, bx0), 0)
+             * np.maximum(np.minimum(ay1, by1) - np.maximum(ay0, by0), 0))
+    return inter, (ax1 - ax0) * (ay1 - ay0), (bx1 - bx0) * (by1 - by0)
+
+
 def box_iou(a_xywh_px: np.ndarray, b_xywh_px: np.ndarray) -> np.ndarray:
     """Intersection over union of image boxes, broadcast against each other.
 
@@ -35,16 +50,7 @@ def box_iou(a_xywh_px: np.ndarray, b_xywh_px: np.ndarray) -> np.ndarray:
         IoU in [0, 1]; 0 where either box has no area (a negative width or height included)
         and where a box is not a number.
     """
-    a = np.asarray(a_xywh_px, dtype=np.float64)
-    b = np.asarray(b_xywh_px, dtype=np.float64)
-    ax0, ay0 = a[..., 0], a[..., 1]
-    ax1, ay1 = ax0 + a[..., 2], ay0 + a[..., 3]
-    bx0, by0 = b[..., 0], b[..., 1]
-    bx1, by1 = bx0 + b[..., 2], by0 + b[..., 3]
-    inter = (np.maximum(np.minimum(ax1, bx1) - np.maximum(ax0, bx0), 0)
-             * np.maximum(np.minimum(ay1, by1) - np.maximum(ay0, by0), 0))
-    area_a = (ax1 - ax0) * (ay1 - ay0)
-    area_b = (bx1 - bx0) * (by1 - by0)
+    inter, area_a, area_b = _intersection(a_xywh_px, b_xywh_px)
     union = area_a + area_b - inter
     ok = (area_a > _EPS) & (area_b > _EPS) & (union > _EPS)  # False for NaN too
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -66,14 +72,7 @@ def covered_fraction(a_xywh_px: np.ndarray, b_xywh_px: np.ndarray) -> np.ndarray
     ndarray, shape (...), float64
         In [0, 1]; 0 where ``a`` has no area (areas from the corners, as :func:`box_iou`).
     """
-    a = np.asarray(a_xywh_px, dtype=np.float64)
-    b = np.asarray(b_xywh_px, dtype=np.float64)
-    ax0, ay0 = a[..., 0], a[..., 1]
-    ax1, ay1 = ax0 + a[..., 2], ay0 + a[..., 3]
-    bx0, by0 = b[..., 0], b[..., 1]
-    inter = (np.maximum(np.minimum(ax1, bx0 + b[..., 2]) - np.maximum(ax0, bx0), 0)
-             * np.maximum(np.minimum(ay1, by0 + b[..., 3]) - np.maximum(ay0, by0), 0))
-    area = (ax1 - ax0) * (ay1 - ay0)
+    inter, area, _ = _intersection(a_xywh_px, b_xywh_px)
     ok = area > _EPS  # False for NaN too
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(ok, inter / np.where(ok, area, 1.0), 0.0)
