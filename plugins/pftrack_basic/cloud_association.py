@@ -255,6 +255,11 @@ class CloudAssociator(Associator):
         self._fps = float(getattr(context, "fps", 0.0) or _DEFAULT_FPS)
         self._reset()
 
+    def _ready(self) -> None:
+        """Used without :meth:`setup`: set up as a run at the default frame rate."""
+        if not hasattr(self, "_fps"):
+            self.setup(None)
+
     def _reset(self) -> None:
         """Forget the measured scatter and the tracks' last matched boxes: a new run starts
         from the assumed values."""
@@ -313,8 +318,7 @@ class CloudAssociator(Associator):
     def _costs(self, targets: Sequence[Target], detections: Detections
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`costs`, and the clouds' mean centres and heights (see :func:`_cloud_cost`)."""
-        if not hasattr(self, "_scatter_now"):
-            self._reset()
+        self._ready()
         sx, sy, ss = self._scatter_now
         self.scatter_ = (sx, sy, ss)
         cost, centre, height = _cloud_cost(targets, detections, (sx, sy), ss)
@@ -335,8 +339,7 @@ class CloudAssociator(Associator):
     def associate(self, targets: Sequence[Target], detections: Detections) -> Assignment:
         """Match targets to detections; ``Assignment.matches`` rows are (target, detection)."""
         T, K = len(targets), len(detections)
-        if not hasattr(self, "_hidden"):  # used without setup
-            self._reset()
+        self._ready()
         self._note_hidden(targets)
         cost, centre, height = self._costs(targets, detections)
         self.cost_ = cost
@@ -372,8 +375,7 @@ class CloudAssociator(Associator):
         last = np.array([self._last_box[targets[i].id] for i in lost])  # (L, 4)
         db = detections.boxes_xywh_px[free]  # (F, 4)
         h = np.maximum(last[:, 3], 1e-6)
-        seconds = np.array([targets[i].misses + 1 for i in lost]) / getattr(
-            self, "_fps", _DEFAULT_FPS)
+        seconds = np.array([targets[i].misses + 1 for i in lost]) / self._fps
         reach = float(g.margin) + float(g.speed) * seconds  # (L,) heights
         dist = np.hypot(*((db[None, :, :2] + 0.5 * db[None, :, 2:])
                           - (last[:, None, :2] + 0.5 * last[:, None, 2:])).transpose(2, 0, 1))

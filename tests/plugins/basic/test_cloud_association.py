@@ -236,6 +236,18 @@ def test_a_lost_track_is_re_found_where_the_person_could_have_walked():
     assert a.associate([lost], _dets([(290.0, 300.0)], [0.9])).matches.tolist() == [[0, 0]]
 
 
+def test_used_without_setup_it_runs_at_the_default_frame_rate():
+    # costs() first, then associate(), never set up: the re-find's reach is that of a run at
+    # 25 frames a second (0.8 heights after 24 misses, as above)
+    a = CloudAssociator()
+    assert a.costs([_target(9, (0.0, 0.0), 2.0)], _dets([(0.0, 0.0)], [0.9])).shape == (1, 1)
+    lost = _seen_then_lost(a, 24)
+    assert a.associate([lost], _dets([(270.0, 300.0)], [0.9])).matches.tolist() == [[0, 0]]
+    a = CloudAssociator()
+    lost = _seen_then_lost(a, 24)
+    assert len(a.associate([lost], _dets([(290.0, 300.0)], [0.9])).matches) == 0  # 90 px
+
+
 def test_a_re_found_detection_has_the_height_colours_and_confidence_of_the_track():
     a = _assoc()
     lost = _seen_then_lost(a, 24)
