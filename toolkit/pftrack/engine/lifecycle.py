@@ -143,6 +143,8 @@ class LifecycleTracks(TrackManager):
             # each role's stages, typed loosely: a role's methods are its subclass's
             self.by_role_: dict[str, list[Any]] = {r: [s for s in st if s.role == r]
                                                    for r in ROLES}
+            # whether a tentative track's hidden records are held back (every confirmer agrees)
+            self.holds_hidden_ = all(c.holds_hidden for c in self.by_role_["confirmer"])
         return st
 
     @property
@@ -211,7 +213,6 @@ class LifecycleTracks(TrackManager):
 
         confirmers = self.by_role_["confirmer"]
         reporters = self.by_role_["reporter"]
-        holds_hidden = all(c.holds_hidden for c in confirmers)
         for b in births:
             if isinstance(b, Particles):
                 if any(t.id == b.track_id for t in engine.targets):
@@ -242,7 +243,7 @@ class LifecycleTracks(TrackManager):
                 self._apply_outputs(s.report_started(view, b), {t.id: rec}, hidden)
             shown = t.id not in hidden
             if tentative:
-                if shown or holds_hidden:
+                if shown or self.holds_hidden_:
                     self.tentative_[t.id].append(rec)
             elif shown:
                 out.append(rec)
@@ -360,9 +361,8 @@ class LifecycleTracks(TrackManager):
         withdrawn: set[int] = set()
         at_end: dict[int, list[TrackRecord]] = {}  # confirmed, output at the end if still live
         if roles["confirmer"]:
-            holds_hidden = all(c.holds_hidden for c in roles["confirmer"])
             for tid, held in tentative.items():
-                if tid in by_id and (holds_hidden or tid not in hidden):
+                if tid in by_id and (self.holds_hidden_ or tid not in hidden):
                     held.append(by_id[tid])
             decided = False
             for s in roles["confirmer"]:
